@@ -1,0 +1,179 @@
+"""Materials as data: a versioned JSON schema (pydantic) with provenance for every parameter.
+
+A material file (``schema_version`` 1) holds a low-frequency friction law (Coulomb ``mu0``
+and/or the quasi-static law of Otake et al. 2022) and optionally a high-frequency texture
+bank of AR models. Every parameter group carries a :class:`Provenance`: either the paper
+table it came from, or the recording and the exact command that fitted it. A material with
+no real recording has ``texture: null`` and is rendered friction-only.
+
+The domain object :class:`Material` is what the renderers use; :class:`MaterialFile` is the
+on-disk schema. Reading and writing files lives in :mod:`surfhap.exchange.materials`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from surfhap.models.friction import CoulombLaw, QuasiStaticLaw
+from surfhap.models.texture import ARModel, TextureBank
+from surfhap.signal.ar import ar_is_stable
+
+__all__ = [
+    "SCHEMA_VERSION",
+    "Provenance",
+    "CoulombSpec",
+    "QuasiStaticSpec",
+    "FrictionSpec",
+    "ARModelSpec",
+    "TextureSpec",
+    "MaterialFile",
+    "Material",
+]
+
+SCHEMA_VERSION = 1
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Provenance(_Strict):
+    """Where a group of parameters came from.
+
+    source "paper": ``reference`` names the paper file and table.
+    source "recording": ``recording`` (file name), ``sha256`` of its bytes and the
+    ``command`` that produced the parameters from it.
+    """
+
+    source: Literal["paper", "recording"]
+    reference: str | None = None
+    recording: str | None = None
+    sha256: str | None = None
+    command: str | None = None
+    note: str | None = None
+
+    @model_validator(mode="after")
+    def _complete(self):
+        if self.source == "paper" and not self.reference:
+            raise ValueError("a 'paper' provenance needs a 'reference' (paper file and table)")
+        if self.source == "recording" and not (self.recording and self.command):
+            raise ValueError("a 'recording' provenance needs 'recording' and 'command'")
+        return self
+
+
+class CoulombSpec(_Strict):
+    mu0: float = Field(ge=0, le=5, description="kinetic coefficient of friction")
+    provenance: Provenance
+
+
+class QuasiStaticSpec(_Strict):
+    """mu_p(fn, v) = a fn^b (1 + d v^q) / (1 + c v); fn in N, v in m/s."""
+
+    a: float = Field(ge=0, le=5)
+    b: float = Field(ge=-2, le=2)
+    c: float = Field(ge=0)
+    d: float = Field(ge=0)
+    q: float = Field(ge=0, le=1)
+    standard_errors: dict[str, float] | None = None
+    provenance: Provenance
+
+
+class FrictionSpec(_Strict):
+    coulomb: CoulombSpec | None = None
+    quasi_static: QuasiStaticSpec | None = None
+
+    @model_validator(mode="after")
+    def _at_least_one(self):
+        if self.coulomb is None and self.quasi_static is None:
+            raise ValueError("a material needs a 'coulomb' or a 'quasi_static' friction law")
+        return self
+
+
+class ARModelSpec(_Strict):
+    """x[n] = sum_j coefficients[j-1] x[n-j] + w[n], w ~ N(0, variance)."""
+
+    coefficients: list[float] = Field(min_length=1, max_length=400)
+    variance: float = Field(ge=0)
+    reference_speed: float | None = Field(default=None, ge=0, le=5, description="m/s")
+    order_selection: str | None = Field(default=None, description="how the order was chosen")
+
+    @field_validator("coefficients")
+    @classmethod
+    def _stable(cls, v: list[float]) -> list[float]:
+        if not all(math.isfinite(c) for c in v):
+            raise ValueError("coefficients must be finite")
+        if not ar_is_stable(v):
+            raise ValueError("AR model is unstable (a pole on or outside the unit circle)")
+        return v
+
+
+class TextureSpec(_Strict):
+    quantity: Literal["cof", "acceleration"]
+    sample_rate: float = Field(gt=0, le=100_000, description="model rate, Hz")
+    models: list[ARModelSpec] = Field(min_length=1)
+    provenance: Provenance
+
+
+class MaterialFile(_Strict):
+    """The JSON schema of a material file (version 1)."""
+
+    schema_version: Literal[1] = SCHEMA_VERSION
+    name: str = Field(min_length=1, max_length=80)
+    description: str = ""
+    friction: FrictionSpec
+    texture: TextureSpec | None = None
+    notes: list[str] = Field(default_factory=list)
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        if v.strip() != v or "/" in v:
+            raise ValueError("name must not start/end with spaces or contain '/'")
+        return v
+
+
+@dataclass(frozen=True)
+class Material:
+    """A material ready to render (thin object over :class:`MaterialFile`).
+
+    coulomb      : CoulombLaw or None (needed by the otake2021 and zhao methods).
+    quasi_static : QuasiStaticLaw or None (needed by otake2022).
+    texture      : TextureBank or None (friction-only when None).
+    spec         : the validated file contents, provenance included.
+    """
+
+    name: str
+    coulomb: CoulombLaw | None
+    quasi_static: QuasiStaticLaw | None
+    texture: TextureBank | None
+    spec: MaterialFile
+
+    @classmethod
+    def from_spec(cls, spec: MaterialFile) -> "Material":
+        fr = spec.friction
+        coulomb = CoulombLaw(fr.coulomb.mu0) if fr.coulomb else None
+        qs = fr.quasi_static
+        quasi = QuasiStaticLaw(qs.a, qs.b, qs.c, qs.d, qs.q) if qs else None
+        texture = None
+        if spec.texture is not None:
+            t = spec.texture
+            texture = TextureBank(
+                t.quantity,
+                t.sample_rate,
+                tuple(ARModel(m.coefficients, m.variance, m.reference_speed) for m in t.models),
+            )
+        return cls(spec.name, coulomb, quasi, texture, spec)
+
+    @property
+    def low_frequency_law(self) -> CoulombLaw | QuasiStaticLaw:
+        """The richest friction law available (quasi-static before Coulomb)."""
+        return self.quasi_static if self.quasi_static is not None else self.coulomb
+
+    @property
+    def model_rate(self) -> float | None:
+        """Rate (Hz) the texture models were fitted at, or None when friction-only."""
+        return None if self.texture is None else self.texture.sample_rate

@@ -1,0 +1,151 @@
+"""The electrostatic texture chain: synthesis -> drive law -> resampling -> carrier -> safety.
+
+One :class:`TextureChain` turns blocks of finger state at the model rate into drive samples
+at the drive rate. Offline rendering (:func:`surfhap.render.offline.render`) and live
+rendering run this same object; only the clock and the backend differ.
+
+Block contract (``process``): inputs are (n,) float arrays at the model rate for the n
+model samples following the previous block: speed (m/s), load (N) and ``touch_time``, the
+time stamp (s, on the chain's clock that starts at 0 on reset) of the freshest touch sample
+available at each model sample (``-inf`` if none yet). The output holds the model-rate
+envelope and the drive-rate samples that became available (n * drive_rate / model_rate on
+average), already through the safety stage.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from surfhap.errors import ConfigError
+from surfhap.models.material import Material
+from surfhap.render.carrier import PolarityCarrier, check_carrier
+from surfhap.render.drive import DriveBlock, DriveParams, make_drive_law
+from surfhap.render.resample import RationalResampler
+from surfhap.render.safety import SafetyLimits, SafetyStage
+from surfhap.sim.display import DisplayModel
+
+__all__ = ["ChainConfig", "ChainBlock", "TextureChain"]
+
+
+@dataclass(frozen=True)
+class ChainConfig:
+    """Settings of a texture chain.
+
+    method       : "auto", "otake2022", "otake2021", "zhao", "friction-only" or "square".
+    drive_rate   : Hz, DAC rate (2-48 kHz).
+    carrier      : Hz, polarity carrier (0 = off, else 2-20 kHz).
+    control_rate : Hz, model rate used when no texture model sets one (friction-only).
+    alpha        : V/sqrt(N); None = calibrated to the display (1/sqrt(mu_panel k)).
+    beta, effective_mass, constant_load, square_frequency, square_amplitude: see DriveParams.
+    seed         : seed of the texture noise.
+    """
+
+    method: str = "auto"
+    drive_rate: int = 20000
+    carrier: float = 2000.0
+    control_rate: int = 2000
+    alpha: float | None = None
+    beta: float = 1.8
+    effective_mass: float = 0.05
+    constant_load: float | None = 1.6
+    square_frequency: float = 100.0
+    square_amplitude: float | None = None
+    seed: int = 0
+    limits: SafetyLimits = SafetyLimits()
+    display: DisplayModel = DisplayModel()
+
+    def __post_init__(self):
+        if int(self.drive_rate) != self.drive_rate or not 2000 <= self.drive_rate <= 48000:
+            raise ConfigError(f"must be a whole number of Hz within 2000-48000, got {self.drive_rate}", field="drive_rate")
+        if int(self.control_rate) != self.control_rate or not 100 <= self.control_rate <= self.drive_rate:
+            raise ConfigError("must be a whole number of Hz within 100 and the drive rate", field="control_rate")
+        check_carrier(self.carrier, self.drive_rate)
+        if self.alpha is not None and not (np.isfinite(self.alpha) and self.alpha > 0):
+            raise ConfigError("must be > 0", field="alpha")
+
+
+class ChainBlock(NamedTuple):
+    """Output of one block.
+
+    texture : (n,) texture samples (material quantity), zeros if none.
+    drive_law : DriveBlock at the model rate (voltage envelope, target, mu_low, mu_tex).
+    drive   : (m,) V at the drive rate, after carrier and safety.
+    load_drive : (m,) N, load held at the drive rate (what the safety stage saw).
+    """
+
+    texture: np.ndarray
+    drive_law: DriveBlock
+    drive: np.ndarray
+    load_drive: np.ndarray
+
+
+class TextureChain:
+    """Stateful processor chain; see the module docstring for the block contract."""
+
+    def __init__(self, material: Material, config: ChainConfig | None = None):
+        cfg = config or ChainConfig()
+        self.config = cfg
+        self.material = material
+        alpha = cfg.alpha if cfg.alpha is not None else cfg.display.calibrated_alpha
+        self.params = DriveParams(alpha, cfg.beta, cfg.effective_mass, cfg.constant_load,
+                                  cfg.square_frequency, cfg.square_amplitude)
+        probe = make_drive_law(cfg.method, material, self.params, cfg.control_rate)
+        self.method = probe.method
+        if probe.uses_texture:
+            rate = material.model_rate
+            if int(rate) != rate:
+                raise ConfigError(f"texture model rate {rate} Hz is not a whole number", field="texture.sample_rate")
+            self.model_rate = int(rate)
+        else:
+            self.model_rate = int(cfg.control_rate)
+        if self.model_rate > cfg.drive_rate:
+            raise ConfigError(f"drive rate {cfg.drive_rate} Hz is below the model rate {self.model_rate} Hz", field="drive_rate")
+        self.law = make_drive_law(self.method, material, self.params, self.model_rate)
+        self.synth = material.texture.synthesizer(seed=cfg.seed) if self.law.uses_texture else None
+        self.upsampler = RationalResampler(self.model_rate, int(cfg.drive_rate))
+        self.carrier = PolarityCarrier(cfg.carrier, cfg.drive_rate)
+        self.safety = SafetyStage(cfg.drive_rate, cfg.limits)
+        self.drive_rate = int(cfg.drive_rate)
+        self.latency = self.upsampler.delay
+        self.reset()
+
+    def reset(self) -> None:
+        for proc in (self.synth, self.law, self.upsampler, self.carrier, self.safety):
+            if proc is not None:
+                proc.reset()
+        self._n_model = 0
+        self._n_drive = 0
+        self._last_load = 0.0
+        self._last_touch = -np.inf
+
+    def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray) -> ChainBlock:
+        speed = np.asarray(speed, dtype=float)
+        load = np.asarray(load, dtype=float)
+        touch_time = np.asarray(touch_time, dtype=float)
+        n = speed.shape[0]
+        if not (load.shape == touch_time.shape == (n,)):
+            raise ValueError("speed, load and touch_time must be (n,) arrays of one length")
+        clean_load = np.where(np.isfinite(load) & (load > 0), load, 0.0)
+        clean_speed = np.where(np.isfinite(speed), speed, 0.0)
+        texture = self.synth.process(clean_speed, clean_load) if self.synth is not None else np.zeros(n)
+        law = self.law.process(clean_speed, clean_load, texture)
+        envelope = self.upsampler.process(law.voltage)
+        m = envelope.shape[0]
+        # hold the touch state of the model sample in force at each drive sample time
+        t_drive = (self._n_drive + np.arange(m)) / self.drive_rate
+        k = np.floor(t_drive * self.model_rate + 1e-9).astype(np.int64) - self._n_model
+        prev_load = np.concatenate(([self._last_load], load))
+        prev_touch = np.concatenate(([self._last_touch], touch_time))
+        kk = np.clip(k + 1, 0, n)
+        load_drive = prev_load[kk]
+        age = t_drive - prev_touch[kk]
+        drive = self.safety.process(self.carrier.process(envelope), load_drive, age)
+        self._n_model += n
+        self._n_drive += m
+        if n:
+            self._last_load = float(load[-1])
+            self._last_touch = float(touch_time[-1])
+        return ChainBlock(texture, law, drive, load_drive)

@@ -1,0 +1,190 @@
+"""Offline rendering: a whole trajectory through the texture chain and the simulated display.
+
+``render(material, trajectory)`` is the one-call convenience; it runs exactly the processors
+that live rendering runs (:class:`~surfhap.render.chain.TextureChain`), in blocks, on a
+simulated clock, and returns a :class:`RenderResult` with named arrays, a summary and
+``.plot()``. Writing files is :func:`surfhap.exchange.render_files.write_render`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from surfhap.models.material import Material
+from surfhap.render.chain import ChainConfig, TextureChain
+from surfhap.render.kinematics import Kinematics
+from surfhap.render.safety import SafetyCounters
+from surfhap.signal.ar import ar_psd
+from surfhap.sim.display import SimulatedDisplay
+from surfhap.sim.trajectory import Trajectory
+
+__all__ = ["RenderResult", "render", "sample_trajectory"]
+
+
+@dataclass
+class RenderResult:
+    """Everything one render produced. Arrays at the model rate unless named ``*_drive``.
+
+    t (n,) s; speed (n,) m/s; load (n,) N; texture (n,) in the texture quantity;
+    mu_low, mu_tex (n,); target (n,) N target added friction; voltage (n,) V envelope
+    before the carrier; t_drive, drive (m,) s and V after the safety stage;
+    friction_sim (n,) N from the simulated display; acc (n,) m/s^2 or None.
+    """
+
+    material: str
+    method: str
+    seed: int
+    model_rate: int
+    drive_rate: int
+    carrier: float
+    alpha: float
+    beta: float
+    t: np.ndarray
+    speed: np.ndarray
+    load: np.ndarray
+    texture: np.ndarray
+    mu_low: np.ndarray
+    mu_tex: np.ndarray
+    target: np.ndarray
+    voltage: np.ndarray
+    t_drive: np.ndarray
+    drive: np.ndarray
+    friction_sim: np.ndarray
+    acc: np.ndarray | None
+    latency: float
+    display_latency: float
+    mu_panel: float
+    k: float
+    clipped: int
+    touching: int
+    safety: SafetyCounters
+    texture_quantity: str | None = None
+    texture_models: list = field(default_factory=list)
+    trajectory_name: str = ""
+    effective_mass: float = 0.05
+    constant_load: float | None = 1.6
+
+    @property
+    def clipped_fraction(self) -> float:
+        """Fraction of touching model samples whose target force was negative (clipped to 0)."""
+        return self.clipped / self.touching if self.touching else 0.0
+
+    @property
+    def added_friction(self) -> np.ndarray:
+        """(n,) N: simulated friction minus the bare panel's mu_panel * load (what the drive added)."""
+        return self.friction_sim - self.mu_panel * self.load
+
+    def expected_texture_psd(self, freqs: np.ndarray) -> np.ndarray | None:
+        """PSD (N^2/Hz) the added friction's textural part should have, from the AR model at the
+        median speed and load, or None for a method without texture."""
+        if not self.texture_models or self.method in ("friction-only", "square"):
+            return None
+        touching = self.load > 0
+        if not np.any(touching):
+            return None
+        v = float(np.median(self.speed[touching]))
+        fn = float(np.median(self.load[touching]))
+        refs = np.array([np.nan if m.reference_speed is None else m.reference_speed for m in self.texture_models])
+        i = 0 if len(refs) == 1 else int(np.nanargmin(np.abs(refs - v)))
+        model = self.texture_models[i]
+        psd = ar_psd(model.coefficients, model.variance, self.model_rate, freqs)
+        if self.method == "zhao":
+            load = fn if self.constant_load is None else self.constant_load
+            scale = self.effective_mass if self.texture_quantity == "acceleration" else load
+        else:
+            per_load = 1.0 if self.texture_quantity == "cof" else self.effective_mass / fn
+            scale = self.beta * per_load * fn
+        return psd * scale**2
+
+    def summary(self) -> dict:
+        """The JSON-ready summary of this render."""
+        s = self.safety
+        return {
+            "material": self.material,
+            "method": self.method,
+            "seed": self.seed,
+            "trajectory": self.trajectory_name,
+            "duration_s": float(self.t[-1] + 1.0 / self.model_rate) if self.t.size else 0.0,
+            "model_rate_hz": self.model_rate,
+            "drive_rate_hz": self.drive_rate,
+            "carrier_hz": self.carrier,
+            "alpha_v_per_sqrt_n": self.alpha,
+            "beta": self.beta,
+            "max_abs_voltage": float(np.max(np.abs(self.drive))) if self.drive.size else 0.0,
+            "clipped_fraction": self.clipped_fraction,
+            "saturated_fraction": s.clamped / s.samples if s.samples else 0.0,
+            "safety": {
+                "samples": s.samples, "clamped": s.clamped, "rise_limited": s.rise_limited,
+                "faults": s.faults, "lifted": s.lifted, "watchdog": s.watchdog,
+            },
+            "latency_s": self.latency,
+            "mean_friction_sim_n": float(np.mean(self.friction_sim)) if self.friction_sim.size else 0.0,
+            "mu_panel": self.mu_panel,
+            "k_n_per_v2": self.k,
+        }
+
+    def plot(self, fig=None):
+        """Time course and spectrum of the rendered friction against the model (matplotlib Figure)."""
+        from surfhap.report.figures import plot_render
+
+        return plot_render(self, fig=fig)
+
+
+def sample_trajectory(trajectory: Trajectory, model_rate: float, kinematics: Kinematics | None = None):
+    """Hold the touch samples onto the model-rate grid, as a live system sees them.
+
+    Returns t (n,) s from 0, speed (n,) m/s, load (n,) N and touch_time (n,) s.
+    """
+    kin = kinematics or Kinematics()
+    t_rel = trajectory.t - trajectory.t[0]
+    speed_s = kin.process(t_rel, trajectory.x, trajectory.y)
+    n = int(np.floor(t_rel[-1] * model_rate + 1e-9)) + 1
+    t = np.arange(n) / model_rate
+    idx = np.searchsorted(t_rel, t + 1e-12, side="right") - 1
+    return t, speed_s[idx], trajectory.load[idx], t_rel[idx]
+
+
+def render(material: Material, trajectory: Trajectory, config: ChainConfig | None = None, *,
+           block_seconds: float = 1.0, progress: Callable[[float], None] | None = None) -> RenderResult:
+    """Render ``trajectory`` over ``material`` on the simulated display; see :class:`RenderResult`."""
+    cfg = config or ChainConfig()
+    chain = TextureChain(material, cfg)
+    display = SimulatedDisplay(cfg.display, chain.drive_rate, chain.model_rate)
+    fm = chain.model_rate
+    t, speed, load, touch_time = sample_trajectory(trajectory, fm)
+    n = t.size
+    block = max(1, int(round(block_seconds * fm)))
+    parts: dict[str, list] = {k: [] for k in ("texture", "voltage", "target", "mu_low", "mu_tex", "drive", "friction")}
+    for start in range(0, n, block):
+        sl = slice(start, min(n, start + block))
+        out = chain.process(speed[sl], load[sl], touch_time[sl])
+        parts["texture"].append(out.texture)
+        parts["voltage"].append(out.drive_law.voltage)
+        parts["target"].append(out.drive_law.target)
+        parts["mu_low"].append(out.drive_law.mu_low)
+        parts["mu_tex"].append(out.drive_law.mu_tex)
+        parts["drive"].append(out.drive)
+        parts["friction"].append(display.process(out.drive, out.load_drive))
+        if progress is not None:
+            progress(min(n, start + block) / n)
+    arr = {k: np.concatenate(v) if v else np.zeros(0) for k, v in parts.items()}
+    friction = arr["friction"]
+    friction = np.concatenate((friction, np.full(max(0, n - friction.size), friction[-1] if friction.size else 0.0)))[:n]
+    drive = arr["drive"]
+    uses_acc = chain.law.uses_texture and material.texture.quantity == "acceleration"
+    bank = material.texture if chain.law.uses_texture else None
+    return RenderResult(
+        material=material.name, method=chain.method, seed=cfg.seed, model_rate=fm, drive_rate=chain.drive_rate,
+        carrier=cfg.carrier, alpha=chain.params.alpha, beta=chain.params.beta, t=t, speed=speed, load=load,
+        texture=arr["texture"], mu_low=arr["mu_low"], mu_tex=arr["mu_tex"], target=arr["target"],
+        voltage=arr["voltage"], t_drive=np.arange(drive.size) / chain.drive_rate, drive=drive,
+        friction_sim=friction, acc=arr["texture"] if uses_acc else None, latency=chain.latency,
+        display_latency=display.delay, mu_panel=cfg.display.mu_panel, k=cfg.display.k,
+        clipped=chain.law.clipped, touching=chain.law.touching, safety=chain.safety.counters,
+        texture_quantity=None if bank is None else bank.quantity,
+        texture_models=[] if bank is None else list(bank.models), trajectory_name=trajectory.name,
+        effective_mass=cfg.effective_mass, constant_load=cfg.constant_load,
+    )

@@ -1,0 +1,165 @@
+"""The safety stage: the last processor before any backend, for every output.
+
+Its limits hold for *any* input sequence (property-tested with hypothesis):
+
+* ``|y| <= v_max`` (default 250 V, Otake et al. 2022 Sec. IV-D) for every sample;
+* the magnitude may rise by at most ``rise_rate / drive_rate`` volts per sample (an onset
+  from zero to ``v_max`` takes at least ``v_max / rise_rate`` seconds); falling is never
+  limited, because removing voltage is always safe;
+* a NaN or infinite drive, load or touch age, a drive beyond ``absurd_factor * v_max``, a
+  negative or absurd load, or a touch time stamp from the future (age below
+  ``-clock_tolerance``), all give 0 V at once (a *fault*);
+* a lifted finger (load below ``lift_threshold``) gives 0 V at once;
+* watchdog: when the freshest touch sample is older than ``watchdog_timeout`` (50 ms), the
+  magnitude ramps linearly to zero within ``watchdog_ramp`` (5 ms) and stays there until a
+  fresh touch sample arrives.
+
+Polarity is free: a polarity carrier flips the sign without changing the magnitude.
+The kernel runs in one compiled pass, allocates nothing and keeps its state in a small array.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+__all__ = ["SafetyLimits", "SafetyStage", "SafetyCounters"]
+
+
+@dataclass(frozen=True)
+class SafetyLimits:
+    """Limits of the safety stage (SI units).
+
+    v_max            : V, largest drive magnitude ever output.
+    rise_rate        : V/s, largest rise of the drive magnitude (default v_max per ms).
+    lift_threshold   : N, loads below this mean "finger lifted" -> 0 V.
+    max_load         : N, loads above this are absurd (sensor fault) -> 0 V.
+    absurd_factor    : drive inputs beyond absurd_factor * v_max are treated as faults.
+    watchdog_timeout : s, touch-sample age after which the output ramps to zero.
+    watchdog_ramp    : s, longest time the ramp to zero may take.
+    clock_tolerance  : s, touch ages down to -clock_tolerance count as fresh (rounding).
+    """
+
+    v_max: float = 250.0
+    rise_rate: float = 250.0e3
+    lift_threshold: float = 0.02
+    max_load: float = 50.0
+    absurd_factor: float = 4.0
+    watchdog_timeout: float = 0.050
+    watchdog_ramp: float = 0.005
+    clock_tolerance: float = 1.0e-3
+
+    def __post_init__(self):
+        for name in ("v_max", "rise_rate", "max_load", "absurd_factor", "watchdog_timeout", "watchdog_ramp", "clock_tolerance"):
+            val = getattr(self, name)
+            if not (np.isfinite(val) and val > 0):
+                raise ValueError(f"safety limit {name} must be finite and > 0, got {val}")
+        if not (np.isfinite(self.lift_threshold) and 0 <= self.lift_threshold < self.max_load):
+            raise ValueError("lift_threshold must be in [0, max_load)")
+        if self.absurd_factor < 1:
+            raise ValueError("absurd_factor must be >= 1")
+
+
+@dataclass(frozen=True)
+class SafetyCounters:
+    """Sample counts since the last reset."""
+
+    samples: int
+    clamped: int
+    rise_limited: int
+    faults: int
+    lifted: int
+    watchdog: int
+
+
+# state layout (float64): 0 previous magnitude
+# counters layout (int64): samples, clamped, rise_limited, faults, lifted, watchdog
+@numba.njit(cache=True, nogil=True)
+def _safety_kernel(drive, load, touch_age, out, state, counters, v_max, rise_step, ramp_step,
+                   lift, max_load, absurd, timeout, tolerance):
+    prev = state[0]
+    n = drive.shape[0]
+    for i in range(n):
+        x = drive[i]
+        ld = load[i]
+        age = touch_age[i]
+        counters[0] += 1
+        if not (np.isfinite(x) and np.isfinite(ld) and np.isfinite(age)) or abs(x) > absurd \
+                or ld < 0.0 or ld > max_load or age < -tolerance:
+            counters[3] += 1
+            prev = 0.0
+            out[i] = 0.0
+            continue
+        if ld < lift:
+            counters[4] += 1
+            prev = 0.0
+            out[i] = 0.0
+            continue
+        mag = abs(x)
+        if mag > v_max:
+            mag = v_max
+            counters[1] += 1
+        if age > timeout:
+            counters[5] += 1
+            cap = prev - ramp_step
+            if cap < 0.0:
+                cap = 0.0
+            if mag > cap:
+                mag = cap
+        elif mag > prev + rise_step:
+            mag = prev + rise_step
+            counters[2] += 1
+        prev = mag
+        out[i] = mag if x >= 0.0 else -mag
+    state[0] = prev
+
+
+class SafetyStage:
+    """Stateful safety processor at the drive rate.
+
+    ``process(drive, load, touch_age)`` takes three (n,) float arrays: the drive in volts,
+    the finger load in newtons, and the age in seconds of the freshest touch sample at each
+    drive sample. It returns (n,) float volts that satisfy :class:`SafetyLimits`. The
+    returned array is ``out`` when given, else a new array.
+    """
+
+    def __init__(self, drive_rate: float, limits: SafetyLimits | None = None):
+        if not (np.isfinite(drive_rate) and drive_rate > 0):
+            raise ValueError("drive_rate must be positive")
+        self.drive_rate = float(drive_rate)
+        self.limits = limits or SafetyLimits()
+        self._state = np.zeros(1)
+        self._counters = np.zeros(6, dtype=np.int64)
+        lim = self.limits
+        self._args = (
+            lim.v_max,
+            lim.rise_rate / self.drive_rate,
+            lim.v_max / (lim.watchdog_ramp * self.drive_rate),
+            lim.lift_threshold,
+            lim.max_load,
+            lim.absurd_factor * lim.v_max,
+            lim.watchdog_timeout,
+            lim.clock_tolerance,
+        )
+
+    def reset(self) -> None:
+        """Forget the previous output (next onset starts from 0 V) and zero the counters."""
+        self._state[:] = 0.0
+        self._counters[:] = 0
+
+    def process(self, drive: np.ndarray, load: np.ndarray, touch_age: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        drive = np.ascontiguousarray(drive, dtype=np.float64)
+        load = np.ascontiguousarray(load, dtype=np.float64)
+        touch_age = np.ascontiguousarray(touch_age, dtype=np.float64)
+        if not (drive.shape == load.shape == touch_age.shape) or drive.ndim != 1:
+            raise ValueError("drive, load and touch_age must be 1-D arrays of one length")
+        if out is None:
+            out = np.empty_like(drive)
+        _safety_kernel(drive, load, touch_age, out, self._state, self._counters, *self._args)
+        return out
+
+    @property
+    def counters(self) -> SafetyCounters:
+        return SafetyCounters(*(int(c) for c in self._counters))

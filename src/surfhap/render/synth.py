@@ -1,0 +1,84 @@
+"""Streaming AR texture synthesis over a bank of models with one shared output history.
+
+When the finger speed moves to another reference velocity the synthesiser switches model
+between two samples but keeps its output history (the last ``p_max`` outputs), so the new
+recursion continues from the old signal: no click, no reset (Otake et al. 2022 use the model
+of the nearest reference velocity live). Noise comes from a seeded ``numpy.random.Generator``;
+the same seed gives the same output whatever the block sizes.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from surfhap.models.texture import TextureBank
+
+__all__ = ["ARSynthesizer"]
+
+
+@numba.njit(cache=True, nogil=True)
+def _ar_bank_kernel(noise, model_idx, coefs, orders, sigmas, buf, pmax, out):
+    # buf: (pmax + n,) ; buf[:pmax] holds the previous outputs, oldest first
+    n = noise.shape[0]
+    for i in range(n):
+        m = model_idx[i]
+        acc = sigmas[m] * noise[i]
+        pos = pmax + i
+        for j in range(orders[m]):
+            acc += coefs[m, j] * buf[pos - 1 - j]
+        buf[pos] = acc
+        out[i] = acc
+    for j in range(pmax):
+        buf[j] = buf[n + j]
+
+
+class ARSynthesizer:
+    """Texture synthesis at the bank's model rate.
+
+    ``process(speed, load=None)`` takes (n,) finger speeds (m/s) at the model rate (the load
+    is accepted for the common synthesiser protocol and not used) and returns (n,) texture samples (the bank's quantity: mu_t, or acceleration in m/s^2). The last
+    ``model_index`` array tells which model produced each sample.
+    """
+
+    def __init__(self, bank: TextureBank, seed: int | np.random.Generator | None = 0, max_block: int = 1 << 16):
+        self.bank = bank
+        self._seed = seed
+        m = len(bank.models)
+        self.p_max = max(1, bank.max_order)
+        self._coefs = np.zeros((m, self.p_max))
+        self._orders = np.zeros(m, dtype=np.int64)
+        self._sigmas = np.zeros(m)
+        for i, model in enumerate(bank.models):
+            self._coefs[i, : model.order] = model.coefficients
+            self._orders[i] = model.order
+            self._sigmas[i] = np.sqrt(model.variance)
+        self.max_block = int(max_block)
+        self._buf = np.zeros(self.p_max + self.max_block)
+        self._noise = np.empty(self.max_block)
+        self.model_index = np.zeros(0, dtype=np.int64)
+        self.reset()
+
+    def reset(self) -> None:
+        """Clear the history and restart the noise generator from the seed."""
+        seed = self._seed
+        self._rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        self._buf[:] = 0.0
+
+    def process(self, speed: np.ndarray, load: np.ndarray | None = None) -> np.ndarray:
+        speed = np.asarray(speed, dtype=np.float64)
+        n = speed.shape[0]
+        if n > self.max_block:
+            outs, idxs = [], []
+            for i in range(0, n, self.max_block):
+                outs.append(self.process(speed[i : i + self.max_block]))
+                idxs.append(self.model_index)
+            self.model_index = np.concatenate(idxs)
+            return np.concatenate(outs)
+        idx = self.bank.select(speed)
+        noise = self._noise[:n]
+        self._rng.standard_normal(out=noise)
+        out = np.empty(n)
+        _ar_bank_kernel(noise, idx, self._coefs, self._orders, self._sigmas, self._buf, self.p_max, out)
+        self.model_index = idx
+        return out

@@ -1,0 +1,103 @@
+"""A simulated electrostatic friction display: the embedded default backend.
+
+From drive voltage (drive rate) and finger load to the lateral friction force::
+
+    f_s = mu_panel (fn + k V_eff^2)          (Otake et al. 2022, eq. 5)
+
+``V_eff`` is the voltage that still attracts the finger. Charge leaks through the skin, so
+the finger/insulator stack behaves as a first-order high-pass with time constant
+``leakage_time_constant``: a DC drive fades (the residual-charge problem that makes Otake et
+al. switch polarity, citing Nakamura and Yamamoto 2017) while a polarity carrier keeps
+``V_eff^2`` equal to the envelope squared. The friction is low-pass filtered and decimated to
+the model rate for comparison with the material model.
+
+``mu_panel`` (0.5) and the 50 ms leakage constant are documented assumptions for a
+simulated panel, not measurements; the electrostatic constant ``k`` comes from
+:class:`~surfhap.sim.electrostatics.ElectrostaticStack` (eq. 1 of Zhao et al.).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from surfhap.render.resample import RationalResampler
+from surfhap.sim.electrostatics import ElectrostaticStack
+
+__all__ = ["DisplayModel", "SimulatedDisplay"]
+
+
+@dataclass(frozen=True)
+class DisplayModel:
+    """Parameters of the simulated panel (SI)."""
+
+    mu_panel: float = 0.5
+    stack: ElectrostaticStack = field(default_factory=ElectrostaticStack)
+    leakage_time_constant: float = 0.050
+
+    def __post_init__(self):
+        if not (np.isfinite(self.mu_panel) and self.mu_panel > 0):
+            raise ValueError("mu_panel must be > 0")
+        if not (np.isfinite(self.leakage_time_constant) and self.leakage_time_constant > 0):
+            raise ValueError("leakage_time_constant must be > 0 s")
+
+    @property
+    def k(self) -> float:
+        """Electrostatic constant, N/V^2."""
+        return self.stack.k
+
+    @property
+    def calibrated_alpha(self) -> float:
+        """Gain V/sqrt(N) for which the added friction equals the target: 1/sqrt(mu_panel k)."""
+        return 1.0 / np.sqrt(self.mu_panel * self.k)
+
+
+@numba.njit(cache=True, nogil=True)
+def _display_kernel(drive, load, state, a, mu, k, out):
+    # state: [previous drive, previous V_eff]
+    pv = state[0]
+    ve = state[1]
+    for i in range(drive.shape[0]):
+        v = drive[i]
+        ve = a * (ve + v - pv)
+        pv = v
+        fn = load[i]
+        out[i] = mu * (fn + k * ve * ve) if fn > 0.0 else 0.0
+    state[0] = pv
+    state[1] = ve
+
+
+class SimulatedDisplay:
+    """``process(drive, load) -> friction`` at the model rate.
+
+    drive (m,) V and load (m,) N at the drive rate; returns the friction force (N) low-passed
+    and decimated to ``model_rate``. ``last_friction_drive_rate`` keeps the undecimated force of
+    the last block and ``last_v_eff`` the effective voltage, for inspection.
+    """
+
+    def __init__(self, model: DisplayModel, drive_rate: int, model_rate: int):
+        self.model = model
+        self.drive_rate = int(drive_rate)
+        self.model_rate = int(model_rate)
+        dt = 1.0 / self.drive_rate
+        tau = model.leakage_time_constant
+        self._a = tau / (tau + dt)
+        self._k = model.k
+        self._state = np.zeros(2)
+        self._down = RationalResampler(self.drive_rate, self.model_rate)
+        self.delay = self._down.delay
+        self.last_friction_drive_rate = np.zeros(0)
+
+    def reset(self) -> None:
+        self._state[:] = 0.0
+        self._down.reset()
+
+    def process(self, drive: np.ndarray, load: np.ndarray) -> np.ndarray:
+        drive = np.ascontiguousarray(drive, dtype=np.float64)
+        load = np.ascontiguousarray(load, dtype=np.float64)
+        force = np.empty_like(drive)
+        _display_kernel(drive, load, self._state, self._a, self.model.mu_panel, self._k, force)
+        self.last_friction_drive_rate = force
+        return self._down.process(force)

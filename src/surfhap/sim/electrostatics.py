@@ -1,0 +1,61 @@
+"""Electrostatic attraction between a finger and an insulated electrode (Zhao et al., eq. 1).
+
+``f_e = eps0 A V^2 / (2 (T_i/eps_i + T_sc/eps_sc) (T_i + T_sc)) = k V^2``
+
+The stack defaults describe a typical display and are *assumptions to calibrate*, not
+measurements: the 8 um insulating film is the one of Otake et al. (Kimotect PA8X, a PET
+hard-coat film; PET's relative permittivity is about 3.2); the contact area (1 cm^2) and the
+stratum corneum (20 um thick, relative permittivity 40) are order-of-magnitude values for a
+fingertip on glass. Measure your own display (force vs voltage) and pass its ``k`` instead.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["EPSILON_0", "ElectrostaticStack", "electrostatic_constant", "electrostatic_force"]
+
+EPSILON_0 = 8.8541878128e-12  # F/m, vacuum permittivity (CODATA 2018)
+
+
+@dataclass(frozen=True)
+class ElectrostaticStack:
+    """Finger / insulator stack of eq. 1 (SI).
+
+    contact_area               : m^2, apparent finger contact area A.
+    insulator_thickness        : m, T_i.
+    insulator_permittivity     : relative permittivity eps_i.
+    stratum_corneum_thickness  : m, T_sc.
+    stratum_corneum_permittivity : relative permittivity eps_sc.
+    """
+
+    contact_area: float = 1.0e-4
+    insulator_thickness: float = 8.0e-6
+    insulator_permittivity: float = 3.2
+    stratum_corneum_thickness: float = 20.0e-6
+    stratum_corneum_permittivity: float = 40.0
+
+    def __post_init__(self):
+        for name, val in self.__dict__.items():
+            if not (np.isfinite(val) and val > 0):
+                raise ValueError(f"{name} must be finite and > 0, got {val}")
+
+    @property
+    def k(self) -> float:
+        """N / V^2."""
+        return electrostatic_constant(self)
+
+
+def electrostatic_constant(stack: ElectrostaticStack) -> float:
+    """k of eq. 1 in N/V^2."""
+    s = stack
+    series = s.insulator_thickness / s.insulator_permittivity + s.stratum_corneum_thickness / s.stratum_corneum_permittivity
+    return EPSILON_0 * s.contact_area / (2.0 * series * (s.insulator_thickness + s.stratum_corneum_thickness))
+
+
+def electrostatic_force(voltage: np.ndarray, k: float) -> np.ndarray:
+    """f_e = k V^2 (N) for voltage (n,) V."""
+    v = np.asarray(voltage, dtype=float)
+    return k * v * v
