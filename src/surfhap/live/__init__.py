@@ -1,1 +1,11 @@
-"""surfhap.live."""
+"""surfhap.live: the real-time engine, its backends, touch sources and the touch page.
+
+Importing this package is cheap: the backends (sounddevice, python-osc) and the web
+server (FastAPI, uvicorn) are imported only when used.
+"""
+
+from surfhap.live.engine import EngineConfig, LiveEngine, audit_drive
+from surfhap.live.prediction import TouchPredictor
+from surfhap.live.queues import CommandQueue, TouchRing
+
+__all__ = ["EngineConfig", "LiveEngine", "audit_drive", "TouchPredictor", "TouchRing", "CommandQueue"]

@@ -1,0 +1,12 @@
+"""Output backends of the live engine behind one small protocol (:class:`Backend`).
+
+``sim`` (simulated display, default), ``file`` (WAV/NPZ), ``sound`` (PortAudio through
+sounddevice) and ``osc`` (drive or intensity values to an external renderer).
+:func:`open_backend` turns an ``--output`` string into a backend.
+"""
+
+from __future__ import annotations
+
+from surfhap.live.backends.base import Backend, PacedBackend, parse_output, open_backend
+
+__all__ = ["Backend", "PacedBackend", "parse_output", "open_backend"]

@@ -1,0 +1,147 @@
+"""The backend protocol, a paced-thread base for outputs without their own clock, and
+the ``--output`` parser.
+
+A backend owns the clock: it calls ``engine.render(frames, now)`` once per block and
+sends the returned volts somewhere. Protocol:
+
+* ``start(engine)`` begins calling the engine (returns at once);
+* ``stop(timeout)`` asks the engine for its ramp to zero, waits for it (bounded), then
+  stops calling and releases the device;
+* ``info()`` a small dict for the status page (name, rate, channels, output latency);
+* ``drive_rate`` the rate it needs (``None`` = whatever the engine uses).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from typing import Protocol, runtime_checkable
+from urllib.parse import urlparse
+
+from surfhap.errors import ConfigError
+from surfhap.live.clock import now, sleep_until
+
+__all__ = ["Backend", "PacedBackend", "parse_output", "open_backend"]
+
+log = logging.getLogger("surfhap.live")
+
+
+@runtime_checkable
+class Backend(Protocol):
+    name: str
+    drive_rate: int | None
+
+    def start(self, engine) -> None: ...
+
+    def stop(self, timeout: float = 1.0) -> None: ...
+
+    def info(self) -> dict: ...
+
+
+class PacedBackend:
+    """Calls the engine from its own thread, one block per block period on the engine clock.
+
+    A late block (the thread woke more than one block period after its deadline) counts an
+    underrun and the schedule is re-anchored instead of bursting to catch up.
+    Subclasses override :meth:`emit` (called with each block of volts, same thread).
+    """
+
+    name = "paced"
+    drive_rate: int | None = None
+
+    def __init__(self):
+        self._thread: threading.Thread | None = None
+        self._run = False
+        self.engine = None
+
+    def start(self, engine) -> None:
+        if self._thread is not None:
+            raise RuntimeError("backend already started")
+        self.engine = engine
+        self._run = True
+        self._thread = threading.Thread(target=self._loop, name=f"surfhap-{self.name}", daemon=True)
+        self._thread.start()
+
+    def _loop(self) -> None:
+        eng = self.engine
+        frames = eng.block_frames
+        period = eng.block_period
+        deadline = now()
+        while self._run:
+            t = sleep_until(deadline)
+            if t - deadline > period:
+                eng.counters["underruns"] += 1
+                deadline = t
+            volts = eng.render(frames, deadline)
+            self.emit(volts)
+            deadline += period
+
+    def emit(self, volts) -> None:  # pragma: no cover - overridden
+        pass
+
+    def stop(self, timeout: float = 1.0) -> None:
+        eng = self.engine
+        if eng is not None and self._thread is not None and self._thread.is_alive():
+            eng.request_stop()
+            end = time.monotonic() + timeout
+            while not eng.stopped and time.monotonic() < end:
+                time.sleep(0.002)
+        self._run = False
+        if self._thread is not None:
+            self._thread.join(timeout)
+            self._thread = None
+        self.close()
+
+    def close(self) -> None:
+        pass
+
+    def info(self) -> dict:
+        return {"name": self.name}
+
+
+def parse_output(text: str) -> tuple[str, dict]:
+    """``sim`` | ``file:PATH.wav|.npz`` | ``sound`` | ``sound:DEVICE`` | ``osc://HOST:PORT[/intensity|/drive]``."""
+    text = (text or "sim").strip()
+    if text == "sim":
+        return "sim", {}
+    if text.startswith("file:"):
+        path = text[5:]
+        if not path or not path.lower().endswith((".wav", ".npz")):
+            raise ConfigError("file output needs a .wav or .npz path, e.g. file:drive.wav", source="--output")
+        return "file", {"path": path}
+    if text == "sound" or text.startswith("sound:"):
+        dev = text[6:] if text.startswith("sound:") else ""
+        device: int | str | None = None
+        if dev:
+            device = int(dev) if dev.isdigit() else dev
+        return "sound", {"device": device}
+    if text.startswith("osc://"):
+        u = urlparse(text)
+        if not u.hostname or not u.port:
+            raise ConfigError("OSC output needs osc://HOST:PORT", source="--output")
+        mode = (u.path or "/intensity").strip("/") or "intensity"
+        if mode not in ("intensity", "drive"):
+            raise ConfigError(f"OSC output mode must be /intensity or /drive, got /{mode}", source="--output")
+        return "osc", {"host": u.hostname, "port": u.port, "mode": mode}
+    raise ConfigError(f"unknown output {text!r} (sim, file:PATH, sound[:DEVICE], osc://HOST:PORT)", source="--output")
+
+
+def open_backend(text: str, **options):
+    """Build the backend named by an ``--output`` string; ``options`` go to its constructor."""
+    kind, args = parse_output(text)
+    if kind == "sim":
+        from surfhap.live.backends.sim import SimBackend
+
+        return SimBackend(**options)
+    if kind == "file":
+        from surfhap.live.backends.file import FileBackend
+
+        return FileBackend(args["path"], **options)
+    if kind == "sound":
+        from surfhap.live.backends.sound import SoundBackend
+
+        return SoundBackend(device=args["device"], **options)
+    from surfhap.live.backends.osc import OscBackend
+
+    return OscBackend(args["host"], args["port"], mode=args["mode"], **options)

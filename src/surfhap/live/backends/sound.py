@@ -1,0 +1,141 @@
+"""``sound``: PortAudio output through sounddevice (sound card -> high-voltage amplifier).
+
+The stream runs at the engine's drive rate with the engine's block size; PortAudio calls
+:meth:`SoundBackend._callback` from its audio thread, which only calls ``engine.render``
+(see the real-time contract in :mod:`surfhap.live.engine`) and writes
+``volts / amp_gain`` (DAC full-scale units, float32, clipped to the largest float32 below
+1, because +1.0 itself wraps to -1 in some integer converters) to the channels in
+``channels`` (0-based; default: all channels of the stream). ``amp_gain`` is the
+amplifier's gain in volts per DAC full-scale unit, from the rig's configuration.
+
+PortAudio's underflow flags count as engine underruns. ``capture_seconds`` keeps a copy of
+the first samples written (preallocated), for checking the amplifier chain.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+
+from surfhap.errors import ConfigError
+from surfhap.live.clock import now
+
+__all__ = ["SoundBackend", "list_devices"]
+
+log = logging.getLogger("surfhap.live")
+
+_FULL_SCALE = float(np.nextafter(np.float32(1.0), np.float32(0.0)))
+
+
+def _sd():
+    try:
+        import sounddevice as sd
+    except OSError as exc:  # PortAudio library missing
+        raise ConfigError(f"PortAudio is not available ({exc}); install libportaudio2", source="--output") from None
+    except ImportError:
+        raise ConfigError("sounddevice is not installed; pip install 'surfhap[live]'", source="--output") from None
+    return sd
+
+
+def list_devices() -> list[dict]:
+    """Output-capable sound devices: index, name, host API, channels, default rate."""
+    sd = _sd()
+    apis = sd.query_hostapis()
+    out = []
+    for i, d in enumerate(sd.query_devices()):
+        if d["max_output_channels"] > 0:
+            out.append({"index": i, "name": d["name"], "hostapi": apis[d["hostapi"]]["name"],
+                        "channels": int(d["max_output_channels"]), "default_rate": float(d["default_samplerate"])})
+    return out
+
+
+class SoundBackend:
+    name = "sound"
+    drive_rate = None
+
+    def __init__(self, device: int | str | None = None, amp_gain: float = 250.0, n_channels: int | None = None,
+                 channels: tuple[int, ...] | None = None, latency: str | float = "low",
+                 capture_seconds: float = 0.0, **_ignored):
+        if not (np.isfinite(amp_gain) and amp_gain > 0):
+            raise ConfigError("must be > 0 V per DAC unit", field="amp_gain")
+        self.device = device
+        self.amp_gain = float(amp_gain)
+        self.n_channels = n_channels
+        self.channels = channels
+        self.latency = latency
+        self.capture_seconds = float(capture_seconds)
+        self.capture = np.zeros(0, dtype=np.float32)
+        self.captured = 0
+        self.engine = None
+        self._stream = None
+        self.clipped = 0
+
+    def start(self, engine) -> None:
+        sd = _sd()
+        try:
+            dev = sd.query_devices(self.device, "output")
+        except (ValueError, sd.PortAudioError) as exc:
+            raise ConfigError(f"no such output device ({exc}); see `surfhap devices`", source="--output") from None
+        n_ch = int(self.n_channels or dev["max_output_channels"])
+        if not 1 <= n_ch <= dev["max_output_channels"]:
+            raise ConfigError(f"device has {dev['max_output_channels']} output channels, asked for {n_ch}", field="channels")
+        chans = tuple(range(n_ch)) if self.channels is None else tuple(self.channels)
+        if not chans or any(not 0 <= c < n_ch for c in chans):
+            raise ConfigError(f"drive channels must be within 0-{n_ch - 1}", field="channels")
+        self._chans = chans
+        self._inv_gain = 1.0 / self.amp_gain
+        self._units = np.zeros(engine.config.max_block_frames, dtype=np.float32)
+        self.capture = np.zeros(int(self.capture_seconds * engine.drive_rate), dtype=np.float32)
+        self.captured = 0
+        self.engine = engine
+        self._t_offset = None
+        try:
+            self._stream = sd.OutputStream(device=self.device, samplerate=engine.drive_rate, channels=n_ch,
+                                           dtype="float32", blocksize=engine.block_frames, latency=self.latency,
+                                           callback=self._callback)
+            self._stream.start()
+        except sd.PortAudioError as exc:
+            self._stream = None
+            raise ConfigError(f"cannot open sound output at {engine.drive_rate} Hz ({exc})", source="--output") from None
+        log.info("sound output on %r: %d channel(s) at %d Hz, block %d, output latency %.1f ms",
+                 dev["name"], n_ch, engine.drive_rate, engine.block_frames, 1e3 * self._stream.latency)
+
+    def _callback(self, outdata, frames, time_info, status) -> None:
+        # real-time: no allocation beyond numpy views, no locks, no logging
+        eng = self.engine
+        if status.output_underflow:
+            eng.counters["underruns"] += 1
+        volts = eng.render(frames, now())
+        u = self._units[:frames]
+        np.multiply(volts, self._inv_gain, out=u, casting="same_kind")
+        np.clip(u, -_FULL_SCALE, _FULL_SCALE, out=u)
+        outdata.fill(0.0)
+        for c in self._chans:
+            outdata[:, c] = u
+        cap = self.capture
+        k = self.captured
+        if k < cap.shape[0]:
+            m = min(frames, cap.shape[0] - k)
+            cap[k : k + m] = u[:m]
+            self.captured = k + m
+
+    def stop(self, timeout: float = 1.0) -> None:
+        if self._stream is None:
+            return
+        eng = self.engine
+        eng.request_stop()
+        end = time.monotonic() + timeout
+        while not eng.stopped and time.monotonic() < end:
+            time.sleep(0.002)
+        try:
+            self._stream.stop()
+            self._stream.close()
+        finally:
+            self._stream = None
+
+    def info(self) -> dict:
+        lat = self._stream.latency if self._stream is not None else None
+        return {"name": self.name, "device": self.device, "amp_gain": self.amp_gain,
+                "output_latency": lat, "channels": list(getattr(self, "_chans", ()))}

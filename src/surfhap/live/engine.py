@@ -1,0 +1,440 @@
+"""The real-time block engine.
+
+A backend (sound card callback, simulated display thread, file writer, OSC sender) owns the
+clock and calls :meth:`LiveEngine.render` once per block. Touch sources (web page, OSC,
+replayed trajectory) call :meth:`LiveEngine.push_touch` from their own threads; control
+code calls :meth:`LiveEngine.send`. Everything between the two sides goes through the
+bounded, non-blocking :class:`~surfhap.live.queues.TouchRing` and
+:class:`~surfhap.live.queues.CommandQueue`.
+
+Real-time contract of :meth:`LiveEngine.render` (it runs inside PortAudio's callback):
+
+* it MAY: pop pending commands and touch samples (non-blocking, bounded by the preallocated
+  buffers), run the kinematics stage and the processors (texture chain with its safety
+  stage and watchdog, optional simulated display), write into preallocated rings (drive
+  FIFO, trace, latency, timing), increment integer counters, set plain attributes;
+* it MUST NOT: take a lock that a producer can hold, wait, sleep, log, print, open files or
+  sockets, build Python containers that grow, import modules, or raise (a failure of a
+  processor outputs silence for the block and is counted in ``counters['errors']``).
+  The engine's own buffers are allocated in ``__init__``; the texture chain's numpy kernels
+  make a few short temporaries per block (bounded size; no per-sample allocation).
+
+Touch samples are time-stamped at arrival (``t_arrival`` on :func:`surfhap.live.clock.now`).
+At each block the freshest sample is mapped onto the chain's sample clock as
+``chain_time - (now - t_arrival)``, so the watchdog of the safety stage (touch older than
+50 ms -> ramp to zero within 5 ms) sees how old the finger data really is.
+
+Latency (``latency_stats``): for every touch sample applied, the time from its arrival to
+the emission of the first drive sample computed from it (the block's start time plus the
+sample's offset in the block). This is the engine-internal latency; the DAC and amplifier
+add the backend's own output latency (reported by the backend).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from surfhap.errors import ConfigError
+from surfhap.live.clock import now as clock_now
+from surfhap.live.prediction import TouchPredictor
+from surfhap.live.queues import CommandQueue, TouchRing
+
+__all__ = ["EngineConfig", "LiveEngine", "TRACE_FIELDS", "audit_drive"]
+
+# one row per processed chunk
+TRACE_FIELDS = ("t", "x", "y", "speed", "load", "v_peak", "target", "friction")
+_NO_TOUCH_TIME = -1.0e6  # "touched long ago": the watchdog holds the output at zero
+
+
+@dataclass(frozen=True)
+class EngineConfig:
+    """Settings of the live engine (SI units).
+
+    block_seconds : s, nominal block period (1 ms default); the backend's block size.
+    touch_latency : s, touch latency compensated by prediction (0 = off; 004 Sec. 4.2).
+    smoothing     : alpha of the exponential smoothing (004 eq. 7); 1 = off.
+    k_pred        : fixed prediction gain (004 eq. 6); None = derived from touch_latency.
+    speed_cutoff  : Hz, low-pass of the speed estimate.
+    takeover      : s, a touch source may take over the finger when the current one has
+                    been silent this long (one finger at a time drives the display).
+    stop_ramp     : s, length of the ramp to zero on stop.
+    simulate_display : run the simulated electroadhesion display to trace friction.
+    touch_capacity, trace_capacity, latency_capacity : ring sizes (powers of two).
+    max_block_frames : largest block a backend may ask for.
+    """
+
+    block_seconds: float = 0.001
+    touch_latency: float = 0.0
+    smoothing: float = 1.0
+    k_pred: float | None = None
+    speed_cutoff: float = 20.0
+    takeover: float = 0.05
+    stop_ramp: float = 0.010
+    simulate_display: bool = True
+    touch_capacity: int = 1024
+    trace_capacity: int = 8192
+    latency_capacity: int = 4096
+    max_block_frames: int = 8192
+
+    def __post_init__(self):
+        if not (math.isfinite(self.block_seconds) and 0.0002 <= self.block_seconds <= 0.1):
+            raise ConfigError("must be within 0.2-100 ms", field="block_seconds")
+        if not (math.isfinite(self.touch_latency) and 0.0 <= self.touch_latency <= 0.2):
+            raise ConfigError("must be within 0-200 ms", field="touch_latency")
+        if not (math.isfinite(self.smoothing) and 0.0 < self.smoothing <= 1.0):
+            raise ConfigError("must be in (0, 1]", field="smoothing")
+        if not (math.isfinite(self.stop_ramp) and 0.0 < self.stop_ramp <= 1.0):
+            raise ConfigError("must be within 0-1 s", field="stop_ramp")
+        for name in ("touch_capacity", "trace_capacity", "latency_capacity"):
+            v = getattr(self, name)
+            if v < 2 or v & (v - 1):
+                raise ConfigError("must be a power of two", field=name)
+
+
+def _pow2_at_least(n: int) -> int:
+    return 1 << max(1, int(n - 1).bit_length())
+
+
+class LiveEngine:
+    """Real-time engine around one renderer (normally a :class:`~surfhap.render.chain.TextureChain`).
+
+    ``renderer`` must provide ``model_rate``, ``drive_rate``, ``reset()``, ``safety`` and
+    ``process(speed, load, touch_time)`` returning an object with ``drive`` (volts at the
+    drive rate, already through the safety stage), ``load_drive`` and ``drive_law.target``.
+    A renderer that also needs the finger position sets ``uses_position = True`` and takes
+    ``process(speed, load, touch_time, x, y)``.
+    """
+
+    def __init__(self, renderer, config: EngineConfig | None = None, display=None):
+        self.config = cfg = config or EngineConfig()
+        self.renderer = renderer
+        self.drive_rate = int(renderer.drive_rate)
+        self.model_rate = int(renderer.model_rate)
+        self.block_frames = max(1, int(round(cfg.block_seconds * self.drive_rate)))
+        self.block_period = self.block_frames / self.drive_rate
+        self.v_max = float(renderer.safety.limits.v_max)
+        self.display = display
+        self.touches = TouchRing(cfg.touch_capacity)
+        self.commands = CommandQueue(64)
+        self.predictor = TouchPredictor(cfg.touch_latency, cfg.smoothing, cfg.k_pred, cfg.speed_cutoff)
+        mb = int(cfg.max_block_frames)
+        self._max_frames = mb
+        self._max_model = int(math.ceil(mb * self.model_rate / self.drive_rate)) + 2
+        self._speed = np.zeros(self._max_model)
+        self._load = np.zeros(self._max_model)
+        self._ttime = np.zeros(self._max_model)
+        self._xs = np.zeros(self._max_model)
+        self._ys = np.zeros(self._max_model)
+        self._fifo_cap = _pow2_at_least(4 * mb + 8 * self.drive_rate // self.model_rate + 64)
+        self._fifo = np.zeros(self._fifo_cap)
+        self._fifo_mask = self._fifo_cap - 1
+        self.out = np.zeros(mb)  # volts of the last block
+        self._touch_buf = np.zeros((256, 6))
+        self._pending_arrivals = np.zeros(256)
+        self.trace = np.zeros((cfg.trace_capacity, len(TRACE_FIELDS)))
+        self.latencies = np.zeros(cfg.latency_capacity)
+        self.block_times = np.zeros(cfg.latency_capacity)  # seconds spent in render()
+        self._clock = clock_now
+        self.reset()
+
+    # ------------------------------------------------------------------ control side
+    def reset(self) -> None:
+        """Back to silence with no finger; counters zeroed. Not for use while a backend runs."""
+        self.renderer.reset()
+        if self.display is not None:
+            self.display.reset()
+        self.predictor.reset()
+        self.touches.clear()
+        self._fifo_r = 0
+        self._fifo_w = 0
+        self._n_model = 0
+        self._owner = -1.0
+        self._owner_active = False
+        self._owner_arrival = -math.inf
+        self._last_arrival = -math.inf
+        self._last_source_time = math.nan
+        self._load_now = 0.0
+        self._gain = 1.0
+        self._ramp_step = 0.0
+        self._ramp_pos = 1.0
+        self.stopping = False
+        self.stopped = False
+        self.trace_count = 0
+        self.latency_count = 0
+        self.block_time_count = 0
+        self.counters = {
+            "blocks": 0, "frames": 0, "touches": 0, "touches_ignored": 0, "underruns": 0,
+            "overruns": 0, "errors": 0, "commands": 0,
+        }
+
+    def warm_up(self, blocks: int = 20) -> None:
+        """Run a few silent blocks (loads compiled kernels, touches every buffer), then reset.
+
+        Call before a backend starts, so the first real-time blocks are not slow."""
+        for i in range(blocks):
+            self.render(self.block_frames, self._clock())
+        self.reset()
+
+    def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan,
+                   t_arrival: float | None = None) -> bool:
+        """Hand one validated touch sample to the engine (any thread; never blocks long).
+
+        x, y in m; load in N (0 = lifted); ``t_event`` the source's own time stamp in s.
+        Returns False when the ring is full (the sample is dropped and counted).
+        """
+        ta = self._clock() if t_arrival is None else t_arrival
+        return self.touches.push(source, t_event, ta, x, y, load)
+
+    def send(self, *command) -> bool:
+        """Queue a command: ``("stop",)``, ``("renderer", new_renderer)`` (same drive rate;
+        build it outside the callback), ``("gain", g)`` with g in [0, 1]."""
+        if command and command[0] == "renderer":
+            r = command[1]
+            if int(r.drive_rate) != self.drive_rate:
+                raise ConfigError("a new renderer must keep the drive rate", field="drive_rate")
+            if math.ceil(self._max_frames * r.model_rate / self.drive_rate) + 2 > self._max_model:
+                raise ConfigError("a new renderer's model rate is too high for this engine", field="model_rate")
+        return self.commands.put(tuple(command))
+
+    def request_stop(self) -> None:
+        """Ramp the output to zero over ``stop_ramp`` and then output silence."""
+        self.send("stop")
+
+    # ------------------------------------------------------------------ real-time side
+    def render(self, frames: int, now: float | None = None) -> np.ndarray:
+        """Produce the next ``frames`` drive samples (volts); returns a view of ``self.out``.
+
+        Runs inside the audio callback; see the module docstring for what it may do.
+        ``now`` is the engine-clock time at which the block starts to be emitted.
+        """
+        t_start = self._clock()
+        if now is None:
+            now = t_start
+        if frames > self._max_frames:
+            frames = self._max_frames
+            self.counters["overruns"] += 1
+        out = self.out[:frames]
+        try:
+            self._commands()
+            applied = self._touch(now)
+            self._produce(frames, now, applied)
+            r = self._fifo_r
+            for i in range(frames):
+                out[i] = self._fifo[(r + i) & self._fifo_mask]
+            self._fifo_r = r + frames
+            self._apply_gain(out)
+        except Exception:  # noqa: BLE001 - the callback must never raise
+            self.counters["errors"] += 1
+            out[:] = 0.0
+        c = self.counters
+        c["blocks"] += 1
+        c["frames"] += frames
+        spent = self._clock() - t_start
+        self.block_times[self.block_time_count & (self.block_times.shape[0] - 1)] = spent
+        self.block_time_count += 1
+        if spent > frames / self.drive_rate:
+            c["overruns"] += 1
+        return out
+
+    def _commands(self) -> None:
+        for _ in range(8):
+            cmd = self.commands.get_nowait()
+            if cmd is None:
+                return
+            self.counters["commands"] += 1
+            kind = cmd[0]
+            if kind == "stop" and not self.stopping:
+                self.stopping = True
+                self._ramp_step = 1.0 / max(1.0, self.config.stop_ramp * self.drive_rate)
+            elif kind == "renderer":
+                self.renderer = cmd[1]
+                self.v_max = float(self.renderer.safety.limits.v_max)
+                self.model_rate = int(self.renderer.model_rate)
+            elif kind == "gain":
+                g = float(cmd[1])
+                if 0.0 <= g <= 1.0:
+                    self._gain = g
+
+    def _touch(self, now: float) -> int:
+        n = self.touches.pop_into(self._touch_buf)
+        applied = 0
+        buf = self._touch_buf
+        pred = self.predictor
+        for i in range(n):
+            src, t_ev, t_arr, x, y, load = buf[i, 0], buf[i, 1], buf[i, 2], buf[i, 3], buf[i, 4], buf[i, 5]
+            if src != self._owner:
+                if self._owner_active and t_arr - self._owner_arrival < self.config.takeover:
+                    self.counters["touches_ignored"] += 1
+                    continue
+                self._owner = src
+                pred.reset()
+                self._last_source_time = math.nan
+            self._owner_arrival = t_arr
+            self._last_arrival = t_arr
+            self.counters["touches"] += 1
+            if applied < self._pending_arrivals.shape[0]:
+                self._pending_arrivals[applied] = t_arr
+                applied += 1
+            if not load > 0.0:
+                self._owner_active = False
+                self._load_now = 0.0
+                pred.reset()
+                # lifted: drive already queued (a slow model rate queues up to one model
+                # period) is silenced at once; removing voltage is always safe
+                for j in range(self._fifo_r, self._fifo_w):
+                    self._fifo[j & self._fifo_mask] = 0.0
+                continue
+            self._owner_active = True
+            self._load_now = load
+            # the source's time stamps give the intervals when they are sane, else arrival
+            ts = t_ev if (t_ev == t_ev and (self._last_source_time != self._last_source_time
+                                            or t_ev >= self._last_source_time)) else math.nan
+            if ts == ts:
+                self._last_source_time = ts
+                pred.update(ts, x, y)
+            else:
+                pred.update(t_arr, x, y)
+        return applied
+
+    def _produce(self, frames: int, now: float, applied: int) -> None:
+        first = True
+        while self._fifo_w - self._fifo_r < frames:
+            need = frames - (self._fifo_w - self._fifo_r)
+            n = int(math.ceil(need * self.model_rate / self.drive_rate))
+            if n < 1:
+                n = 1
+            if n > self._max_model:
+                n = self._max_model
+            chain_t = self._n_model / self.model_rate
+            if self._last_arrival > -math.inf:
+                age = now - self._last_arrival
+                tt = chain_t - (age if age > 0.0 else 0.0)
+            else:
+                tt = _NO_TOUCH_TIME
+            pred = self.predictor
+            sp = self._speed[:n]
+            ld = self._load[:n]
+            ti = self._ttime[:n]
+            sp.fill(pred.speed if self._load_now > 0.0 else 0.0)
+            ld.fill(self._load_now)
+            ti.fill(tt)
+            if getattr(self.renderer, "uses_position", False):
+                xs = self._xs[:n]
+                ys = self._ys[:n]
+                xs.fill(pred.x)
+                ys.fill(pred.y)
+                blk = self.renderer.process(sp, ld, ti, xs, ys)
+            else:
+                blk = self.renderer.process(sp, ld, ti)
+            drive = blk.drive
+            m = drive.shape[0]
+            offset = self._fifo_w - self._fifo_r
+            w = self._fifo_w
+            for i in range(m):
+                self._fifo[(w + i) & self._fifo_mask] = drive[i]
+            self._fifo_w = w + m
+            self._n_model += n
+            friction = math.nan
+            if self.display is not None and m:
+                f = self.display.process(drive, blk.load_drive)
+                if f.shape[0]:
+                    friction = float(f.mean())
+            if first and applied and m:
+                t_emit = now + offset / self.drive_rate
+                for j in range(applied):
+                    self.latencies[self.latency_count & (self.latencies.shape[0] - 1)] = t_emit - self._pending_arrivals[j]
+                    self.latency_count += 1
+                first = False
+            row = self.trace[self.trace_count & (self.trace.shape[0] - 1)]
+            row[0] = chain_t
+            row[1] = pred.x
+            row[2] = pred.y
+            row[3] = sp[0]
+            row[4] = self._load_now
+            row[5] = float(np.abs(drive).max()) if m else 0.0
+            row[6] = float(blk.drive_law.target.mean()) if n else 0.0
+            row[7] = friction
+            self.trace_count += 1
+
+    def _apply_gain(self, out: np.ndarray) -> None:
+        g = self._gain
+        if not self.stopping:
+            if g != 1.0:
+                out *= g
+            return
+        step = self._ramp_step
+        ramp = self._ramp_pos
+        for i in range(out.shape[0]):
+            out[i] *= g * ramp
+            ramp -= step
+            if ramp < 0.0:
+                ramp = 0.0
+        self._ramp_pos = ramp
+        if ramp == 0.0:
+            self.stopped = True
+
+    # ------------------------------------------------------------------ monitoring side
+    def trace_since(self, index: int, limit: int | None = None) -> tuple[np.ndarray, int]:
+        """Rows of the trace written since ``index`` (oldest first) and the new index.
+
+        Safe from any thread: copies (at most the ring's length, and at most ``limit`` of
+        the newest rows)."""
+        end = self.trace_count
+        cap = self.trace.shape[0]
+        start = max(index, end - cap + 1)
+        if limit is not None:
+            start = max(start, end - limit)
+        if start >= end:
+            return np.zeros((0, self.trace.shape[1])), end
+        idx = np.arange(start, end) & (cap - 1)
+        return self.trace[idx].copy(), end
+
+    def latency_stats(self) -> dict:
+        """Arrival -> first affected drive sample, s (p50, p99, max, last) over the ring."""
+        return _stats(self.latencies, self.latency_count)
+
+    def block_time_stats(self) -> dict:
+        """Seconds spent in render() per block (p50, p99, max, last) over the ring."""
+        return _stats(self.block_times, self.block_time_count)
+
+    def safety_counters(self) -> dict:
+        c = self.renderer.safety.counters
+        return {k: getattr(c, k) for k in ("samples", "clamped", "rise_limited", "faults", "lifted", "watchdog")}
+
+    def status(self) -> dict:
+        """Counters, latency and timing as plain JSON-able values (monitoring threads)."""
+        return {
+            "counters": dict(self.counters, touches_dropped=self.touches.dropped, commands_dropped=self.commands.dropped),
+            "safety": self.safety_counters(),
+            "latency": self.latency_stats(),
+            "block_time": self.block_time_stats(),
+            "block_period": self.block_period,
+            "drive_rate": self.drive_rate,
+            "model_rate": self.model_rate,
+            "stopped": self.stopped,
+        }
+
+
+def _stats(ring: np.ndarray, count: int) -> dict:
+    n = min(count, ring.shape[0])
+    if n == 0:
+        return {"n": 0, "p50": None, "p99": None, "max": None, "last": None}
+    vals = ring[:n] if count <= ring.shape[0] else ring.copy()
+    last = float(ring[(count - 1) & (ring.shape[0] - 1)])
+    return {"n": int(count), "p50": float(np.percentile(vals, 50)), "p99": float(np.percentile(vals, 99)),
+            "max": float(vals.max()), "last": last}
+
+
+def audit_drive(drive: np.ndarray, drive_rate: float, limits) -> dict:
+    """Count safety violations in an emitted drive stream (volts): samples beyond ``v_max``
+    and magnitude rises faster than ``rise_rate`` (with a 1e-9 V tolerance)."""
+    d = np.abs(np.asarray(drive, dtype=float))
+    over = int(np.count_nonzero(d > limits.v_max + 1e-9))
+    step = limits.rise_rate / drive_rate
+    rise = int(np.count_nonzero(np.diff(np.concatenate(([0.0], d))) > step + 1e-9)) if d.size else 0
+    nonfinite = int(np.count_nonzero(~np.isfinite(np.asarray(drive, dtype=float))))
+    return {"over_v_max": over, "rise_too_fast": rise, "non_finite": nonfinite,
+            "violations": over + rise + nonfinite}

@@ -1,0 +1,115 @@
+"""Bounded, non-blocking hand-over between producer threads and the real-time callback.
+
+:class:`TouchRing` carries touch samples; :class:`CommandQueue` carries control commands.
+Both are allocated up front and never grow. Producers (web server, OSC listener, replay
+thread) serialise among themselves with a lock; the consumer (the audio callback) never
+takes that lock: it reads the write counter, copies the rows written so far and advances
+its own read counter. Under CPython's GIL an ``int`` store is atomic and the data rows are
+written before the counter that publishes them, so the consumer never sees a half-written
+row. When the ring is full the *newest* sample is refused and counted (the consumer only
+needs the freshest state, but refusing keeps the ring single-writer-per-slot safe).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import deque
+
+import numpy as np
+
+__all__ = ["TouchRing", "CommandQueue", "TOUCH_FIELDS"]
+
+# one row per touch sample
+TOUCH_FIELDS = ("source", "t_event", "t_arrival", "x", "y", "load")
+_F = {name: i for i, name in enumerate(TOUCH_FIELDS)}
+
+
+class TouchRing:
+    """Single-consumer ring of touch samples (float64 rows, see ``TOUCH_FIELDS``).
+
+    source    : integer id of the touch source (web client, OSC sender, replay), as float.
+    t_event   : s, the source's own time stamp (its clock; only differences are used), NaN if none.
+    t_arrival : s, engine-clock time at which the sample reached surfhap.
+    x, y      : m on the display surface.
+    load      : N (0 = finger lifted).
+    """
+
+    def __init__(self, capacity: int = 1024):
+        if capacity < 2 or capacity & (capacity - 1):
+            raise ValueError("capacity must be a power of two >= 2")
+        self.capacity = int(capacity)
+        self._mask = self.capacity - 1
+        self._rows = np.zeros((self.capacity, len(TOUCH_FIELDS)))
+        self._write = 0  # published rows (monotonic)
+        self._read = 0  # consumed rows (monotonic, consumer only)
+        self._lock = threading.Lock()
+        self.dropped = 0
+
+    def push(self, source: int, t_event: float, t_arrival: float, x: float, y: float, load: float) -> bool:
+        """Producer side: append one sample; False (and counted) when the ring is full."""
+        with self._lock:
+            w = self._write
+            if w - self._read >= self.capacity:
+                self.dropped += 1
+                return False
+            row = self._rows[w & self._mask]
+            row[0] = source
+            row[1] = t_event
+            row[2] = t_arrival
+            row[3] = x
+            row[4] = y
+            row[5] = load
+            self._write = w + 1  # publish after the row is complete
+            return True
+
+    def pop_into(self, out: np.ndarray) -> int:
+        """Consumer side: copy up to ``len(out)`` pending rows into ``out``; returns the count.
+
+        Never blocks and never allocates.
+        """
+        r = self._read
+        n = self._write - r
+        if n <= 0:
+            return 0
+        if n > out.shape[0]:
+            n = out.shape[0]
+        for i in range(n):
+            out[i] = self._rows[(r + i) & self._mask]
+        self._read = r + n
+        return n
+
+    @property
+    def pending(self) -> int:
+        return self._write - self._read
+
+    def clear(self) -> None:
+        with self._lock:
+            self._read = self._write
+
+
+class CommandQueue:
+    """Bounded queue of small command tuples; ``put`` refuses (returns False) when full.
+
+    ``get_nowait`` returns None when empty; both never block. ``deque.append`` and
+    ``popleft`` are atomic under the GIL.
+    """
+
+    def __init__(self, capacity: int = 64):
+        self.capacity = int(capacity)
+        self._q: deque = deque()
+        self._lock = threading.Lock()
+        self.dropped = 0
+
+    def put(self, command: tuple) -> bool:
+        with self._lock:
+            if len(self._q) >= self.capacity:
+                self.dropped += 1
+                return False
+            self._q.append(command)
+            return True
+
+    def get_nowait(self):
+        try:
+            return self._q.popleft()
+        except IndexError:
+            return None

@@ -1,0 +1,58 @@
+"""Play a scripted scan through PortAudio into a JACK server and record what reaches it.
+
+Run in its own process (PortAudio enumerates devices once per process) with
+``JACK_DEFAULT_SERVER`` set: opens the engine on the JACK "system" device, starts
+``jack_rec`` on the stream's output ports, streams touch samples, stops, and prints one
+JSON line: engine status, the samples the backend wrote (npy path) and the recording path.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+from surfhap.exchange.materials import load_material
+from surfhap.live.backends.sound import SoundBackend, list_devices
+from surfhap.live.engine import EngineConfig, LiveEngine
+from surfhap.render.chain import ChainConfig, TextureChain
+
+
+def main(outdir: str) -> None:
+    devices = list_devices()
+    chain = TextureChain(load_material("cork"), ChainConfig(drive_rate=48000))
+    engine = LiveEngine(chain, EngineConfig(block_seconds=0.001))
+    engine.warm_up()
+    backend = SoundBackend(device="system", amp_gain=250.0, n_channels=2, channels=(0,), capture_seconds=3.0)
+    backend.start(engine)
+    wav = f"{outdir}/jack_rec.wav"
+    ports = []
+    for _ in range(50):
+        lsp = subprocess.run(["jack_lsp"], capture_output=True, text=True).stdout.split()
+        ports = [p for p in lsp if p.startswith("PortAudio") and ":out_" in p]
+        if ports:
+            break
+        time.sleep(0.05)
+    rec = subprocess.Popen(["jack_rec", "-f", wav, "-d", "1.2", "-b", "32", *sorted(ports)],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(0.1)
+    t0 = time.perf_counter()
+    k = 0
+    while time.perf_counter() - t0 < 1.0:  # bounded: one second of 200 Hz strokes
+        t = time.perf_counter() - t0
+        x = 0.04 * abs(((t * 2.0) % 2.0) - 1.0)
+        engine.push_touch(1, x, 0.03, 0.6, t_event=t)
+        k += 1
+        time.sleep(0.005)
+    rec.wait(10)
+    backend.stop()
+    np.save(f"{outdir}/engine_out.npy", backend.capture[: backend.captured])
+    print(json.dumps({"devices": devices, "status": engine.status(), "touches": k, "ports": ports,
+                      "captured": backend.captured, "wav": wav, "npy": f"{outdir}/engine_out.npy"}))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
