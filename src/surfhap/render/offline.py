@@ -66,6 +66,7 @@ class RenderResult:
     trajectory_name: str = ""
     effective_mass: float = 0.05
     constant_load: float | None = 1.6
+    v_max: float = 250.0
 
     @property
     def clipped_fraction(self) -> float:
@@ -111,7 +112,7 @@ class RenderResult:
             "model_rate_hz": self.model_rate,
             "drive_rate_hz": self.drive_rate,
             "carrier_hz": self.carrier,
-            "alpha_v_per_sqrt_n": self.alpha,
+            "alpha_v_per_sqrt_n": float(self.alpha),
             "beta": self.beta,
             "max_abs_voltage": float(np.max(np.abs(self.drive))) if self.drive.size else 0.0,
             "clipped_fraction": self.clipped_fraction,
@@ -122,6 +123,7 @@ class RenderResult:
             },
             "latency_s": self.latency,
             "mean_friction_sim_n": float(np.mean(self.friction_sim)) if self.friction_sim.size else 0.0,
+            "v_max": self.v_max,
             "mu_panel": self.mu_panel,
             "k_n_per_v2": self.k,
         }
@@ -186,5 +188,5 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
         clipped=chain.law.clipped, touching=chain.law.touching, safety=chain.safety.counters,
         texture_quantity=None if bank is None else bank.quantity,
         texture_models=[] if bank is None else list(bank.models), trajectory_name=trajectory.name,
-        effective_mass=cfg.effective_mass, constant_load=cfg.constant_load,
+        effective_mass=cfg.effective_mass, constant_load=cfg.constant_load, v_max=cfg.limits.v_max,
     )

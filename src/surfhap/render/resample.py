@@ -2,8 +2,8 @@
 
 ``RationalResampler(rate_in, rate_out)`` converts by ``L / M = rate_out / rate_in`` (integer
 rates). The low-pass is a Kaiser-windowed FIR with ``taps_per_phase`` taps per polyphase
-branch and its cut-off at 0.45 of the lower rate, so the band up to 0.35 x the lower rate
-is flat within ~0.05 dB (asserted in the tests). The group delay is :attr:`delay` seconds.
+branch and its cut-off at 0.45 of the lower rate, so the band up to 0.25 x the lower rate
+is flat within 0.01 dB (asserted in the tests). The group delay is :attr:`delay` seconds.
 """
 
 from __future__ import annotations

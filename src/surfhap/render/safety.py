@@ -33,7 +33,7 @@ class SafetyLimits:
     """Limits of the safety stage (SI units).
 
     v_max            : V, largest drive magnitude ever output.
-    rise_rate        : V/s, largest rise of the drive magnitude (default v_max per ms).
+    rise_rate        : V/s, largest rise of the drive magnitude (default: 0 to v_max in 0.1 ms).
     lift_threshold   : N, loads below this mean "finger lifted" -> 0 V.
     max_load         : N, loads above this are absurd (sensor fault) -> 0 V.
     absurd_factor    : drive inputs beyond absurd_factor * v_max are treated as faults.
@@ -43,7 +43,7 @@ class SafetyLimits:
     """
 
     v_max: float = 250.0
-    rise_rate: float = 250.0e3
+    rise_rate: float = 2.5e6
     lift_threshold: float = 0.02
     max_load: float = 50.0
     absurd_factor: float = 4.0

@@ -1,0 +1,74 @@
+"""``surfhap render``: render a material along a finger trajectory on the simulated display."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from surfhap.cli._common import parse_key_values, progress_bar, stdout
+from surfhap.errors import ConfigError
+
+__all__ = ["register", "trajectory_from_options"]
+
+SCAN_KEYS = {"speed": None, "load": None, "duration": None, "length": 0.0, "rate": 125.0}
+
+
+def trajectory_from_options(scan: str | None, trajectory: Path | None):
+    """Build the trajectory from ``--scan key=value,...`` or ``--trajectory FILE``."""
+    from surfhap.exchange.trajectory_csv import read_trajectory_csv
+    from surfhap.sim.trajectory import constant_scan, strokes
+
+    if (scan is None) == (trajectory is None):
+        raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")
+    if trajectory is not None:
+        return read_trajectory_csv(trajectory)
+    kv = parse_key_values(scan, "--scan", SCAN_KEYS)
+    if kv["length"] > 0:
+        return strokes(kv["speed"], kv["load"], kv["duration"], length=kv["length"], sensor_rate=kv["rate"])
+    return constant_scan(kv["speed"], kv["load"], kv["duration"], sensor_rate=kv["rate"])
+
+
+def render_cmd(
+    material: str = typer.Argument(..., help="Built-in material name (see 'surfhap materials') or a material file."),
+    out: Path = typer.Option(..., "--out", help="Output folder: drive.wav, render.npz, summary.json, figure.png."),
+    scan: Optional[str] = typer.Option(None, "--scan", help="Virtual finger: 'speed=M/S,load=N,duration=S[,length=M for back-and-forth strokes][,rate=HZ sensor rate]'."),
+    trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Recorded trajectory CSV with columns time (s), x, y (m), load (N)."),
+    method: str = typer.Option("auto", "--method", help="otake2022 | otake2021 | zhao | friction-only | square (auto: otake2022 when the material has the quasi-static law)."),
+    drive_rate: int = typer.Option(20000, "--drive-rate", help="DAC rate, Hz (2000-48000)."),
+    carrier: float = typer.Option(2000.0, "--carrier", help="Polarity carrier, Hz (2000-20000; 0 = off)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the texture noise (same seed, same output)."),
+    alpha: Optional[float] = typer.Option(None, "--alpha", help="Gain V/sqrt(N) (default: calibrated to the simulated display)."),
+    beta: float = typer.Option(1.8, "--beta", help="Gain of the textural component (Otake et al. 2021: 1.8)."),
+    square_frequency: float = typer.Option(100.0, "--square-frequency", help="Baseline square wave, Hz (30-300)."),
+    v_max: float = typer.Option(250.0, "--v-max", help="Safety limit on |V| (V)."),
+    amp_gain: Optional[float] = typer.Option(None, "--amp-gain", help="Amplifier gain, V per DAC full scale, for drive.wav (default: --v-max)."),
+    figure: bool = typer.Option(True, "--figure/--no-figure", help="Write figure.png."),
+) -> None:
+    """Render MATERIAL along a virtual or recorded finger trajectory on the simulated display."""
+    from surfhap.exchange.materials import load_material
+    from surfhap.exchange.render_files import write_render
+    from surfhap.render.chain import ChainConfig
+    from surfhap.render.offline import render
+    from surfhap.render.safety import SafetyLimits
+
+    mat = load_material(material)
+    traj = trajectory_from_options(scan, trajectory)
+    if not (v_max > 0 and v_max <= 1000):
+        raise ConfigError("must be within (0, 1000] V", source="--v-max")
+    cfg = ChainConfig(method=method, drive_rate=drive_rate, carrier=carrier, seed=seed, alpha=alpha, beta=beta,
+                      square_frequency=square_frequency, limits=SafetyLimits(v_max=v_max, rise_rate=v_max * 1e4))
+    with progress_bar(f"rendering {mat.name}", enabled=traj.duration > 2.0) as update:
+        result = render(mat, traj, cfg, progress=update)
+    paths = write_render(result, out, amp_gain=amp_gain)
+    if figure:
+        fig = result.plot()
+        fig.savefig(Path(out) / "figure.png", dpi=110)
+    s = result.summary()
+    stdout.print(f"{mat.name} ({s['method']}): max |V| {s['max_abs_voltage']:.1f} V, clipped {s['clipped_fraction']:.1%}, "
+                 f"saturated {s['saturated_fraction']:.1%} -> {paths['npz'].parent}")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("render")(render_cmd)

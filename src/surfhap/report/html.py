@@ -1,0 +1,50 @@
+"""A small, dependency-free HTML page builder for surfhap reports (figures are PNG files)."""
+
+from __future__ import annotations
+
+import html
+from datetime import datetime, timezone
+
+__all__ = ["Page"]
+
+_STYLE = """
+body{font-family:system-ui,-apple-system,Segoe UI,sans-serif;margin:2rem auto;max-width:1150px;color:#222;padding:0 1rem}
+h1{font-size:1.6rem}h2{font-size:1.25rem;margin-top:2.2rem;border-bottom:1px solid #ddd;padding-bottom:.2rem}
+table{border-collapse:collapse;font-size:.9rem;margin:.6rem 0}td,th{border:1px solid #ccc;padding:.25rem .55rem;text-align:right}
+th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}img{max-width:100%;border:1px solid #eee;margin:.4rem 0}
+.note{color:#555;font-size:.9rem}.bad{color:#b00}.ok{color:#070}code{background:#f5f5f5;padding:0 .2rem}
+"""
+
+
+class Page:
+    """Collects sections, tables and images; ``html()`` returns the page text."""
+
+    def __init__(self, title: str):
+        self.title = title
+        self._parts: list[str] = []
+
+    def heading(self, text: str, level: int = 2) -> None:
+        self._parts.append(f"<h{level}>{html.escape(text)}</h{level}>")
+
+    def paragraph(self, text: str, cls: str | None = None) -> None:
+        attr = f' class="{cls}"' if cls else ""
+        self._parts.append(f"<p{attr}>{html.escape(text)}</p>")
+
+    def raw(self, fragment: str) -> None:
+        """Trusted HTML written by surfhap itself (never user input)."""
+        self._parts.append(fragment)
+
+    def table(self, header: list[str], rows: list[list[object]]) -> None:
+        head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
+        body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
+        self._parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
+
+    def image(self, src: str, alt: str) -> None:
+        self._parts.append(f'<img src="{html.escape(src)}" alt="{html.escape(alt)}">')
+
+    def html(self) -> str:
+        stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+        return (f"<!doctype html><html lang=en><head><meta charset=utf-8><title>{html.escape(self.title)}</title>"
+                f"<meta name=viewport content='width=device-width,initial-scale=1'><style>{_STYLE}</style></head><body>"
+                f"<h1>{html.escape(self.title)}</h1><p class=note>made by surfhap, {stamp}</p>"
+                + "\n".join(self._parts) + "</body></html>\n")

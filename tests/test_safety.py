@@ -1,0 +1,88 @@
+"""The safety limits hold for any input sequence (hypothesis)."""
+
+import numpy as np
+from hypothesis import given, settings, strategies as st
+from hypothesis.extra.numpy import arrays
+
+from surfhap.render.safety import SafetyLimits, SafetyStage
+
+FS = 20000.0
+LIM = SafetyLimits()
+RISE = LIM.rise_rate / FS
+RAMP = LIM.v_max / (LIM.watchdog_ramp * FS)
+
+anything = st.floats(allow_nan=True, allow_infinity=True, width=64)
+volts = st.one_of(anything, st.floats(-2000, 2000))
+loads = st.one_of(anything, st.floats(-1, 60), st.just(0.5))
+ages = st.one_of(anything, st.floats(-0.01, 0.2), st.just(0.001))
+
+
+def _check(drive, load, age, out):
+    mag = np.abs(out)
+    assert np.all(np.isfinite(out))
+    assert np.all(mag <= LIM.v_max)
+    prev = np.concatenate(([0.0], mag[:-1]))
+    assert np.all(mag - prev <= RISE * (1 + 1e-12) + 1e-12)
+    fault = ~(np.isfinite(drive) & np.isfinite(load) & np.isfinite(age)) | (np.abs(np.nan_to_num(drive)) > LIM.absurd_factor * LIM.v_max)
+    fault |= (np.nan_to_num(load) < 0) | (np.nan_to_num(load) > LIM.max_load) | (np.nan_to_num(age) < -LIM.clock_tolerance)
+    assert np.all(out[fault] == 0.0)
+    lifted = np.nan_to_num(load, nan=1.0) < LIM.lift_threshold
+    assert np.all(out[lifted] == 0.0)
+    stale = np.nan_to_num(age) > LIM.watchdog_timeout
+    assert np.all(mag[stale] <= np.maximum(prev[stale] - RAMP, 0.0) + 1e-9)
+    # the sign never flips against the input
+    assert np.all(out * np.nan_to_num(drive) >= 0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(1, 400).flatmap(lambda n: st.tuples(
+    arrays(np.float64, n, elements=volts), arrays(np.float64, n, elements=loads), arrays(np.float64, n, elements=ages))))
+def test_limits_hold_for_any_input(data):
+    drive, load, age = data
+    stage = SafetyStage(FS, LIM)
+    out = stage.process(drive, load, age)
+    _check(drive, load, age, out)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.integers(1, 60), min_size=1, max_size=8), st.floats(0, 2000), st.integers(0, 2**31 - 1))
+def test_limits_hold_across_block_boundaries(blocks, amplitude, seed):
+    rng = np.random.default_rng(seed)
+    n = sum(blocks)
+    drive = amplitude * rng.standard_normal(n)
+    load = rng.choice([0.0, 0.01, 0.5, 2.0], n)
+    age = rng.choice([0.0, 0.01, 0.06, 0.3], n)
+    stage = SafetyStage(FS, LIM)
+    outs, i = [], 0
+    for b in blocks:
+        outs.append(stage.process(drive[i:i + b], load[i:i + b], age[i:i + b]))
+        i += b
+    out = np.concatenate(outs)
+    _check(drive, load, age, out)
+    stage.reset()
+    np.testing.assert_array_equal(stage.process(drive, load, age), out)
+
+
+def test_watchdog_ramps_to_zero_within_5_ms():
+    stage = SafetyStage(FS, LIM)
+    n = int(0.2 * FS)
+    t = np.arange(n) / FS
+    drive = np.where(np.arange(n) % 10 < 5, 200.0, -200.0)  # 2 kHz carrier at 200 V
+    last_touch = np.where(t < 0.1, t, 0.1)  # touch samples stop at 100 ms
+    out = stage.process(drive, np.full(n, 0.5), t - last_touch)
+    assert np.max(np.abs(out[(t > 0.02) & (t < 0.1)])) == 200.0
+    trip = 0.1 + LIM.watchdog_timeout
+    assert np.all(np.abs(out[t > trip + LIM.watchdog_ramp + 1 / FS]) == 0.0)
+    assert np.abs(out[np.searchsorted(t, trip) - 1]) == 200.0
+    assert stage.counters.watchdog > 0
+
+
+def test_onset_is_rise_limited_and_polarity_free():
+    stage = SafetyStage(FS, LIM)
+    n = 200
+    drive = np.where(np.arange(n) % 2 == 0, 250.0, -250.0)
+    out = stage.process(drive, np.full(n, 0.5), np.zeros(n))
+    steps = int(np.ceil(LIM.v_max / RISE))
+    assert np.all(np.abs(out[steps:]) == 250.0)
+    assert np.all(np.sign(out) == np.sign(drive))
+    np.testing.assert_allclose(np.abs(out[: steps - 1]), RISE * np.arange(1, steps))
