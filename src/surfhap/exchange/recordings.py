@@ -1,0 +1,366 @@
+"""Recordings for fitting: CSV and NPZ readers (and writers) with named, unit-checked channels.
+
+Channels (SI inside)::
+
+    time          s       required, strictly increasing, uniformly sampled (or NPZ sample_rate)
+    normal_force  N
+    shear_force   N
+    cof           1       (instead of shear_force: shear = cof * normal)
+    speed         m/s
+    position      m       (instead of speed: speed = d position / dt)
+    acceleration  m/s^2
+
+A CSV header names each column ``name`` (SI), ``name[unit]`` or ``name (unit)``; units are
+converted at this edge (e.g. ``speed[mm/s]``, ``normal_force[mN]``, ``acceleration[g]``).
+Other column names are mapped with ``columns={"speed": "v_x[mm/s]", ...}`` (CLI
+``--columns speed=v_x[mm/s],normal_force=Fz``). Lines starting with ``#`` may carry
+metadata ``# participant: P3``, ``# trial: 2``. An NPZ file holds one 1-D array per channel
+(keys named like CSV columns) and optional ``participant`` / ``trial`` strings; ``time`` may
+be replaced by a scalar ``sample_rate`` (Hz).
+
+Every problem raises :class:`surfhap.errors.RecordingFormatError` with the file and the
+column: missing columns, unknown units, non-monotonic time, NaN runs, too few samples.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from surfhap.errors import RecordingFormatError
+
+__all__ = [
+    "CHANNELS",
+    "Recording",
+    "read_recording",
+    "read_recordings",
+    "parse_column_map",
+    "write_recording_csv",
+    "write_recording_npz",
+]
+
+#: canonical channel -> SI unit
+CHANNELS: dict[str, str] = {
+    "time": "s",
+    "normal_force": "N",
+    "shear_force": "N",
+    "cof": "1",
+    "speed": "m/s",
+    "position": "m",
+    "acceleration": "m/s^2",
+}
+
+_UNITS: dict[str, dict[str, float]] = {
+    "s": {"s": 1.0, "ms": 1e-3, "us": 1e-6},
+    "N": {"n": 1.0, "mn": 1e-3},
+    "1": {"1": 1.0, "": 1.0, "-": 1.0},
+    "m/s": {"m/s": 1.0, "mm/s": 1e-3, "cm/s": 1e-2},
+    "m": {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "um": 1e-6},
+    "m/s^2": {"m/s^2": 1.0, "m/s2": 1.0, "m/s**2": 1.0, "mm/s^2": 1e-3, "g": 9.80665},
+}
+
+_NAME_UNIT = re.compile(r"^\s*([^\[\(]+?)\s*(?:[\[\(]\s*([^\]\)]*)\s*[\]\)])?\s*$")
+
+
+def _split_name(header: str) -> tuple[str, str | None]:
+    m = _NAME_UNIT.match(header)
+    if not m:
+        return header.strip(), None
+    return m.group(1).strip(), (None if m.group(2) is None else m.group(2).strip())
+
+
+def _factor(channel: str, unit: str | None, source: str, column: str) -> float:
+    si = CHANNELS[channel]
+    if unit is None:
+        return 1.0
+    table = _UNITS[si]
+    key = unit.replace(" ", "").lower() if si != "N" else unit.replace(" ", "").lower()
+    if key not in table:
+        known = ", ".join(k for k in table if k) or "1"
+        raise RecordingFormatError(f"unit {unit!r} is not a unit of {channel} (use one of: {known})", source=source, field=column)
+    return table[key]
+
+
+def parse_column_map(text: str | None, option: str = "--columns") -> dict[str, str]:
+    """``"speed=v_x[mm/s],normal_force=Fz"`` -> {"speed": "v_x[mm/s]", "normal_force": "Fz"}."""
+    out: dict[str, str] = {}
+    if not text:
+        return out
+    for part in filter(None, (p.strip() for p in text.split(","))):
+        if "=" not in part:
+            raise RecordingFormatError(f"expected channel=column, got {part!r}", source=option)
+        key, value = (s.strip() for s in part.split("=", 1))
+        if key not in CHANNELS:
+            raise RecordingFormatError(f"unknown channel {key!r} (known: {', '.join(CHANNELS)})", source=option)
+        out[key] = value
+    return out
+
+
+@dataclass(frozen=True)
+class Recording:
+    """One recording (one trial of one participant), SI channels on a uniform time base.
+
+    source      : file name (or a label for in-memory recordings).
+    time        : (n,) s, strictly increasing.
+    channels    : canonical name -> (n,) float array (SI); ``speed`` is filled from
+                  ``position`` and ``shear_force`` from ``cof`` when only those are present.
+    participant : label (file metadata, else the file stem).
+    trial       : label.
+    sha256      : hex digest of the file bytes ("" for in-memory recordings).
+    """
+
+    source: str
+    time: np.ndarray
+    channels: dict[str, np.ndarray]
+    participant: str = ""
+    trial: str = ""
+    sha256: str = ""
+    meta: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return int(self.time.size)
+
+    @property
+    def sample_rate(self) -> float:
+        """Hz, from the median sampling interval."""
+        return float(1.0 / np.median(np.diff(self.time)))
+
+    @property
+    def duration(self) -> float:
+        return float(self.time[-1] - self.time[0] + 1.0 / self.sample_rate)
+
+    def has(self, name: str) -> bool:
+        return name in self.channels
+
+    def get(self, name: str) -> np.ndarray:
+        """Channel (n,) in SI; RecordingFormatError when absent."""
+        self.require(name)
+        return self.channels[name]
+
+    def require(self, *names: str) -> None:
+        """Raise RecordingFormatError naming the first missing channel."""
+        for name in names:
+            if name not in self.channels:
+                have = ", ".join(["time", *self.channels]) or "none"
+                raise RecordingFormatError(f"missing column (have: {have}; map others with --columns {name}=COLUMN)", source=self.source, field=name)
+
+    @classmethod
+    def from_arrays(cls, time=None, *, sample_rate: float | None = None, source: str = "<memory>", participant: str = "",
+                    trial: str = "", **channels) -> "Recording":
+        """Build and check a recording from SI arrays (time, or sample_rate)."""
+        data = {k: np.asarray(v, dtype=float) for k, v in channels.items() if v is not None}
+        return _finish(source, time, sample_rate, data, participant or Path(source).stem, trial, "", {})
+
+
+def _check_finite(source: str, name: str, x: np.ndarray, t: np.ndarray | None) -> None:
+    bad = ~np.isfinite(x)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        j = i
+        while j < bad.size and bad[j]:
+            j += 1
+        where = f"t = {t[i]:.6g} s" if t is not None and np.isfinite(t[i]) else f"sample {i}"
+        raise RecordingFormatError(f"NaN or missing values: a run of {j - i} sample(s) from row {i + 1} ({where}); "
+                                   "cut the recording or fill the gap before fitting", source=source, field=name)
+
+
+def _finish(source, time, sample_rate, data, participant, trial, digest, meta) -> Recording:
+    n = None
+    for name, x in data.items():
+        if x.ndim != 1:
+            raise RecordingFormatError("must be one-dimensional", source=source, field=name)
+        if n is None:
+            n = x.size
+        elif x.size != n:
+            raise RecordingFormatError(f"has {x.size} samples, other channels have {n}", source=source, field=name)
+    if time is None:
+        if sample_rate is None:
+            raise RecordingFormatError("missing column (or an NPZ 'sample_rate')", source=source, field="time")
+        if not (np.isfinite(sample_rate) and sample_rate > 0):
+            raise RecordingFormatError("must be a positive number of Hz", source=source, field="sample_rate")
+        if n is None:
+            raise RecordingFormatError("no data channels", source=source)
+        time = np.arange(n) / float(sample_rate)
+    time = np.asarray(time, dtype=float)
+    if n is not None and time.size != n:
+        raise RecordingFormatError(f"has {time.size} samples, other channels have {n}", source=source, field="time")
+    if time.size < 16:
+        raise RecordingFormatError(f"only {time.size} samples; a recording needs at least 16", source=source, field="time")
+    _check_finite(source, "time", time, None)
+    dt = np.diff(time)
+    if np.any(dt <= 0):
+        i = int(np.argmax(dt <= 0))
+        raise RecordingFormatError(f"not strictly increasing at row {i + 2} ({time[i]:.6g} s then {time[i + 1]:.6g} s)", source=source, field="time")
+    med = float(np.median(dt))
+    if np.max(np.abs(dt - med)) > 0.05 * med:
+        i = int(np.argmax(np.abs(dt - med)))
+        raise RecordingFormatError(f"not uniformly sampled: step of {dt[i]:.6g} s at row {i + 2}, median step {med:.6g} s; resample first",
+                                   source=source, field="time")
+    for name, x in data.items():
+        _check_finite(source, name, x, time)
+    if "speed" not in data and "position" in data:
+        data["speed"] = np.gradient(data["position"], time)
+    if "shear_force" not in data and "cof" in data and "normal_force" in data:
+        data["shear_force"] = data["cof"] * data["normal_force"]
+    return Recording(source, time, data, str(participant), str(trial), digest, dict(meta))
+
+
+def _resolve(headers: list[str], columns: Mapping[str, str], source: str) -> dict[str, tuple[int, float]]:
+    """canonical channel -> (column index, factor to SI)."""
+    parsed = [_split_name(h) for h in headers]
+    by_full = {h.strip(): i for i, h in enumerate(headers)}
+    by_name: dict[str, int] = {}
+    for i, (name, _) in enumerate(parsed):
+        by_name.setdefault(name, i)
+    out: dict[str, tuple[int, float]] = {}
+    for channel, spec in columns.items():
+        col_name, unit = _split_name(spec)
+        if spec.strip() in by_full:
+            i = by_full[spec.strip()]
+            unit = unit if unit is not None else parsed[i][1]
+        elif col_name in by_name:
+            i = by_name[col_name]
+            unit = unit if unit is not None else parsed[i][1]
+        else:
+            raise RecordingFormatError(f"--columns maps it to {spec!r}, which is not a column (have: {', '.join(headers)})",
+                                       source=source, field=channel)
+        out[channel] = (i, _factor(channel, unit, source, headers[i]))
+    for i, (name, unit) in enumerate(parsed):
+        if name in CHANNELS and name not in out and i not in {v[0] for v in out.values()}:
+            out[name] = (i, _factor(name, unit, source, headers[i]))
+    return out
+
+
+def _read_csv(path: Path, raw: bytes, columns: Mapping[str, str]):
+    source = str(path)
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise RecordingFormatError("not a UTF-8 text file", source=source) from None
+    meta: dict[str, str] = {}
+    lines = text.splitlines()
+    body_start = 0
+    for k, line in enumerate(lines):
+        if line.startswith("#"):
+            if ":" in line:
+                key, value = line[1:].split(":", 1)
+                meta[key.strip().lower()] = value.strip()
+            body_start = k + 1
+        elif line.strip():
+            break
+        else:
+            body_start = k + 1
+    body = "\n".join(lines[body_start:])
+    reader = csv.reader(io.StringIO(body))
+    try:
+        headers = next(reader)
+    except StopIteration:
+        raise RecordingFormatError("empty file (no header line)", source=source) from None
+    headers = [h.strip() for h in headers]
+    mapping = _resolve(headers, columns, source)
+    data: dict[str, np.ndarray] = {}
+    try:  # fast path: a clean numeric table
+        table = np.loadtxt(io.StringIO(body), delimiter=",", skiprows=1, ndmin=2, dtype=float)
+    except ValueError:
+        table = None
+    if table is not None and table.shape[0] > 0 and table.shape[1] == len(headers):
+        for channel, (i, factor) in mapping.items():
+            data[channel] = table[:, i] * factor
+        time = data.pop("time", None)
+        sample_rate = float(meta["sample_rate"]) if "sample_rate" in meta else None
+        return time, sample_rate, data, meta
+    rows = [r for r in reader if r and any(c.strip() for c in r)]
+    if not rows:
+        raise RecordingFormatError("no data rows", source=source)
+    for channel, (i, factor) in mapping.items():
+        vals = np.empty(len(rows))
+        for r, row in enumerate(rows):
+            cell = row[i].strip() if i < len(row) else ""
+            if cell == "" or cell.lower() in ("nan", "na"):
+                vals[r] = np.nan
+                continue
+            try:
+                vals[r] = float(cell)
+            except ValueError:
+                raise RecordingFormatError(f"row {r + 1}: {cell!r} is not a number", source=source, field=headers[i]) from None
+        data[channel] = vals * factor
+    time = data.pop("time", None)
+    sample_rate = float(meta["sample_rate"]) if "sample_rate" in meta else None
+    return time, sample_rate, data, meta
+
+
+def _read_npz(path: Path, columns: Mapping[str, str]):
+    source = str(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except Exception as exc:  # zipfile / pickle / value errors from a corrupt file
+        raise RecordingFormatError(f"not a readable NPZ file ({exc.__class__.__name__})", source=source) from None
+    meta = {}
+    for key in ("participant", "trial"):
+        if key in arrays:
+            meta[key] = str(arrays.pop(key))
+    sample_rate = float(arrays.pop("sample_rate")) if "sample_rate" in arrays else None
+    headers = list(arrays)
+    mapping = _resolve(headers, columns, source)
+    data = {ch: np.asarray(arrays[headers[i]], dtype=float).reshape(-1) * f for ch, (i, f) in mapping.items()}
+    time = data.pop("time", None)
+    return time, sample_rate, data, meta
+
+
+def read_recording(path: str | Path, columns: Mapping[str, str] | None = None, participant: str | None = None) -> Recording:
+    """Read one CSV or NPZ recording into SI channels (see the module docstring)."""
+    path = Path(path)
+    source = str(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise RecordingFormatError(f"cannot read file ({exc.strerror})", source=source) from None
+    columns = dict(columns or {})
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
+        time, sr, data, meta = _read_npz(path, columns)
+    elif suffix in (".csv", ".txt", ".tsv"):
+        time, sr, data, meta = _read_csv(path, raw, columns)
+    else:
+        raise RecordingFormatError(f"unknown recording type {path.suffix!r} (use .csv or .npz)", source=source)
+    label = participant or meta.get("participant") or path.stem
+    return _finish(source, time, sr, data, label, meta.get("trial", ""), hashlib.sha256(raw).hexdigest(), meta)
+
+
+def read_recordings(paths: Sequence[str | Path], columns: Mapping[str, str] | None = None) -> list[Recording]:
+    """Read several recordings (participants and trials); participants come from each file's
+    metadata, else its stem."""
+    if not paths:
+        raise RecordingFormatError("no recordings given")
+    return [read_recording(p, columns) for p in paths]
+
+
+def write_recording_csv(rec: Recording, path: str | Path) -> Path:
+    """Write a recording as CSV with SI headers and participant/trial metadata."""
+    path = Path(path)
+    names = list(rec.channels)
+    buf = io.StringIO()
+    buf.write(f"# participant: {rec.participant}\n")
+    if rec.trial:
+        buf.write(f"# trial: {rec.trial}\n")
+    buf.write(",".join(["time", *names]) + "\n")
+    cols = np.column_stack([rec.time, *[rec.channels[k] for k in names]])
+    np.savetxt(buf, cols, delimiter=",", fmt="%.9g")
+    path.write_text(buf.getvalue(), encoding="utf-8")
+    return path
+
+
+def write_recording_npz(rec: Recording, path: str | Path) -> Path:
+    """Write a recording as NPZ (one array per channel, SI)."""
+    path = Path(path)
+    np.savez(path, time=rec.time, participant=np.array(rec.participant), trial=np.array(rec.trial), **rec.channels)
+    return path
