@@ -151,6 +151,7 @@ class LiveEngine:
         self._fifo_r = 0
         self._fifo_w = 0
         self._n_model = 0
+        self._n_pending = 0
         self._owner = -1.0
         self._owner_active = False
         self._owner_arrival = -math.inf
@@ -219,8 +220,8 @@ class LiveEngine:
         out = self.out[:frames]
         try:
             self._commands()
-            applied = self._touch(now)
-            self._produce(frames, now, applied)
+            self._touch(now)
+            self._produce(frames, now)
             r = self._fifo_r
             for i in range(frames):
                 out[i] = self._fifo[(r + i) & self._fifo_mask]
@@ -258,9 +259,9 @@ class LiveEngine:
                 if 0.0 <= g <= 1.0:
                     self._gain = g
 
-    def _touch(self, now: float) -> int:
+    def _touch(self, now: float) -> None:
         n = self.touches.pop_into(self._touch_buf)
-        applied = 0
+        applied = self._n_pending
         buf = self._touch_buf
         pred = self.predictor
         for i in range(n):
@@ -297,10 +298,9 @@ class LiveEngine:
                 pred.update(ts, x, y)
             else:
                 pred.update(t_arr, x, y)
-        return applied
+        self._n_pending = applied
 
-    def _produce(self, frames: int, now: float, applied: int) -> None:
-        first = True
+    def _produce(self, frames: int, now: float) -> None:
         while self._fifo_w - self._fifo_r < frames:
             need = frames - (self._fifo_w - self._fifo_r)
             n = int(math.ceil(need * self.model_rate / self.drive_rate))
@@ -342,12 +342,13 @@ class LiveEngine:
                 f = self.display.process(drive, blk.load_drive)
                 if f.shape[0]:
                     friction = float(f.mean())
-            if first and applied and m:
+            if self._n_pending and m:
+                # the touches applied since the last chunk are first heard in this one
                 t_emit = now + offset / self.drive_rate
-                for j in range(applied):
+                for j in range(self._n_pending):
                     self.latencies[self.latency_count & (self.latencies.shape[0] - 1)] = t_emit - self._pending_arrivals[j]
                     self.latency_count += 1
-                first = False
+                self._n_pending = 0
             row = self.trace[self.trace_count & (self.trace.shape[0] - 1)]
             row[0] = chain_t
             row[1] = pred.x

@@ -1,0 +1,157 @@
+"""``surfhap serve`` / ``devices`` / ``play``: live rendering to a sound card, OSC, a file or
+the simulated display, with a touch page in the browser."""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+
+from surfhap.cli._common import parse_key_values, stderr, stdout
+from surfhap.errors import ConfigError
+
+__all__ = ["register"]
+
+LOOPBACK = ("127.0.0.1", "localhost", "::1")
+
+
+def _engine_config(block_ms: float, touch_latency_ms: float, smoothing: float):
+    from surfhap.live.engine import EngineConfig
+
+    return EngineConfig(block_seconds=block_ms * 1e-3, touch_latency=touch_latency_ms * 1e-3, smoothing=smoothing)
+
+
+def _setup_logging(verbose: bool) -> None:
+    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    logging.getLogger("surfhap").setLevel(logging.INFO)
+
+
+def serve_cmd(
+    material: Optional[str] = typer.Option(None, "--material", help="Built-in material name or material file (default: cork)."),
+    mesh: Optional[Path] = typer.Option(None, "--mesh", help="Render a 3-D mesh instead of a material (needs the shape renderer)."),
+    output: str = typer.Option("sim", "--output", help="sim | sound[:DEVICE] | file:PATH.wav|.npz | osc://HOST:PORT[/intensity|/drive]."),
+    host: str = typer.Option("127.0.0.1", "--host", help="Address to bind. Anything but loopback exposes the page to your network."),
+    port: int = typer.Option(8765, "--port", help="TCP port of the page."),
+    allow_origin: List[str] = typer.Option([], "--allow-origin", help="Extra WebSocket origin to accept (repeatable), e.g. https://lab.example:8443."),
+    osc_in: Optional[str] = typer.Option(None, "--osc-in", help="Also accept OSC touch messages on HOST:PORT (UDP), e.g. 127.0.0.1:9000."),
+    replay: Optional[Path] = typer.Option(None, "--replay", help="Also replay a trajectory CSV (time, x, y, load) as a touch source."),
+    drive_rate: Optional[int] = typer.Option(None, "--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000)."),
+    amp_gain: float = typer.Option(250.0, "--amp-gain", help="Amplifier gain, V per DAC full scale (sound/file outputs)."),
+    block_ms: float = typer.Option(1.0, "--block-ms", help="Block period, ms."),
+    touch_latency_ms: float = typer.Option(0.0, "--touch-latency-ms", help="Touch latency to compensate by prediction, ms (0 = off)."),
+    smoothing: float = typer.Option(1.0, "--smoothing", help="Exponential smoothing of predicted positions, (0, 1] (1 = off; KinesTouch: 0.15)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the texture noise."),
+    duration: float = typer.Option(0.0, "--duration", help="Stop after this many seconds (0 = until Ctrl-C)."),
+    verbose: bool = typer.Option(False, "--verbose", "-v", help="Log connections and rejected messages at INFO."),
+) -> None:
+    """Serve the touch page: drag on it and the drive is rendered live to the chosen output."""
+    from surfhap.live.server import ServerConfig, ServerThread, build_session, create_app
+    from surfhap.sim.trajectory import Trajectory  # noqa: F401
+
+    _setup_logging(verbose)
+    if mesh is not None:
+        if material is not None:
+            raise ConfigError("give --material or --mesh, not both", source="--mesh")
+        try:
+            import surfhap.render.shape_renderer  # noqa: F401
+        except ImportError:
+            raise ConfigError("mesh rendering is not available in this installation yet (surfhap.render.shape_renderer missing)",
+                              source="--mesh") from None
+        raise ConfigError("live mesh rendering is not wired up yet; render meshes offline with 'surfhap shape'", source="--mesh")
+    if not 1 <= port <= 65535:
+        raise ConfigError("must be within 1-65535", source="--port")
+    osc = None
+    if osc_in:
+        h, _, p = osc_in.rpartition(":")
+        if not h or not p.isdigit() or not 0 <= int(p) <= 65535:
+            raise ConfigError("expected HOST:PORT", source="--osc-in")
+        osc = (h, int(p))
+    traj = None
+    if replay is not None:
+        from surfhap.exchange.trajectory_csv import read_trajectory_csv
+
+        traj = read_trajectory_csv(replay)
+    session = build_session(material or "cork", output, drive_rate=drive_rate, amp_gain=amp_gain,
+                            engine_config=_engine_config(block_ms, touch_latency_ms, smoothing),
+                            osc_in=osc, replay=traj, replay_loop=True, seed=seed)
+    cfg = ServerConfig(host=host, port=port, allowed_origins=tuple(allow_origin))
+    app = create_app(session, cfg)
+    if host not in LOOPBACK:
+        stderr.print(f"[yellow]warning:[/] binding {host}: the page is reachable from your network; "
+                     "anyone who can reach it can drive the display", markup=True)
+    session.start()
+    server = None
+    try:
+        server = ServerThread(app, host=host, port=port, max_message_bytes=cfg.max_message_bytes).start()
+        shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
+        stdout.print(f"surfhap live: {session.title} -> {output}; open http://{shown}:{port}/ (Ctrl-C stops)")
+        end = time.monotonic() + duration if duration > 0 else None
+        while end is None or time.monotonic() < end:
+            time.sleep(0.2)
+    except KeyboardInterrupt:
+        pass
+    except OSError as exc:
+        raise ConfigError(f"cannot listen on {host}:{port} ({exc.strerror or exc})", source="--port") from None
+    finally:
+        if server is not None:
+            server.stop()
+        session.stop()
+    typer.echo(json.dumps(session.engine.status(), default=float))
+
+
+def devices_cmd() -> None:
+    """List the sound devices PortAudio can output to (use the index with --output sound:N)."""
+    from surfhap.live.backends.sound import list_devices
+
+    devs = list_devices()
+    if not devs:
+        stdout.print("no output devices found")
+        return
+    for d in devs:
+        stdout.print(f"{d['index']:>3}  {d['name']}  [{d['hostapi']}]  {d['channels']} ch  {d['default_rate']:.0f} Hz")
+
+
+def play_cmd(
+    material: str = typer.Argument(..., help="Built-in material name or material file."),
+    output: str = typer.Option("sim", "--output", help="sound[:DEVICE] | sim | file:PATH.wav|.npz | osc://HOST:PORT."),
+    scan: str = typer.Option("speed=0.1,load=0.5,duration=3,length=0.08", "--scan",
+                             help="Scripted strokes: 'speed=M/S,load=N,duration=S[,length=M][,rate=HZ]'."),
+    drive_rate: Optional[int] = typer.Option(None, "--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000)."),
+    amp_gain: float = typer.Option(250.0, "--amp-gain", help="Amplifier gain, V per DAC full scale."),
+    block_ms: float = typer.Option(1.0, "--block-ms", help="Block period, ms."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the texture noise."),
+) -> None:
+    """Play a scripted scan of MATERIAL live, to check the sound card and amplifier chain."""
+    from surfhap.live.server import build_session
+    from surfhap.sim.trajectory import constant_scan, strokes
+
+    kv = parse_key_values(scan, "--scan", {"speed": None, "load": None, "duration": None, "length": 0.0, "rate": 125.0})
+    if not 0 < kv["duration"] <= 600:
+        raise ConfigError("must be within (0, 600] s", source="--scan", field="duration")
+    traj = (strokes(kv["speed"], kv["load"], kv["duration"], length=kv["length"], sensor_rate=kv["rate"])
+            if kv["length"] > 0 else constant_scan(kv["speed"], kv["load"], kv["duration"], sensor_rate=kv["rate"]))
+    session = build_session(material, output, drive_rate=drive_rate, amp_gain=amp_gain,
+                            engine_config=_engine_config(block_ms, 0.0, 1.0), replay=traj, seed=seed)
+    session.start()
+    replay = session.sources[0]
+    try:
+        replay.done.wait(kv["duration"] + 5.0)
+        time.sleep(0.05)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        session.stop()
+    st = session.engine.status()
+    typer.echo(json.dumps({"material": session.title, "output": output, "touches": replay.sent,
+                             "counters": st["counters"], "safety": st["safety"], "latency": st["latency"]}, default=float))
+
+
+def register(app: typer.Typer) -> None:
+    app.command("serve")(serve_cmd)
+    app.command("devices")(devices_cmd)
+    app.command("play")(play_cmd)

@@ -1,0 +1,140 @@
+// surfhap live touch page: Pointer Events -> WebSocket -> engine; trace and counters back.
+// No build step, no dependencies. window.surfhap exposes counters for tests.
+"use strict";
+(function () {
+  const surface = document.getElementById("surface");
+  const trace = document.getElementById("trace");
+  const $ = (id) => document.getElementById(id);
+  const stats = { sent: 0, acked: -1, traceFrames: 0, tracePointsDrawn: 0, lastRtt: null, maxV: 0, open: false };
+  window.surfhap = stats;
+  const sentAt = new Map(); // seq -> performance.now() at send (bounded below)
+  let seq = 0, ws = null, info = null, preview = null;
+  const hist = { t: [], v: [], f: [] };
+  const HIST_S = 3.0;
+
+  function fit(c) {
+    const r = c.getBoundingClientRect(), d = window.devicePixelRatio || 1;
+    c.width = Math.max(1, Math.round(r.width * d)); c.height = Math.max(1, Math.round(r.height * d));
+  }
+
+  function drawSurface() {
+    fit(surface);
+    const g = surface.getContext("2d");
+    g.fillStyle = "#444"; g.fillRect(0, 0, surface.width, surface.height);
+    if (preview) g.drawImage(preview, 0, 0, surface.width, surface.height);
+    g.fillStyle = "rgba(0,0,0,0.45)"; g.fillRect(0, 0, surface.width, 26 * (window.devicePixelRatio || 1));
+    g.fillStyle = "#fff"; g.font = `${14 * (window.devicePixelRatio || 1)}px system-ui`;
+    g.fillText(info ? info.title + " — drag here" : "loading…", 8, 18 * (window.devicePixelRatio || 1));
+  }
+
+  function makePreview(p) {
+    const c = document.createElement("canvas"); c.width = p.w; c.height = p.h;
+    const g = c.getContext("2d"), img = g.createImageData(p.w, p.h);
+    for (let i = 0; i < p.w * p.h; i++) {
+      const v = p.data[i];
+      img.data[4 * i] = Math.min(255, v * 1.05 + 20); img.data[4 * i + 1] = v * 0.9 + 10;
+      img.data[4 * i + 2] = v * 0.7; img.data[4 * i + 3] = 255;
+    }
+    g.putImageData(img, 0, 0); return c;
+  }
+
+  function send(obj) {
+    if (ws && ws.readyState === 1) { ws.send(JSON.stringify(obj)); return true; }
+    return false;
+  }
+  function hello() {
+    const r = surface.getBoundingClientRect();
+    send({ type: "hello", w: Math.max(10, r.width), h: Math.max(10, r.height) });
+  }
+
+  function onMove(e) {
+    if (e.type === "pointermove" && e.buttons === 0 && e.pointerType === "mouse") return;
+    const r = surface.getBoundingClientRect();
+    const s = seq++;
+    const p = e.pressure > 0 ? e.pressure : 0.5;
+    if (send({ type: "move", seq: s, t: e.timeStamp, x: (e.clientX - r.left) / r.width,
+               y: (e.clientY - r.top) / r.height, p: p })) {
+      stats.sent++; sentAt.set(s, performance.now());
+      if (sentAt.size > 512) sentAt.delete(sentAt.keys().next().value);
+    }
+    e.preventDefault();
+  }
+  function onUp(e) {
+    const s = seq++;
+    if (send({ type: "up", seq: s, t: e.timeStamp })) { stats.sent++; sentAt.set(s, performance.now()); }
+  }
+  surface.addEventListener("pointerdown", (e) => { surface.setPointerCapture(e.pointerId); onMove(e); });
+  surface.addEventListener("pointermove", onMove);
+  for (const ev of ["pointerup", "pointercancel"]) surface.addEventListener(ev, onUp);
+
+  function drawTrace() {
+    fit(trace);
+    const g = trace.getContext("2d"), W = trace.width, H = trace.height;
+    g.fillStyle = "#0d0e10"; g.fillRect(0, 0, W, H);
+    g.strokeStyle = "#2a2e35"; g.beginPath(); g.moveTo(0, H / 2); g.lineTo(W, H / 2); g.stroke();
+    const n = hist.t.length; if (n < 2) return;
+    const t1 = hist.t[n - 1], t0 = t1 - HIST_S;
+    const vmax = info ? info.v_max : 250;
+    let fmax = 0.1; for (const f of hist.f) if (f > fmax) fmax = f;
+    const line = (arr, scale, color) => {
+      g.strokeStyle = color; g.lineWidth = 1.5 * (window.devicePixelRatio || 1); g.beginPath();
+      for (let i = 0; i < n; i++) {
+        const x = ((hist.t[i] - t0) / HIST_S) * W, y = H - 4 - (arr[i] / scale) * (H - 8);
+        if (i === 0) g.moveTo(x, y); else g.lineTo(x, y);
+      }
+      g.stroke();
+    };
+    line(hist.v, vmax, "#f0c040"); line(hist.f, fmax * 1.1, "#60b0f0");
+    stats.tracePointsDrawn += n;
+  }
+
+  const ms = (s) => (s == null ? "–" : (1e3 * s).toFixed(2) + " ms");
+  function onTrace(m) {
+    stats.traceFrames++;
+    for (let i = 0; i < m.t.length; i++) {
+      hist.t.push(m.t[i]); hist.v.push(m.v[i]); hist.f.push(m.f[i]);
+      if (m.v[i] > stats.maxV) stats.maxV = m.v[i];
+    }
+    const tEnd = hist.t.length ? hist.t[hist.t.length - 1] : 0;
+    while (hist.t.length && hist.t[0] < tEnd - HIST_S) { hist.t.shift(); hist.v.shift(); hist.f.shift(); }
+    if (m.ack > stats.acked) {
+      stats.acked = m.ack;
+      const t = sentAt.get(m.ack);
+      if (t !== undefined) stats.lastRtt = (performance.now() - t) / 1e3;
+    }
+    $("sent").textContent = `${stats.sent} / ${m.received}`;
+    $("rej").textContent = String(m.rejected);
+    $("rtt").textContent = ms(stats.lastRtt);
+    if (m.status) {
+      const s = m.status, c = s.counters, sf = s.safety;
+      $("lat").textContent = `p50 ${ms(s.latency.p50)}, p99 ${ms(s.latency.p99)}`;
+      $("blocks").textContent = `${c.blocks} × ${(s.block_period * 1e3).toFixed(2)} ms`;
+      $("runs").textContent = `${c.underruns} / ${c.overruns}`;
+      $("safety").textContent = `${sf.clamped} / ${sf.watchdog} / ${sf.faults}`;
+      $("output").textContent = s.output ? s.output.name : "–";
+    }
+    drawTrace();
+  }
+
+  function connect() {
+    const proto = location.protocol === "https:" ? "wss:" : "ws:";
+    ws = new WebSocket(`${proto}//${location.host}/ws`);
+    ws.onopen = () => { stats.open = true; $("conn").textContent = "live"; $("conn").className = "ok"; hello(); };
+    ws.onclose = () => {
+      stats.open = false; $("conn").textContent = "disconnected – retrying"; $("conn").className = "bad";
+      setTimeout(connect, 1000);
+    };
+    ws.onmessage = (ev) => {
+      let m; try { m = JSON.parse(ev.data); } catch (_) { return; }
+      if (m && m.type === "trace") onTrace(m);
+    };
+  }
+
+  fetch("/api/info").then((r) => r.json()).then((j) => {
+    info = j; $("title").textContent = `surfhap live — ${j.title}`;
+    preview = makePreview(j.preview); drawSurface();
+  });
+  window.addEventListener("resize", () => { drawSurface(); hello(); });
+  drawSurface();
+  connect();
+})();
