@@ -1,0 +1,213 @@
+"""``surfhap shape`` (render / calibrate) and ``surfhap scenes``: 3-D shapes (Kim et al. 2017).
+
+::
+
+    surfhap shape MESH (--scan x0,y0,x1,y1,speed | --trajectory FILE) [--calibration FILE] --out DIR
+    surfhap shape calibrate MESH [--out FILE]
+    surfhap scenes [--out DIR]
+
+MESH is a mesh file (OBJ, STL, PLY, glTF/GLB, OFF), a greyscale image used as a height map
+(needs --pixel-size and --height), or a built-in name: suzanne, gaussian-bump, gaussian-hole,
+frustum-bump, frustum-hole, or one of the 20 study scenes (see ``surfhap scenes``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+from typer.core import TyperGroup
+
+from surfhap.cli._common import progress_bar, stdout
+from surfhap.errors import ConfigError, MeshFormatError
+
+__all__ = ["register", "load_surface"]
+
+_IMAGE_EXT = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp"}
+
+
+class _ShapeGroup(TyperGroup):
+    """``surfhap shape MESH ...`` runs the hidden ``render`` command; ``surfhap shape calibrate``
+    and the other subcommands run as usual."""
+
+    def parse_args(self, ctx, args):
+        if args and args[0] not in self.commands and args[0] not in ("--help", "-h"):
+            args = ["render", *args]
+        return super().parse_args(ctx, args)
+
+
+shape_app = typer.Typer(cls=_ShapeGroup, no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+                        help="Feel 3-D meshes on the (simulated) electrovibration display: gradient rendering with edge "
+                             "emphasis (Kim et al. 2017). 'surfhap shape MESH --scan ... --out DIR' renders a scan; "
+                             "'surfhap shape calibrate MESH' measures the force range.")
+
+
+def load_surface(mesh: str, *, up: str = "z", scale: float = 1.0, size: float | None = None,
+                 resolution: float | None = None, pixel_size: float | None = None, height: float | None = None):
+    """Resolve MESH (file, image, or built-in name) to a TopSurface."""
+    from surfhap.shape.heightmap import heightmap_surface
+    from surfhap.shape.scenes import builtin_shape, builtin_shape_names
+    from surfhap.shape.topsurface import TopSurface
+
+    p = Path(mesh)
+    if p.exists() and p.suffix.lower() in _IMAGE_EXT:
+        if pixel_size is None or height is None:
+            raise ConfigError("an image is a height map: give --pixel-size (m) and --height (m for white)", source=mesh)
+        return heightmap_surface(p, pixel_size, height)
+    if p.exists() or mesh.lower() == "suzanne":
+        return TopSurface.from_file(mesh, up=up, scale=scale, size=size)
+    surf = builtin_shape(mesh, resolution=resolution)
+    if surf is None:
+        raise MeshFormatError("no such file, and not a built-in shape (" + ", ".join(
+            [n for n in builtin_shape_names() if n.count("-") < 2]) + ", or a scene from 'surfhap scenes')", source=mesh)
+    if scale != 1.0 or size is not None or up != "z":
+        import numpy as np
+
+        from surfhap.exchange.mesh import orient_up
+
+        v = orient_up(surf.vertices, up) * scale
+        if size is not None:
+            lo, hi = v.min(axis=0), v.max(axis=0)
+            v = (v - np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.0])) * (size / max(hi[0] - lo[0], hi[1] - lo[1]))
+        surf = TopSurface(v, surf.faces, name=surf.name, source=surf.source)
+    return surf
+
+
+def _plan(directions: int, speeds: int, v_min: float, v_max: float, rate: float, lines: int):
+    from surfhap.shape.calibration import ScanPlan
+
+    if not (0 < v_min <= v_max <= 2.0):
+        raise ConfigError("need 0 < --v-min <= --v-max <= 2 m/s", source="--v-min/--v-max")
+    return ScanPlan.evenly(directions, speeds, v_min, v_max, sensor_rate=rate, lines=lines)
+
+
+def _percentiles(text: str) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in text.split(","))
+    except ValueError:
+        raise ConfigError("expected LOWER,UPPER (e.g. 2.5,97.5)", source="--percentiles") from None
+    return lo, hi
+
+
+_MESH_HELP = "Mesh file (OBJ/STL/PLY/glTF/OFF), greyscale image (height map), or built-in name (suzanne, gaussian-bump, frustum-hole, a scene...)."
+
+
+@shape_app.command("render", hidden=True)
+def render_cmd(
+    mesh: str = typer.Argument(..., help=_MESH_HELP),
+    out: Path = typer.Option(..., "--out", help="Output folder: shape.npz, summary.json, figure.png."),
+    scan: Optional[str] = typer.Option(None, "--scan", help="Straight scan 'x0,y0,x1,y1,speed' in m and m/s (mesh coordinates)."),
+    trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Trajectory CSV: time (s), x, y (m), load (N)."),
+    calibration: Optional[Path] = typer.Option(None, "--calibration", help="Calibration JSON from 'surfhap shape calibrate' (default: calibrate now)."),
+    rate: float = typer.Option(60.0, "--rate", help="Touch sampling rate of --scan, Hz (Kim et al.: 60)."),
+    load: float = typer.Option(1.0, "--load", help="Finger load of --scan, N."),
+    grain: str = typer.Option("area-even", "--grain", help="Area grain: area-even (smooth) | area-grainy (rough); edge-soft = area-even."),
+    edges: bool = typer.Option(True, "--edges/--no-edges", help="Edge emphasis ticks (Sec. 4.3)."),
+    edge_threshold: float = typer.Option(135.0, "--edge-threshold", help="Convex edges up to this dihedral angle (deg) tick; 180 = every convex edge."),
+    fz: float = typer.Option(1.0, "--fz", help="Assumed normal force of eq. 7, N."),
+    up: str = typer.Option("z", "--up", help="Mesh axis pointing out of the screen: x, y, z, -x, -y, -z."),
+    scale: float = typer.Option(1.0, "--scale", help="Mesh units -> metres factor (0.01 for a mesh in cm)."),
+    size: Optional[float] = typer.Option(None, "--size", help="Rescale and centre the mesh so its larger xy side is SIZE m."),
+    resolution: Optional[float] = typer.Option(None, "--resolution", help="Grid step (cm) of built-in Gaussian shapes."),
+    pixel_size: Optional[float] = typer.Option(None, "--pixel-size", help="Height maps: m per pixel."),
+    height: Optional[float] = typer.Option(None, "--height", help="Height maps: height (m) of white."),
+    drive_rate: int = typer.Option(20000, "--drive-rate", help="DAC rate, Hz (2000-48000)."),
+    carrier: float = typer.Option(2000.0, "--carrier", help="Polarity carrier, Hz (2000-20000; 0 = off)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the grainy grain."),
+    figure: bool = typer.Option(True, "--figure/--no-figure", help="Write figure.png."),
+) -> None:
+    """Render a scan over MESH on the simulated display."""
+    from surfhap.exchange.shape_files import read_calibration, write_shape
+    from surfhap.exchange.trajectory_csv import read_trajectory_csv
+    from surfhap.render.shape_renderer import ShapeConfig, render_shape
+    from surfhap.shape.scan import parse_scan
+
+    if (scan is None) == (trajectory is None):
+        raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")
+    cfg = ShapeConfig(fz=fz, grain=grain, edges=edges, edge_threshold_deg=edge_threshold, drive_rate=drive_rate,
+                      carrier=carrier, seed=seed)
+    traj = parse_scan(scan, rate=rate, load=load) if scan is not None else read_trajectory_csv(trajectory)
+    surf = load_surface(mesh, up=up, scale=scale, size=size, resolution=resolution, pixel_size=pixel_size, height=height)
+    cal = read_calibration(calibration) if calibration is not None else None
+    with progress_bar(f"rendering {surf.name}", enabled=traj.duration > 5.0) as update:
+        result = render_shape(surf, traj, cal, cfg, progress=update)
+    paths = write_shape(result, out)
+    if figure:
+        fig = result.plot()
+        fig.savefig(Path(out) / "figure.png", dpi=110)
+    s = result.summary()
+    stdout.print(f"{surf.name}: {s['samples']} touch samples, {s['on_mesh_fraction']:.0%} on the mesh, "
+                 f"force {s['force_range_n'][0]:+.3g}..{s['force_range_n'][1]:+.3g} N, {s['ticks']} edge ticks, "
+                 f"Fsq range [{result.calibration.fmin:+.3g}, {result.calibration.fmax:+.3g}] "
+                 f"-> {paths['npz'].parent}")
+
+
+@shape_app.command("calibrate")
+def calibrate_cmd(
+    mesh: str = typer.Argument(..., help=_MESH_HELP),
+    out: Optional[Path] = typer.Option(None, "--out", help="Calibration JSON (default: MESH.calibration.json next to a mesh file)."),
+    directions: int = typer.Option(36, "--directions", help="Scan headings, evenly spaced all around."),
+    speeds: int = typer.Option(5, "--speeds", help="Number of scan speeds, evenly spaced over --v-min..--v-max."),
+    v_min: float = typer.Option(0.02, "--v-min", help="Slowest scan, m/s."),
+    v_max: float = typer.Option(0.20, "--v-max", help="Fastest scan, m/s."),
+    rate: float = typer.Option(60.0, "--rate", help="Touch sampling rate, Hz (60-100 on the paper's tablet)."),
+    lines: int = typer.Option(16, "--lines", help="Parallel scan lines per heading."),
+    method: str = typer.Option("sd", "--method", help="sd: mean -/+ k sd (the paper, k = 2) | percentile."),
+    k: float = typer.Option(2.0, "--k", help="Number of standard deviations for --method sd."),
+    percentiles: str = typer.Option("2.5,97.5", "--percentiles", help="LOWER,UPPER for --method percentile."),
+    fz: float = typer.Option(1.0, "--fz", help="Assumed normal force of eq. 7, N."),
+    up: str = typer.Option("z", "--up", help="Mesh axis pointing out of the screen."),
+    scale: float = typer.Option(1.0, "--scale", help="Mesh units -> metres factor."),
+    size: Optional[float] = typer.Option(None, "--size", help="Rescale and centre the mesh so its larger xy side is SIZE m."),
+    resolution: Optional[float] = typer.Option(None, "--resolution", help="Grid step (cm) of built-in Gaussian shapes."),
+    pixel_size: Optional[float] = typer.Option(None, "--pixel-size", help="Height maps: m per pixel."),
+    height: Optional[float] = typer.Option(None, "--height", help="Height maps: height (m) of white."),
+    figure: Optional[Path] = typer.Option(None, "--figure", help="Also write the Fsq histogram as PNG."),
+) -> None:
+    """Measure the Fsq range of MESH by simulated scans (Kim et al. Sec. 4.2) and save it as JSON."""
+    from surfhap.exchange.shape_files import default_calibration_path, write_calibration
+    from surfhap.shape.calibration import calibrate
+
+    plan = _plan(directions, speeds, v_min, v_max, rate, lines)
+    surf = load_surface(mesh, up=up, scale=scale, size=size, resolution=resolution, pixel_size=pixel_size, height=height)
+    if out is None:
+        if not Path(mesh).exists():
+            raise ConfigError("give --out FILE for a built-in shape", source="--out")
+        out = default_calibration_path(mesh)
+    cal = calibrate(surf, plan, method=method, k=k, percentiles=_percentiles(percentiles), fz=fz)
+    path = write_calibration(cal, out)
+    if figure is not None:
+        cal.plot().savefig(figure, dpi=110)
+    stdout.print(f"{surf.name}: Fsq range [{cal.fmin:+.4g}, {cal.fmax:+.4g}] sqrt(N) ({cal.method}, "
+                 f"{cal.n_samples} samples, theta_min {cal.theta_min_deg:.1f} deg) -> {path}")
+
+
+def scenes_cmd(
+    out: Optional[Path] = typer.Option(None, "--out", help="Write each scene as OBJ plus a top-view PNG into this folder."),
+    resolution: float = typer.Option(0.1, "--resolution", help="Grid step (cm) of the Gaussian scenes."),
+) -> None:
+    """List the 20 scenes of Kim et al.'s summative study (2 profiles x 2 lights x 5 configurations)."""
+    from surfhap.shape.scenes import all_scenes
+
+    scenes = all_scenes()
+    if out is not None:
+        import trimesh
+
+        from surfhap.report.shape_figures import plot_scene
+
+        out.mkdir(parents=True, exist_ok=True)
+    with progress_bar("writing scenes", enabled=out is not None) as update:
+        for i, sc in enumerate(scenes):
+            lay = " ".join(f"{p}:{k}" for p, k in sc.layout.items())
+            stdout.print(f"{sc.name:28s} {lay}")
+            if out is not None:
+                v, f = sc.mesh(resolution)
+                trimesh.Trimesh(v, f, process=False).export(out / f"{sc.name}.obj")
+                plot_scene(sc, resolution).savefig(out / f"{sc.name}.png", dpi=90)
+                update((i + 1) / len(scenes))
+
+
+def register(app: typer.Typer) -> None:
+    app.add_typer(shape_app, name="shape")
+    app.command("scenes")(scenes_cmd)

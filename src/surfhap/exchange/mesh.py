@@ -1,0 +1,140 @@
+"""Mesh files: OBJ, STL, PLY, glTF/GLB, OFF (anything trimesh reads) with clear errors.
+
+A mesh that cannot be used (unreadable, unknown format, no triangles, NaN coordinates)
+raises :class:`surfhap.errors.MeshFormatError` naming the file, which the CLI prints as one
+line with exit code 2.
+
+Units: surfhap works in SI, so mesh coordinates are taken as metres unless ``scale`` (a
+factor, e.g. 0.01 for a mesh in cm) or ``size`` (the width in metres the mesh should span on
+the screen) says otherwise. ``up`` names the mesh axis that points out of the screen
+(``z`` by default; ``y`` for the many meshes, like the Stanford bunny, that are modelled
++Y up).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from surfhap.errors import MeshFormatError
+
+__all__ = ["MeshData", "read_mesh", "arrays_from_trimesh", "orient_up", "builtin_mesh_path", "BUILTIN_MESHES"]
+
+# Meshes shipped in surfhap/data (name -> file name).
+BUILTIN_MESHES = {"suzanne": "suzanne.obj"}
+
+_UP = ("x", "y", "z", "-x", "-y", "-z")
+
+
+@dataclass(frozen=True)
+class MeshData:
+    """A loaded triangle mesh: vertices (nv, 3) float, faces (nf, 3) int64."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    name: str
+    source: str
+
+
+def builtin_mesh_path(name: str) -> Path | None:
+    """Path of a mesh shipped with surfhap (``suzanne``), or None."""
+    fname = BUILTIN_MESHES.get(name.lower())
+    if fname is None:
+        return None
+    from importlib.resources import files
+
+    return Path(str(files("surfhap") / "data" / fname))
+
+
+def orient_up(vertices: np.ndarray, up: str) -> np.ndarray:
+    """Rotate (n, 3) vertices so that the axis ``up`` (x, y, z, -x, -y, -z) becomes +z.
+
+    Proper rotations only (no mirroring), so face winding and outward normals survive.
+    """
+    v = np.asarray(vertices, dtype=float)
+    if up not in _UP:
+        raise MeshFormatError(f"up must be one of {', '.join(_UP)}, got {up!r}", field="up")
+    x, y, z = v[:, 0], v[:, 1], v[:, 2]
+    rot = {
+        "z": (x, y, z),
+        "-z": (x, -y, -z),
+        "y": (x, -z, y),  # rotate -90 deg about x: +y -> +z
+        "-y": (x, z, -y),
+        "x": (-z, y, x),  # rotate -90 deg about y: +x -> +z
+        "-x": (z, y, -x),
+    }[up]
+    return np.column_stack(rot)
+
+
+def arrays_from_trimesh(mesh, source: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (nv, 3) float, faces (nf, 3) int64) from a trimesh Trimesh or Scene."""
+    import trimesh
+
+    if isinstance(mesh, trimesh.Scene):
+        geoms = [g for g in mesh.dump() if isinstance(g, trimesh.Trimesh)] if mesh.geometry else []
+        if not geoms:
+            raise MeshFormatError("the file holds no triangle mesh (empty scene, or only points/lines)", source=source)
+        mesh = trimesh.util.concatenate(geoms)
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise MeshFormatError(f"not a triangle mesh ({type(mesh).__name__})", source=source)
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces, dtype=np.int64)
+    if f.ndim != 2 or f.shape[0] == 0:
+        raise MeshFormatError("the mesh is empty (no triangles)", source=source)
+    return v, f
+
+
+def read_mesh(path: str | Path, *, up: str = "z", scale: float = 1.0, size: float | None = None) -> MeshData:
+    """Load a mesh file (or a built-in name such as ``suzanne``) as triangles.
+
+    up    : mesh axis that points out of the screen (becomes +z).
+    scale : factor from mesh units to metres (1.0: the mesh is in metres).
+    size  : if given, rescale (after ``scale``) so the larger side of the mesh's xy extent
+            is ``size`` metres; the mesh is also centred on x = y = 0.
+    Raises MeshFormatError for anything unusable.
+    """
+    import trimesh
+
+    p = Path(path)
+    src = str(path)
+    if not p.exists():
+        builtin = builtin_mesh_path(str(path))
+        if builtin is None:
+            raise MeshFormatError("no such file (and not a built-in mesh: " + ", ".join(BUILTIN_MESHES) + ")", source=src)
+        p = builtin
+    if p.is_dir():
+        raise MeshFormatError("is a folder, not a mesh file", source=src)
+    if not (np.isfinite(scale) and scale > 0):
+        raise MeshFormatError(f"scale must be > 0, got {scale}", source=src, field="scale")
+    if size is not None and not (np.isfinite(size) and size > 0):
+        raise MeshFormatError(f"size must be > 0 m, got {size}", source=src, field="size")
+    if p.stat().st_size == 0:
+        raise MeshFormatError("empty file", source=src)
+    ext = p.suffix.lower().lstrip(".")
+    if ext not in trimesh.available_formats():
+        raise MeshFormatError(f"unknown mesh format {p.suffix!r} (try OBJ, STL, PLY, GLB/glTF, OFF)", source=src)
+    try:
+        loaded = trimesh.load(str(p), force="mesh", process=True)
+    except MeshFormatError:
+        raise
+    except Exception as exc:  # trimesh raises many kinds for malformed files
+        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise MeshFormatError(f"cannot parse the {ext.upper()} file ({msg[:160]})", source=src) from None
+    v, f = arrays_from_trimesh(loaded, source=src)
+    if v.shape[0] < 3:
+        raise MeshFormatError("the mesh is empty (fewer than 3 vertices)", source=src)
+    if not np.all(np.isfinite(v)):
+        raise MeshFormatError("vertex coordinates contain NaN or inf", source=src)
+    if f.min() < 0 or f.max() >= v.shape[0]:
+        raise MeshFormatError("face indices point past the vertex list", source=src)
+    v = orient_up(v, up) * float(scale)
+    if size is not None:
+        lo, hi = v.min(axis=0), v.max(axis=0)
+        extent = float(max(hi[0] - lo[0], hi[1] - lo[1]))
+        if extent <= 0:
+            raise MeshFormatError("the mesh has no extent in x and y", source=src)
+        centre = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.0])
+        v = (v - centre) * (size / extent)
+    return MeshData(v, f, p.stem, src)

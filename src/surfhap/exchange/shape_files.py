@@ -1,0 +1,86 @@
+"""Shape-rendering files: ``shape.npz`` + ``summary.json`` per scan, calibration JSON.
+
+``shape.npz`` holds the touch-rate arrays ``t`` (s), ``x``, ``y`` (m), ``z`` (hit height,
+mesh units, NaN off the mesh), ``face`` (-1 off the mesh), ``force`` (lateral, N), ``fsq``
+(sqrt(N)), ``intensity`` (area grain, 0.3..1.0), ``edge`` (tick intensity, 0 where none),
+``theta`` (deg), ``load`` (N), and the drive-rate ``t_drive``, ``drive`` (V after the
+safety stage), ``target`` (N), plus ``friction_sim`` (N, at ``model_rate``).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from surfhap.errors import ConfigError
+from surfhap.shape.calibration import ShapeCalibration
+
+__all__ = ["shape_arrays", "write_shape", "write_calibration", "read_calibration", "default_calibration_path"]
+
+CALIBRATION_SUFFIX = ".calibration.json"
+
+
+def shape_arrays(result) -> dict[str, np.ndarray]:
+    """The named arrays stored in shape.npz."""
+    return {
+        "t": result.t, "x": result.x, "y": result.y, "z": result.z, "face": result.face, "force": result.force,
+        "fsq": result.fsq, "intensity": result.intensity, "edge": result.edge, "theta": result.theta,
+        "load": result.load, "t_drive": result.t_drive, "drive": result.drive, "target": result.target,
+        "friction_sim": result.friction_sim, "model_rate": np.array(result.model_rate),
+        "drive_rate": np.array(result.drive_rate), "fsq_range": np.array([result.calibration.fmin, result.calibration.fmax]),
+    }
+
+
+def write_shape(result, out_dir: str | Path) -> dict[str, Path]:
+    """Write ``shape.npz`` and ``summary.json`` into ``out_dir`` (created); returns the paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {"npz": out / "shape.npz", "summary": out / "summary.json"}
+    np.savez_compressed(paths["npz"], **shape_arrays(result))
+    summary = result.summary()
+    summary["calibration"] = result.calibration.to_dict()
+    paths["summary"].write_text(json.dumps(summary, indent=2, default=float) + "\n", encoding="utf-8")
+    return paths
+
+
+def default_calibration_path(mesh_path: str | Path) -> Path:
+    """``<mesh>.calibration.json`` next to the mesh (e.g. bunny.ply.calibration.json)."""
+    p = Path(mesh_path)
+    return p.with_name(p.name + CALIBRATION_SUFFIX)
+
+
+def write_calibration(cal: ShapeCalibration, path: str | Path) -> Path:
+    path = Path(path)
+    if path.parent and not path.parent.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(cal.to_dict(), indent=2) + "\n", encoding="utf-8")
+    return path
+
+
+def read_calibration(path: str | Path) -> ShapeCalibration:
+    """Read a calibration JSON; ConfigError naming the file for anything unusable."""
+    path = Path(path)
+    src = str(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError("no such file", source=src) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read file ({exc.__class__.__name__})", source=src) from None
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"not JSON (line {exc.lineno}: {exc.msg})", source=src) from None
+    if not isinstance(data, dict):
+        raise ConfigError("expected a JSON object", source=src)
+    for key in ("fmin", "fmax"):
+        if key not in data:
+            raise ConfigError("missing (required)", source=src, field=key)
+        if not isinstance(data[key], (int, float)) or isinstance(data[key], bool):
+            raise ConfigError("must be a number", source=src, field=key)
+    try:
+        return ShapeCalibration.from_dict(data)
+    except ConfigError as exc:
+        raise ConfigError(exc.message, source=src, field=exc.field) from None
+    except TypeError as exc:
+        raise ConfigError(f"bad field ({exc})", source=src) from None

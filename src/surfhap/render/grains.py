@@ -1,0 +1,192 @@
+"""Haptic grains: the waveforms a shape is played with (Kim et al. 2017, Sec. 2, 3.1.2, 4.3).
+
+Kim et al.'s Senseg Feelscreen plays fixed "haptic grains" whose only control is a
+normalized intensity 0..1; the study used a smooth grain (EDGE-SOFT), a rough one
+(AREA-GRAINY), an even area grain for shapes (AREA-EVEN) and a short, distinct one for
+edges (EDGE-TICK) (Fig. 4). Their waveforms are proprietary, so surfhap has its own small,
+documented grain set with those characters. A grain is a force envelope g(t) in [0, 1] at the
+drive rate; its force is ``F(I) g(t)``, where ``F(I)`` is the device's intensity -> force
+curve. The drive law then asks the display for that added friction.
+
+============ ============ ==================================================================
+grain        character    envelope g(t) (design choices, not from the paper)
+============ ============ ==================================================================
+area-even    smooth       1: the friction follows the intensity, nothing else
+area-grainy  rough        raised-cosine grains of 4 ms at random times, 100 per second on
+                          average (seeded), summed and clipped to 1
+edge-tick    short tick   one raised-cosine pulse of 10 ms per edge crossing
+============ ============ ==================================================================
+
+``edge-soft`` is accepted as another name for the smooth grain (the paper calls EDGE-SOFT
+"smooth", Sec. 3.1.2). While a tick plays it replaces the area grain (one grain at a time,
+as on the Feelscreen).
+
+Device curve: the paper measured a quadratic relation between grain intensity and friction
+force (Fig. 2c, 3c). :meth:`DeviceCurve.fit` fits ``F = a I^2 + b I + c`` to tribometer data;
+:meth:`DeviceCurve.kim2017` passes through the three points the paper quotes for EDGE-SOFT
+(Sec. 3.1.2): about 0.075 N at the lowest measured intensity 0.1, the median 0.16 N at 0.7,
+0.25 N at 1.0. On the simulated display the default is :meth:`DeviceCurve.square_law` with the
+display's largest force (intensity 1 = the safety limit's voltage), so nothing saturates.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from surfhap.errors import ConfigError
+
+__all__ = ["GRAINS", "AREA_GRAINS", "DeviceCurve", "GrainPlayer", "grain_name", "hann_pulse"]
+
+GRAINS = ("area-even", "area-grainy", "edge-tick")
+AREA_GRAINS = ("area-even", "area-grainy")
+_ALIASES = {"edge-soft": "area-even", "smooth": "area-even", "grainy": "area-grainy", "rough": "area-grainy",
+            "tick": "edge-tick"}
+
+GRAINY_RATE = 100.0  # grains per second (design choice)
+GRAINY_WIDTH = 0.004  # s (design choice)
+TICK_WIDTH = 0.010  # s (design choice)
+
+
+def grain_name(name: str) -> str:
+    """Canonical grain name (aliases resolved); ConfigError if unknown."""
+    key = str(name).lower()
+    key = _ALIASES.get(key, key)
+    if key not in GRAINS:
+        raise ConfigError(f"unknown grain {name!r} (choose from {', '.join(GRAINS)}; aliases {', '.join(_ALIASES)})",
+                          field="grain")
+    return key
+
+
+def hann_pulse(width: float, rate: float) -> np.ndarray:
+    """(k,) raised-cosine pulse of ``width`` s at ``rate`` Hz, peak 1, zero at both ends."""
+    k = max(int(round(width * rate)), 3)
+    return 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(1, k + 1) / (k + 1))
+
+
+@dataclass(frozen=True)
+class DeviceCurve:
+    """Grain force (N) versus intensity: ``F(I) = a I^2 + b I + c``.
+
+    :meth:`kim2017` is the curve the paper quotes for the Feelscreen; :meth:`square_law` is a
+    display whose voltage is proportional to the intensity (the paper's assumption of a
+    constant amplifier gain, Sec. 2.2), so that ``F = F_max I^2``.
+    """
+
+    a: float
+    b: float = 0.0
+    c: float = 0.0
+    source: str = ""
+
+    def __post_init__(self):
+        if not all(np.isfinite(v) for v in (self.a, self.b, self.c)):
+            raise ConfigError("coefficients must be finite", field="device")
+        i = np.linspace(0.0, 1.0, 101)
+        f = self.force(i, clip=False)
+        if np.any(f < -1e-12) or np.any(np.diff(f) < -1e-12):
+            raise ConfigError("the intensity -> force curve must be >= 0 and non-decreasing on [0, 1]", field="device")
+
+    @classmethod
+    def kim2017(cls) -> "DeviceCurve":
+        """The quadratic through the points Kim et al. quote for EDGE-SOFT (Sec. 3.1.2, Fig. 2c):
+        0.075 N at intensity 0.1 (the lowest measured), 0.16 N at 0.7, 0.25 N at 1.0."""
+        return cls(0.17592593, 0.00092593, 0.07314815,
+                   source="Kim et al. 2017 Sec. 3.1.2 / Fig. 2c (EDGE-SOFT): 0.075 N @ 0.1, 0.16 N @ 0.7, 0.25 N @ 1.0")
+
+    @classmethod
+    def square_law(cls, max_force: float) -> "DeviceCurve":
+        """``F = max_force I^2``: voltage proportional to intensity, force to voltage squared."""
+        if not (np.isfinite(max_force) and max_force > 0):
+            raise ConfigError("must be > 0 N", field="max_force")
+        return cls(float(max_force), 0.0, 0.0, source=f"square law, {max_force:.4g} N at intensity 1")
+
+    def force(self, intensity: np.ndarray, clip: bool = True) -> np.ndarray:
+        """F (N) at intensity (n,) in [0, 1] (clipped to that range when ``clip``)."""
+        i = np.asarray(intensity, dtype=float)
+        if clip:
+            i = np.clip(i, 0.0, 1.0)
+        return (self.a * i + self.b) * i + self.c
+
+    @classmethod
+    def fit(cls, intensity: np.ndarray, force: np.ndarray, source: str = "fit") -> "DeviceCurve":
+        """Least-squares quadratic through (intensity (n,), force (n,) N) pairs, n >= 3."""
+        i = np.asarray(intensity, dtype=float)
+        f = np.asarray(force, dtype=float)
+        if i.shape != f.shape or i.ndim != 1 or i.size < 3:
+            raise ConfigError("need at least three (intensity, force) pairs", field="device")
+        if not (np.all(np.isfinite(i)) and np.all(np.isfinite(f))):
+            raise ConfigError("intensity and force must be finite", field="device")
+        a, b, c = np.polyfit(i, f, 2)
+        return cls(float(a), float(b), float(c), source=source)
+
+    def plot(self, fig=None):
+        from surfhap.report.shape_figures import plot_device_curve
+
+        return plot_device_curve(self, fig=fig)
+
+
+class GrainPlayer:
+    """Stateful grain synthesiser at the drive rate.
+
+    ``process(intensity, tick) -> force``: intensity (m,) float area-grain intensity held at
+    the drive rate (0 = nothing to play, e.g. finger lifted), tick (m,) float edge-tick
+    intensity Ie at the drive sample where a tick starts (0 elsewhere). Returns (m,) float N,
+    the friction the display should add (>= 0).
+    """
+
+    def __init__(self, grain: str, drive_rate: float, device: DeviceCurve, seed: int = 0):
+        self.grain = grain_name(grain)
+        if self.grain not in AREA_GRAINS:
+            raise ConfigError(f"{self.grain} is not an area grain ({', '.join(AREA_GRAINS)})", field="grain")
+        if not (np.isfinite(drive_rate) and drive_rate >= 1000):
+            raise ConfigError("drive rate must be >= 1000 Hz", field="drive_rate")
+        self.drive_rate = float(drive_rate)
+        self.device = device
+        self.seed = int(seed)
+        self._grain_pulse = hann_pulse(GRAINY_WIDTH, self.drive_rate)
+        self._tick_pulse = hann_pulse(TICK_WIDTH, self.drive_rate)
+        self._p_event = GRAINY_RATE / self.drive_rate
+        self.reset()
+
+    def reset(self) -> None:
+        self._rng = np.random.default_rng(self.seed)
+        self._grain_tail = np.zeros(self._grain_pulse.size - 1)
+        self._tick_left = 0  # samples of the current tick still to play
+        self._tick_amp = 0.0
+
+    def _area_envelope(self, m: int) -> np.ndarray:
+        if self.grain == "area-even":
+            return np.ones(m)
+        events = (self._rng.random(m) < self._p_event).astype(float)
+        full = np.convolve(events, self._grain_pulse)  # (m + k - 1,)
+        k = self._grain_tail.size
+        full[:k] += self._grain_tail
+        self._grain_tail = full[m:m + k].copy()
+        return np.minimum(full[:m], 1.0)
+
+    def process(self, intensity: np.ndarray, tick: np.ndarray) -> np.ndarray:
+        inten = np.nan_to_num(np.asarray(intensity, dtype=float), nan=0.0)
+        tick = np.nan_to_num(np.asarray(tick, dtype=float), nan=0.0)
+        m = inten.shape[0]
+        if tick.shape != (m,):
+            raise ValueError("intensity and tick must be (m,) arrays of one length")
+        env = self._area_envelope(m)
+        out = np.where(inten > 0, self.device.force(inten) * env, 0.0)
+        # ticks: continue the running one, then start new ones (a new tick restarts the pulse)
+        kp = self._tick_pulse.size
+        starts = np.nonzero(tick > 0)[0]
+        if self._tick_left > 0:
+            end = m if starts.size == 0 else min(m, int(starts[0]))
+            n = min(self._tick_left, end)
+            off = kp - self._tick_left
+            out[:n] = self._tick_amp * self._tick_pulse[off:off + n]
+            self._tick_left -= n
+        for j, s in enumerate(starts):
+            amp = float(self.device.force(tick[s]))
+            nxt = m if j + 1 == starts.size else int(starts[j + 1])
+            n = min(kp, nxt - s)
+            out[s:s + n] = amp * self._tick_pulse[:n]
+            self._tick_amp = amp
+            self._tick_left = kp - n if nxt == m else 0
+        return out

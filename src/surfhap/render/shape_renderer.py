@@ -1,0 +1,319 @@
+"""Shape rendering on an electrostatic friction display (Kim et al. 2017, Sec. 4).
+
+Two stateful processors, one per rate:
+
+* :class:`ShapeRenderer` (touch rate): touch points -> vertical ray hits on the mesh
+  (:class:`~surfhap.shape.topsurface.TopSurface`) -> lateral force from consecutive hits
+  (eq. 3-7) -> signed square root (eq. 8) -> area-grain intensity (eq. 9), and in parallel
+  the edge ticks from the dihedral angle between the previous and current hit faces
+  (eq. 10-11).
+* :class:`ShapeDrive` (drive rate): grain synthesis (area grain at the held intensity, edge
+  ticks), device curve intensity -> force, voltage ``V = alpha sqrt(F)`` so the simulated
+  display adds the grain's force, polarity carrier, and the safety stage last.
+
+:func:`render_shape` runs both over a whole trajectory on the simulated display and returns a
+:class:`ShapeResult` (named arrays, ``summary()``, ``plot()``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from surfhap.errors import ConfigError
+from surfhap.render.carrier import PolarityCarrier, check_carrier
+from surfhap.render.grains import DeviceCurve, GrainPlayer, grain_name
+from surfhap.render.safety import SafetyCounters, SafetyLimits, SafetyStage
+from surfhap.shape.calibration import ShapeCalibration, calibrate
+from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks
+from surfhap.shape.gradient import FZ_DEFAULT, intensity_from_fsq, lateral_force, signed_sqrt
+from surfhap.shape.topsurface import TopSurface
+from surfhap.sim.display import DisplayModel, SimulatedDisplay
+from surfhap.sim.trajectory import Trajectory
+
+__all__ = ["display_device_curve", "ShapeConfig", "ShapeBlock", "ShapeRenderer", "ShapeDrive", "ShapeResult", "render_shape"]
+
+
+@dataclass(frozen=True)
+class ShapeConfig:
+    """Settings of shape rendering (SI).
+
+    fz                 : N, assumed normal force of eq. 6-7 (1 N, Sec. 3.1.1).
+    grain              : area grain (area-even | area-grainy; alias edge-soft = area-even).
+    edges              : play edge ticks (Sec. 4.3).
+    edge_threshold_deg : convex edges with a dihedral angle up to this tick (135: Fig. 10's
+                         "relatively sharp"; 180: every convex edge).
+    drive_rate         : Hz, DAC rate (2-48 kHz).
+    carrier            : Hz, polarity carrier (0 = off, else 2-20 kHz).
+    model_rate         : Hz, rate of the simulated display's friction output.
+    alpha              : V/sqrt(N); None = calibrated to the simulated display.
+    seed               : seed of the grainy grain.
+    device             : intensity -> force curve; None = the simulated display's square law
+                         (intensity 1 = v_max), see :func:`display_device_curve`.
+    """
+
+    fz: float = FZ_DEFAULT
+    grain: str = "area-even"
+    edges: bool = True
+    edge_threshold_deg: float = EDGE_THRESHOLD_DEG
+    drive_rate: int = 20000
+    carrier: float = 2000.0
+    model_rate: int = 2000
+    alpha: float | None = None
+    seed: int = 0
+    device: DeviceCurve | None = None
+    limits: SafetyLimits = field(default_factory=SafetyLimits)
+    display: DisplayModel = field(default_factory=DisplayModel)
+
+    def __post_init__(self):
+        if not (np.isfinite(self.fz) and 0 < self.fz <= 20):
+            raise ConfigError(f"must be in (0, 20] N, got {self.fz}", field="fz")
+        object.__setattr__(self, "grain", grain_name(self.grain))
+        if self.grain == "edge-tick":
+            raise ConfigError("edge-tick is the edge grain; choose an area grain (area-even | area-grainy)", field="grain")
+        if not (np.isfinite(self.edge_threshold_deg) and 0 < self.edge_threshold_deg <= 180):
+            raise ConfigError(f"must be in (0, 180] deg, got {self.edge_threshold_deg}", field="edge_threshold")
+        if int(self.drive_rate) != self.drive_rate or not 2000 <= self.drive_rate <= 48000:
+            raise ConfigError(f"must be a whole number of Hz within 2000-48000, got {self.drive_rate}", field="drive_rate")
+        if int(self.model_rate) != self.model_rate or not 100 <= self.model_rate <= self.drive_rate:
+            raise ConfigError("must be a whole number of Hz within 100 and the drive rate", field="model_rate")
+        check_carrier(self.carrier, self.drive_rate)
+        if self.alpha is not None and not (np.isfinite(self.alpha) and self.alpha > 0):
+            raise ConfigError("must be > 0", field="alpha")
+
+
+def display_device_curve(config: "ShapeConfig") -> DeviceCurve:
+    """The device curve of the simulated display: ``F = mu_panel k (I v_max)^2``."""
+    d = config.display
+    return DeviceCurve.square_law(d.mu_panel * d.k * config.limits.v_max ** 2)
+
+
+class ShapeBlock(NamedTuple):
+    """Touch-rate output, all (n,): z (hit height, NaN off the mesh), face (int, -1 off),
+    force (N, lateral), fsq (sqrt(N)), intensity (area grain, [0.3, 1.0]), edge (tick
+    intensity Ie, 0 where none), theta (deg, dihedral angle at face changes, NaN elsewhere)."""
+
+    z: np.ndarray
+    face: np.ndarray
+    force: np.ndarray
+    fsq: np.ndarray
+    intensity: np.ndarray
+    edge: np.ndarray
+    theta: np.ndarray
+
+
+class ShapeRenderer:
+    """Touch-rate processor: ``process(x, y, touching=None) -> ShapeBlock``.
+
+    x, y (n,) float touch positions (mesh units, m); ``touching`` (n,) bool (default all):
+    samples without touch break the chain of hit points, so no force or edge spans a lift.
+    """
+
+    def __init__(self, surface: TopSurface, calibration: ShapeCalibration, config: ShapeConfig | None = None):
+        self.surface = surface
+        self.calibration = calibration
+        self.config = config or ShapeConfig()
+        self.theta_min = float(surface.theta_min) if self.config.edges else 0.0
+        self._normals = surface.up_normals
+        self.reset()
+
+    def reset(self) -> None:
+        self._prev = None  # (x, y, z, force)
+        self._prev_face = -1
+        self._prev_point = np.full(3, np.nan)
+
+    def process(self, x: np.ndarray, y: np.ndarray, touching: np.ndarray | None = None) -> ShapeBlock:
+        x = np.asarray(x, dtype=float)
+        y = np.asarray(y, dtype=float)
+        if x.shape != y.shape or x.ndim != 1:
+            raise ValueError("x and y must be (n,) arrays of one length")
+        if touching is not None:
+            touching = np.asarray(touching, dtype=bool)
+            x = np.where(touching, x, np.nan)
+            y = np.where(touching, y, np.nan)
+        n = x.shape[0]
+        z, face = self.surface.query(np.column_stack([x, y]))
+        force, _ = lateral_force(x, y, z, fz=self.config.fz, prev=self._prev)
+        fsq = signed_sqrt(force)
+        cal = self.calibration
+        inten = intensity_from_fsq(fsq, cal.fmin, cal.fmax)
+        pts = np.column_stack([x, y, z])
+        if self.config.edges and n:
+            edge, theta = edge_ticks(face, pts, self._normals, self.theta_min,
+                                     threshold_deg=self.config.edge_threshold_deg,
+                                     prev=(self._prev_face, self._prev_point))
+        else:
+            edge, theta = np.zeros(n), np.full(n, np.nan)
+        if n:
+            self._prev = (x[-1], y[-1], z[-1], force[-1])
+            self._prev_face = int(face[-1])
+            self._prev_point = pts[-1].copy()
+        return ShapeBlock(z, face, force, fsq, inten, edge, theta)
+
+
+class ShapeDrive:
+    """Drive-rate processor: ``process(intensity, tick, load, touch_age) -> (drive, target)``.
+
+    All inputs (m,) float at the drive rate: held area intensity (0 = silent), tick
+    intensity at tick onsets, finger load (N) and age (s) of the freshest touch sample.
+    Returns the drive (m,) V after carrier and safety stage, and the target added friction
+    (m,) N of the grains.
+    """
+
+    def __init__(self, config: ShapeConfig | None = None):
+        cfg = config or ShapeConfig()
+        self.config = cfg
+        self.drive_rate = int(cfg.drive_rate)
+        self.alpha = float(cfg.alpha if cfg.alpha is not None else cfg.display.calibrated_alpha)
+        self.device = cfg.device if cfg.device is not None else display_device_curve(cfg)
+        self.grains = GrainPlayer(cfg.grain, self.drive_rate, self.device, seed=cfg.seed)
+        self.carrier = PolarityCarrier(cfg.carrier, self.drive_rate)
+        self.safety = SafetyStage(self.drive_rate, cfg.limits)
+        self.reset()
+
+    def reset(self) -> None:
+        self.grains.reset()
+        self.carrier.reset()
+        self.safety.reset()
+
+    def process(self, intensity, tick, load, touch_age):
+        target = self.grains.process(intensity, tick)
+        envelope = self.alpha * np.sqrt(np.maximum(target, 0.0))
+        drive = self.safety.process(self.carrier.process(envelope), load, touch_age)
+        return drive, target
+
+
+@dataclass
+class ShapeResult:
+    """One shape render. Touch-rate arrays (n,): t (s, from 0), x, y (m), load (N), z (hit
+    height, NaN off the mesh), face (-1 off), force (N lateral), fsq, intensity ([0.3, 1]),
+    edge (tick Ie, 0 where none), theta (deg). Drive-rate arrays (m,): t_drive, drive (V,
+    after safety), target (N). friction_sim (k,) N at ``model_rate`` from the simulated
+    display."""
+
+    mesh: str
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    load: np.ndarray
+    z: np.ndarray
+    face: np.ndarray
+    force: np.ndarray
+    fsq: np.ndarray
+    intensity: np.ndarray
+    edge: np.ndarray
+    theta: np.ndarray
+    t_drive: np.ndarray
+    drive: np.ndarray
+    target: np.ndarray
+    friction_sim: np.ndarray
+    model_rate: int
+    drive_rate: int
+    calibration: ShapeCalibration
+    config: ShapeConfig
+    theta_min: float
+    safety: SafetyCounters
+    trajectory_name: str = ""
+    surface: TopSurface | None = None
+
+    @property
+    def on_mesh(self) -> np.ndarray:
+        return self.face >= 0
+
+    @property
+    def n_ticks(self) -> int:
+        return int(np.count_nonzero(self.edge > 0))
+
+    def summary(self) -> dict:
+        s = self.safety
+        on = self.on_mesh
+        return {
+            "mesh": self.mesh,
+            "trajectory": self.trajectory_name,
+            "samples": int(self.t.size),
+            "duration_s": float(self.t[-1]) if self.t.size else 0.0,
+            "on_mesh_fraction": float(on.mean()) if on.size else 0.0,
+            "fsq_range": [self.calibration.fmin, self.calibration.fmax],
+            "calibration_method": self.calibration.method,
+            "fz_n": self.config.fz,
+            "grain": self.config.grain,
+            "edge_threshold_deg": self.config.edge_threshold_deg,
+            "theta_min_deg": self.theta_min,
+            "ticks": self.n_ticks,
+            "tick_intensities": [float(v) for v in self.edge[self.edge > 0]],
+            "force_range_n": [float(np.min(self.force)), float(np.max(self.force))] if self.force.size else [0.0, 0.0],
+            "intensity_range": [float(np.min(self.intensity)), float(np.max(self.intensity))] if self.intensity.size else [0.0, 0.0],
+            "saturated_fraction": float(np.mean((self.fsq <= self.calibration.fmin) | (self.fsq >= self.calibration.fmax)))
+            if self.fsq.size else 0.0,
+            "drive_rate_hz": self.drive_rate,
+            "carrier_hz": self.config.carrier,
+            "max_abs_voltage": float(np.max(np.abs(self.drive))) if self.drive.size else 0.0,
+            "safety": {"samples": s.samples, "clamped": s.clamped, "rise_limited": s.rise_limited,
+                       "faults": s.faults, "lifted": s.lifted, "watchdog": s.watchdog},
+        }
+
+    def plot(self, fig=None):
+        """Height along the path, lateral force, intensity and edge ticks, and a top view
+        (matplotlib Figure)."""
+        from surfhap.report.shape_figures import plot_shape_result
+
+        return plot_shape_result(self, fig=fig)
+
+
+def render_shape(surface: TopSurface, trajectory: Trajectory, calibration: ShapeCalibration | None = None,
+                 config: ShapeConfig | None = None, *, block_seconds: float = 1.0,
+                 progress: Callable[[float], None] | None = None) -> ShapeResult:
+    """Render ``trajectory`` over ``surface`` on the simulated display.
+
+    Without ``calibration`` the Fsq range is measured by simulated scans first
+    (:func:`surfhap.shape.calibration.calibrate`, default plan).
+    """
+    cfg = config or ShapeConfig()
+    cal = calibration if calibration is not None else calibrate(surface, fz=cfg.fz)
+    renderer = ShapeRenderer(surface, cal, cfg)
+    drive_proc = ShapeDrive(cfg)
+    display = SimulatedDisplay(cfg.display, cfg.drive_rate, cfg.model_rate)
+    t = trajectory.t - trajectory.t[0]
+    touching = trajectory.load > cfg.limits.lift_threshold
+    # touch rate, in blocks (as a live loop would deliver them)
+    n = t.size
+    rate = trajectory.sensor_rate
+    blk = max(1, int(round(block_seconds * rate)))
+    parts = [renderer.process(trajectory.x[s:s + blk], trajectory.y[s:s + blk], touching[s:s + blk])
+             for s in range(0, n, blk)]
+    out = ShapeBlock(*(np.concatenate([getattr(p, f) for p in parts]) for f in ShapeBlock._fields))
+    # drive rate: hold the latest touch sample; ticks start at the first drive sample after it
+    fs = cfg.drive_rate
+    m = int(np.floor(t[-1] * fs + 1e-9)) + int(round(0.05 * fs))  # 50 ms tail for the last grain
+    t_drive = np.arange(m) / fs
+    k = np.searchsorted(t, t_drive + 1e-12, side="right") - 1  # latest touch sample, -1 before the first
+    kk = np.clip(k, 0, None)
+    valid = k >= 0
+    inten_d = np.where(valid & touching[kk], out.intensity[kk], 0.0)
+    load_d = np.where(valid, trajectory.load[kk], 0.0)
+    age_d = np.where(valid, t_drive - t[kk], np.inf)
+    tick_d = np.zeros(m)
+    onset = np.ceil(t * fs - 1e-9).astype(np.int64)
+    sel = (out.edge > 0) & (onset < m)
+    tick_d[onset[sel]] = out.edge[sel]
+    block_d = max(1, int(round(block_seconds * fs)))
+    drives, targets, frictions = [], [], []
+    for s in range(0, m, block_d):
+        sl = slice(s, min(m, s + block_d))
+        d, tg = drive_proc.process(inten_d[sl], tick_d[sl], load_d[sl], age_d[sl])
+        drives.append(d)
+        targets.append(tg)
+        frictions.append(display.process(d, load_d[sl]))
+        if progress is not None:
+            progress(min(m, s + block_d) / m)
+    drive = np.concatenate(drives) if drives else np.zeros(0)
+    return ShapeResult(
+        mesh=surface.name, t=t, x=trajectory.x.copy(), y=trajectory.y.copy(), load=trajectory.load.copy(),
+        z=out.z, face=out.face, force=out.force, fsq=out.fsq, intensity=out.intensity, edge=out.edge,
+        theta=out.theta, t_drive=t_drive, drive=drive, target=np.concatenate(targets) if targets else np.zeros(0),
+        friction_sim=np.concatenate(frictions) if frictions else np.zeros(0), model_rate=int(cfg.model_rate),
+        drive_rate=int(fs), calibration=cal, config=cfg, theta_min=renderer.theta_min,
+        safety=drive_proc.safety.counters, trajectory_name=trajectory.name, surface=surface,
+    )

@@ -1,0 +1,130 @@
+"""Edge emphasis (Kim et al. 2017, Sec. 4.3, eq. 10-11).
+
+Each time the finger's hit point moves from face f1 to another face f2, the dihedral angle
+theta between the two faces is computed from their normals. Seen from above (normals oriented
+up, the side a finger touches), with phi the angle between the normals:
+
+* the edge is *convex* when the surface bends down, i.e. ``(n1 - n2) . (P2 - P1) < 0``
+  (P2 lies under the plane of f1 and P1 under the plane of f2); then theta = 180 deg - phi;
+* otherwise it is concave (theta = 180 deg + phi) and, as in the paper, ignored ("concave
+  ones are not reachable in reality").
+
+A convex edge of angle theta has sharpness ``S = -(theta - 180) / (180 - theta_min)``
+(eq. 10), with theta_min the smallest convex dihedral angle of the object, and is played as a
+tick of intensity ``Ie = 0.7 S + 0.3`` (eq. 11).
+
+Which edges tick: the paper highlights every convex edge and marks those with theta < 135 deg
+as "relatively sharp" (Fig. 10). On a finely tessellated smooth surface every face change is
+a slightly convex edge, which would turn a smooth bump into a stream of weak ticks, so
+surfhap ticks only for edges with theta <= ``threshold_deg``, by default those 135 deg; pass
+``threshold_deg=180`` for every convex edge, as in the paper's text. theta_min is measured
+over adjacent pairs of faces that a finger can reach from above (see
+:attr:`TopSurface.top_faces`); when the object has no convex edge it is 0 deg. S is clipped
+to [0, 1] (non-adjacent faces hit in consecutive frames can bend more than any single edge).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "EDGE_THRESHOLD_DEG",
+    "FLAT_TOLERANCE_DEG",
+    "dihedral_angles",
+    "sharpness",
+    "tick_intensity",
+    "edge_ticks",
+    "smallest_convex_dihedral",
+]
+
+EDGE_THRESHOLD_DEG = 135.0  # Kim et al. Fig. 10: convex edges with theta < 135 deg are "relatively sharp"
+FLAT_TOLERANCE_DEG = 1e-4  # deg; normals closer than this are coplanar (float noise of arccos near 1 is ~1e-6 deg)
+
+
+def dihedral_angles(n1: np.ndarray, n2: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Dihedral angle between face pairs seen from above.
+
+    n1, n2 : (n, 3) float unit normals oriented up of the first and second face.
+    p1, p2 : (n, 3) float points on the first and second face (hit points or centroids).
+    Returns ``(theta (n,) float degrees in [0, 360], convex (n,) bool)``; coplanar pairs
+    get theta = 180 and convex = False.
+    """
+    n1 = np.asarray(n1, dtype=float)
+    n2 = np.asarray(n2, dtype=float)
+    cosphi = np.clip(np.einsum("ij,ij->i", n1, n2), -1.0, 1.0)
+    phi = np.degrees(np.arccos(cosphi))
+    bend = np.einsum("ij,ij->i", n1 - n2, np.asarray(p2, dtype=float) - np.asarray(p1, dtype=float))
+    flat = ~(phi > FLAT_TOLERANCE_DEG)
+    convex = (bend < 0) & ~flat
+    theta = np.where(flat, 180.0, np.where(convex, 180.0 - phi, 180.0 + phi))
+    return theta, convex
+
+
+def sharpness(theta: np.ndarray, theta_min: float) -> np.ndarray:
+    """Eq. 10: ``S = -(theta - 180) / (180 - theta_min)``, clipped to [0, 1]. theta in degrees."""
+    span = 180.0 - float(theta_min)
+    if not span > 0:
+        raise ValueError(f"theta_min must be below 180 deg, got {theta_min}")
+    return np.clip(-(np.asarray(theta, dtype=float) - 180.0) / span, 0.0, 1.0)
+
+
+def tick_intensity(s: np.ndarray) -> np.ndarray:
+    """Eq. 11: ``Ie = 0.7 S + 0.3``, in [0.3, 1.0] for S in [0, 1]."""
+    return 0.7 * np.clip(np.asarray(s, dtype=float), 0.0, 1.0) + 0.3
+
+
+def edge_ticks(face: np.ndarray, points: np.ndarray, up_normals: np.ndarray, theta_min: float, *,
+               threshold_deg: float = EDGE_THRESHOLD_DEG, prev: tuple[int, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Edge ticks along a sequence of hits.
+
+    face       : (n,) int hit faces (-1 off the mesh).
+    points     : (n, 3) float hit points.
+    up_normals : (nf, 3) float face normals oriented up.
+    theta_min  : smallest convex dihedral angle of the object, degrees.
+    prev       : (face, point (3,)) of the hit before this block, or None.
+    Returns ``(tick (n,) float, theta (n,) float)``: the tick intensity Ie where a convex
+    edge with theta <= threshold_deg was crossed since the previous sample (0 elsewhere), and
+    the dihedral angle of every face change (NaN where the face did not change).
+    """
+    face = np.asarray(face, dtype=np.int64)
+    pts = np.asarray(points, dtype=float)
+    n = face.shape[0]
+    if prev is None:
+        f_prev = np.concatenate(([-1], face[:-1])) if n else face
+        p_prev = np.concatenate((np.full((1, 3), np.nan), pts[:-1])) if n else pts
+    else:
+        f_prev = np.concatenate(([int(prev[0])], face[:-1])) if n else face
+        p_prev = np.concatenate((np.asarray(prev[1], dtype=float).reshape(1, 3), pts[:-1])) if n else pts
+    change = (face >= 0) & (f_prev >= 0) & (face != f_prev)
+    tick = np.zeros(n)
+    theta_all = np.full(n, np.nan)
+    if not np.any(change):
+        return tick, theta_all
+    k = np.nonzero(change)[0]
+    theta, convex = dihedral_angles(up_normals[f_prev[k]], up_normals[face[k]], p_prev[k], pts[k])
+    theta_all[k] = theta
+    sel = convex & (theta <= threshold_deg)
+    tick[k[sel]] = tick_intensity(sharpness(theta[sel], theta_min))
+    return tick, theta_all
+
+
+def smallest_convex_dihedral(surface) -> float:
+    """theta_min (degrees) of a :class:`~surfhap.shape.topsurface.TopSurface`: the smallest
+    convex dihedral angle between adjacent faces that both lie on the top surface; 0.0 if
+    there is none."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(surface.vertices, surface.faces, process=False, validate=False)
+    adj = np.asarray(mesh.face_adjacency, dtype=np.int64)
+    if adj.size == 0:
+        return 0.0
+    top = surface.top_faces
+    adj = adj[top[adj[:, 0]] & top[adj[:, 1]]]
+    if adj.size == 0:
+        return 0.0
+    nrm = surface.up_normals
+    cen = surface.centroids
+    theta, convex = dihedral_angles(nrm[adj[:, 0]], nrm[adj[:, 1]], cen[adj[:, 0]], cen[adj[:, 1]])
+    if not np.any(convex):
+        return 0.0
+    return float(theta[convex].min())

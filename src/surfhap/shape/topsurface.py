@@ -1,0 +1,354 @@
+"""The top-surface index: vertical rays from touch points onto a triangle mesh.
+
+Kim et al. (2017, Sec. 4.1) map a touch point (x, y) to the ray from (x, y, +inf) straight
+down (-z) and keep the hit with the greatest height. :class:`TopSurface` answers exactly
+that question, for one point or for a whole trajectory at once.
+
+How it works: the triangles are projected onto the xy plane and binned into a uniform grid
+(built once per mesh, O(faces)). A query visits the triangles of its cell only, highest
+first (each cell is sorted by the triangles' top z), and stops as soon as no remaining
+triangle can rise above the best hit. The point-in-triangle test uses edge functions that are
+evaluated with the edge's vertices in a canonical order (lower vertex index first), so the
+two triangles sharing an edge compute bit-identical values of opposite sign: a point on a
+shared edge is never lost in a crack between them (a watertight test). Heights are the
+barycentric interpolation of the triangle's vertex heights, i.e. the exact intersection of
+the vertical ray with the triangle's plane.
+
+Triangles whose xy projection has zero area (vertical walls) are never hit by a vertical ray
+except along their edges, where their neighbours answer; they are skipped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from surfhap.errors import MeshFormatError
+
+__all__ = ["TopSurface", "TopHits", "build_grid", "query_grid"]
+
+# Largest number of grid cells (memory bound: 8 bytes per cell for the CSR offsets).
+_MAX_CELLS = 4_000_000
+
+
+class TopHits(NamedTuple):
+    """Hits of vertical rays: z (n,) float height (NaN where the ray misses the mesh) and
+    face (n,) int64 index of the hit triangle (-1 where it misses)."""
+
+    z: np.ndarray
+    face: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Grid:
+    x0: float
+    y0: float
+    inv_cw: float  # 1 / cell width
+    inv_ch: float  # 1 / cell height
+    nx: int
+    ny: int
+    start: np.ndarray  # (nx*ny + 1,) int64 CSR offsets
+    items: np.ndarray  # (k,) int64 face indices, each cell sorted by descending zmax
+
+
+@numba.njit(cache=True, nogil=True)
+def _count_cells(bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, counts):
+    for f in range(bx0.shape[0]):
+        if not ok[f]:
+            continue
+        i0 = min(max(int((bx0[f] - x0) * inv_cw), 0), nx - 1)
+        i1 = min(max(int((bx1[f] - x0) * inv_cw), 0), nx - 1)
+        j0 = min(max(int((by0[f] - y0) * inv_ch), 0), ny - 1)
+        j1 = min(max(int((by1[f] - y0) * inv_ch), 0), ny - 1)
+        for j in range(j0, j1 + 1):
+            for i in range(i0, i1 + 1):
+                counts[j * nx + i] += 1
+
+
+@numba.njit(cache=True, nogil=True)
+def _fill_cells(order, bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, fill, items):
+    # faces are visited in descending zmax order, so each cell's list comes out sorted
+    for k in range(order.shape[0]):
+        f = order[k]
+        if not ok[f]:
+            continue
+        i0 = min(max(int((bx0[f] - x0) * inv_cw), 0), nx - 1)
+        i1 = min(max(int((bx1[f] - x0) * inv_cw), 0), nx - 1)
+        j0 = min(max(int((by0[f] - y0) * inv_ch), 0), ny - 1)
+        j1 = min(max(int((by1[f] - y0) * inv_ch), 0), ny - 1)
+        for j in range(j0, j1 + 1):
+            for i in range(i0, i1 + 1):
+                c = j * nx + i
+                items[fill[c]] = f
+                fill[c] += 1
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _hit_one(px, py, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items):
+    best_z = -np.inf
+    best_f = -1
+    fx = (px - x0) * inv_cw
+    fy = (py - y0) * inv_ch
+    if not (fx >= 0.0 and fx <= nx and fy >= 0.0 and fy <= ny):  # also rejects NaN and inf
+        return best_z, best_f
+    i = int(fx)
+    j = int(fy)
+    # points exactly on the far border belong to the last cell
+    if i == nx:
+        i = nx - 1
+    if j == ny:
+        j = ny - 1
+    c = j * nx + i
+    for k in range(start[c], start[c + 1]):
+        f = items[k]
+        if zmax[f] < best_z:
+            break
+        a = faces[f, 0]
+        b = faces[f, 1]
+        d = faces[f, 2]
+        ax = verts[a, 0]
+        ay = verts[a, 1]
+        bx = verts[b, 0]
+        by = verts[b, 1]
+        dx = verts[d, 0]
+        dy = verts[d, 1]
+        # edge functions with canonical vertex order; esign restores the face's orientation
+        if a < b:
+            e2 = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+        else:
+            e2 = -((ax - bx) * (py - by) - (ay - by) * (px - bx))
+        if b < d:
+            e0 = (dx - bx) * (py - by) - (dy - by) * (px - bx)
+        else:
+            e0 = -((bx - dx) * (py - dy) - (by - dy) * (px - dx))
+        if d < a:
+            e1 = (ax - dx) * (py - dy) - (ay - dy) * (px - dx)
+        else:
+            e1 = -((dx - ax) * (py - ay) - (dy - ay) * (px - ax))
+        s = esign[f]
+        e0 *= s
+        e1 *= s
+        e2 *= s
+        if e0 < 0.0 or e1 < 0.0 or e2 < 0.0:
+            continue
+        tot = e0 + e1 + e2
+        if tot <= 0.0:
+            continue
+        z = (e0 * verts[a, 2] + e1 * verts[b, 2] + e2 * verts[d, 2]) / tot
+        if z > best_z:
+            best_z = z
+            best_f = f
+    return best_z, best_f
+
+
+@numba.njit(cache=True, nogil=True)
+def _query_kernel(xy, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items, z_out, f_out):
+    for n in range(xy.shape[0]):
+        z, f = _hit_one(xy[n, 0], xy[n, 1], verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items)
+        if f < 0:
+            z_out[n] = np.nan
+        else:
+            z_out[n] = z
+        f_out[n] = f
+
+
+@numba.njit(cache=True, nogil=True)
+def _query_point(px, py, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items):
+    z, f = _hit_one(px, py, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items)
+    if f < 0:
+        return np.nan, f
+    return z, f
+
+
+def _validate(vertices, faces, source):
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise MeshFormatError(f"vertices must be an (n, 3) array, got shape {v.shape}", source=source)
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise MeshFormatError(f"faces must be an (m, 3) array of triangles, got shape {f.shape}", source=source)
+    if f.shape[0] == 0 or v.shape[0] < 3:
+        raise MeshFormatError("the mesh is empty (no triangles)", source=source)
+    if not np.all(np.isfinite(v)):
+        raise MeshFormatError("vertex coordinates contain NaN or inf", source=source)
+    if f.min() < 0 or f.max() >= v.shape[0]:
+        raise MeshFormatError(f"face indices outside 0..{v.shape[0] - 1}", source=source)
+    return v, f
+
+
+def build_grid(vertices: np.ndarray, faces: np.ndarray, cells_per_face: float = 1.0):
+    """Bin the xy projections of the triangles into a uniform grid.
+
+    vertices (nv, 3) float, faces (nf, 3) int. Returns ``(grid, esign, zmax)``: the grid,
+    the orientation sign (nf,) float of each triangle's xy projection (0 for vertical ones,
+    which are left out), and each triangle's highest z (nf,) float.
+    """
+    v = vertices
+    tri = v[faces]  # (nf, 3, 3)
+    txy = tri[:, :, :2]
+    area2 = ((txy[:, 1, 0] - txy[:, 0, 0]) * (txy[:, 2, 1] - txy[:, 0, 1])
+             - (txy[:, 1, 1] - txy[:, 0, 1]) * (txy[:, 2, 0] - txy[:, 0, 0]))
+    esign = np.sign(area2)
+    ok = esign != 0
+    zmax = tri[:, :, 2].max(axis=1)
+    bx0 = txy[:, :, 0].min(axis=1)
+    bx1 = txy[:, :, 0].max(axis=1)
+    by0 = txy[:, :, 1].min(axis=1)
+    by1 = txy[:, :, 1].max(axis=1)
+    if np.any(ok):
+        x0, x1 = float(bx0[ok].min()), float(bx1[ok].max())
+        y0, y1 = float(by0[ok].min()), float(by1[ok].max())
+    else:
+        x0 = x1 = y0 = y1 = 0.0
+    w = max(x1 - x0, 1e-300)
+    h = max(y1 - y0, 1e-300)
+    n_ok = max(int(ok.sum()), 1)
+    target = min(max(cells_per_face * n_ok, 1.0), _MAX_CELLS)
+    # cells of equal aspect; at least one cell per axis
+    cell = np.sqrt(w * h / target) if w > 1e-300 and h > 1e-300 else max(w, h) / target
+    nx = int(min(max(np.ceil(w / cell), 1), _MAX_CELLS))
+    ny = int(min(max(np.ceil(h / cell), 1), max(_MAX_CELLS // nx, 1)))
+    inv_cw = nx / w
+    inv_ch = ny / h
+    counts = np.zeros(nx * ny, dtype=np.int64)
+    _count_cells(bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, counts)
+    start = np.zeros(nx * ny + 1, dtype=np.int64)
+    np.cumsum(counts, out=start[1:])
+    items = np.empty(int(start[-1]), dtype=np.int64)
+    fill = start[:-1].copy()
+    order = np.argsort(-zmax, kind="stable").astype(np.int64)
+    _fill_cells(order, bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, fill, items)
+    grid = _Grid(x0, y0, float(inv_cw), float(inv_ch), nx, ny, start, items)
+    return grid, np.ascontiguousarray(esign), np.ascontiguousarray(zmax)
+
+
+def query_grid(xy: np.ndarray, vertices: np.ndarray, faces: np.ndarray, grid: _Grid, esign: np.ndarray,
+               zmax: np.ndarray) -> TopHits:
+    """Highest hits of vertical rays at ``xy`` (n, 2) float; see :class:`TopHits`."""
+    xy = np.ascontiguousarray(xy, dtype=np.float64)
+    if xy.ndim != 2 or xy.shape[1] != 2:
+        raise ValueError(f"xy must be an (n, 2) array, got shape {xy.shape}")
+    n = xy.shape[0]
+    z = np.empty(n)
+    f = np.empty(n, dtype=np.int64)
+    _query_kernel(xy, vertices, faces, esign, zmax, grid.x0, grid.y0, grid.inv_cw, grid.inv_ch, grid.nx, grid.ny,
+                  grid.start, grid.items, z, f)
+    return TopHits(z, f)
+
+
+class TopSurface:
+    """A triangle mesh seen from above: ``query(xy)`` gives the highest hit under each point.
+
+    vertices (nv, 3) float and faces (nf, 3) int (triangles). Units are the mesh's own
+    (SI, metres, by default throughout surfhap). The index is built once, at construction.
+    """
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, name: str = "mesh", source: str | None = None):
+        v, f = _validate(vertices, faces, source or name)
+        self.vertices = v
+        self.faces = f
+        self.name = name
+        self.source = source
+        self._grid, self._esign, self._zmax = build_grid(v, f)
+        if not np.any(self._esign != 0):
+            raise MeshFormatError("no triangle faces upward or downward: nothing can be touched from above",
+                                  source=source or name)
+        g = self._grid
+        self._args = (v, f, self._esign, self._zmax, g.x0, g.y0, g.inv_cw, g.inv_ch, g.nx, g.ny, g.start, g.items)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_file(cls, path: str | Path, *, up: str = "z", scale: float = 1.0, size: float | None = None) -> "TopSurface":
+        """Load OBJ, STL, PLY, glTF/GLB, OFF... through trimesh; see
+        :func:`surfhap.exchange.mesh.read_mesh` for ``up``, ``scale`` and ``size``."""
+        from surfhap.exchange.mesh import read_mesh
+
+        m = read_mesh(path, up=up, scale=scale, size=size)
+        return cls(m.vertices, m.faces, name=m.name, source=m.source)
+
+    @classmethod
+    def from_trimesh(cls, mesh, *, name: str | None = None) -> "TopSurface":
+        """From a ``trimesh.Trimesh`` (or a Scene, whose geometry is concatenated)."""
+        from surfhap.exchange.mesh import arrays_from_trimesh
+
+        v, f = arrays_from_trimesh(mesh, source=name or "trimesh mesh")
+        return cls(v, f, name=name or "mesh")
+
+    # ------------------------------------------------------------------ queries
+    def query(self, xy: np.ndarray) -> TopHits:
+        """Highest hits under the points ``xy`` (n, 2) float: ``TopHits(z (n,), face (n,))``,
+        NaN / -1 where the vertical ray misses the mesh."""
+        return query_grid(xy, *self._args[:2], self._grid, self._esign, self._zmax)
+
+    def query_point(self, x: float, y: float) -> tuple[float, int]:
+        """One point: ``(z, face)``, ``(nan, -1)`` off the mesh. The cheapest call for a live loop."""
+        return _query_point(float(x), float(y), *self._args)
+
+    def hit_points(self, xy: np.ndarray) -> np.ndarray:
+        """(n, 3) float hit points (x, y, z); z is NaN off the mesh."""
+        xy = np.asarray(xy, dtype=float)
+        z, _ = self.query(xy)
+        return np.column_stack([xy, z])
+
+    def normals_of(self, face: np.ndarray) -> np.ndarray:
+        """(n, 3) unit normals, oriented upward (nz >= 0), of the faces ``face`` (n,) int;
+        NaN rows for -1."""
+        face = np.asarray(face, dtype=np.int64)
+        out = self.up_normals[np.clip(face, 0, None)]
+        out = np.where((face >= 0)[:, None], out, np.nan)
+        return out
+
+    # ------------------------------------------------------------------ geometry
+    @cached_property
+    def normals(self) -> np.ndarray:
+        """(nf, 3) unit face normals from the winding (zero rows for degenerate faces)."""
+        tri = self.vertices[self.faces]
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        norm = np.linalg.norm(n, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            n = np.where(norm[:, None] > 0, n / norm[:, None], 0.0)
+        return n
+
+    @cached_property
+    def up_normals(self) -> np.ndarray:
+        """(nf, 3) unit face normals flipped to point up (nz >= 0): the side a finger touches."""
+        n = self.normals
+        return np.where(n[:, 2:3] < 0, -n, n)
+
+    @cached_property
+    def centroids(self) -> np.ndarray:
+        """(nf, 3) face centroids."""
+        return self.vertices[self.faces].mean(axis=1)
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """(2, 3) float: lower and upper corner of the bounding box."""
+        return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+
+    @property
+    def n_faces(self) -> int:
+        return int(self.faces.shape[0])
+
+    @cached_property
+    def top_faces(self) -> np.ndarray:
+        """(nf,) bool: faces a finger can reach, i.e. the highest hit at their own centroid."""
+        _, f = self.query(self.centroids[:, :2])
+        top = np.zeros(self.n_faces, dtype=bool)
+        top[f[f >= 0]] = True
+        return top
+
+    @cached_property
+    def theta_min(self) -> float:
+        """Smallest convex dihedral angle (degrees) between adjacent top faces; the
+        θmin of Kim et al. eq. 10. 0.0 when the top surface has no convex edge."""
+        from surfhap.shape.edges import smallest_convex_dihedral
+
+        return smallest_convex_dihedral(self)
+
+    def __repr__(self) -> str:
+        return f"TopSurface({self.name!r}, {self.vertices.shape[0]} vertices, {self.n_faces} faces)"
