@@ -30,6 +30,8 @@ __all__ = [
     "FrictionSpec",
     "ARModelSpec",
     "TextureSpec",
+    "InterpolatedModelSpec",
+    "InterpolatedTextureSpec",
     "MaterialFile",
     "Material",
 ]
@@ -118,6 +120,54 @@ class TextureSpec(_Strict):
     provenance: Provenance
 
 
+class InterpolatedModelSpec(_Strict):
+    """One vertex of an interpolated ARMA bank (HaTT style): speed m/s, force N, AR and MA
+    line spectral frequencies (rad, strictly increasing in (0, pi)), excitation variance,
+    MA gain. A(z) = 1 + a_1 z^-1 + ..., y = -sum a_i y[n-i] + gain (e + sum b_j e[n-j])."""
+
+    speed: float = Field(ge=0, le=5, description="m/s")
+    force: float = Field(ge=0, le=100, description="N")
+    ar_lsf: list[float] = Field(min_length=1, max_length=400)
+    ma_lsf: list[float] = Field(default_factory=list, max_length=400)
+    variance: float = Field(ge=0)
+    gain: float = 1.0
+
+    @field_validator("ar_lsf", "ma_lsf")
+    @classmethod
+    def _increasing(cls, v: list[float]) -> list[float]:
+        if not all(math.isfinite(x) for x in v):
+            raise ValueError("line spectral frequencies must be finite")
+        if v and not (v[0] > 0 and v[-1] < math.pi and all(b > a for a, b in zip(v, v[1:]))):
+            raise ValueError("line spectral frequencies must increase strictly within (0, pi)")
+        return v
+
+
+class InterpolatedTextureSpec(_Strict):
+    """A texture of ARMA models interpolated over (speed, force) in the LSF domain
+    (:class:`surfhap.models.interpolated.InterpolatedARMABank`). Optional addition to
+    schema version 1: files without it are unchanged."""
+
+    kind: Literal["interpolated-arma"]
+    quantity: Literal["cof", "acceleration"]
+    sample_rate: float = Field(gt=0, le=100_000, description="model rate, Hz")
+    max_speed: float = Field(gt=0, le=5, description="m/s, clamp")
+    max_force: float = Field(gt=0, le=100, description="N, clamp")
+    triangles: list[tuple[int, int, int]] = Field(default_factory=list, description="0-based model indices")
+    models: list[InterpolatedModelSpec] = Field(min_length=1)
+    provenance: Provenance
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        p = {len(m.ar_lsf) for m in self.models}
+        q = {len(m.ma_lsf) for m in self.models}
+        if len(p) != 1 or len(q) != 1:
+            raise ValueError("all models of an interpolated bank need the same AR and MA orders")
+        k = len(self.models)
+        if any(not 0 <= i < k for t in self.triangles for i in t):
+            raise ValueError(f"triangle indices must be within 0..{k - 1}")
+        return self
+
+
 class MaterialFile(_Strict):
     """The JSON schema of a material file (version 1)."""
 
@@ -125,7 +175,7 @@ class MaterialFile(_Strict):
     name: str = Field(min_length=1, max_length=80)
     description: str = ""
     friction: FrictionSpec
-    texture: TextureSpec | None = None
+    texture: TextureSpec | InterpolatedTextureSpec | None = None
     notes: list[str] = Field(default_factory=list)
 
     @field_validator("name")
@@ -142,14 +192,14 @@ class Material:
 
     coulomb      : CoulombLaw or None (needed by the otake2021 and zhao methods).
     quasi_static : QuasiStaticLaw or None (needed by otake2022).
-    texture      : TextureBank or None (friction-only when None).
+    texture      : TextureBank, InterpolatedARMABank, or None (friction-only when None).
     spec         : the validated file contents, provenance included.
     """
 
     name: str
     coulomb: CoulombLaw | None
     quasi_static: QuasiStaticLaw | None
-    texture: TextureBank | None
+    texture: "TextureBank | InterpolatedARMABank | None"
     spec: MaterialFile
 
     @classmethod
@@ -159,7 +209,16 @@ class Material:
         qs = fr.quasi_static
         quasi = QuasiStaticLaw(qs.a, qs.b, qs.c, qs.d, qs.q) if qs else None
         texture = None
-        if spec.texture is not None:
+        if isinstance(spec.texture, InterpolatedTextureSpec):
+            from surfhap.models.interpolated import InterpolatedARMABank
+
+            t = spec.texture
+            texture = InterpolatedARMABank(
+                t.quantity, t.sample_rate, [m.speed for m in t.models], [m.force for m in t.models],
+                [m.ar_lsf for m in t.models], [m.ma_lsf for m in t.models], [m.variance for m in t.models],
+                [m.gain for m in t.models], [list(tri) for tri in t.triangles], t.max_speed, t.max_force,
+            )
+        elif spec.texture is not None:
             t = spec.texture
             texture = TextureBank(
                 t.quantity,

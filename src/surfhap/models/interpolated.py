@@ -1,0 +1,392 @@
+"""ARMA texture models interpolated over (scan speed, normal force) in the LSF domain.
+
+This is the model of the Penn Haptic Texture Toolkit (HaTT; Culbertson et al.) used by
+Zhao et al.: a set of ARMA models, each labelled with the speed and force of the recording
+segment it came from, a Delaunay triangulation over the (speed, force) vertices, and at
+render time::
+
+    1. clamp: speed to max_speed - 0.01 mm/s, force to max_force - 0.01 N; speeds below
+       0.05 mm/s and forces below 0.05 N are set to 0 (onto the zero-variance edge models);
+    2. find the triangle holding (speed, force), barycentric weights w (3,);
+    3. interpolate the AR and MA line spectral frequencies, the excitation variance and the
+       MA gain linearly with w (stable by construction, see :mod:`surfhap.signal.lsf`);
+    4. y[n] = -sum_i a_i y[n-i] + gain (e[n] + sum_j b_j e[n-j]),  e ~ N(0, variance).
+
+The output and excitation histories are kept across model changes (HaTT keeps one history
+per texture and only swaps the coefficients). A query outside every triangle (possible when
+the hull is not a rectangle) uses the nearest vertex's model.
+
+The bank provides the texture protocol of :class:`surfhap.models.material.Material`:
+``quantity``, ``sample_rate`` and ``synthesizer(seed)`` whose ``process(speed, load)``
+takes speed (m/s) and normal force (N) blocks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from surfhap.signal.lsf import _lsf_to_poly_into, lsf_is_valid, lsf_to_poly
+
+__all__ = ["InterpolatedARMABank", "InterpolatedModel", "InterpolatedSynthesizer", "MIN_SPEED", "MIN_FORCE"]
+
+#: m/s and N: below these the query is set to 0 (HaTT)
+MIN_SPEED = 0.05e-3
+MIN_FORCE = 0.05
+#: clamp margins below the maxima (HaTT: 0.01 mm/s and 0.01 N)
+SPEED_MARGIN = 0.01e-3
+FORCE_MARGIN = 0.01
+
+
+@dataclass(frozen=True)
+class InterpolatedModel:
+    """One interpolated model: A (p + 1,) and B (q + 1,) monic polynomials, variance, gain,
+    the triangle (-1 when the nearest vertex was used) and the weights per vertex (3,)."""
+
+    ar_poly: np.ndarray
+    ma_poly: np.ndarray
+    variance: float
+    gain: float
+    triangle: int
+    vertices: np.ndarray
+    weights: np.ndarray
+
+    def psd(self, sample_rate: float, freqs: np.ndarray) -> np.ndarray:
+        """One-sided PSD: 2 var gain^2 |B|^2 / |A|^2 / fs at freqs (m,) Hz."""
+        z = np.exp(-2j * np.pi * np.asarray(freqs, dtype=float) / sample_rate)
+        A = np.polyval(self.ar_poly[::-1], z)
+        B = np.polyval(self.ma_poly[::-1], z)
+        return 2.0 * self.variance * self.gain**2 * np.abs(B) ** 2 / np.abs(A) ** 2 / sample_rate
+
+
+def _triangle_transforms(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(t, 2, 2) inverse edge matrices for barycentric coordinates."""
+    out = np.empty((triangles.shape[0], 2, 2))
+    for k, (i, j, l) in enumerate(triangles):
+        m = np.array([[points[j, 0] - points[i, 0], points[l, 0] - points[i, 0]],
+                      [points[j, 1] - points[i, 1], points[l, 1] - points[i, 1]]])
+        det = np.linalg.det(m)
+        if abs(det) < 1e-300:
+            raise ValueError(f"triangle {k} ({i}, {j}, {l}) is degenerate")
+        out[k] = np.linalg.inv(m)
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _locate(x, y, pts, tris, inv, start):
+    """Triangle index and barycentric weights of (x, y); start: triangle to try first."""
+    nt = tris.shape[0]
+    for kk in range(nt + 1):
+        k = start if kk == 0 else kk - 1
+        if k < 0 or (kk > 0 and k == start):
+            continue
+        i0 = tris[k, 0]
+        dx = x - pts[i0, 0]
+        dy = y - pts[i0, 1]
+        l1 = inv[k, 0, 0] * dx + inv[k, 0, 1] * dy
+        l2 = inv[k, 1, 0] * dx + inv[k, 1, 1] * dy
+        l0 = 1.0 - l1 - l2
+        eps = -1e-9
+        if l0 >= eps and l1 >= eps and l2 >= eps:
+            return k, l0, l1, l2
+    return -1, 0.0, 0.0, 0.0
+
+
+@numba.njit(cache=True, nogil=True)
+def _nearest(x, y, pts, scale_x, scale_y):
+    best = 0
+    bd = 1e300
+    for i in range(pts.shape[0]):
+        d = ((x - pts[i, 0]) / scale_x) ** 2 + ((y - pts[i, 1]) / scale_y) ** 2
+        if d < bd:
+            bd = d
+            best = i
+    return best
+
+
+@numba.njit(cache=True, nogil=True)
+def _synth_kernel(speed, force, z, pts, tris, inv, ar_lsf, ma_lsf, var, gain, limits, yh, eh, state, out,
+                  lsf_a, lsf_b, poly_a, poly_b, wa1, wa2, wb1, wb2, tri_out):
+    # limits: max_speed, max_force, min_speed, min_force, scale_x, scale_y
+    # state: [last_tri, last_x, last_y, cur_var, cur_gain, ypos, epos]
+    n = speed.shape[0]
+    p = ar_lsf.shape[1]
+    q = ma_lsf.shape[1]
+    last_tri = int(state[0])
+    last_x = state[1]
+    last_y = state[2]
+    cur_var = state[3]
+    cur_gain = state[4]
+    for t in range(n):
+        x = abs(speed[t])
+        yv = force[t]
+        if not (x == x):
+            x = 0.0
+        if not (yv == yv):
+            yv = 0.0
+        if x > limits[0]:
+            x = limits[0]
+        if yv > limits[1]:
+            yv = limits[1]
+        if x < limits[2]:
+            x = 0.0
+        if yv < limits[3]:
+            yv = 0.0
+        if x != last_x or yv != last_y:
+            k, l0, l1, l2 = _locate(x, yv, pts, tris, inv, last_tri)
+            if k >= 0:
+                i0 = tris[k, 0]
+                i1 = tris[k, 1]
+                i2 = tris[k, 2]
+                last_tri = k
+            else:
+                i0 = _nearest(x, yv, pts, limits[4], limits[5])
+                i1 = i0
+                i2 = i0
+                l0 = 1.0
+                l1 = 0.0
+                l2 = 0.0
+            for j in range(p):
+                lsf_a[j] = l0 * ar_lsf[i0, j] + l1 * ar_lsf[i1, j] + l2 * ar_lsf[i2, j]
+            for j in range(q):
+                lsf_b[j] = l0 * ma_lsf[i0, j] + l1 * ma_lsf[i1, j] + l2 * ma_lsf[i2, j]
+            cur_var = l0 * var[i0] + l1 * var[i1] + l2 * var[i2]
+            cur_gain = l0 * gain[i0] + l1 * gain[i1] + l2 * gain[i2]
+            _lsf_to_poly_into(lsf_a, poly_a, wa1, wa2)
+            _lsf_to_poly_into(lsf_b, poly_b, wb1, wb2)
+            last_x = x
+            last_y = yv
+            tri_out[t] = k
+        else:
+            tri_out[t] = last_tri
+        e = np.sqrt(max(cur_var, 0.0)) * z[t]
+        acc = 0.0
+        for i in range(p):
+            acc -= poly_a[i + 1] * yh[i]
+        ma = e
+        for j in range(q):
+            ma += poly_b[j + 1] * eh[j]
+        acc += cur_gain * ma
+        for i in range(p - 1, 0, -1):
+            yh[i] = yh[i - 1]
+        if p > 0:
+            yh[0] = acc
+        for j in range(q - 1, 0, -1):
+            eh[j] = eh[j - 1]
+        if q > 0:
+            eh[0] = e
+        out[t] = acc
+    state[0] = last_tri
+    state[1] = last_x
+    state[2] = last_y
+    state[3] = cur_var
+    state[4] = cur_gain
+
+
+@dataclass(frozen=True)
+class InterpolatedARMABank:
+    """LSF-interpolated ARMA models over (speed, force) (see the module docstring).
+
+    quantity    : "acceleration" (m/s^2; HaTT) or "cof".
+    sample_rate : model rate, Hz (HaTT: 1000).
+    speeds      : (k,) m/s and forces (k,) N of the vertices (one per model).
+    ar_lsf      : (k, p) rad; ma_lsf (k, q) rad (q may be 0).
+    variances   : (k,) excitation variances; gains (k,) MA gains.
+    triangles   : (t, 3) int, 0-based vertex indices.
+    max_speed   : m/s and max_force N, the clamp limits.
+    """
+
+    quantity: str
+    sample_rate: float
+    speeds: np.ndarray
+    forces: np.ndarray
+    ar_lsf: np.ndarray
+    ma_lsf: np.ndarray
+    variances: np.ndarray
+    gains: np.ndarray
+    triangles: np.ndarray
+    max_speed: float
+    max_force: float
+
+    def __post_init__(self):
+        conv = {
+            "speeds": np.asarray(self.speeds, dtype=float).reshape(-1),
+            "forces": np.asarray(self.forces, dtype=float).reshape(-1),
+            "variances": np.asarray(self.variances, dtype=float).reshape(-1),
+            "gains": np.asarray(self.gains, dtype=float).reshape(-1),
+        }
+        k = conv["speeds"].size
+        ar = np.asarray(self.ar_lsf, dtype=float).reshape(k, -1)
+        ma = np.asarray(self.ma_lsf, dtype=float).reshape(k, -1) if np.size(self.ma_lsf) else np.zeros((k, 0))
+        tris = np.asarray(self.triangles, dtype=np.int64).reshape(-1, 3)
+        for name, arr in conv.items():
+            if arr.size != k:
+                raise ValueError(f"{name} has {arr.size} values, expected {k} (one per model)")
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"{name} must be finite")
+        if self.quantity not in ("acceleration", "cof"):
+            raise ValueError(f"quantity must be 'acceleration' or 'cof', got {self.quantity!r}")
+        if not (np.isfinite(self.sample_rate) and self.sample_rate > 0):
+            raise ValueError("sample_rate must be positive")
+        if k < 1:
+            raise ValueError("an interpolated bank needs at least one model")
+        if np.any(conv["variances"] < 0):
+            raise ValueError("variances must be >= 0")
+        for i in range(k):
+            if not lsf_is_valid(ar[i]):
+                raise ValueError(f"model {i}: AR line spectral frequencies must increase strictly within (0, pi)")
+            if ma.shape[1] and not lsf_is_valid(ma[i]):
+                raise ValueError(f"model {i}: MA line spectral frequencies must increase strictly within (0, pi)")
+        if tris.size and (tris.min() < 0 or tris.max() >= k):
+            raise ValueError(f"triangle vertex indices must be within 0..{k - 1}")
+        if not (self.max_speed > 0 and self.max_force > 0):
+            raise ValueError("max_speed and max_force must be > 0")
+        pts = np.column_stack([conv["speeds"], conv["forces"]])
+        inv = _triangle_transforms(pts, tris) if tris.size else np.zeros((0, 2, 2))
+        for key, val in conv.items():
+            object.__setattr__(self, key, val)
+        object.__setattr__(self, "ar_lsf", np.ascontiguousarray(ar))
+        object.__setattr__(self, "ma_lsf", np.ascontiguousarray(ma))
+        object.__setattr__(self, "triangles", np.ascontiguousarray(tris))
+        object.__setattr__(self, "_pts", np.ascontiguousarray(pts))
+        object.__setattr__(self, "_inv", np.ascontiguousarray(inv))
+
+    # ---- protocol shared with TextureBank -------------------------------------------------
+    @property
+    def models(self) -> tuple:
+        """Empty: interpolated models have no reference-speed list (renderers that look for
+        ``models`` treat the bank as having no fixed-speed model)."""
+        return ()
+
+    @property
+    def ar_order(self) -> int:
+        return int(self.ar_lsf.shape[1])
+
+    @property
+    def ma_order(self) -> int:
+        return int(self.ma_lsf.shape[1])
+
+    @property
+    def max_order(self) -> int:
+        return max(self.ar_order, self.ma_order)
+
+    def synthesizer(self, seed=0) -> "InterpolatedSynthesizer":
+        return InterpolatedSynthesizer(self, seed=seed)
+
+    # ---- evaluation -----------------------------------------------------------------------
+    @property
+    def limits(self) -> np.ndarray:
+        sx = max(float(np.ptp(self.speeds)), 1e-6)
+        sy = max(float(np.ptp(self.forces)), 1e-6)
+        return np.array([self.max_speed - SPEED_MARGIN, self.max_force - FORCE_MARGIN, MIN_SPEED, MIN_FORCE, sx, sy])
+
+    def clamp(self, speed, force) -> tuple[np.ndarray, np.ndarray]:
+        """The HaTT clamp of (n,) speeds m/s and forces N (module docstring, step 1)."""
+        lim = self.limits
+        x = np.minimum(np.abs(np.asarray(speed, dtype=float)), lim[0])
+        y = np.minimum(np.asarray(force, dtype=float), lim[1])
+        return np.where(x < lim[2], 0.0, x), np.where(y < lim[3], 0.0, y)
+
+    def interpolate(self, speed: float, force: float) -> InterpolatedModel:
+        """The interpolated model at one (speed m/s, force N), after the clamp."""
+        x, y = (float(v[()]) for v in self.clamp(speed, force))
+        k, l0, l1, l2 = _locate(x, y, self._pts, self.triangles, self._inv, -1)
+        if k >= 0:
+            idx = self.triangles[k].copy()
+            w = np.array([l0, l1, l2])
+        else:
+            lim = self.limits
+            i = _nearest(x, y, self._pts, lim[4], lim[5])
+            idx = np.array([i, i, i])
+            w = np.array([1.0, 0.0, 0.0])
+        ar = w @ self.ar_lsf[idx]
+        ma = w @ self.ma_lsf[idx] if self.ma_order else np.zeros(0)
+        return InterpolatedModel(lsf_to_poly(ar), lsf_to_poly(ma), float(w @ self.variances[idx]), float(w @ self.gains[idx]),
+                                 int(k), idx, w)
+
+    def psd(self, speed: float, force: float, freqs: np.ndarray) -> np.ndarray:
+        """One-sided PSD (quantity^2/Hz) of the interpolated model at (speed, force)."""
+        return self.interpolate(speed, force).psd(self.sample_rate, freqs)
+
+    @classmethod
+    def from_models(cls, quantity, sample_rate, speeds, forces, ar_lsf, variances, ma_lsf=None, gains=None,
+                    triangles=None, max_speed=None, max_force=None) -> "InterpolatedARMABank":
+        """Build a bank; without ``triangles`` a Delaunay triangulation (scipy) is made in
+        coordinates scaled by the speed and force ranges."""
+        speeds = np.asarray(speeds, dtype=float)
+        forces = np.asarray(forces, dtype=float)
+        k = speeds.size
+        if triangles is None:
+            from scipy.spatial import Delaunay
+
+            pts = np.column_stack([speeds / max(np.ptp(speeds), 1e-12), forces / max(np.ptp(forces), 1e-12)])
+            triangles = Delaunay(pts).simplices if k >= 3 else np.zeros((0, 3), dtype=np.int64)
+        return cls(quantity, float(sample_rate), speeds, forces, np.asarray(ar_lsf, dtype=float),
+                   np.zeros((k, 0)) if ma_lsf is None else np.asarray(ma_lsf, dtype=float), np.asarray(variances, dtype=float),
+                   np.ones(k) if gains is None else np.asarray(gains, dtype=float), np.asarray(triangles),
+                   float(max_speed if max_speed is not None else speeds.max()),
+                   float(max_force if max_force is not None else forces.max()))
+
+
+class InterpolatedSynthesizer:
+    """Streaming synthesis over an :class:`InterpolatedARMABank` at its model rate.
+
+    ``process(speed, load)``: speed (n,) m/s and normal force (n,) N -> (n,) samples. The
+    model is re-interpolated whenever (speed, force) changes; histories persist across
+    changes and blocks. ``triangle`` holds the triangle used per sample of the last block
+    (-1: nearest vertex). Same seed, same output, whatever the block sizes.
+    """
+
+    def __init__(self, bank: InterpolatedARMABank, seed: int | np.random.Generator | None = 0, max_block: int = 1 << 16):
+        self.bank = bank
+        self._seed = seed
+        p, q = bank.ar_order, bank.ma_order
+        self.max_block = int(max_block)
+        self._yh = np.zeros(max(p, 1))
+        self._eh = np.zeros(max(q, 1))
+        self._state = np.zeros(7)
+        self._lsf_a = np.zeros(p)
+        self._lsf_b = np.zeros(q)
+        self._poly_a = np.zeros(p + 1)
+        self._poly_b = np.zeros(q + 1)
+        self._w = [np.zeros(p + 3), np.zeros(p + 3), np.zeros(q + 3), np.zeros(q + 3)]
+        self._noise = np.empty(self.max_block)
+        self._tri = np.empty(self.max_block, dtype=np.int64)
+        self._limits = bank.limits
+        self.triangle = np.zeros(0, dtype=np.int64)
+        self.reset()
+
+    def reset(self) -> None:
+        """Clear histories, forget the current model, restart the noise from the seed."""
+        seed = self._seed
+        self._rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        self._yh[:] = 0.0
+        self._eh[:] = 0.0
+        self._state[:] = [-1, np.nan, np.nan, 0.0, 1.0, 0, 0]
+        self._poly_a[:] = 0.0
+        self._poly_a[0] = 1.0
+        self._poly_b[:] = 0.0
+        self._poly_b[0] = 1.0
+
+    def process(self, speed: np.ndarray, load: np.ndarray | None = None) -> np.ndarray:
+        speed = np.ascontiguousarray(speed, dtype=np.float64)
+        n = speed.shape[0]
+        force = np.zeros(n) if load is None else np.ascontiguousarray(np.broadcast_to(load, (n,)), dtype=np.float64)
+        if n > self.max_block:
+            outs, tris = [], []
+            for i in range(0, n, self.max_block):
+                outs.append(self.process(speed[i : i + self.max_block], force[i : i + self.max_block]))
+                tris.append(self.triangle)
+            self.triangle = np.concatenate(tris)
+            return np.concatenate(outs)
+        z = self._noise[:n]
+        self._rng.standard_normal(out=z)
+        out = np.empty(n)
+        b = self.bank
+        _synth_kernel(speed, force, z, b._pts, b.triangles, b._inv, b.ar_lsf, b.ma_lsf, b.variances, b.gains, self._limits,
+                      self._yh, self._eh, self._state, out, self._lsf_a, self._lsf_b, self._poly_a, self._poly_b,
+                      self._w[0], self._w[1], self._w[2], self._w[3], self._tri[:n])
+        self.triangle = self._tri[:n].copy()
+        return out
