@@ -55,8 +55,7 @@ class QuasiStaticLaw:
         """
         fn = np.asarray(load, dtype=float)
         v = np.abs(np.asarray(speed, dtype=float))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            mu = self.a * np.power(np.maximum(fn, 0.0), self.b) * (1.0 + self.d * np.power(v, self.q)) / (1.0 + self.c * v)
+        mu = self.a * np.power(np.maximum(fn, 1e-300), self.b) * (1.0 + self.d * np.power(v, self.q)) / (1.0 + self.c * v)
         return np.where(fn > 0, mu, 0.0)
 
 

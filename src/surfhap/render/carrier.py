@@ -7,6 +7,7 @@ means no switching (DC drive), useful to show the fading on the simulated displa
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from surfhap.errors import ConfigError
@@ -26,6 +27,14 @@ def check_carrier(carrier: float, drive_rate: float) -> float:
     return carrier
 
 
+@numba.njit(cache=True, nogil=True)
+def _carrier_kernel(envelope, n0, step, out):
+    # sign +1 during the first half of each carrier period; phase from the absolute sample count
+    for i in range(envelope.shape[0]):
+        phase = ((n0 + i) * step) % 1.0
+        out[i] = envelope[i] if phase < 0.5 else -envelope[i]
+
+
 class PolarityCarrier:
     """``process(envelope) -> drive``, both (n,) float V at the drive rate."""
 
@@ -43,6 +52,7 @@ class PolarityCarrier:
         if self.frequency == 0.0:
             self._n += n
             return envelope.copy()
-        phase = ((self._n + np.arange(n)) * (self.frequency / self.drive_rate)) % 1.0
+        out = np.empty(n)
+        _carrier_kernel(envelope, self._n, self.frequency / self.drive_rate, out)
         self._n += n
-        return np.where(phase < 0.5, envelope, -envelope)
+        return out

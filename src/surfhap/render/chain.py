@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import numba
 import numpy as np
 
 from surfhap.errors import ConfigError
@@ -82,6 +83,23 @@ class ChainBlock(NamedTuple):
     load_drive: np.ndarray
 
 
+@numba.njit(cache=True, nogil=True)
+def _hold_touch(n_drive0, drive_rate, n_model0, model_rate, load, touch_time, last_load, last_touch, out_load, out_age):
+    # for each drive sample: the load and touch time of the model sample in force at its time
+    n = load.shape[0]
+    for j in range(out_load.shape[0]):
+        t = (n_drive0 + j) / drive_rate
+        k = int(np.floor(t * model_rate + 1e-9)) - n_model0
+        if k < 0:
+            ld, tt = last_load, last_touch
+        else:
+            if k > n - 1:
+                k = n - 1
+            ld, tt = load[k], touch_time[k]
+        out_load[j] = ld
+        out_age[j] = t - tt
+
+
 class TextureChain:
     """Stateful processor chain; see the module docstring for the block contract."""
 
@@ -134,14 +152,11 @@ class TextureChain:
         law = self.law.process(clean_speed, clean_load, texture)
         envelope = self.upsampler.process(law.voltage)
         m = envelope.shape[0]
-        # hold the touch state of the model sample in force at each drive sample time
-        t_drive = (self._n_drive + np.arange(m)) / self.drive_rate
-        k = np.floor(t_drive * self.model_rate + 1e-9).astype(np.int64) - self._n_model
-        prev_load = np.concatenate(([self._last_load], load))
-        prev_touch = np.concatenate(([self._last_touch], touch_time))
-        kk = np.clip(k + 1, 0, n)
-        load_drive = prev_load[kk]
-        age = t_drive - prev_touch[kk]
+        load_drive = np.empty(m)
+        age = np.empty(m)
+        _hold_touch(self._n_drive, float(self.drive_rate), self._n_model, float(self.model_rate),
+                    np.ascontiguousarray(load), np.ascontiguousarray(touch_time), self._last_load, self._last_touch,
+                    load_drive, age)
         drive = self.safety.process(self.carrier.process(envelope), load_drive, age)
         self._n_model += n
         self._n_drive += m

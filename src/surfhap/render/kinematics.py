@@ -7,9 +7,23 @@ smoothed by a one-pole low-pass (``cutoff`` Hz; hand motion lies below a few Hz,
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 __all__ = ["Kinematics"]
+
+
+@numba.njit(cache=True, nogil=True)
+def _smooth_speed(t, x, y, pt, px, py, s, tau, out):
+    for i in range(t.shape[0]):
+        dt = t[i] - pt
+        if dt > 0.0:
+            raw = np.hypot(x[i] - px, y[i] - py) / dt
+            if np.isfinite(raw):
+                s += dt / (tau + dt) * (raw - s)
+        out[i] = s
+        pt, px, py = t[i], x[i], y[i]
+    return s
 
 
 class Kinematics:
@@ -33,22 +47,8 @@ class Kinematics:
         out = np.empty(n)
         if n == 0:
             return out
-        if self._last is None:
-            pt, px, py = t[0], x[0], y[0]
-        else:
-            pt, px, py = self._last
-        tt = np.concatenate(([pt], t))
-        dt = np.diff(tt)
-        dist = np.hypot(np.diff(np.concatenate(([px], x))), np.diff(np.concatenate(([py], y))))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            raw = np.where(dt > 0, dist / dt, np.nan)
+        pt, px, py = (t[0], x[0], y[0]) if self._last is None else self._last
         tau = 1.0 / (2.0 * np.pi * self.cutoff)
-        s = self._speed
-        for i in range(n):
-            if np.isfinite(raw[i]):
-                a = dt[i] / (tau + dt[i])
-                s += a * (raw[i] - s)
-            out[i] = s
-        self._speed = s
+        self._speed = _smooth_speed(t, x, y, pt, px, py, self._speed, tau, out)
         self._last = (t[-1], x[-1], y[-1])
         return out

@@ -50,7 +50,6 @@ class RenderResult:
     mu_tex: np.ndarray
     target: np.ndarray
     voltage: np.ndarray
-    t_drive: np.ndarray
     drive: np.ndarray
     friction_sim: np.ndarray
     acc: np.ndarray | None
@@ -67,6 +66,11 @@ class RenderResult:
     effective_mass: float = 0.05
     constant_load: float | None = 1.6
     v_max: float = 250.0
+
+    @property
+    def t_drive(self) -> np.ndarray:
+        """(m,) s, time of each drive sample."""
+        return np.arange(self.drive.size) / self.drive_rate
 
     @property
     def clipped_fraction(self) -> float:
@@ -159,30 +163,36 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
     t, speed, load, touch_time = sample_trajectory(trajectory, fm)
     n = t.size
     block = max(1, int(round(block_seconds * fm)))
-    parts: dict[str, list] = {k: [] for k in ("texture", "voltage", "target", "mu_low", "mu_tex", "drive", "friction")}
+    model_out = {k: np.empty(n) for k in ("texture", "voltage", "target", "mu_low", "mu_tex", "friction")}
+    drive = np.empty(int(np.ceil(n * chain.drive_rate / fm)) + 1)
+    n_drive = n_fric = 0
     for start in range(0, n, block):
         sl = slice(start, min(n, start + block))
         out = chain.process(speed[sl], load[sl], touch_time[sl])
-        parts["texture"].append(out.texture)
-        parts["voltage"].append(out.drive_law.voltage)
-        parts["target"].append(out.drive_law.target)
-        parts["mu_low"].append(out.drive_law.mu_low)
-        parts["mu_tex"].append(out.drive_law.mu_tex)
-        parts["drive"].append(out.drive)
-        parts["friction"].append(display.process(out.drive, out.load_drive))
+        law = out.drive_law
+        for key, arr in (("texture", out.texture), ("voltage", law.voltage), ("target", law.target),
+                         ("mu_low", law.mu_low), ("mu_tex", law.mu_tex)):
+            model_out[key][sl] = arr
+        m = out.drive.shape[0]
+        drive[n_drive:n_drive + m] = out.drive
+        n_drive += m
+        fric = display.process(out.drive, out.load_drive)
+        k = min(fric.shape[0], n - n_fric)
+        model_out["friction"][n_fric:n_fric + k] = fric[:k]
+        n_fric += k
         if progress is not None:
             progress(min(n, start + block) / n)
-    arr = {k: np.concatenate(v) if v else np.zeros(0) for k, v in parts.items()}
-    friction = arr["friction"]
-    friction = np.concatenate((friction, np.full(max(0, n - friction.size), friction[-1] if friction.size else 0.0)))[:n]
-    drive = arr["drive"]
+    friction = model_out["friction"]
+    friction[n_fric:] = friction[n_fric - 1] if n_fric else 0.0
+    drive = drive[:n_drive]
+    arr = model_out
     uses_acc = chain.law.uses_texture and material.texture.quantity == "acceleration"
     bank = material.texture if chain.law.uses_texture else None
     return RenderResult(
         material=material.name, method=chain.method, seed=cfg.seed, model_rate=fm, drive_rate=chain.drive_rate,
         carrier=cfg.carrier, alpha=chain.params.alpha, beta=chain.params.beta, t=t, speed=speed, load=load,
         texture=arr["texture"], mu_low=arr["mu_low"], mu_tex=arr["mu_tex"], target=arr["target"],
-        voltage=arr["voltage"], t_drive=np.arange(drive.size) / chain.drive_rate, drive=drive,
+        voltage=arr["voltage"], drive=drive,
         friction_sim=friction, acc=arr["texture"] if uses_acc else None, latency=chain.latency,
         display_latency=display.delay, mu_panel=cfg.display.mu_panel, k=cfg.display.k,
         clipped=chain.law.clipped, touching=chain.law.touching, safety=chain.safety.counters,

@@ -4,6 +4,7 @@
 rates). The low-pass is a Kaiser-windowed FIR with ``taps_per_phase`` taps per polyphase
 branch and its cut-off at 0.45 of the lower rate, so the band up to 0.25 x the lower rate
 is flat within 0.01 dB (asserted in the tests). The group delay is :attr:`delay` seconds.
+Integer up- and down-sampling have their own kernels (no integer division per sample).
 """
 
 from __future__ import annotations
@@ -16,11 +17,14 @@ from scipy.signal import firwin
 
 __all__ = ["RationalResampler"]
 
+# In the kernels, z is (K-1 + n_in,): the last K-1 inputs of the previous block, then the new
+# ones; Hr[ph] is polyphase branch ph reversed, so that output = Hr[ph] . z[i : i+K].
 
-@numba.njit(cache=True, nogil=True)
-def _polyphase(z, H, L, M, t0, n_in, out):
-    # z: (K-1 + n_in,) history then the new inputs; output j sits at upsampled time t0 + j*M
-    K = H.shape[1]
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _polyphase(z, Hr, L, M, t0, n_in, out):
+    # general L/M: output j sits at up-sampled time t0 + j*M
+    K = Hr.shape[1]
     count = 0
     t = t0
     while True:
@@ -28,14 +32,41 @@ def _polyphase(z, H, L, M, t0, n_in, out):
         if i >= n_in:
             break
         ph = t - i * L
-        base = K - 1 + i
         acc = 0.0
         for k in range(K):
-            acc += H[ph, k] * z[base - k]
+            acc += Hr[ph, k] * z[i + k]
         out[count] = acc
         count += 1
         t += M
     return count, t - n_in * L
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _upsample(z, Hr, n_in, out):
+    # integer factor L (M = 1): every input sample yields L outputs, one per branch
+    L, K = Hr.shape
+    for i in range(n_in):
+        for ph in range(L):
+            acc = 0.0
+            for k in range(K):
+                acc += Hr[ph, k] * z[i + k]
+            out[i * L + ph] = acc
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _downsample(z, h, M, t0, n_in, out):
+    # integer factor M (L = 1): output j uses the window starting at input t0 + j*M
+    K = h.shape[0]
+    count = 0
+    t = t0
+    while t < n_in:
+        acc = 0.0
+        for k in range(K):
+            acc += h[k] * z[t + k]
+        out[count] = acc
+        count += 1
+        t += M
+    return count, t - n_in
 
 
 class RationalResampler:
@@ -58,7 +89,8 @@ class RationalResampler:
         fs_up = self.L * self.rate_in
         cutoff = 0.45 * min(self.rate_in, self.rate_out)
         h = firwin(self.L * K, cutoff, window=("kaiser", 7.0), fs=fs_up) * self.L
-        self._H = np.ascontiguousarray(h.reshape(K, self.L).T)
+        self._H = np.ascontiguousarray(h.reshape(K, self.L).T)  # (L, K): branch ph = h[ph::L]
+        self._Hr = np.ascontiguousarray(self._H[:, ::-1])
         self.delay = (self.L * K - 1) / 2.0 / fs_up
         self.max_block = int(max_block)
         self._z = np.zeros(K - 1 + self.max_block)
@@ -73,11 +105,16 @@ class RationalResampler:
         x = np.asarray(x, dtype=np.float64)
         n = x.shape[0]
         if n > self.max_block:
-            parts = [self.process(x[i : i + self.max_block]) for i in range(0, n, self.max_block)]
-            return np.concatenate(parts)
+            return np.concatenate([self.process(x[i : i + self.max_block]) for i in range(0, n, self.max_block)])
         K1 = self.K - 1
         self._z[K1 : K1 + n] = x
-        count, self._t0 = _polyphase(self._z, self._H, self.L, self.M, self._t0, n, self._out)
+        if self.M == 1:
+            count = n * self.L
+            _upsample(self._z, self._Hr, n, self._out)
+        elif self.L == 1:
+            count, self._t0 = _downsample(self._z, self._Hr[0], self.M, self._t0, n, self._out)
+        else:
+            count, self._t0 = _polyphase(self._z, self._Hr, self.L, self.M, self._t0, n, self._out)
         if K1:
             self._z[:K1] = self._z[n : n + K1]
         return self._out[:count].copy()
