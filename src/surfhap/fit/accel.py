@@ -1,0 +1,246 @@
+"""The acceleration route (HaTT / Zhao et al.): tool-scan recordings -> interpolated ARMA bank.
+
+For each recording (acceleration, speed, normal force): resample to the model rate
+(1 kHz, as the HaTT models), high-pass the acceleration (hand motion and gravity out),
+split it into stationary pieces (:func:`surfhap.signal.segmentation.segment_ar`), and label
+each piece with its mean speed and force. Pieces slower than ``min_speed`` or lighter than
+``min_force`` are dropped. One AR order common to all pieces (LSF interpolation needs one
+order) minimises the summed AIC (or BIC); each piece's Yule–Walker model at that order is
+converted to line spectral frequencies. As in HaTT, zero-variance copies of the models on
+the speed = 0 and force = 0 axes close the triangulation, so the texture fades to silence
+when the tool stops or lifts. A Delaunay triangulation over (speed, force), scaled by their
+ranges, completes the :class:`~surfhap.models.interpolated.InterpolatedARMABank`.
+Texture force at render time is m_eff x acceleration (Zhao et al.; drive law ``zhao``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+
+import numpy as np
+from scipy.signal import butter, resample_poly, sosfiltfilt
+
+from surfhap.errors import ConfigError, RecordingFormatError
+from surfhap.exchange.recordings import Recording
+from surfhap.fit.friction import CoulombFit, coulomb_from_sums
+from surfhap.fit.material_fit import _map, recording_provenance
+from surfhap.models.interpolated import InterpolatedARMABank
+from surfhap.signal.ar import autocovariance, information_criteria, levinson_durbin
+from surfhap.signal.lsf import ar_to_lsf
+from surfhap.signal.segmentation import Segmentation, segment_ar
+
+__all__ = ["AccelSegment", "AccelFit", "fit_accel"]
+
+
+@dataclass(frozen=True)
+class AccelSegment:
+    """One stationary piece: source recording, [start, stop) at the model rate, mean speed
+    m/s and force N, MDL order of the segmentation, and the criterion curve (orders 0..P)."""
+
+    source: str
+    start: int
+    stop: int
+    speed: float
+    force: float
+    mdl_order: int
+    criterion: np.ndarray
+    levinson: object
+
+    @property
+    def n(self) -> int:
+        return self.stop - self.start
+
+
+@dataclass(frozen=True)
+class AccelFit:
+    """Result of :func:`fit_accel`.
+
+    bank           : InterpolatedARMABank (quantity "acceleration").
+    segments       : list of AccelSegment kept for models.
+    segmentations  : {source: Segmentation}.
+    order          : the common AR order; orders / total_criterion : the summed criterion.
+    coulomb        : CoulombFit (from shear / normal) or None when mu0 was given.
+    mu0            : the Coulomb coefficient written to the material.
+    """
+
+    name: str
+    sample_rate: float
+    bank: InterpolatedARMABank
+    segments: list
+    segmentations: dict
+    order: int
+    orders: np.ndarray
+    total_criterion: np.ndarray
+    criterion: str
+    coulomb: CoulombFit | None
+    mu0: float
+    notes: list
+    recordings: list
+    signals: dict
+
+    def to_material(self, command: str = "surfhap fit accel", description: str = ""):
+        """Material with Coulomb mu0 and the interpolated acceleration texture."""
+        from surfhap.models.material import (CoulombSpec, FrictionSpec, InterpolatedModelSpec, InterpolatedTextureSpec, Material,
+                                             MaterialFile, Provenance)
+        import hashlib
+
+        names = ", ".join(r[0] for r in self.recordings)
+        digest = hashlib.sha256("".join(r[2] for r in self.recordings).encode()).hexdigest()
+        note = "sha256 is taken over the per-file SHA-256 hex digests, in the order listed"
+        prov_t = Provenance(source="recording", recording=names, sha256=digest, command=command,
+                            note=f"{len(self.segments)} segments, AR({self.order}) by summed {self.criterion.upper()}; {note}")
+        if self.coulomb is not None:
+            prov_f = Provenance(source="recording", recording=names, sha256=digest, command=command,
+                                note=f"mu0 = mean shear / mean normal over contact samples; {note}")
+        else:
+            prov_f = Provenance(source="recording", recording=names, sha256=digest, command=command,
+                                note="mu0 given on the command line (--mu0), not fitted")
+        b = self.bank
+        texture = InterpolatedTextureSpec(
+            kind="interpolated-arma", quantity="acceleration", sample_rate=b.sample_rate, max_speed=float(b.max_speed),
+            max_force=float(b.max_force), triangles=[tuple(int(i) for i in t) for t in b.triangles],
+            models=[InterpolatedModelSpec(speed=float(b.speeds[i]), force=float(b.forces[i]), ar_lsf=[float(v) for v in b.ar_lsf[i]],
+                                          ma_lsf=[], variance=float(b.variances[i]), gain=float(b.gains[i]))
+                    for i in range(b.speeds.size)],
+            provenance=prov_t)
+        spec = MaterialFile(name=self.name, description=description or f"Fitted from {len(self.recordings)} acceleration recording(s).",
+                            friction=FrictionSpec(coulomb=CoulombSpec(mu0=self.mu0, provenance=prov_f)), texture=texture,
+                            notes=list(self.notes))
+        return Material.from_spec(spec)
+
+    def plot(self, kind: str = "summary", **kwargs):
+        """Figures: "segments", "aic", "models", "summary" (see :mod:`surfhap.report.fit_figures`)."""
+        from surfhap.report.fit_figures import plot_accel_fit
+
+        return plot_accel_fit(self, kind, **kwargs)
+
+
+def _resample(x: np.ndarray, fs: float, target: float) -> np.ndarray:
+    if abs(fs - target) < 1e-9 * target:
+        return x
+    fr = Fraction(target / fs).limit_denominator(1000)
+    return resample_poly(x, fr.numerator, fr.denominator)
+
+
+def _segment_recording(rec: Recording, model_rate, highpass, max_order, min_segment, step, min_speed, min_force):
+    rec.require("acceleration", "speed", "normal_force")
+    fs = rec.sample_rate
+    if model_rate > fs * 1.0001:
+        raise RecordingFormatError(f"sampled at {fs:g} Hz, below the model rate {model_rate:g} Hz", source=rec.source, field="time")
+    acc = _resample(rec.get("acceleration"), fs, model_rate)
+    speed = np.abs(_resample(rec.get("speed"), fs, model_rate))
+    force = _resample(rec.get("normal_force"), fs, model_rate)
+    if highpass and highpass > 0:
+        if not highpass < model_rate / 2:
+            raise ConfigError(f"must be below {model_rate / 2:g} Hz", source="--highpass")
+        sos = butter(4, highpass, btype="high", fs=model_rate, output="sos")
+        acc = sosfiltfilt(sos, acc)
+    seg = segment_ar(acc, max_order=max_order, min_length=int(min_segment * model_rate), step=max(1, int(step * model_rate)))
+    pieces = []
+    for (a, b), p in zip(seg.segments, seg.orders):
+        v = float(np.mean(speed[a:b]))
+        f = float(np.mean(force[a:b]))
+        if v < min_speed or f < min_force:
+            continue
+        x = acc[a:b]
+        lev = levinson_durbin(autocovariance(x, max_order), max_order)
+        pieces.append((a, b, v, f, int(p), lev, x.size))
+    return seg, pieces, {"acceleration": acc, "speed": speed, "force": force}
+
+
+def fit_accel(
+    recordings: Sequence[Recording],
+    name: str,
+    model_rate: float = 1000.0,
+    highpass: float = 20.0,
+    max_order: int = 20,
+    criterion: str = "aic",
+    min_segment: float = 0.25,
+    step: float = 0.025,
+    min_speed: float = 0.005,
+    min_force: float = 0.1,
+    mu0: float | None = None,
+    jobs: int = 1,
+) -> AccelFit:
+    """Fit an interpolated acceleration texture (module docstring).
+
+    recordings need acceleration (m/s^2), speed (m/s) and normal_force (N); shear_force (or
+    cof) for mu0 unless ``mu0`` is given. min_segment, step : s; min_speed m/s; min_force N.
+    """
+    if not recordings:
+        raise RecordingFormatError("no recordings given")
+    criterion = criterion.lower()
+    if criterion not in ("aic", "bic"):
+        raise ConfigError(f"must be 'aic' or 'bic', got {criterion!r}", source="--criterion")
+    results = _map(_segment_recording, [(r, model_rate, highpass, max_order, min_segment, step, min_speed, min_force)
+                                        for r in recordings], jobs)
+    segments = []
+    segmentations = {}
+    signals = {}
+    for rec, (seg, pieces, sig) in zip(recordings, results):
+        segmentations[rec.source] = seg
+        signals[rec.source] = sig
+        for a, b, v, f, p, lev, n in pieces:
+            aic, bic = information_criteria(lev.variances, n)
+            segments.append(AccelSegment(rec.source, a, b, v, f, p, aic if criterion == "aic" else bic, lev))
+    if not segments:
+        raise RecordingFormatError(f"no stationary segment with speed >= {min_speed * 1000:g} mm/s and force >= {min_force:g} N",
+                                   source=recordings[0].source, field="speed")
+    total = np.sum([s.criterion for s in segments], axis=0)
+    orders = np.arange(total.size)
+    order = int(1 + np.argmin(total[1:]))
+    lsfs, variances, speeds, forces = [], [], [], []
+    for s in segments:
+        phi, var = s.levinson.order(order)
+        lsfs.append(ar_to_lsf(phi))
+        variances.append(var)
+        speeds.append(s.speed)
+        forces.append(s.force)
+    lsfs = np.array(lsfs)
+    speeds = np.array(speeds)
+    forces = np.array(forces)
+    variances = np.array(variances)
+    # zero-variance edge models (HaTT): copies on the speed = 0 and force = 0 axes, and the origin
+    vmax, fmax = speeds.max(), forces.max()
+    sx, sy = max(np.ptp(speeds), vmax, 1e-6), max(np.ptp(forces), fmax, 1e-6)
+    pts = [(v, f, i, var) for i, (v, f, var) in enumerate(zip(speeds, forces, variances))]
+    pts += [(0.0, f, i, 0.0) for i, f in enumerate(forces)]
+    pts += [(v, 0.0, i, 0.0) for i, v in enumerate(speeds)]
+    nearest0 = int(np.argmin((speeds / sx) ** 2 + (forces / sy) ** 2))
+    pts.append((0.0, 0.0, nearest0, 0.0))
+    seen = {}
+    for v, f, i, var in pts:
+        key = (round(v / sx, 9), round(f / sy, 9))
+        if key not in seen:
+            seen[key] = (v, f, i, var)
+    uniq = list(seen.values())
+    bank = InterpolatedARMABank.from_models(
+        "acceleration", model_rate, [u[0] for u in uniq], [u[1] for u in uniq], lsfs[[u[2] for u in uniq]],
+        [u[3] for u in uniq], max_speed=vmax, max_force=fmax)
+    notes = [f"{len(segments)} stationary segments from {len(recordings)} recording(s); AR({order}) by summed "
+             f"{criterion.upper()}; high-pass {highpass:g} Hz; model rate {model_rate:g} Hz"]
+    coulomb = None
+    if mu0 is None:
+        if not all(r.has("shear_force") for r in recordings):
+            missing = next(r for r in recordings if not r.has("shear_force"))
+            raise RecordingFormatError("missing column, needed for mu0 (or give --mu0)", source=missing.source, field="shear_force")
+        sh = fn = 0.0
+        n = 0
+        for r in recordings:
+            f_ = r.get("normal_force")
+            s_ = np.abs(r.get("shear_force"))
+            c = (f_ > 0.05) & (s_ > 0.05)
+            sh += float(s_[c].sum())
+            fn += float(f_[c].sum())
+            n += int(c.sum())
+        coulomb = coulomb_from_sums(sh, fn, n)
+        mu = coulomb.mu0
+    else:
+        if not (np.isfinite(mu0) and 0 <= mu0 <= 5):
+            raise ConfigError("must be within 0..5", source="--mu0")
+        mu = float(mu0)
+    recs = [(r.source, r.participant, r.sha256) for r in recordings]
+    return AccelFit(name, float(model_rate), bank, segments, segmentations, order, orders, total, criterion, coulomb, mu, notes,
+                    recs, signals)

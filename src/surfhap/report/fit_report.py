@@ -1,0 +1,95 @@
+"""One HTML page per fit: tables of the fitted parameters and the figures of
+:mod:`surfhap.report.fit_figures`, written as PNG files next to ``index.html``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from surfhap.report.html import Page
+
+__all__ = ["write_friction_report", "write_accel_report", "write_fit_report"]
+
+
+def _save(fig, out: Path, name: str, page: Page, alt: str) -> None:
+    fig.savefig(out / name, dpi=110)
+    page.image(name, alt)
+
+
+def write_friction_report(fit, out_dir: str | Path, command: str = "") -> Path:
+    """Write ``out_dir/index.html`` and its figures for a FrictionFit; returns the page path."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    page = Page(f"Friction fit — {fit.name}")
+    if command:
+        page.raw(f"<p class=note>command: <code>{_esc(command)}</code></p>")
+    page.paragraph(f"{len(fit.recordings)} recording(s), {len(fit.participants)} participant(s), {fit.sample_rate:g} Hz, "
+                   f"cut-off {fit.cutoff:g} Hz, estimator {fit.estimator}, order by {fit.criterion.upper()}.")
+    page.heading("Band split")
+    _save(fit.plot("band-split"), out, "band_split.png", page, "band split")
+    page.heading("Low band: friction laws")
+    page.table(["fit", "mu0", "a", "b", "c", "d", "q", "R²", "n"],
+               [[c.label, f"{c.mu0:.4f}", *[""] * 6, c.n] for c in [fit.coulomb, *fit.coulomb_by_participant]])
+    rows = []
+    for q in [fit.quasi_static, fit.quasi_static_pooled, *fit.quasi_static_by_participant]:
+        rows.append([q.label, *[f"{q.params[k]:.3f} ± {q.standard_errors[k]:.3f}" for k in "abcdq"], f"{q.r2:.3f}", q.n])
+    page.table(["quasi-static fit", "a", "b", "c", "d", "q", "R²", "n"], rows)
+    page.paragraph("First row: written to the material (mean ± standard error across participants, as Otake et al. 2022 "
+                   "Table I; the pooled fit with asymptotic errors when there is one participant).", cls="note")
+    _save(fit.plot("friction-law"), out, "friction_law.png", page, "friction law vs data")
+    page.heading("High band: AR models per reference velocity")
+    page.table(["velocity (mm/s)", "order", "variance", "samples", "spans", "participants", "SI mean ± SE", "SI pooled", "mean |ΔdB|"],
+               [[f"{t.reference_speed * 1e3:g}", t.model.order, f"{t.model.variance:.3g}", t.n_samples, t.n_spans,
+                 len(t.participants), f"{t.similarity_mean:.3f} ± {0 if np.isnan(t.similarity_se) else t.similarity_se:.3f}",
+                 f"{t.similarity_pooled:.3f}", f"{t.spectrum_error_db:.2f}"] for t in fit.textures])
+    for note in fit.notes:
+        page.paragraph(note, cls="bad")
+    if fit.textures:
+        _save(fit.plot("aic"), out, "aic.png", page, "order selection")
+        _save(fit.plot("spectra"), out, "spectra.png", page, "measured vs modelled spectra")
+        _save(fit.plot("similarity"), out, "similarity.png", page, "similarity index")
+    page.paragraph("Similarity index SI = 1 − Σ|S_meas − S_model| / Σ(S_meas + S_model) over the band above the cut-off "
+                   "(1: identical spectra; see docs/fitting.md).", cls="note")
+    path = out / "index.html"
+    path.write_text(page.html(), encoding="utf-8")
+    return path
+
+
+def write_accel_report(fit, out_dir: str | Path, command: str = "") -> Path:
+    """Write ``out_dir/index.html`` and its figures for an AccelFit; returns the page path."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    page = Page(f"Acceleration fit — {fit.name}")
+    if command:
+        page.raw(f"<p class=note>command: <code>{_esc(command)}</code></p>")
+    for note in fit.notes:
+        page.paragraph(note)
+    page.paragraph(f"Coulomb mu0 = {fit.mu0:.4f}" + (" (fitted)" if fit.coulomb is not None else " (given)"))
+    page.heading("Segmentation")
+    for i, src in enumerate(fit.signals):
+        _save(fit.plot("segments", source=src), out, f"segments_{i}.png", page, f"segments of {src}")
+    page.table(["recording", "start (s)", "stop (s)", "speed (mm/s)", "force (N)", "MDL order"],
+               [[s.source, f"{s.start / fit.sample_rate:.3f}", f"{s.stop / fit.sample_rate:.3f}", f"{s.speed * 1e3:.1f}",
+                 f"{s.force:.3f}", s.mdl_order] for s in fit.segments])
+    page.heading("Order and models")
+    _save(fit.plot("aic"), out, "aic.png", page, "summed criterion")
+    _save(fit.plot("models"), out, "models.png", page, "models and triangulation")
+    path = out / "index.html"
+    path.write_text(page.html(), encoding="utf-8")
+    return path
+
+
+def write_fit_report(fit, out_dir: str | Path, command: str = "") -> Path:
+    """Dispatch on the result type."""
+    from surfhap.fit.accel import AccelFit
+
+    if isinstance(fit, AccelFit):
+        return write_accel_report(fit, out_dir, command)
+    return write_friction_report(fit, out_dir, command)
+
+
+def _esc(s: str) -> str:
+    import html
+
+    return html.escape(s)
