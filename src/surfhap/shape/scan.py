@@ -35,9 +35,11 @@ def straight_scan(x0: float, y0: float, x1: float, y1: float, speed: float, *, r
         raise ConfigError(f"the scan would take {n} samples; shorten it or speed up", field="scan")
     t = np.arange(n) / rate
     s = np.minimum(t * speed / length, 1.0)
-    if s[-1] < 1.0:  # end exactly at (x1, y1)
+    if duration - t[-1] > 1e-6 / rate:  # end exactly at (x1, y1)
         t = np.append(t, duration)
         s = np.append(s, 1.0)
+    else:
+        s[-1] = 1.0
     return Trajectory(t, x0 + s * (x1 - x0), y0 + s * (y1 - y0), np.full(t.size, float(load)),
                       name=f"scan ({x0:g}, {y0:g}) -> ({x1:g}, {y1:g}) m at {speed * 100:g} cm/s, {rate:g} Hz")
 
