@@ -84,6 +84,8 @@ class TouchPredictor:
         return k if k < self.max_k else self.max_k
 
     def update(self, t: float, x: float, y: float) -> None:
+        if not (math.isfinite(t) and math.isfinite(x) and math.isfinite(y)):
+            return  # sources validate; this keeps the state finite whatever reaches it
         if not self.started or not (0.0 < t - self.t <= self.max_gap):
             if self.started and t - self.t <= 0.0 and t > self.t - self.max_gap:
                 # duplicate / out-of-order time stamp: keep the state, take the position

@@ -33,6 +33,7 @@ import json
 import logging
 import math
 import threading
+from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from importlib import resources
 
@@ -230,7 +231,24 @@ def create_app(session: LiveSession, cfg: ServerConfig | None = None):
             return True
         return bool(host_header) and o == "http://" + host_header.strip().lower()
 
-    app = FastAPI(title="surfhap live", docs_url=None, redoc_url=None, openapi_url=None)
+    async def ticker():
+        period = 1.0 / cfg.trace_hz
+        while True:
+            try:
+                hub.tick()
+            except Exception:  # noqa: BLE001 - monitoring must not die
+                log.exception("trace tick failed")
+            await asyncio.sleep(period)
+
+    @asynccontextmanager
+    async def lifespan(_app):
+        task = asyncio.get_running_loop().create_task(ticker())
+        try:
+            yield
+        finally:
+            task.cancel()
+
+    app = FastAPI(title="surfhap live", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
     app.state.hub = hub
 
     @app.middleware("http")
@@ -267,23 +285,6 @@ def create_app(session: LiveSession, cfg: ServerConfig | None = None):
     @app.get("/api/status")
     async def status():
         return Response(hub.status_json, media_type="application/json")
-
-    async def ticker():
-        period = 1.0 / cfg.trace_hz
-        while True:
-            try:
-                hub.tick()
-            except Exception:  # noqa: BLE001 - monitoring must not die
-                log.exception("trace tick failed")
-            await asyncio.sleep(period)
-
-    @app.on_event("startup")
-    async def _start_ticker():
-        app.state.ticker = asyncio.get_running_loop().create_task(ticker())
-
-    @app.on_event("shutdown")
-    async def _stop_ticker():
-        app.state.ticker.cancel()
 
     def handle(client: _Client, text) -> None:
         """Validate one message and feed the engine; raises nothing."""

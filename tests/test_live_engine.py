@@ -1,0 +1,252 @@
+"""The live engine with a manual clock: latency, watchdog, lift, stop ramp, arbitration,
+hostile input, and the paced backends (sim, file) in real time."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from surfhap.exchange.materials import load_material
+from surfhap.live.engine import EngineConfig, LiveEngine, audit_drive
+from surfhap.live.prediction import TouchPredictor
+from surfhap.live.queues import CommandQueue, TouchRing
+from surfhap.render.chain import ChainConfig, TextureChain
+from surfhap.render.safety import SafetyLimits
+
+
+def make_engine(material="cork", drive_rate=20000, **cfg):
+    chain = TextureChain(load_material(material), ChainConfig(drive_rate=drive_rate))
+    return LiveEngine(chain, EngineConfig(**cfg))
+
+
+def run(engine, t0, t1, touch=None, rate=125.0):
+    """Render blocks on a manual clock from t0 to t1; touch(t) -> (x, y, load) or None."""
+    out = []
+    nb = int(round((t1 - t0) / engine.block_period))
+    next_touch = t0
+    for k in range(nb):
+        t = t0 + k * engine.block_period
+        while touch is not None and next_touch <= t:
+            s = touch(next_touch)
+            if s is not None:
+                engine.push_touch(1, *s, t_event=next_touch, t_arrival=next_touch)
+            next_touch += 1.0 / rate
+        out.append(engine.render(engine.block_frames, t).copy())
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def stroke(t):
+    return (0.02 + 0.1 * t, 0.03, 0.5)
+
+
+def test_predictor_identity_without_prediction():
+    p = TouchPredictor()
+    for i in range(10):
+        p.update(i / 60, 0.01 * i, 0.0)
+    assert p.x == pytest.approx(0.09)
+    assert p.speed == pytest.approx(0.6, rel=0.05)
+
+
+@pytest.mark.parametrize("alpha", [1.0, 0.15, 0.5])
+def test_predictor_leads_a_ramp_by_the_configured_latency(alpha):
+    v, lat, rate = 0.1, 0.030, 60.0
+    p = TouchPredictor(latency=lat, alpha=alpha)
+    for i in range(300):
+        t = i / rate
+        p.update(t, v * t, 0.0)
+    assert p.x == pytest.approx(v * (t + lat), abs=1e-6)
+
+
+def test_predictor_paper_parameters_give_net_lead():
+    # KinesTouch 004 Sec. 4.2: k_pred = 8, alpha = 0.15 at 60 Hz -> lead (8 - 0.85/0.15) / 60 s
+    p = TouchPredictor(k_pred=8, alpha=0.15)
+    v = 0.1
+    for i in range(600):
+        t = i / 60
+        p.update(t, v * t, 0.0)
+    lead = (p.x - v * t) / v
+    assert lead == pytest.approx((8 - 0.85 / 0.15) / 60, rel=1e-3)
+
+
+def test_predictor_restarts_after_gap_and_ignores_duplicates():
+    p = TouchPredictor(latency=0.02, alpha=0.5)
+    p.update(0.0, 0.0, 0.0)
+    p.update(0.01, 0.001, 0.0)
+    p.update(0.01, 0.002, 0.0)  # duplicate stamp: no division by zero
+    assert math.isfinite(p.x) and math.isfinite(p.speed)
+    p.update(5.0, 0.05, 0.0)  # long gap: restart at the measured position
+    assert p.x == 0.05 and p.speed == 0.0
+
+
+def test_touch_ring_bounded_and_fifo():
+    r = TouchRing(4)
+    assert all(r.push(1, i, i, i, 0, 1) for i in range(4))
+    assert not r.push(1, 9, 9, 9, 0, 1) and r.dropped == 1
+    buf = np.zeros((8, 6))
+    assert r.pop_into(buf) == 4 and list(buf[:4, 3]) == [0, 1, 2, 3]
+    q = CommandQueue(2)
+    assert q.put(("a",)) and q.put(("b",)) and not q.put(("c",))
+    assert q.get_nowait() == ("a",)
+
+
+def test_drive_follows_touch_within_two_blocks():
+    e = make_engine()
+    run(e, 0.0, 0.1)  # silence, no finger
+    assert not np.any(e.out[: e.block_frames])
+    rng = np.random.default_rng(1)
+    lat = []
+    t = 0.1
+    for i in range(200):  # touches at random phases between blocks
+        t_arr = t + rng.uniform(0, e.block_period)
+        e.push_touch(1, 0.02 + 0.001 * i, 0.03, 0.5, t_event=t_arr, t_arrival=t_arr)
+        t_blk = t + e.block_period
+        e.render(e.block_frames, t_blk)
+        t = t_blk + 4 * e.block_period
+        for _ in range(4):
+            e.render(e.block_frames, t - 3 * e.block_period)
+    st = e.latency_stats()
+    assert st["n"] == 200
+    assert st["p99"] <= 2 * e.block_period
+    assert np.abs(e.out[: e.block_frames]).max() > 10.0
+
+
+def test_first_block_after_touch_already_changes_the_drive():
+    e = make_engine()
+    run(e, 0.0, 0.02)
+    e.push_touch(1, 0.02, 0.03, 0.5, t_arrival=0.0205)
+    v = e.render(e.block_frames, 0.021)
+    assert np.abs(v).max() > 0.0
+
+
+def test_watchdog_ramps_to_zero_when_touches_stop():
+    e = make_engine()
+    out = run(e, 0.0, 0.3, touch=lambda t: stroke(t) if t < 0.2 else None)
+    fs = e.drive_rate
+    assert np.abs(out[int(0.15 * fs) : int(0.2 * fs)]).max() > 50
+    # last touch at <= 0.2 s; 50 ms timeout + 5 ms ramp (+ one sensor period)
+    assert np.abs(out[int(0.2665 * fs) :]).max() == 0.0
+    assert e.safety_counters()["watchdog"] > 0
+
+
+def test_lift_silences_at_once_even_with_a_slow_model():
+    e = make_engine("denim")  # 100 Hz texture model (resampled up to the 2 kHz control rate)
+    assert e.chain.texture_rate == 100
+    run(e, 0.0, 0.2, touch=stroke)
+    assert np.abs(e.out[: e.block_frames]).max() > 0
+    e.push_touch(1, 0.0, 0.0, 0.0, t_arrival=0.2)
+    v = e.render(e.block_frames, 0.2005)
+    assert not np.any(v)
+    assert not np.any(run(e, 0.201, 0.25))
+
+
+def test_stop_ramps_down_and_stays_silent():
+    e = make_engine(stop_ramp=0.005)
+    run(e, 0.0, 0.1, touch=stroke)
+    e.request_stop()
+    tail = run(e, 0.1, 0.12, touch=stroke)
+    fs = e.drive_rate
+    assert e.stopped
+    assert np.abs(tail[int(0.0055 * fs) :]).max() == 0.0
+    assert np.abs(tail[: int(0.001 * fs)]).max() > 0.0  # a ramp, not a cut
+
+
+def test_second_source_waits_while_first_touches():
+    e = make_engine()
+    for k in range(20):
+        t = k * 0.004
+        e.push_touch(1, 0.02, 0.03, 0.5, t_arrival=t)
+        e.push_touch(2, 0.10, 0.10, 0.5, t_arrival=t + 0.001)
+        e.render(e.block_frames, t + 0.002)
+    assert e.counters["touches_ignored"] == 20
+    assert e.predictor.x == pytest.approx(0.02)
+
+
+def test_hostile_values_pushed_directly_keep_output_safe():
+    e = make_engine()
+    bad = [(math.nan, 0, 0.5), (math.inf, 0, 0.5), (0, 0, math.nan), (0, 0, -5), (1e300, -1e300, 1e9), (0, 0, math.inf)]
+    out = []
+    for k in range(300):
+        x, y, ld = bad[k % len(bad)] if k % 3 else stroke(k * 1e-3)
+        e.push_touch(1, x, y, ld, t_event=math.nan if k % 2 else k * 1e-3, t_arrival=k * 1e-3)
+        out.append(e.render(e.block_frames, k * 1e-3 + 5e-4).copy())
+    out = np.concatenate(out)
+    assert e.counters["errors"] == 0
+    assert audit_drive(out, e.drive_rate, SafetyLimits())["violations"] == 0
+
+
+def test_full_touch_ring_is_counted_not_fatal():
+    e = make_engine(touch_capacity=16)
+    for i in range(100):
+        e.push_touch(1, 0.01, 0.01, 0.5, t_arrival=0.0)
+    assert e.touches.dropped == 84
+    e.render(e.block_frames, 0.001)
+    assert e.status()["counters"]["touches_dropped"] == 84
+
+
+def test_audit_finds_violations():
+    lim = SafetyLimits()
+    step = lim.rise_rate / 20000
+    bad = np.array([0.0, 300.0, 0.0, 0.0, min(lim.v_max, 1.5 * step)])
+    a = audit_drive(bad, 20000, lim)
+    assert a["over_v_max"] == 1 and a["rise_too_fast"] == 2
+
+
+def test_sim_backend_runs_in_real_time(tmp_path):
+    import time
+
+    from surfhap.live.backends import open_backend
+
+    e = make_engine()
+    e.warm_up()
+    b = open_backend("sim")
+    b.start(e)
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < 0.3:
+        e.push_touch(1, *stroke(time.perf_counter() - t0))
+        time.sleep(0.008)
+    b.stop()
+    assert e.stopped
+    assert 150 <= e.counters["blocks"] <= 400
+    assert e.latency_stats()["n"] > 10
+
+
+@pytest.mark.parametrize("suffix", [".wav", ".npz"])
+def test_file_backend_records_what_the_engine_rendered(tmp_path, suffix):
+    import time
+
+    from surfhap.live.backends import open_backend
+
+    e = make_engine()
+    e.warm_up()
+    path = tmp_path / f"drive{suffix}"
+    b = open_backend(f"file:{path}", amp_gain=250.0)
+    b.start(e)
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < 0.2:
+        e.push_touch(1, *stroke(time.perf_counter() - t0))
+        time.sleep(0.008)
+    b.stop()
+    assert path.exists()
+    rec = b.recorded
+    assert rec.size == e.counters["frames"] and np.abs(rec).max() > 10
+    if suffix == ".npz":
+        z = np.load(path)
+        assert int(z["drive_rate"]) == e.drive_rate and np.array_equal(z["drive"], rec)
+    else:
+        from scipy.io import wavfile
+
+        rate, u = wavfile.read(path)
+        assert rate == e.drive_rate and np.allclose(u, rec / 250.0, atol=1e-6)
+
+
+def test_output_parser_errors():
+    from surfhap.errors import ConfigError
+    from surfhap.live.backends import parse_output
+
+    assert parse_output("sound:3") == ("sound", {"device": 3})
+    assert parse_output("osc://127.0.0.1:9001/drive")[1]["mode"] == "drive"
+    for bad in ("file:x.txt", "osc://nohost", "osc://127.0.0.1:9/whatever", "pigeon"):
+        with pytest.raises(ConfigError):
+            parse_output(bad)

@@ -1,0 +1,177 @@
+"""The touch page server over real loopback sockets: WebSocket stream -> engine -> trace,
+origin and host checks, hostile messages, several clients at once."""
+
+from __future__ import annotations
+
+import asyncio
+import http.client
+import json
+import logging
+import time
+
+import pytest
+
+pytest.importorskip("fastapi")
+websockets = pytest.importorskip("websockets")
+
+from surfhap.live.server import ServerConfig, ServerThread, build_session, create_app  # noqa: E402
+
+
+@pytest.fixture
+def served():
+    session = build_session("cork", "sim")
+    session.start()
+    srv = ServerThread(create_app(session, ServerConfig(port=0, max_rate=400.0, burst=50.0, max_rejects=30)),
+                       port=0).start()
+    yield session, srv
+    srv.stop()
+    session.stop()
+
+
+def ws_url(srv):
+    return f"ws://127.0.0.1:{srv.port}/ws"
+
+
+async def stream(srv, n=120, rate=120.0, x0=0.2, origin=None):
+    origin = origin or f"http://127.0.0.1:{srv.port}"
+    async with websockets.connect(ws_url(srv), origin=origin) as ws:
+        await ws.send(json.dumps({"type": "hello", "w": 800, "h": 600}))
+        t0 = time.perf_counter()
+        for i in range(n):
+            t = (time.perf_counter() - t0) * 1e3
+            await ws.send(json.dumps({"type": "move", "seq": i, "t": t, "x": x0 + 0.5 * i / n, "y": 0.5, "p": 0.5}))
+            await asyncio.sleep(1.0 / rate)
+        last = None
+        for _ in range(40):
+            m = json.loads(await asyncio.wait_for(ws.recv(), 2.0))
+            last = m
+            if m["ack"] == n - 1:
+                break
+        await ws.send(json.dumps({"type": "up", "seq": n, "t": (time.perf_counter() - t0) * 1e3}))
+        return last
+
+
+def test_page_and_static_files_are_served(served):
+    _, srv = served
+    c = http.client.HTTPConnection("127.0.0.1", srv.port, timeout=5)
+    for path, kind in (("/", "text/html"), ("/static/app.js", "javascript"), ("/static/style.css", "text/css"),
+                       ("/api/info", "json")):
+        c.request("GET", path)
+        r = c.getresponse()
+        body = r.read()
+        assert r.status == 200 and kind in r.getheader("content-type"), path
+    assert json.loads(body)["drive_rate"] == 20000
+    c.request("GET", "/static/../../etc/passwd")
+    r = c.getresponse()
+    r.read()
+    assert r.status == 404
+
+
+def test_pointer_stream_changes_the_drive(served):
+    session, srv = served
+    m = asyncio.run(stream(srv))
+    assert m["ack"] == 119 and m["received"] == 120 and m["rejected"] == 0
+    eng = session.engine
+    assert eng.counters["touches"] >= 120
+    rows, _ = eng.trace_since(0)
+    assert rows[:, 5].max() > 50.0  # volts reached the output
+    assert eng.latency_stats()["p99"] < 0.05
+
+
+def test_unknown_origin_and_host_are_refused(served, caplog):
+    _, srv = served
+    caplog.set_level(logging.WARNING, logger="surfhap.live")
+
+    async def evil():
+        async with websockets.connect(ws_url(srv), origin="http://evil.example"):
+            pass
+
+    with pytest.raises(websockets.exceptions.InvalidStatus):
+        asyncio.run(evil())
+    assert any("refused WebSocket" in r.getMessage() for r in caplog.records)
+    c = http.client.HTTPConnection("127.0.0.1", srv.port, timeout=5)
+    c.request("GET", "/", headers={"Host": f"rebind.example:{srv.port}"})
+    r = c.getresponse()
+    r.read()
+    assert r.status == 400
+
+
+def test_hostile_messages_are_rejected_and_the_engine_keeps_running(served, caplog):
+    session, srv = served
+    caplog.set_level(logging.WARNING, logger="surfhap.live")
+    eng = session.engine
+    hostile = ["not json", "[1,2,3]", '{"type":"move"}', '{"type":"move","seq":1,"t":0,"x":NaN,"y":0.5}',
+               '{"type":"move","seq":1,"t":0,"x":1e308,"y":0.5}', '{"type":"move","seq":-1,"t":0,"x":0.5,"y":0.5}',
+               '{"type":"move","seq":true,"t":0,"x":0.5,"y":0.5}', '{"type":"__import__(\'os\')"}',
+               '{"type":"hello","w":-5,"h":1e9}', '{"type":"move","seq":1,"t":0,"x":"0.5","y":0.5}',
+               "{" * 5000]
+
+    async def attack():
+        async with websockets.connect(ws_url(srv), origin=f"http://127.0.0.1:{srv.port}", max_size=None) as ws:
+            for h in hostile[:-1]:
+                await ws.send(h)
+            await ws.send(b"\x00\x01binary")
+            m = None
+            for _ in range(10):
+                m = json.loads(await asyncio.wait_for(ws.recv(), 2.0))
+                if m["rejected"] >= len(hostile) - 1:
+                    break
+            rejected = m["rejected"]
+            await ws.send(hostile[-1])  # larger than the message limit: connection closed
+            with pytest.raises(websockets.exceptions.ConnectionClosed):
+                for _ in range(50):
+                    await asyncio.wait_for(ws.recv(), 2.0)
+            return rejected
+
+    blocks0 = eng.counters["blocks"]
+    rejected = asyncio.run(attack())
+    assert rejected >= len(hostile) - 1
+    assert any("rejected message" in r.getMessage() for r in caplog.records)
+    # the engine kept running and a well-behaved client still works
+    m = asyncio.run(stream(srv, n=40))
+    assert m["ack"] == 39 and m["rejected"] == 0
+    assert eng.counters["blocks"] > blocks0 and eng.counters["errors"] == 0
+
+
+def test_flooding_client_is_rate_limited_and_disconnected(served):
+    session, srv = served
+
+    async def flood():
+        async with websockets.connect(ws_url(srv), origin=f"http://127.0.0.1:{srv.port}") as ws:
+            msg = json.dumps({"type": "move", "seq": 1, "t": 0.0, "x": 0.5, "y": 0.5, "p": 0.5})
+            with pytest.raises(websockets.exceptions.ConnectionClosed):
+                for _ in range(3000):
+                    await ws.send(msg)
+                for _ in range(100):
+                    await asyncio.wait_for(ws.recv(), 2.0)
+
+    asyncio.run(flood())
+    assert session.engine.counters["touches"] < 3000
+
+
+def test_clients_do_not_stall_each_other(served):
+    session, srv = served
+
+    async def silent_reader():
+        # connects, sends a few events and never reads its trace
+        async with websockets.connect(ws_url(srv), origin=f"http://127.0.0.1:{srv.port}", max_queue=1,
+                                      close_timeout=0.5) as ws:
+            await ws.send(json.dumps({"type": "hello", "w": 400, "h": 300}))
+            await asyncio.sleep(2.0)
+
+    async def timed(k):
+        m = await stream(srv, n=90, x0=0.05 * k)
+        return m, time.perf_counter() - t0
+
+    async def many():
+        tasks = [asyncio.create_task(silent_reader())]
+        tasks += [asyncio.create_task(timed(k)) for k in range(8)]
+        res = await asyncio.gather(*tasks)
+        return res[1:]
+
+    t0 = time.perf_counter()
+    results = asyncio.run(many())
+    for m, took in results:
+        assert took < 4.0  # 0.75 s of events at 120 Hz; a stalled client would take far longer
+        assert m["ack"] == 89 and m["rejected"] == 0
+    assert session.engine.counters["errors"] == 0
