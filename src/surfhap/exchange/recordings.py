@@ -130,8 +130,11 @@ class Recording:
 
     @property
     def sample_rate(self) -> float:
-        """Hz, from the median sampling interval."""
-        return float(1.0 / np.median(np.diff(self.time)))
+        """Hz, from the median sampling interval (snapped to a whole number of Hz when within
+        1 ppm of one, so that 2 kHz written as time stamps stays 2000 Hz)."""
+        r = float(1.0 / np.median(np.diff(self.time)))
+        whole = round(r)
+        return float(whole) if whole > 0 and abs(r - whole) <= 1e-6 * r else r
 
     @property
     def duration(self) -> float:

@@ -1,0 +1,129 @@
+"""``surfhap fit friction`` and ``surfhap fit accel``: material models from recordings.
+
+Both commands are added to the ``fit`` group defined in :mod:`surfhap.cli.fit`.
+"""
+
+from __future__ import annotations
+
+import shlex
+import sys
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+
+from surfhap.cli._common import stdout
+from surfhap.cli.fit import fit_app
+from surfhap.errors import ConfigError
+
+__all__ = ["register", "fit_friction_cmd", "fit_accel_cmd"]
+
+
+def _speeds_mm(text: str) -> tuple[float, ...]:
+    try:
+        vals = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise ConfigError(f"expected comma-separated numbers, got {text!r}", source="--reference-velocities") from None
+    if not vals:
+        raise ConfigError("give at least one velocity", source="--reference-velocities")
+    return vals
+
+
+def _command() -> str:
+    return shlex.join(["surfhap", *sys.argv[1:]]) if sys.argv and Path(sys.argv[0]).name.startswith("surfhap") else "surfhap fit"
+
+
+def _check_jobs(jobs: int) -> int:
+    if jobs == 0 or jobs < -1:
+        raise ConfigError("must be >= 1 (or -1 for all cores)", source="--jobs")
+    return jobs
+
+
+@fit_app.command("friction")
+def fit_friction_cmd(
+    recordings: List[Path] = typer.Argument(..., help="Friction recordings (CSV or NPZ): time, normal_force, shear_force or cof, speed or position."),
+    material: str = typer.Option(..., "--material", help="Name of the material to write."),
+    out: Path = typer.Option(..., "--out", help="Material JSON to write."),
+    cutoff: float = typer.Option(3.5, "--cutoff", help="Band split, Hz (Otake et al. 2021: 2.5, 2022: 3.5)."),
+    reference_velocities: str = typer.Option("0.05,0.075,0.1,0.125,0.15", "--reference-velocities",
+                                             help="Reference velocities, m/s (values > 5 are read as mm/s)."),
+    tolerance: float = typer.Option(20.0, "--tolerance", help="Speed window around each reference velocity, mm/s."),
+    min_span: float = typer.Option(100.0, "--min-span", help="Shortest spliced span, ms."),
+    max_order: int = typer.Option(60, "--max-order", min=1, max=400, help="Largest AR order considered."),
+    criterion: str = typer.Option("aic", "--criterion", help="aic | bic."),
+    estimator: str = typer.Option("yule-walker", "--estimator", help="yule-walker (averaged spectra, the paper's) | burg."),
+    columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'speed=v_x[mm/s],normal_force=Fz'."),
+    report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
+    jobs: int = typer.Option(1, "--jobs", help="Parallel workers (joblib); -1 = all cores."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address (needs the 'dask' extra)."),
+) -> None:
+    """Fit Coulomb mu0, the quasi-static law and AR textures per reference velocity (Otake et al.)."""
+    from surfhap.exchange.materials import write_material_json
+    from surfhap.exchange.recordings import parse_column_map, read_recordings
+    from surfhap.fit.material_fit import fit_friction, parallel_context
+    from surfhap.fit.texture import ESTIMATORS
+
+    if estimator not in ESTIMATORS:
+        raise ConfigError(f"must be one of {', '.join(ESTIMATORS)}", source="--estimator")
+    if criterion.lower() not in ("aic", "bic"):
+        raise ConfigError("must be aic or bic", source="--criterion")
+    speeds = _speeds_mm(reference_velocities)
+    speeds = tuple(v / 1000.0 if v > 5 else v for v in speeds)
+    recs = read_recordings(recordings, parse_column_map(columns))
+    command = _command()
+    with parallel_context(scheduler):
+        fit = fit_friction(recs, material, cutoff=cutoff, reference_speeds=speeds, tolerance=tolerance / 1000.0,
+                           min_span=min_span / 1000.0, max_order=max_order, criterion=criterion.lower(), estimator=estimator,
+                           jobs=_check_jobs(jobs))
+    mat = fit.to_material(command=command)
+    write_material_json(mat, out)
+    qs = fit.quasi_static
+    stdout.print(f"{out}: mu0 {fit.coulomb.mu0:.3f}; quasi-static a={qs.params['a']:.3f} b={qs.params['b']:.3f} "
+                 f"c={qs.params['c']:.3f} d={qs.params['d']:.3f} q={qs.params['q']:.3f} (R² {qs.r2:.2f}); "
+                 f"AR orders {', '.join(f'{t.reference_speed * 1e3:g} mm/s: {t.model.order}' for t in fit.textures) or 'none'}")
+    for note in fit.notes:
+        stdout.print(f"note: {note}")
+    if report is not None:
+        from surfhap.report.fit_report import write_fit_report
+
+        stdout.print(f"report: {write_fit_report(fit, report, command)}")
+
+
+@fit_app.command("accel")
+def fit_accel_cmd(
+    recordings: List[Path] = typer.Argument(..., help="Tool-scan recordings (CSV or NPZ): time, acceleration, speed, normal_force[, shear_force]."),
+    material: str = typer.Option(..., "--material", help="Name of the material to write."),
+    out: Path = typer.Option(..., "--out", help="Material JSON to write."),
+    model_rate: float = typer.Option(1000.0, "--model-rate", help="Rate of the models, Hz (HaTT: 1000)."),
+    highpass: float = typer.Option(20.0, "--highpass", help="High-pass of the acceleration before fitting, Hz (0 = off)."),
+    max_order: int = typer.Option(20, "--max-order", min=1, max=100, help="Largest AR order considered."),
+    criterion: str = typer.Option("aic", "--criterion", help="aic | bic (the common order)."),
+    min_segment: float = typer.Option(250.0, "--min-segment", help="Shortest stationary segment, ms."),
+    mu0: Optional[float] = typer.Option(None, "--mu0", help="Coulomb coefficient when the recordings have no shear force."),
+    columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'acceleration=az[g],speed=v[mm/s]'."),
+    report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
+    jobs: int = typer.Option(1, "--jobs", help="Parallel workers (joblib); -1 = all cores."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address (needs the 'dask' extra)."),
+) -> None:
+    """Segment, fit AR per segment and interpolate over (speed, force) (HaTT / Zhao et al.)."""
+    from surfhap.exchange.materials import write_material_json
+    from surfhap.exchange.recordings import parse_column_map, read_recordings
+    from surfhap.fit.accel import fit_accel
+    from surfhap.fit.material_fit import parallel_context
+
+    recs = read_recordings(recordings, parse_column_map(columns))
+    command = _command()
+    with parallel_context(scheduler):
+        fit = fit_accel(recs, material, model_rate=model_rate, highpass=highpass, max_order=max_order, criterion=criterion,
+                        min_segment=min_segment / 1000.0, mu0=mu0, jobs=_check_jobs(jobs))
+    write_material_json(fit.to_material(command=command), out)
+    stdout.print(f"{out}: {len(fit.segments)} segments, AR({fit.order}) models over (speed, force), "
+                 f"{fit.bank.triangles.shape[0]} triangles; mu0 {fit.mu0:.3f}")
+    if report is not None:
+        from surfhap.report.fit_report import write_fit_report
+
+        stdout.print(f"report: {write_fit_report(fit, report, command)}")
+
+
+def register(app: typer.Typer) -> None:
+    """The commands live on ``fit_app`` (registered by :mod:`surfhap.cli.fit`); nothing else to do."""

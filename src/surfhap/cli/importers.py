@@ -1,0 +1,39 @@
+"""``surfhap import``: convert third-party model files into surfhap material files.
+
+``surfhap import hatt FOLDER --out DIR`` converts every ``Models_*.xml`` of a user-supplied
+Penn Haptic Texture Toolkit folder (HaTT files may not be redistributed; surfhap ships
+none). A single ``Models_*.xml`` can also be given directly wherever a material is accepted.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from surfhap.cli._common import stdout
+
+__all__ = ["import_app", "register"]
+
+import_app = typer.Typer(help="Import material models from other toolkits.", no_args_is_help=True)
+
+
+@import_app.command("hatt")
+def import_hatt_cmd(
+    folder: Path = typer.Argument(..., help="HaTT folder holding Models_*.xml (searched recursively), or one such file."),
+    out: Path = typer.Option(..., "--out", help="Folder for the material JSON files."),
+) -> None:
+    """Convert HaTT model sets (interpolated ARMA acceleration textures + Coulomb mu)."""
+    from surfhap.exchange.hatt import import_hatt_folder
+
+    written = import_hatt_folder(folder, out)
+    for path in written:
+        stdout.print(str(path))
+    stdout.print(f"{len(written)} material(s) written to {out}")
+
+
+def register(app: typer.Typer) -> None:
+    app.add_typer(import_app, name="import")
+    # HaTT ``Models_*.xml`` is accepted wherever the CLI takes a material: importing the
+    # module registers its reader with surfhap.exchange.materials (cheap: no parsing).
+    import surfhap.exchange.hatt  # noqa: F401
