@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 
 # Debian packages the tests need (browser, audio server, ...); installed with apt-get
 # when missing. Keep this list the only place system packages are named.
-SYSTEM_PACKAGES :=
+SYSTEM_PACKAGES := chromium jackd2 libportaudio2
 
 .PHONY: install system-deps demo test bench builtins clean
 
