@@ -109,3 +109,18 @@ def test_drive_never_exceeds_safety_limits(xs, seed):
     assert np.all(np.abs(res.drive) <= cfg.limits.v_max + 1e-9)
     assert np.all((res.intensity >= 0.3) & (res.intensity <= 1.0))
     assert np.all((res.edge == 0) | ((res.edge >= 0.3) & (res.edge <= 1.0)))
+
+
+def test_device_curve_from_simulated_tribometer():
+    # bursts of a 150 Hz tangential force whose amplitude is quadratic in the intensity
+    fs = 10_000
+    t = np.arange(2 * fs) / fs
+    rng = np.random.default_rng(0)
+    recs = {}
+    for i in np.round(np.arange(0.1, 1.01, 0.1), 2):
+        amp = 0.18 * i**2 + 0.07  # peak-to-peak, N
+        gate = (np.sin(2 * np.pi * 3 * t) > 0.5).astype(float)
+        recs[i] = 0.5 * amp * np.sin(2 * np.pi * 150 * t) * gate + 0.002 * rng.standard_normal(t.size) + 0.3
+    curve = DeviceCurve.from_tribometer(recs, fs)
+    i = np.linspace(0.1, 1.0, 10)
+    np.testing.assert_allclose(curve.force(i), 0.18 * i**2 + 0.07, rtol=0.05)

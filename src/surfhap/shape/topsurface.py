@@ -285,6 +285,12 @@ class TopSurface:
         NaN / -1 where the vertical ray misses the mesh."""
         return query_grid(xy, *self._args[:2], self._grid, self._esign, self._zmax)
 
+    def query_normals(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Like :meth:`query`, plus the hit faces' upward unit normals: ``(z (n,), face (n,),
+        normal (n, 3))``, NaN rows off the mesh."""
+        z, f = self.query(xy)
+        return z, f, self.normals_of(f)
+
     def query_point(self, x: float, y: float) -> tuple[float, int]:
         """One point: ``(z, face)``, ``(nan, -1)`` off the mesh. The cheapest call for a live loop."""
         return _query_point(float(x), float(y), *self._args)
