@@ -92,3 +92,28 @@ def test_tick_intensity_within_limits(theta, theta_min):
 def test_sharpness_end_points():
     np.testing.assert_allclose(sharpness(np.array([180.0, 100.0, 140.0]), 100.0), [0.0, 1.0, 0.5])
     np.testing.assert_allclose(tick_intensity(np.array([0.0, 0.5, 1.0])), [0.3, 0.65, 1.0])
+
+
+@pytest.mark.parametrize("speed,rate,y", [(0.05, 60, 0.001), (0.2, 100, -0.003), (0.1, 60, 0.01)])
+def test_walking_mode_agrees_with_the_paper_where_steps_are_short(speed, rate, y):
+    fr = builtin_shape("frustum-bump")
+    a = scan(fr, y, speed, rate)
+    b = scan(fr, y, speed, rate, edge_walk=True)
+    np.testing.assert_allclose(b.edge, a.edge, rtol=1e-9)
+
+
+def test_walking_mode_catches_a_narrow_step():
+    from surfhap.shape.heightmap import heightmap_surface
+
+    z = np.zeros((40, 200))
+    z[:, 100:] = 1.0  # a 1 mm step over one 0.1 mm pixel
+    surf = heightmap_surface(z, pixel_size=1e-4, height=1e-3)
+    tr = straight_scan(-0.009, 0.0, 0.009, 0.0, 0.1)
+    cal = CAL
+    plain = ShapeRenderer(surf, cal, ShapeConfig()).process(tr.x, tr.y)
+    walk = ShapeRenderer(surf, cal, ShapeConfig(edge_walk=True)).process(tr.x, tr.y)
+    assert not np.any(plain.edge)  # flat face to flat face: the paper's test sees no edge
+    ticks = walk.edge[walk.edge > 0]
+    assert ticks.size == 1  # the convex top of the step; its concave foot stays silent
+    theta = 180.0 - np.degrees(np.arctan(1e-3 / 1e-4))
+    assert ticks[0] == pytest.approx(ie(theta, surf.theta_min))

@@ -105,6 +105,7 @@ def render_cmd(
     grain: str = typer.Option("area-even", "--grain", help="Area grain: area-even (smooth) | area-grainy (rough); edge-soft = area-even."),
     edges: bool = typer.Option(True, "--edges/--no-edges", help="Edge emphasis ticks (Sec. 4.3)."),
     edge_threshold: float = typer.Option(135.0, "--edge-threshold", help="Convex edges up to this dihedral angle (deg) tick; 180 = every convex edge."),
+    edge_walk: bool = typer.Option(False, "--edge-walk", help="Also find edges crossed between touch samples (narrow steps, height maps)."),
     fz: float = typer.Option(1.0, "--fz", help="Assumed normal force of eq. 7, N."),
     up: str = typer.Option("z", "--up", help="Mesh axis pointing out of the screen: x, y, z, -x, -y, -z."),
     scale: float = typer.Option(1.0, "--scale", help="Mesh units -> metres factor (0.01 for a mesh in cm)."),
@@ -125,7 +126,7 @@ def render_cmd(
 
     if (scan is None) == (trajectory is None):
         raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")
-    cfg = ShapeConfig(fz=fz, grain=grain, edges=edges, edge_threshold_deg=edge_threshold, drive_rate=drive_rate,
+    cfg = ShapeConfig(fz=fz, grain=grain, edges=edges, edge_threshold_deg=edge_threshold, edge_walk=edge_walk, drive_rate=drive_rate,
                       carrier=carrier, seed=seed)
     traj = parse_scan(scan, rate=rate, load=load) if scan is not None else read_trajectory_csv(trajectory)
     surf = load_surface(mesh, up=up, scale=scale, size=size, resolution=resolution, pixel_size=pixel_size, height=height)

@@ -27,7 +27,7 @@ from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.grains import DeviceCurve, GrainPlayer, grain_name
 from surfhap.render.safety import SafetyCounters, SafetyLimits, SafetyStage
 from surfhap.shape.calibration import ShapeCalibration, calibrate
-from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks
+from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks, edge_ticks_walk, walk_spacing
 from surfhap.shape.gradient import FZ_DEFAULT, intensity_from_fsq, lateral_force, signed_sqrt
 from surfhap.shape.topsurface import TopSurface
 from surfhap.sim.display import DisplayModel, SimulatedDisplay
@@ -45,6 +45,8 @@ class ShapeConfig:
     edges              : play edge ticks (Sec. 4.3).
     edge_threshold_deg : convex edges with a dihedral angle up to this tick (135: Fig. 10's
                          "relatively sharp"; 180: every convex edge).
+    edge_walk          : also find edges crossed *between* touch samples by walking the
+                         segment (an extension; the paper compares consecutive hit faces).
     drive_rate         : Hz, DAC rate (2-48 kHz).
     carrier            : Hz, polarity carrier (0 = off, else 2-20 kHz).
     model_rate         : Hz, rate of the simulated display's friction output.
@@ -58,6 +60,7 @@ class ShapeConfig:
     grain: str = "area-even"
     edges: bool = True
     edge_threshold_deg: float = EDGE_THRESHOLD_DEG
+    edge_walk: bool = False
     drive_rate: int = 20000
     carrier: float = 2000.0
     model_rate: int = 2000
@@ -117,6 +120,7 @@ class ShapeRenderer:
         self.config = config or ShapeConfig()
         self.theta_min = float(surface.theta_min) if self.config.edges else 0.0
         self._normals = surface.up_normals
+        self._spacing = walk_spacing(surface) if self.config.edge_walk else 0.0
         self.reset()
 
     def reset(self) -> None:
@@ -140,7 +144,11 @@ class ShapeRenderer:
         cal = self.calibration
         inten = intensity_from_fsq(fsq, cal.fmin, cal.fmax)
         pts = np.column_stack([x, y, z])
-        if self.config.edges and n:
+        if self.config.edges and n and self.config.edge_walk:
+            edge, theta = edge_ticks_walk(self.surface, x, y, face, self.theta_min,
+                                          threshold_deg=self.config.edge_threshold_deg, spacing=self._spacing,
+                                          prev=(self._prev_point[0], self._prev_point[1], self._prev_face))
+        elif self.config.edges and n:
             edge, theta = edge_ticks(face, pts, self._normals, self.theta_min,
                                      threshold_deg=self.config.edge_threshold_deg,
                                      prev=(self._prev_face, self._prev_point))
@@ -240,6 +248,7 @@ class ShapeResult:
             "fz_n": self.config.fz,
             "grain": self.config.grain,
             "edge_threshold_deg": self.config.edge_threshold_deg,
+            "edge_walk": self.config.edge_walk,
             "theta_min_deg": self.theta_min,
             "ticks": self.n_ticks,
             "tick_intensities": [float(v) for v in self.edge[self.edge > 0]],

@@ -9,6 +9,13 @@ up, the side a finger touches), with phi the angle between the normals:
 * otherwise it is concave (theta = 180 deg + phi) and, as in the paper, ignored ("concave
   ones are not reachable in reality").
 
+Walking mode (``edge_ticks_walk``, an extension): the paper compares only the faces of
+consecutive hits, so a narrow feature crossed between two touch samples (a step one pixel
+wide in a height map) passes unnoticed. In walking mode the segment between the two touch
+points is sampled at a spacing finer than the mesh, every face change along it is tested,
+and the sharpest qualifying convex edge of the step gives that sample's tick (one tick per
+touch sample at most).
+
 A convex edge of angle theta has sharpness ``S = -(theta - 180) / (180 - theta_min)``
 (eq. 10), with theta_min the smallest convex dihedral angle of the object, and is played as a
 tick of intensity ``Ie = 0.7 S + 0.3`` (eq. 11).
@@ -25,9 +32,14 @@ to [0, 1] (non-adjacent faces hit in consecutive frames can bend more than any s
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
+from surfhap.shape.topsurface import _hit_one
+
 __all__ = [
+    "edge_ticks_walk",
+    "walk_spacing",
     "EDGE_THRESHOLD_DEG",
     "FLAT_TOLERANCE_DEG",
     "dihedral_angles",
@@ -128,3 +140,106 @@ def smallest_convex_dihedral(surface) -> float:
     if not np.any(convex):
         return 0.0
     return float(theta[convex].min())
+
+
+def walk_spacing(surface) -> float:
+    """Sub-sample spacing (m) for walking mode: half the 5th percentile of the xy lengths of
+    the mesh's edges (the small features), at least 1e-6 of the mesh's xy diagonal."""
+    v = surface.vertices
+    f = surface.faces
+    e = np.concatenate([v[f[:, 1], :2] - v[f[:, 0], :2], v[f[:, 2], :2] - v[f[:, 1], :2], v[f[:, 0], :2] - v[f[:, 2], :2]])
+    length = np.hypot(e[:, 0], e[:, 1])
+    lo, hi = surface.bounds
+    diag = float(np.hypot(*(hi[:2] - lo[:2])))
+    length = length[length > 1e-9 * max(diag, 1e-300)]
+    base = float(np.percentile(length, 5)) / 2.0 if length.size else diag
+    return max(base, 1e-6 * diag, 1e-12)
+
+
+@numba.njit(cache=True, nogil=True)
+def _walk_kernel(x, y, face, px0, py0, pf0, spacing, max_sub, normals, theta_min, threshold, flat_deg,
+                 verts, faces, esign, zmax, gx0, gy0, inv_cw, inv_ch, nx, ny, start, items, tick, theta_out):
+    px = px0
+    py = py0
+    pf = pf0
+    span = 180.0 - theta_min
+    for i in range(x.shape[0]):
+        cx = x[i]
+        cy = y[i]
+        cf = face[i]
+        tick[i] = 0.0
+        theta_out[i] = np.nan
+        if cf >= 0 and pf >= 0 and cf != pf:
+            dx = cx - px
+            dy = cy - py
+            dist = np.sqrt(dx * dx + dy * dy)
+            m = int(np.ceil(dist / spacing))
+            if m < 1:
+                m = 1
+            if m > max_sub:
+                m = max_sub
+            lf = pf
+            lx = px
+            ly = py
+            lz = np.nan
+            best_theta = np.nan
+            for k in range(1, m + 1):
+                sx = px + dx * k / m
+                sy = py + dy * k / m
+                z, f = _hit_one(sx, sy, verts, faces, esign, zmax, gx0, gy0, inv_cw, inv_ch, nx, ny, start, items)
+                if f < 0:
+                    lf = -1
+                    continue
+                if lf >= 0 and f != lf:
+                    if not np.isfinite(lz):
+                        # height of the previous sub-sample on its face is needed for the bend test
+                        lz, _ = _hit_one(lx, ly, verts, faces, esign, zmax, gx0, gy0, inv_cw, inv_ch, nx, ny, start, items)
+                    c = normals[lf, 0] * normals[f, 0] + normals[lf, 1] * normals[f, 1] + normals[lf, 2] * normals[f, 2]
+                    c = min(1.0, max(-1.0, c))
+                    phi = np.degrees(np.arccos(c))
+                    bend = ((normals[lf, 0] - normals[f, 0]) * (sx - lx) + (normals[lf, 1] - normals[f, 1]) * (sy - ly)
+                            + (normals[lf, 2] - normals[f, 2]) * (z - lz))
+                    if phi > flat_deg:
+                        th = 180.0 - phi if bend < 0.0 else 180.0 + phi
+                        if not (best_theta <= th):
+                            best_theta = th
+                        if bend < 0.0 and th <= threshold:
+                            s = (180.0 - th) / span
+                            s = min(1.0, max(0.0, s))
+                            ie = 0.7 * s + 0.3
+                            if ie > tick[i]:
+                                tick[i] = ie
+                lf = f
+                lx = sx
+                ly = sy
+                lz = z
+            theta_out[i] = best_theta
+        px = cx
+        py = cy
+        pf = cf
+
+
+def edge_ticks_walk(surface, x: np.ndarray, y: np.ndarray, face: np.ndarray, theta_min: float, *,
+                    threshold_deg: float = EDGE_THRESHOLD_DEG, prev: tuple[float, float, int] | None = None,
+                    spacing: float | None = None, max_sub: int = 4096) -> tuple[np.ndarray, np.ndarray]:
+    """Edge ticks in walking mode (see the module docstring).
+
+    x, y : (n,) float touch points; face (n,) int their hit faces (-1 off the mesh).
+    prev : (x, y, face) of the sample before the block, or None.
+    spacing : sub-sample spacing, m (default :func:`walk_spacing`); at most ``max_sub``
+    sub-samples per step. Returns ``(tick (n,), theta (n,))`` as :func:`edge_ticks`, theta
+    being the smallest dihedral angle met along the step.
+    """
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    face = np.ascontiguousarray(face, dtype=np.int64)
+    n = x.shape[0]
+    tick = np.zeros(n)
+    theta = np.full(n, np.nan)
+    if theta_min >= 180.0:
+        raise ValueError("theta_min must be below 180 deg")
+    px, py, pf = (np.nan, np.nan, -1) if prev is None else (float(prev[0]), float(prev[1]), int(prev[2]))
+    sp = float(spacing) if spacing is not None else walk_spacing(surface)
+    _walk_kernel(x, y, face, px, py, pf, sp, int(max_sub), surface.up_normals, float(theta_min), float(threshold_deg),
+                 FLAT_TOLERANCE_DEG, *surface._args, tick, theta)
+    return tick, theta
