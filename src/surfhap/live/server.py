@@ -63,7 +63,7 @@ class ServerConfig:
     allow_missing_origin: bool = True
     max_message_bytes: int = 1024
     max_rate: float = 500.0  # messages/s per client (pointer events are <= 240 Hz)
-    burst: float = 100.0
+    burst: float = 240.0  # two seconds of 120 Hz events (a client catching up after a stall)
     max_clients: int = 64
     max_rejects: int = 200  # rejected messages before a client is disconnected
     trace_hz: float = 30.0

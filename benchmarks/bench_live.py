@@ -1,0 +1,156 @@
+"""Live engine targets, measured in one run (one JSON line per figure; ratio >= 1 passes).
+
+1. live_engine_overhead: ``LiveEngine.render`` per 1 ms block (20 kHz drive) with a
+   material active and touches at 125 Hz, p99 CPU time <= 10 % of the block period
+   (ratio = 0.10 / share). Run for cork (2 kHz friction model) and leather (texture),
+   with the simulated display off (what the sound-card callback runs) and on (``sim``).
+2. live_touch_to_drive: the sim backend paced in real time, a producer thread pushing
+   touches at 125 Hz at random phases; arrival -> first drive sample computed from it,
+   p99 <= 2 blocks (ratio = 2 / p99_blocks).
+3. live_50_clients: the page server and engine in this process, 50 WebSocket clients in a
+   separate process streaming pointer events at 120 Hz for 60 s over loopback, plus one
+   client that floods garbage and never reads. Passes when every client's events were all
+   acknowledged with p99 ack lag < 0.25 s (no client stalls another), the RSS grows by
+   < 10 % between 10 s and the end (memory flat) and the emitted drive has zero safety
+   violations (|V| <= v_max, rise <= rise_rate). Engine underruns are reported beside.
+
+``--quick`` shortens run 3 to 10 s (as in the tests).
+"""
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+import numpy as np
+from _common import report
+
+from surfhap.exchange.materials import load_material
+from surfhap.live.engine import EngineConfig, LiveEngine, audit_drive
+from surfhap.render.chain import ChainConfig, TextureChain
+from surfhap.sim.display import SimulatedDisplay
+
+
+def rss_bytes() -> int:
+    with open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def engine_for(material: str, display: bool) -> LiveEngine:
+    chain = TextureChain(load_material(material), ChainConfig(drive_rate=20000))
+    disp = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.model_rate) if display else None
+    return LiveEngine(chain, EngineConfig(block_seconds=0.001), display=disp)
+
+
+def bench_overhead(material: str, display: bool, n_blocks: int = 20000) -> None:
+    eng = engine_for(material, display)
+    eng.warm_up(200)
+    cpu = np.empty(n_blocks)
+    for b in range(n_blocks):
+        t = b * eng.block_period
+        if b % 8 == 0:
+            x = 0.02 + 0.05 * abs(((t * 2.0) % 2.0) - 1.0)
+            eng.push_touch(1, x, 0.03, 0.5, t_event=t, t_arrival=t)
+        c0 = time.thread_time_ns()
+        eng.render(eng.block_frames, t + 2e-4)
+        cpu[b] = (time.thread_time_ns() - c0) * 1e-9
+    p99 = float(np.percentile(cpu, 99))
+    share = p99 / eng.block_period
+    report("live_engine_overhead", {"material": material, "model_rate_hz": eng.model_rate, "simulated_display": display,
+                                    "blocks": n_blocks, "median_us": round(float(np.median(cpu)) * 1e6, 1),
+                                    "p99_us": round(p99 * 1e6, 1), "p99_share_of_block": round(share, 4)},
+           0.10 / share, "p99 CPU per 1 ms block <= 10 % (ratio = 0.10 / share)", share <= 0.10)
+
+
+def bench_latency(seconds: float = 10.0) -> None:
+    from surfhap.live.backends.sim import SimBackend
+
+    eng = engine_for("cork", True)
+    eng.warm_up()
+    backend = SimBackend()
+    backend.start(eng)
+    rng = np.random.default_rng(0)
+    t0 = time.perf_counter()
+    n = 0
+    while time.perf_counter() - t0 < seconds:  # bounded
+        t = time.perf_counter() - t0
+        eng.push_touch(1, 0.02 + 0.05 * abs(((t * 2.0) % 2.0) - 1.0), 0.03, 0.5, t_event=t)
+        n += 1
+        time.sleep(0.008 + rng.uniform(0, 0.001))
+    backend.stop()
+    lat = eng.latencies[: min(eng.latency_count, eng.latencies.shape[0])]
+    p99_blocks = float(np.percentile(lat, 99)) / eng.block_period
+    report("live_touch_to_drive", {"touches": n, "measured": int(lat.size),
+                                   "p50_ms": round(float(np.percentile(lat, 50)) * 1e3, 3),
+                                   "p99_ms": round(float(np.percentile(lat, 99)) * 1e3, 3),
+                                   "p99_blocks": round(p99_blocks, 3), "underruns": eng.counters["underruns"]},
+           2.0 / max(p99_blocks, 1e-9), "arrival -> first affected drive sample p99 <= 2 blocks", p99_blocks <= 2.0)
+
+
+def bench_clients(seconds: float, n_clients: int = 50, rate: float = 120.0) -> None:
+    from surfhap.live.server import ServerConfig, ServerThread, build_session, create_app
+
+    tmp = tempfile.mkdtemp(prefix="surfhap-bench-")
+    session = build_session("cork", f"file:{tmp}/drive.npz", backend_options={"max_seconds": seconds + 30})
+    session.start()
+    srv = ServerThread(create_app(session, ServerConfig(port=0, max_clients=n_clients + 8)), port=0).start()
+    rss = {}
+
+    def sample_rss():
+        t0 = time.perf_counter()
+        while not done.is_set():
+            t = time.perf_counter() - t0
+            key = "early" if t < min(10.0, seconds / 3) else "late"
+            if key == "early" or "late" not in rss or t > seconds - 2:
+                rss[key] = rss_bytes()
+            done.wait(0.5)
+
+    done = threading.Event()
+    th = threading.Thread(target=sample_rss, daemon=True)
+    th.start()
+    url = f"ws://127.0.0.1:{srv.port}/ws"
+    proc = subprocess.run([sys.executable, "-m", "surfhap.live.loadtest", url, str(n_clients), str(rate), str(seconds), "1"],
+                          capture_output=True, text=True, timeout=seconds + 120)
+    done.set()
+    srv.stop()
+    session.stop()
+    if proc.returncode != 0:
+        raise SystemExit("load generator failed: " + proc.stderr[-2000:])
+    res = json.loads(proc.stdout)["summary"]
+    eng = session.engine
+    audit = audit_drive(session.backend.recorded, eng.drive_rate, eng.renderer.safety.limits)
+    growth = rss.get("late", 0) / max(1, rss.get("early", 1))
+    no_stall = res["all_acked"] and res["lag_p99_max"] < 0.25
+    ok = no_stall and growth < 1.10 and audit["violations"] == 0
+    st = eng.status()
+    report("live_50_clients", {"clients": n_clients, "rate_hz": rate, "seconds": seconds, "events": res["sent"],
+                               "all_acked": res["all_acked"], "ack_lag_p99_worst_client_s": round(res["lag_p99_max"], 4),
+                               "ack_lag_max_s": round(res["lag_max"], 4), "max_frame_gap_s": round(res["max_frame_gap"], 4),
+                               "rss_early_mb": round(rss.get("early", 0) / 2**20, 1), "rss_late_mb": round(rss.get("late", 0) / 2**20, 1),
+                               "rss_growth": round(growth, 4), "safety_violations": audit["violations"],
+                               "drive_samples": int(session.backend.recorded.size),
+                               "engine_underruns": st["counters"]["underruns"], "engine_blocks": st["counters"]["blocks"],
+                               "rejected_from_bad_client": st.get("server", {}).get("rejected")},
+           0.25 / max(res["lag_p99_max"], 1e-9) if ok else 0.0,
+           "all events acked, worst client's p99 ack lag < 0.25 s, RSS growth < 10 %, 0 safety violations "
+           "(ratio = 0.25 / worst p99 lag, 0 if any condition fails)", ok)
+
+
+def main():
+    quick = "--quick" in sys.argv
+    for material in ("cork", "leather"):
+        for display in (False, True):
+            bench_overhead(material, display)
+    bench_latency(5.0 if quick else 10.0)
+    bench_clients(10.0 if quick else 60.0)
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("PYTHONUNBUFFERED", "1")
+    main()

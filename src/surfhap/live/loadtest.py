@@ -1,0 +1,134 @@
+"""Load generator for the touch page: many WebSocket clients streaming pointer events.
+
+Used by ``benchmarks/bench_live.py`` (50 clients x 120 Hz x 60 s) and by the tests (a
+shorter run). Each client sends ``move`` events at ``rate`` Hz for ``seconds`` (bounded
+loops), reads its trace frames and measures the *ack lag*: the time from sending event
+``seq`` to receiving the first frame that acknowledges it. ``bad_clients`` extra clients
+misbehave (flood garbage and never read) to show they do not stall the others.
+
+Run as a script to keep the clients in their own process::
+
+    python -m surfhap.live.loadtest ws://127.0.0.1:PORT/ws N RATE SECONDS [BAD]
+
+prints one JSON object.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import re
+import sys
+import time
+
+import numpy as np
+
+__all__ = ["run_clients"]
+
+_ACK = re.compile(r'"ack":(-?\d+)')
+_REJ = re.compile(r'"rejected":(\d+)')
+
+
+async def _client(url: str, origin: str, k: int, rate: float, seconds: float) -> dict:
+    import websockets
+
+    n = int(rate * seconds)
+    sent_at = np.full(n, np.nan)
+    lags: list[float] = []
+    gaps: list[float] = []
+    last_ack = -1
+    rejected = 0
+    async with websockets.connect(url, origin=origin, open_timeout=20, close_timeout=2) as ws:
+        await ws.send(json.dumps({"type": "hello", "w": 1000, "h": 700}))
+
+        async def reader():
+            nonlocal last_ack, rejected
+            t_prev = None
+            while last_ack < n - 1:
+                try:
+                    raw = await asyncio.wait_for(ws.recv(), 10.0)
+                except (asyncio.TimeoutError, Exception):  # noqa: BLE001
+                    return
+                t = time.perf_counter()
+                if t_prev is not None:
+                    gaps.append(t - t_prev)
+                t_prev = t
+                # only the acknowledgement is needed: read it without parsing the whole frame
+                mo = _ACK.search(raw, 0, 200)
+                if mo is None:
+                    continue
+                a = int(mo.group(1))
+                mr = _REJ.search(raw, 0, 300)
+                rejected = int(mr.group(1)) if mr else rejected
+                if a > last_ack:
+                    for s in range(last_ack + 1, a + 1):
+                        if s < n and sent_at[s] == sent_at[s]:
+                            lags.append(t - sent_at[s])
+                    last_ack = a
+
+        rd = asyncio.get_running_loop().create_task(reader())
+        t0 = time.perf_counter()
+        for i in range(n):
+            due = t0 + i / rate
+            delay = due - time.perf_counter()
+            if delay > 0:
+                await asyncio.sleep(delay)
+            ph = (i / rate) * 0.5 + k * 0.013
+            x = 0.1 + 0.8 * abs((ph % 2.0) - 1.0)
+            sent_at[i] = time.perf_counter()
+            await ws.send(json.dumps({"type": "move", "seq": i, "t": (sent_at[i] - t0) * 1e3, "x": x,
+                                      "y": 0.2 + 0.6 * (k % 10) / 10, "p": 0.5}))
+        await ws.send(json.dumps({"type": "up", "seq": n, "t": (time.perf_counter() - t0) * 1e3}))
+        try:
+            await asyncio.wait_for(rd, 5.0)
+        except asyncio.TimeoutError:
+            rd.cancel()
+    lag = np.array(lags) if lags else np.array([np.inf])
+    return {"sent": n, "acked": last_ack + 1, "lag_p50": float(np.percentile(lag, 50)),
+            "lag_p99": float(np.percentile(lag, 99)), "lag_max": float(lag.max()),
+            "max_frame_gap": float(max(gaps)) if gaps else float("inf"), "rejected": rejected}
+
+
+async def _bad_client(url: str, origin: str, seconds: float) -> dict:
+    import websockets
+
+    sent = 0
+    closed = False
+    try:
+        async with websockets.connect(url, origin=origin, max_queue=1, close_timeout=0.5) as ws:
+            end = time.perf_counter() + seconds
+            while time.perf_counter() < end:
+                for msg in ("{not json", '{"type":"move","seq":1,"t":0,"x":1e9,"y":0}', "[]"):
+                    await ws.send(msg)
+                    sent += 1
+                await asyncio.sleep(0.001)
+    except Exception:  # noqa: BLE001 - being disconnected is the expected outcome
+        closed = True
+    return {"bad_sent": sent, "disconnected": closed}
+
+
+async def _run(url: str, n: int, rate: float, seconds: float, bad: int) -> dict:
+    origin = url.replace("ws://", "http://").rsplit("/ws", 1)[0]
+    tasks = [_client(url, origin, k, rate, seconds) for k in range(n)]
+    tasks += [_bad_client(url, origin, seconds) for _ in range(bad)]
+    res = await asyncio.gather(*tasks)
+    good = res[:n]
+    return {"clients": good, "bad": res[n:]}
+
+
+def run_clients(url: str, n: int = 50, rate: float = 120.0, seconds: float = 60.0, bad: int = 0) -> dict:
+    """Run the clients (this process) and return per-client results and a summary."""
+    out = asyncio.run(_run(url, n, rate, seconds, bad))
+    cl = out["clients"]
+    out["summary"] = {
+        "clients": n, "all_acked": all(c["acked"] >= c["sent"] for c in cl),
+        "lag_p99_max": max(c["lag_p99"] for c in cl), "lag_max": max(c["lag_max"] for c in cl),
+        "max_frame_gap": max(c["max_frame_gap"] for c in cl), "rejected": sum(c["rejected"] for c in cl),
+        "sent": sum(c["sent"] for c in cl),
+    }
+    return out
+
+
+if __name__ == "__main__":
+    a = sys.argv[1:]
+    print(json.dumps(run_clients(a[0], int(a[1]), float(a[2]), float(a[3]), int(a[4]) if len(a) > 4 else 0)))
