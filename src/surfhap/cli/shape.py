@@ -93,7 +93,7 @@ def _percentiles(text: str) -> tuple[float, float]:
 _MESH_HELP = "Mesh file (OBJ/STL/PLY/glTF/OFF), greyscale image (height map), or built-in name (suzanne, gaussian-bump, frustum-hole, a scene...)."
 
 
-@shape_app.command("render", hidden=True)
+@shape_app.command("render")
 def render_cmd(
     mesh: str = typer.Argument(..., help=_MESH_HELP),
     out: Path = typer.Option(..., "--out", help="Output folder: shape.npz, summary.json, figure.png."),
@@ -118,7 +118,7 @@ def render_cmd(
     seed: int = typer.Option(0, "--seed", help="Seed of the grainy grain."),
     figure: bool = typer.Option(True, "--figure/--no-figure", help="Write figure.png."),
 ) -> None:
-    """Render a scan over MESH on the simulated display."""
+    """Render a scan over MESH on the simulated display (also: surfhap shape MESH ...)."""
     from surfhap.exchange.shape_files import read_calibration, write_shape
     from surfhap.exchange.trajectory_csv import read_trajectory_csv
     from surfhap.render.shape_renderer import ShapeConfig, render_shape

@@ -1,0 +1,73 @@
+"""Mesh loading: formats through trimesh, orientation, scale, clear errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from surfhap.errors import MeshFormatError
+from surfhap.exchange.mesh import builtin_mesh_path, orient_up, read_mesh
+from surfhap.shape.topsurface import TopSurface
+
+
+@pytest.mark.parametrize("ext", ["stl", "ply", "glb", "off", "obj"])
+def test_formats_round_trip(tmp_path, ext):
+    ref = TopSurface.from_file("suzanne")
+    mesh = trimesh.Trimesh(ref.vertices, ref.faces, process=False)
+    path = tmp_path / f"suz.{ext}"
+    mesh.export(path)
+    surf = TopSurface.from_file(path)
+    xy = np.random.default_rng(0).uniform(-1.3, 1.3, (500, 2))
+    za, _ = ref.query(xy)
+    zb, _ = surf.query(xy)
+    np.testing.assert_array_equal(np.isnan(za), np.isnan(zb))
+    np.testing.assert_allclose(zb, za, atol=1e-6)  # float32 formats
+    assert surf.theta_min == pytest.approx(ref.theta_min, abs=1e-3)  # STL vertices are welded on load
+
+
+def test_suzanne_ships_with_its_licence():
+    p = builtin_mesh_path("suzanne")
+    assert p.exists() and (p.parent / "SOURCE.md").exists() and (p.parent / "BLENDER-LICENSE-AGREEMENT.txt").exists()
+    m = read_mesh("suzanne")
+    assert m.faces.shape[0] in (967, 968)
+    lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
+    np.testing.assert_allclose(hi, [1.367188, 0.984375, 0.851562], atol=1e-6)
+
+
+def test_orientation_scale_and_size():
+    v = np.array([[1.0, 2.0, 3.0]])
+    np.testing.assert_allclose(orient_up(v, "y"), [[1.0, -3.0, 2.0]])
+    for up in ("x", "y", "z", "-x", "-y", "-z"):
+        basis = orient_up(np.eye(3), up)
+        assert np.linalg.det(basis) == pytest.approx(1.0)  # proper rotation: windings survive
+        axis = {"x": 0, "y": 1, "z": 2}[up[-1]]
+        np.testing.assert_allclose(basis[axis], [0, 0, -1 if up.startswith("-") else 1])
+    m = read_mesh("suzanne", scale=0.01)
+    assert m.vertices[:, 0].max() == pytest.approx(0.01367188)
+    m = read_mesh("suzanne", size=0.1)
+    ext = m.vertices.max(axis=0) - m.vertices.min(axis=0)
+    assert max(ext[0], ext[1]) == pytest.approx(0.1)
+    assert m.vertices[:, 0].min() == pytest.approx(-0.05)
+
+
+def test_clear_errors(tmp_path):
+    with pytest.raises(MeshFormatError, match="no such file"):
+        read_mesh(tmp_path / "missing.obj")
+    (tmp_path / "x.docx").write_text("hello")
+    with pytest.raises(MeshFormatError, match="unknown mesh format"):
+        read_mesh(tmp_path / "x.docx")
+    with pytest.raises(MeshFormatError, match="folder"):
+        read_mesh(tmp_path)
+    (tmp_path / "nan.obj").write_text("v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(MeshFormatError):
+        read_mesh(tmp_path / "nan.obj")
+    (tmp_path / "pts.ply").write_text("ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+                                      "property float z\nend_header\n0 0 0\n1 1 1\n")
+    with pytest.raises(MeshFormatError) as err:
+        read_mesh(tmp_path / "pts.ply")
+    assert str(tmp_path / "pts.ply") in str(err.value) and "\n" not in str(err.value)
+    with pytest.raises(MeshFormatError):
+        read_mesh("suzanne", scale=-1.0)
+    with pytest.raises(MeshFormatError):
+        read_mesh("suzanne", up="w")
