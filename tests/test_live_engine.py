@@ -132,7 +132,7 @@ def test_watchdog_ramps_to_zero_when_touches_stop():
 
 def test_lift_silences_at_once_even_with_a_slow_model():
     e = make_engine("denim")  # 100 Hz texture model (resampled up to the 2 kHz control rate)
-    assert e.chain.texture_rate == 100
+    assert e.renderer.texture_rate == 100
     run(e, 0.0, 0.2, touch=stroke)
     assert np.abs(e.out[: e.block_frames]).max() > 0
     e.push_touch(1, 0.0, 0.0, 0.0, t_arrival=0.2)

@@ -12,7 +12,7 @@ __all__ = ["register"]
 
 
 def demo(out: Path = typer.Option(Path("demo"), "--out", help="Folder for report.html and figures."),
-         duration: float = typer.Option(4.0, "--duration", min=1.0, max=60.0, help="Seconds per render."),
+         duration: float = typer.Option(10.0, "--duration", min=1.0, max=60.0, help="Seconds per render."),
          seed: int = typer.Option(0, "--seed", help="Seed of the texture noise.")) -> None:
     """Render every built-in material at 50, 100 and 150 mm/s and write an HTML report."""
     from surfhap.report.demo_report import DemoSettings, run_demo, write_demo_report

@@ -4,8 +4,9 @@ One :class:`TextureChain` turns blocks of finger state at the model rate into dr
 at the drive rate. Offline rendering (:func:`surfhap.render.offline.render`) and live
 rendering run this same object; only the clock and the backend differ.
 
-Block contract (``process``): inputs are (n,) float arrays at the model rate for the n
-model samples following the previous block: speed (m/s), load (N) and ``touch_time``, the
+The chain runs at ``model_rate`` (the control rate, 2 kHz by default, or the texture's model
+rate when that is higher). Block contract (``process``): inputs are (n,) float arrays at that
+rate for the n samples following the previous block: speed (m/s), load (N) and ``touch_time``, the
 time stamp (s, on the chain's clock that starts at 0 on reset) of the freshest touch sample
 available at each model sample (``-inf`` if none yet). The output holds the model-rate
 envelope and the drive-rate samples that became available (n * drive_rate / model_rate on
@@ -26,6 +27,7 @@ from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive import DriveBlock, DriveParams, make_drive_law
 from surfhap.render.resample import RationalResampler
 from surfhap.render.safety import SafetyLimits, SafetyStage
+from surfhap.render.texture_source import TextureSource
 from surfhap.sim.display import DisplayModel
 
 __all__ = ["ChainConfig", "ChainBlock", "TextureChain"]
@@ -38,7 +40,8 @@ class ChainConfig:
     method       : "auto", "otake2022", "otake2021", "zhao", "friction-only" or "square".
     drive_rate   : Hz, DAC rate (2-48 kHz).
     carrier      : Hz, polarity carrier (0 = off, else 2-20 kHz).
-    control_rate : Hz, model rate used when no texture model sets one (friction-only).
+    control_rate : Hz, rate of the chain (friction law, drive envelope); a texture model fitted
+                   at a lower rate is synthesised at its own rate and resampled up to it.
     alpha        : V/sqrt(N); None = calibrated to the display (1/sqrt(mu_panel k)).
     beta, effective_mass, constant_load, square_frequency, square_amplitude: see DriveParams.
     seed         : seed of the texture noise.
@@ -112,17 +115,18 @@ class TextureChain:
                                   cfg.square_frequency, cfg.square_amplitude)
         probe = make_drive_law(cfg.method, material, self.params, cfg.control_rate)
         self.method = probe.method
+        self.model_rate = int(cfg.control_rate)
+        self.texture_rate = None
         if probe.uses_texture:
             rate = material.model_rate
             if int(rate) != rate:
                 raise ConfigError(f"texture model rate {rate} Hz is not a whole number", field="texture.sample_rate")
-            self.model_rate = int(rate)
-        else:
-            self.model_rate = int(cfg.control_rate)
+            self.texture_rate = int(rate)
+            self.model_rate = max(self.model_rate, self.texture_rate)
         if self.model_rate > cfg.drive_rate:
             raise ConfigError(f"drive rate {cfg.drive_rate} Hz is below the model rate {self.model_rate} Hz", field="drive_rate")
         self.law = make_drive_law(self.method, material, self.params, self.model_rate)
-        self.synth = material.texture.synthesizer(seed=cfg.seed) if self.law.uses_texture else None
+        self.synth = TextureSource(material.texture, self.model_rate, seed=cfg.seed) if self.law.uses_texture else None
         self.upsampler = RationalResampler(self.model_rate, int(cfg.drive_rate))
         self.carrier = PolarityCarrier(cfg.carrier, cfg.drive_rate)
         self.safety = SafetyStage(cfg.drive_rate, cfg.limits)

@@ -26,7 +26,8 @@ __all__ = ["RenderResult", "render", "sample_trajectory"]
 
 @dataclass
 class RenderResult:
-    """Everything one render produced. Arrays at the model rate unless named ``*_drive``.
+    """Everything one render produced. Arrays at the chain's model (control) rate unless
+    named ``*_drive``; ``texture_rate`` is the rate the texture model was fitted at.
 
     t (n,) s; speed (n,) m/s; load (n,) N; texture (n,) in the texture quantity;
     mu_low, mu_tex (n,); target (n,) N target added friction; voltage (n,) V envelope
@@ -66,6 +67,7 @@ class RenderResult:
     effective_mass: float = 0.05
     constant_load: float | None = 1.6
     v_max: float = 250.0
+    texture_rate: int | None = None
 
     @property
     def t_drive(self) -> np.ndarray:
@@ -95,7 +97,8 @@ class RenderResult:
         refs = np.array([np.nan if m.reference_speed is None else m.reference_speed for m in self.texture_models])
         i = 0 if len(refs) == 1 else int(np.nanargmin(np.abs(refs - v)))
         model = self.texture_models[i]
-        psd = ar_psd(model.coefficients, model.variance, self.model_rate, freqs)
+        rate = self.texture_rate or self.model_rate
+        psd = np.where(np.asarray(freqs) < rate / 2, ar_psd(model.coefficients, model.variance, rate, freqs), 0.0)
         if self.method == "zhao":
             load = fn if self.constant_load is None else self.constant_load
             scale = self.effective_mass if self.texture_quantity == "acceleration" else load
@@ -114,6 +117,7 @@ class RenderResult:
             "trajectory": self.trajectory_name,
             "duration_s": float(self.t[-1] + 1.0 / self.model_rate) if self.t.size else 0.0,
             "model_rate_hz": self.model_rate,
+            "texture_rate_hz": self.texture_rate,
             "drive_rate_hz": self.drive_rate,
             "carrier_hz": self.carrier,
             "alpha_v_per_sqrt_n": float(self.alpha),
@@ -198,5 +202,5 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
         clipped=chain.law.clipped, touching=chain.law.touching, safety=chain.safety.counters,
         texture_quantity=None if bank is None else bank.quantity,
         texture_models=[] if bank is None else list(bank.models), trajectory_name=trajectory.name,
-        effective_mass=cfg.effective_mass, constant_load=cfg.constant_load, v_max=cfg.limits.v_max,
+        effective_mass=cfg.effective_mass, constant_load=cfg.constant_load, v_max=cfg.limits.v_max, texture_rate=chain.texture_rate,
     )

@@ -45,10 +45,14 @@ def plot_render(result, fig: Figure | None = None) -> Figure:
     t = result.t
     touching = result.load > 0
     ax = axs[0, 0]
-    ax.plot(t, result.friction_sim, lw=0.6, color="C0", label="simulated friction")
-    ax.plot(t, result.mu_panel * result.load + result.target, lw=0.8, color="C1", alpha=0.8, label="panel + target")
-    ax.plot(t, result.mu_panel * result.load + result.mu_low * result.load * touching, lw=1.2, color="k", ls="--", label="panel + low band")
-    ax.set(xlabel="time (s)", ylabel="lateral force (N)", title=f"{result.material} — {result.method}")
+    span = min(1.0, float(t[-1])) if t.size else 1.0
+    start = max(0.0, float(t[-1]) / 2 - span / 2) if t.size else 0.0
+    w = (t >= start) & (t <= start + span)
+    ax.plot(t[w], result.friction_sim[w], lw=0.8, color="C0", label="simulated friction")
+    ax.plot(t[w], (result.mu_panel * result.load + result.target)[w], lw=0.8, color="C1", alpha=0.8, label="panel + target")
+    ax.plot(t[w], (result.mu_panel * result.load + result.mu_low * result.load * touching)[w], lw=1.2, color="k", ls="--",
+            label="panel + low band")
+    ax.set(xlabel="time (s)", ylabel="lateral force (N)", title=f"{result.material} — {result.method}, {span:g} s window")
     ax.legend(loc="upper right", fontsize=8)
     ax = axs[0, 1]
     window = min(0.05, result.t_drive[-1] if result.t_drive.size else 0.05)
@@ -62,7 +66,8 @@ def plot_render(result, fig: Figure | None = None) -> Figure:
     ax = axs[1, 0]
     f, p, e = render_spectrum(result)
     if f.size:
-        band = (f >= _CUTOFF) & (f <= result.model_rate / 2)
+        top = 0.4 * (result.texture_rate or result.model_rate)  # the resamplers roll off above 0.45 fs
+        band = (f >= _CUTOFF) & (f <= top)
         ax.loglog(f[band], p[band], lw=0.8, label="simulated (high band, Welch)")
         if e is not None:
             ax.loglog(f[band], e[band], lw=1.5, color="k", ls="--", label="AR model")
