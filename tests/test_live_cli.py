@@ -1,0 +1,91 @@
+"""``surfhap serve`` / ``play`` / ``devices`` from the command line, as a user runs them."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fastapi")
+
+from surfhap.cli import main  # noqa: E402
+
+SURFHAP = [sys.executable, "-c", "import sys; from surfhap.cli import main; sys.exit(main())"]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_play_to_file_writes_the_scan(tmp_path, capsys):
+    out = tmp_path / "drive.npz"
+    code = main(["play", "cork", "--output", f"file:{out}", "--scan", "speed=0.1,load=0.5,duration=0.5,length=0.04"])
+    res = capsys.readouterr()
+    assert code == 0, res.err
+    summary = json.loads(res.out.strip().splitlines()[-1])
+    assert summary["touches"] > 50 and summary["counters"]["errors"] == 0
+    z = np.load(out)
+    assert z["drive"].size > 0.4 * 20000 and np.abs(z["drive"]).max() > 50
+
+
+@pytest.mark.parametrize("args,message", [
+    (["serve", "--output", "pigeon"], "unknown output"),
+    (["serve", "--output", "file:x.txt"], ".wav or .npz"),
+    (["serve", "--mesh", "x.obj", "--material", "cork"], "not both"),
+    (["serve", "--osc-in", "nonsense"], "HOST:PORT"),
+    (["serve", "--port", "0"], "1-65535"),
+    (["serve", "--material", "no-such-material"], "unknown material"),
+    (["serve", "--touch-latency-ms", "900"], "0-200 ms"),
+    (["play", "cork", "--scan", "speed=0.1"], "missing"),
+])
+def test_bad_options_give_one_line_and_exit_2(capsys, args, message):
+    code = main(args)
+    err = capsys.readouterr().err
+    assert code == 2
+    assert message in err and "Traceback" not in err
+
+
+def test_devices_lists_or_says_none(capsys):
+    code = main(["devices"])
+    out = capsys.readouterr()
+    assert code in (0, 2)
+    if code == 0:
+        assert out.out.strip()
+    else:
+        assert "PortAudio" in out.err
+
+
+def test_serve_runs_the_page_from_the_command_line(tmp_path):
+    port = free_port()
+    env = dict(os.environ)
+    p = subprocess.Popen([*SURFHAP, "serve", "--material", "cork", "--port", str(port), "--duration", "6"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        page = None
+        for _ in range(100):  # bounded: up to ~10 s for start-up
+            try:
+                page = urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2).read().decode()
+                break
+            except OSError:
+                time.sleep(0.1)
+        assert page is not None and "surfhap live" in page
+        info = json.loads(urllib.request.urlopen(f"http://127.0.0.1:{port}/api/info", timeout=2).read())
+        assert info["title"].startswith("cork") and info["drive_rate"] == 20000
+        out, err = p.communicate(timeout=30)
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait(5)
+    assert p.returncode == 0, err
+    assert f"http://127.0.0.1:{port}/" in out
+    assert json.loads(out.strip().splitlines()[-1])["stopped"] is True
