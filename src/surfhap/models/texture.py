@@ -105,6 +105,14 @@ class TextureBank:
         speed = np.abs(np.asarray(speed, dtype=float))
         if len(self.models) == 1:
             return np.zeros(speed.shape, dtype=np.int64)
-        refs = self.reference_speeds
-        mids = 0.5 * (refs[1:] + refs[:-1])
-        return np.searchsorted(mids, np.nan_to_num(speed, nan=0.0), side="left").astype(np.int64)
+        speed = np.where(speed == speed, speed, 0.0)  # NaN -> slowest model
+        return np.searchsorted(self._midpoints, speed, side="left")
+
+    @property
+    def _midpoints(self) -> np.ndarray:
+        mids = self.__dict__.get("_mids")
+        if mids is None:
+            refs = self.reference_speeds
+            mids = 0.5 * (refs[1:] + refs[:-1])
+            object.__setattr__(self, "_mids", mids)
+        return mids
