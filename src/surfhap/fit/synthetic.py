@@ -24,7 +24,7 @@ def ar_process(phi: np.ndarray, variance: float, n: int, rng: np.random.Generato
 
 
 def synthetic_friction_recordings(
-    law: QuasiStaticLaw,
+    law: QuasiStaticLaw | Sequence[QuasiStaticLaw],
     textures: Mapping[float, tuple[np.ndarray, float]],
     participants: int = 6,
     duration: float = 60.0,
@@ -40,7 +40,8 @@ def synthetic_friction_recordings(
     contact separated by ``gap`` s off the surface.
 
     In contact, speed = vref + speed_wobble sin(...), normal force = load_p (1 + 0.3 sin(...))
-    (both slower than 1 Hz), CoF = law(fn, v) + AR texture of that velocity
+    (both slower than 1 Hz), CoF = law(fn, v) + AR texture of that velocity (``law`` may be
+    one law per participant)
     (``textures[vref] = (phi, variance)``) + white noise of std ``noise``.
     """
     rng = np.random.default_rng(seed)
@@ -49,13 +50,14 @@ def synthetic_friction_recordings(
     period = stroke + gap
     in_contact = (t % period) < stroke
     loads = list(loads) if loads is not None else list(np.linspace(0.35, 0.9, participants))
+    laws = list(law) if isinstance(law, (list, tuple)) else [law] * participants
     recs = []
     for p in range(participants):
         for vref, (phi, var) in textures.items():
             ph1, ph2 = rng.uniform(0, 2 * np.pi, 2)
             speed = vref + speed_wobble * np.sin(2 * np.pi * 0.45 * t + ph1)
             fn = loads[p % len(loads)] * (1.0 + 0.3 * np.sin(2 * np.pi * 0.3 * t + ph2))
-            mu = law.coefficient(fn, speed) + ar_process(phi, var, n, rng)
+            mu = laws[p].coefficient(fn, speed) + ar_process(phi, var, n, rng)
             if noise > 0:
                 mu = mu + noise * rng.standard_normal(n)
             normal = np.where(in_contact, fn, 0.0)

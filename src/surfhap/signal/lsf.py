@@ -40,8 +40,8 @@ __all__ = [
 
 def _deflate(c: np.ndarray, root_sign: float) -> np.ndarray:
     """Divide polynomial c (in z^-1) by (1 - root_sign z^-1); exact synthetic division."""
-    out = np.empty(c.size - 1)
-    acc = 0.0
+    out = np.empty(c.size - 1, dtype=np.longdouble)
+    acc = np.longdouble(0.0)
     for k in range(c.size - 1):
         acc = c[k] + root_sign * acc
         out[k] = acc
@@ -54,20 +54,20 @@ def _symmetric_roots(g: np.ndarray) -> np.ndarray:
     m = (g.size - 1) // 2
     if m == 0:
         return np.zeros(0)
-    t = np.empty(m + 1)
+    t = np.empty(m + 1, dtype=np.longdouble)
     t[0] = g[m]
-    t[1:] = 2.0 * g[m - 1 :: -1][:m]
-    x = _cheb.chebroots(t)
-    w = np.sort(np.arccos(np.clip(x.real, -1.0, 1.0)))
+    t[1:] = 2 * g[m - 1 :: -1][:m]
+    x = _cheb.chebroots(t.astype(float))
+    w = np.sort(np.arccos(np.clip(x.real, -1.0, 1.0))).astype(np.longdouble)
     k = np.arange(1, m + 1)
     coef = t[1:]
-    for _ in range(3):  # Newton polish of T(w) = t0 + sum t_k cos(k w)
+    for _ in range(4):  # Newton polish of T(w) = t0 + sum t_k cos(k w), in extended precision
         kw = np.outer(w, k)
         f = t[0] + np.cos(kw) @ coef
         df = -(np.sin(kw) @ (coef * k))
         step = np.where(np.abs(df) > 0, f / np.where(df == 0, 1.0, df), 0.0)
         w = np.clip(w - step, 0.0, np.pi)
-    return np.sort(w)
+    return np.sort(w.astype(float))
 
 
 def poly_to_lsf(a: np.ndarray) -> np.ndarray:
@@ -82,7 +82,7 @@ def poly_to_lsf(a: np.ndarray) -> np.ndarray:
     p = a.size - 1
     if p == 0:
         return np.zeros(0)
-    ext = np.concatenate((a, [0.0]))
+    ext = np.concatenate((a, [0.0])).astype(np.longdouble)
     rev = ext[::-1]
     P = ext + rev
     Q = ext - rev

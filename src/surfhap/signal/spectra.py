@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import get_window
 
 __all__ = [
     "AveragedSpectrum",
@@ -115,7 +116,7 @@ def welch_spans(spans: Sequence[np.ndarray], sample_rate: float, nperseg: int = 
     nper = int(nperseg)
     acc = np.zeros(nper // 2 + 1)
     count = 0
-    full_win = np.hanning(nper + 2)[1:-1]
+    full_win = get_window("hann", nper)
     step = nper // 2
     for s in spans:
         s = np.asarray(s, dtype=float).reshape(-1)
@@ -130,7 +131,7 @@ def welch_spans(spans: Sequence[np.ndarray], sample_rate: float, nperseg: int = 
             acc += np.sum(X.real**2 + X.imag**2, axis=0) / np.sum(full_win**2)
             count += k
         else:
-            win = np.hanning(s.size + 2)[1:-1]
+            win = get_window("hann", s.size)
             X = np.fft.rfft((s - s.mean()) * win, nper)
             acc += (X.real**2 + X.imag**2) / np.sum(win**2)
             count += 1

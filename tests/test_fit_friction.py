@@ -1,0 +1,118 @@
+"""The friction pipeline on recordings generated from known models."""
+
+import numpy as np
+import pytest
+
+from surfhap.exchange.materials import read_material_json, write_material_json
+from surfhap.fit.friction import PARAMETERS, fit_quasi_static, quasi_static_model
+from surfhap.fit.material_fit import fit_friction
+from surfhap.fit.preprocess import prepare_friction_recording
+from surfhap.fit.synthetic import synthetic_friction_recordings
+from surfhap.models.friction import QuasiStaticLaw
+from surfhap.render.chain import TextureChain
+from surfhap.signal.ar import ar_psd
+
+FS = 2000.0
+TRUE = QuasiStaticLaw(0.4, 0.35, 2.0, 3.0, 0.6)
+
+
+def resonance(f, r):
+    th = 2 * np.pi * f / FS
+    return np.array([2 * r * np.cos(th), -r * r])
+
+
+TEXTURES = {0.05: (resonance(40, 0.9), 1e-6), 0.075: (resonance(60, 0.9), 1.5e-6), 0.10: (resonance(80, 0.88), 2e-6),
+            0.125: (resonance(120, 0.85), 3e-6), 0.15: (resonance(150, 0.8), 4e-6)}
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    recs = synthetic_friction_recordings(TRUE, TEXTURES, participants=4, duration=20.0, sample_rate=FS, seed=3)
+    return recs, fit_friction(recs, "synthetic")
+
+
+def test_quasi_static_fit_recovers_parameters_within_standard_errors():
+    rng = np.random.default_rng(0)
+    fn = rng.uniform(0.2, 1.5, 3000)
+    v = rng.uniform(0.01, 0.4, 3000)
+    theta = np.array([0.4, 0.35, 2.0, 3.0, 0.6])
+    mu = quasi_static_model(theta, fn, v) + 0.01 * rng.standard_normal(fn.size)
+    fit = fit_quasi_static(fn, v, mu)
+    for k, true in zip(PARAMETERS, theta):
+        assert abs(fit.params[k] - true) < 3 * fit.standard_errors[k], k
+    assert 0.9 < fit.r2 <= 1
+
+
+def test_contact_selection_and_band_split(fitted):
+    recs, _ = fitted
+    rec = recs[0]
+    prep = prepare_friction_recording(rec, cutoff=3.5)
+    contact = (rec.get("normal_force") > 0.05) & (rec.get("shear_force") > 0.05)
+    assert prep.n_kept == contact.sum()
+    np.testing.assert_allclose(prep.cof_low + prep.cof_high, (rec.get("shear_force") / np.where(contact, rec.get("normal_force"), 1))[contact])
+    assert prep.shear_sum / prep.normal_sum == pytest.approx(rec.get("shear_force")[contact].sum() / rec.get("normal_force")[contact].sum())
+
+
+def test_pipeline_recovers_friction_law():
+    # participants explore a wide speed range (30-330 mm/s) so that c, d and q are identified
+    # and each participant has their own law around the population law TRUE (Table I of
+    # Otake et al. 2022 reports means and standard errors across participants)
+    rng = np.random.default_rng(8)
+    theta = np.array([getattr(TRUE, k) for k in PARAMETERS])
+    laws = [QuasiStaticLaw(*np.clip(theta * (1 + 0.1 * rng.standard_normal(5)), 0, [5, 2, 99, 99, 1])) for _ in range(6)]
+    small = {v: (resonance(100, 0.5), 1e-6) for v in (0.03, 0.1, 0.2, 0.3)}
+    recs = synthetic_friction_recordings(laws, small, participants=6, duration=6.0, sample_rate=FS, speed_wobble=0.03, seed=5)
+    fit = fit_friction(recs, "synthetic", reference_speeds=(0.1,))
+    qs = fit.quasi_static
+    assert qs.n == 6 and fit.participants == tuple(f"P{i}" for i in range(1, 7))
+    population = np.mean([[getattr(law, k) for k in PARAMETERS] for law in laws], axis=0)
+    for k, true in zip(PARAMETERS, population):
+        assert abs(qs.params[k] - true) <= 2 * qs.standard_errors[k], k
+    for k, true in zip(PARAMETERS, theta):
+        assert abs(qs.params[k] - true) <= 3 * qs.standard_errors[k], k
+    assert qs.r2 > 0.9
+
+
+def test_pipeline_coulomb(fitted):
+    recs, fit = fitted
+    # Coulomb: mean shear / mean normal over all contact samples, computed independently
+    num = den = 0.0
+    for r in recs:
+        c = (r.get("normal_force") > 0.05) & (r.get("shear_force") > 0.05)
+        num += r.get("shear_force")[c].sum()
+        den += r.get("normal_force")[c].sum()
+    assert fit.coulomb.mu0 == pytest.approx(num / den, rel=1e-12)
+
+
+def test_pipeline_recovers_ar_spectra_within_1db(fitted):
+    _, fit = fitted
+    assert [t.reference_speed for t in fit.textures] == list(TEXTURES)
+    f = np.linspace(5 * fit.cutoff, 0.45 * FS, 300)
+    for t in fit.textures:
+        phi, var = TEXTURES[t.reference_speed]
+        d = 10 * np.log10(t.model.psd(FS, f) / ar_psd(phi, var, FS, f))
+        assert np.max(np.abs(d)) < 1.0, t.reference_speed
+        assert t.similarity.shape == (4,) and t.similarity_mean > 0.9
+
+
+def test_material_from_fit_is_valid_and_renders(fitted, tmp_path):
+    _, fit = fitted
+    mat = fit.to_material(command="surfhap fit friction test")
+    path = write_material_json(mat, tmp_path / "m.json")
+    back = read_material_json(path)
+    assert back.texture.quantity == "cof" and back.texture.sample_rate == FS and len(back.texture.models) == 5
+    assert back.spec.friction.quasi_static.standard_errors is not None
+    assert back.spec.texture.provenance.source == "recording" and back.spec.texture.provenance.command
+    chain = TextureChain(back)
+    n = 2000
+    out = chain.process(np.full(n, 0.1), np.full(n, 0.5), np.zeros(n))
+    assert np.all(np.isfinite(out.drive))
+
+
+def test_jobs_give_the_same_result(fitted):
+    recs, fit = fitted
+    fit2 = fit_friction(recs[:4], "synthetic", jobs=2, reference_speeds=(0.05, 0.075))
+    fit1 = fit_friction(recs[:4], "synthetic", jobs=1, reference_speeds=(0.05, 0.075))
+    for a, b in zip(fit1.textures, fit2.textures):
+        np.testing.assert_array_equal(a.model.coefficients, b.model.coefficients)
+    assert fit1.quasi_static.params == fit2.quasi_static.params
