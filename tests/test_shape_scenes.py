@@ -61,8 +61,12 @@ def test_lights_and_top_view():
 
 def test_formative_profiles():
     bump = formative_profile("bump", "IP0.5")
-    assert bump.height.max() == pytest.approx(1 / (np.sqrt(2 * np.pi) * SIGMA))  # ~0.8 cm
-    assert bump.force.min() == pytest.approx(-np.exp(-0.5) / (np.sqrt(2 * np.pi) * SIGMA**2), rel=1e-3)
+    assert bump.height.max() == pytest.approx(0.01 / (np.sqrt(2 * np.pi) * 0.5))  # ~0.8 cm, in m
+    assert SIGMA == pytest.approx(0.005)
+    assert bump.force.min() == pytest.approx(-np.exp(-0.5) / (np.sqrt(2 * np.pi) * 0.5**2), rel=1e-3)  # ~ -0.97 N
+    # force = -dz/dx, checked by finite differences
+    fd = -np.gradient(bump.height, bump.x)
+    np.testing.assert_allclose(bump.force[5:-5], fd[5:-5], atol=2e-3)
     # ascending (x < 0) resists: F < 0 -> intensity > 0.5; summit F = 0 -> 0.5
     assert bump.intensity[np.argmin(bump.force)] > 0.9
     mid = np.argmin(np.abs(bump.x))

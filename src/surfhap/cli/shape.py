@@ -110,7 +110,7 @@ def render_cmd(
     up: str = typer.Option("z", "--up", help="Mesh axis pointing out of the screen: x, y, z, -x, -y, -z."),
     scale: float = typer.Option(1.0, "--scale", help="Mesh units -> metres factor (0.01 for a mesh in cm)."),
     size: Optional[float] = typer.Option(None, "--size", help="Rescale and centre the mesh so its larger xy side is SIZE m."),
-    resolution: Optional[float] = typer.Option(None, "--resolution", help="Grid step (cm) of built-in Gaussian shapes."),
+    resolution: Optional[float] = typer.Option(None, "--resolution", help="Grid step (m) of built-in Gaussian shapes (default 0.0005, scenes 0.001)."),
     pixel_size: Optional[float] = typer.Option(None, "--pixel-size", help="Height maps: m per pixel."),
     height: Optional[float] = typer.Option(None, "--height", help="Height maps: height (m) of white."),
     drive_rate: int = typer.Option(20000, "--drive-rate", help="DAC rate, Hz (2000-48000)."),
@@ -161,7 +161,7 @@ def calibrate_cmd(
     up: str = typer.Option("z", "--up", help="Mesh axis pointing out of the screen."),
     scale: float = typer.Option(1.0, "--scale", help="Mesh units -> metres factor."),
     size: Optional[float] = typer.Option(None, "--size", help="Rescale and centre the mesh so its larger xy side is SIZE m."),
-    resolution: Optional[float] = typer.Option(None, "--resolution", help="Grid step (cm) of built-in Gaussian shapes."),
+    resolution: Optional[float] = typer.Option(None, "--resolution", help="Grid step (m) of built-in Gaussian shapes (default 0.0005, scenes 0.001)."),
     pixel_size: Optional[float] = typer.Option(None, "--pixel-size", help="Height maps: m per pixel."),
     height: Optional[float] = typer.Option(None, "--height", help="Height maps: height (m) of white."),
     figure: Optional[Path] = typer.Option(None, "--figure", help="Also write the Fsq histogram as PNG."),
@@ -186,7 +186,7 @@ def calibrate_cmd(
 
 def scenes_cmd(
     out: Optional[Path] = typer.Option(None, "--out", help="Write each scene as OBJ plus a top-view PNG into this folder."),
-    resolution: float = typer.Option(0.1, "--resolution", help="Grid step (cm) of the Gaussian scenes."),
+    resolution: float = typer.Option(0.001, "--resolution", help="Grid step (m) of the Gaussian scenes."),
 ) -> None:
     """List the 20 scenes of Kim et al.'s summative study (2 profiles x 2 lights x 5 configurations)."""
     from surfhap.shape.scenes import all_scenes

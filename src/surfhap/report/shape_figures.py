@@ -62,7 +62,7 @@ def plot_shape_result(result, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_scene(scene, resolution: float = 0.1, fig: Figure | None = None) -> Figure:
+def plot_scene(scene, resolution: float = 0.001, fig: Figure | None = None) -> Figure:
     """Top view of one study scene under its light."""
     fig = fig or Figure(figsize=(5, 5), layout="constrained")
     ax = fig.subplots()
@@ -90,9 +90,10 @@ def plot_profile(profile, fig: Figure | None = None) -> Figure:
     """A formative-study profile: geometry (cm), force (N) and intensity along the track."""
     fig = fig or Figure(figsize=(6, 3.5), layout="constrained")
     ax = fig.subplots()
-    ax.plot(profile.x, profile.height, color="C0", label="geometry (cm)")
-    ax.plot(profile.x, profile.force, color="C3", label="force (N)")
-    ax.plot(profile.x, profile.intensity, color="C1", label="intensity")
+    x = profile.x * 100
+    ax.plot(x, profile.height * 100, color="C0", label="geometry (cm)")
+    ax.plot(x, profile.force, color="C3", label="force (N)")
+    ax.plot(x, profile.intensity, color="C1", label="intensity")
     ax.axhline(0, color="k", lw=0.5)
     ax.set(xlabel="x (cm)", title=profile.name)
     ax.legend(fontsize=8)

@@ -2,7 +2,8 @@
 
 Geometry: a Gaussian ``y(x) = 1 / (sqrt(2 pi) sigma) exp(-(x - mu)^2 / (2 sigma^2))`` with
 mu = 0 and sigma = 0.5 (x, y in cm; eq. 1), over a 5 cm long track (height 0.8 cm). Holes are
-the bump inverted.
+the bump inverted. surfhap works in SI: x and heights are in metres (the equation is
+evaluated in cm and converted).
 
 Force (Sec. 3.1.1, eq. 2): ``Fpx = -Fpy tan(alpha) = -Fpy dy/dx`` with the assumed normal
 force Fpy = 1 N; scanning left to right, it resists the ascent and assists the descent.
@@ -41,23 +42,25 @@ __all__ = [
     "OFFSETS",
 ]
 
-SIGMA = 0.5  # cm (eq. 1)
-MU = 0.0  # cm (eq. 1)
-TRACK_LENGTH = 5.0  # cm (Sec. 3.1)
+CM = 0.01  # m per cm
+SIGMA = 0.5 * CM  # m (eq. 1: 0.5 cm)
+MU = 0.0  # m (eq. 1)
+TRACK_LENGTH = 5.0 * CM  # m (Sec. 3.1: 5 cm)
 FPY = 1.0  # N, assumed normal force (Sec. 3.1.1)
 OFFSETS = {"IP0.5": 0.5, "IP0.7": 0.7}
 
 
 def profile_height(x: np.ndarray, hole: bool = False) -> np.ndarray:
-    """Height (cm) of the formative bump (or hole) at x (cm), eq. 1."""
-    x = np.asarray(x, dtype=float)
-    y = np.exp(-((x - MU) ** 2) / (2 * SIGMA**2)) / (np.sqrt(2 * np.pi) * SIGMA)
+    """Height (m) of the formative bump (or hole) at x (m): eq. 1 evaluated in cm."""
+    xc = (np.asarray(x, dtype=float) - MU) / CM
+    sc = SIGMA / CM
+    y = np.exp(-(xc**2) / (2 * sc**2)) / (np.sqrt(2 * np.pi) * sc) * CM
     return -y if hole else y
 
 
 def profile_force(x: np.ndarray, hole: bool = False, fpy: float = FPY) -> np.ndarray:
-    """Lateral force (N) for a left-to-right scan, eq. 2: ``-Fpy dy/dx`` with
-    ``dy/dx = -(x - mu) / sigma^2 * y``."""
+    """Lateral force (N) for a left-to-right scan at x (m), eq. 2: ``-Fpy dy/dx`` with
+    ``dy/dx = -(x - mu) / sigma^2 * y`` (dimensionless)."""
     x = np.asarray(x, dtype=float)
     dydx = -(x - MU) / SIGMA**2 * profile_height(x, hole)
     return -fpy * dydx
@@ -73,19 +76,19 @@ def ip_intensity(force: np.ndarray, offset: float = 0.5) -> np.ndarray:
 
 
 def piecewise_knots() -> np.ndarray:
-    """x (cm) of the knots of the piecewise-linear profiles."""
+    """x (m) of the knots of the piecewise-linear profiles."""
     h = TRACK_LENGTH / 2
     return np.array([-h, -3 * SIGMA, -SIGMA, 0.0, SIGMA, 3 * SIGMA, h]) + MU
 
 
 def piecewise_profile(x: np.ndarray, values_at_knots: np.ndarray) -> np.ndarray:
-    """Linear interpolation of knot values over x (cm)."""
+    """Linear interpolation of knot values over x (m)."""
     return np.interp(np.asarray(x, dtype=float), piecewise_knots(), np.asarray(values_at_knots, dtype=float))
 
 
 @dataclass
 class Profile1D:
-    """One formative-study profile sampled along the track: x (n,) cm, height (n,) cm,
+    """One formative-study profile sampled along the track: x (n,) m, height (n,) m,
     force (n,) N, intensity (n,) in [0, 1]."""
 
     name: str

@@ -3,7 +3,7 @@
 Shapes (paper Fig. 11; the paper gives them in cm, surfhap builds them in metres):
 
 * Gaussian bump: ``z(x, y) = 8 / (1.4 pi) exp(-(x^2 + y^2) / 1.4)`` (x, y, z in cm) over a
-  6 x 6 cm patch, height 1.82 cm; triangulated on a regular grid (``resolution`` cm).
+  6 x 6 cm patch, height 1.82 cm; triangulated on a regular grid (``resolution`` m).
 * square frustum bump: base square 3 x 3 cm, top square 1 x 1 cm, height 2 cm, standing on a
   6 x 6 cm ground patch; built from its exact planar faces (18 triangles), so its edges are
   mesh edges.
@@ -79,6 +79,11 @@ def gaussian_slope(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.stack([k * np.asarray(x) * z, k * np.asarray(y) * z], axis=-1)
 
 
+def _check_resolution(resolution: float) -> None:
+    if not (np.isfinite(resolution) and 1e-5 <= resolution <= 0.01):
+        raise ConfigError(f"must be within 1e-5..0.01 m, got {resolution}", field="resolution")
+
+
 def _grid_mesh(xs: np.ndarray, ys: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Triangulate a height grid z (ny, nx) over xs (nx,), ys (ny,): (vertices, faces), CCW
     seen from above."""
@@ -94,15 +99,14 @@ def _grid_mesh(xs: np.ndarray, ys: np.ndarray, z: np.ndarray) -> tuple[np.ndarra
     return v, f.astype(np.int64)
 
 
-def gaussian_bump(resolution: float = 0.05, hole: bool = False, centre: tuple[float, float] = (0.0, 0.0),
+def gaussian_bump(resolution: float = 0.0005, hole: bool = False, centre: tuple[float, float] = (0.0, 0.0),
                   patch: float = PATCH) -> tuple[np.ndarray, np.ndarray]:
-    """Gaussian bump (or hole) on a ``patch`` cm square, grid step ``resolution`` cm.
+    """Gaussian bump (or hole) on a ``patch`` cm square, grid step ``resolution`` m.
 
     Returns (vertices (nv, 3) float m, faces (nf, 3) int).
     """
-    if not (0.001 <= resolution <= 1.0):
-        raise ConfigError(f"must be within 0.001-1 cm, got {resolution}", field="resolution")
-    n = int(round(patch / resolution)) + 1
+    _check_resolution(resolution)
+    n = int(round(patch * CM / resolution)) + 1
     xs = (np.linspace(-patch / 2, patch / 2, n) + centre[0]) * CM
     ys = (np.linspace(-patch / 2, patch / 2, n) + centre[1]) * CM
     X, Y = np.meshgrid(xs, ys)
@@ -158,13 +162,12 @@ class Scene:
         """(3,) unit vector pointing from the scene towards the light."""
         return light_direction(self.light)
 
-    def mesh(self, resolution: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    def mesh(self, resolution: float = 0.001) -> tuple[np.ndarray, np.ndarray]:
         """(vertices (nv, 3) float m, faces (nf, 3) int) of the 12 x 12 cm scene; Gaussian
-        scenes are gridded at ``resolution`` cm."""
+        scenes are gridded at ``resolution`` m."""
         if self.profile == "gaussian":
-            if not (0.001 <= resolution <= 1.0):
-                raise ConfigError(f"must be within 0.001-1 cm, got {resolution}", field="resolution")
-            n = int(round(2 * PATCH / resolution)) + 1
+            _check_resolution(resolution)
+            n = int(round(2 * PATCH * CM / resolution)) + 1
             xs = np.linspace(-PATCH, PATCH, n) * CM
             X, Y = np.meshgrid(xs, xs)
             z = np.zeros_like(X)
@@ -187,7 +190,7 @@ class Scene:
         _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
         return v[first], inv.reshape(-1)[f]
 
-    def surface(self, resolution: float = 0.1):
+    def surface(self, resolution: float = 0.001):
         """The scene as a :class:`~surfhap.shape.topsurface.TopSurface`."""
         from surfhap.shape.topsurface import TopSurface
 
@@ -236,19 +239,19 @@ def builtin_shape_names() -> list[str]:
 
 def builtin_shape(name: str, resolution: float | None = None):
     """A built-in shape as a TopSurface, or None if ``name`` is not one. Single Gaussian shapes
-    use 0.05 cm grids, scenes 0.1 cm, unless ``resolution`` (cm) is given."""
+    use 0.5 mm grids, scenes 1 mm, unless ``resolution`` (m) is given."""
     from surfhap.shape.topsurface import TopSurface
 
     key = name.lower()
     if key in _SINGLE:
         profile, kind = key.split("-")
         if profile == "gaussian":
-            v, f = gaussian_bump(resolution or 0.05, hole=kind == "hole")
+            v, f = gaussian_bump(resolution or 0.0005, hole=kind == "hole")
         else:
             v, f = frustum_bump(hole=kind == "hole")
         return TopSurface(v, f, name=key, source=key)
     if key in (n.lower() for n in scene_names()):
-        return get_scene(key).surface(resolution or 0.1)
+        return get_scene(key).surface(resolution or 0.001)
     if key == "suzanne":
         return TopSurface.from_file("suzanne")
     return None
