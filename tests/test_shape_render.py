@@ -124,3 +124,20 @@ def test_device_curve_from_simulated_tribometer():
     curve = DeviceCurve.from_tribometer(recs, fs)
     i = np.linspace(0.1, 1.0, 10)
     np.testing.assert_allclose(curve.force(i), 0.18 * i**2 + 0.07, rtol=0.05)
+
+
+def test_grain_params_shape_the_waveforms():
+    from surfhap.render.grains import GrainParams
+
+    dev = DeviceCurve.square_law(1.0)
+    fs = 20000
+    tick = np.zeros(2000)
+    tick[10] = 1.0
+    out = GrainPlayer("area-even", fs, dev, params=GrainParams(tick_width=0.02)).process(np.zeros(2000), tick)
+    assert np.count_nonzero(out) == pytest.approx(0.02 * fs, abs=2)
+    g = GrainPlayer("area-grainy", fs, dev, seed=1, params=GrainParams(grainy_rate=50, grainy_width=0.002))
+    env = g.process(np.ones(10 * fs), np.zeros(10 * fs))
+    # mean of a sparse raised-cosine pulse train: rate * width * 1/2
+    assert np.mean(env) == pytest.approx(50 * 0.002 * 0.5, rel=0.15)
+    with pytest.raises(ConfigError):
+        GrainParams(tick_width=0.0)

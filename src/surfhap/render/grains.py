@@ -37,7 +37,7 @@ import numpy as np
 
 from surfhap.errors import ConfigError
 
-__all__ = ["GRAINS", "AREA_GRAINS", "DeviceCurve", "GrainPlayer", "grain_name", "hann_pulse", "tribometer_amplitude"]
+__all__ = ["GrainParams", "GRAINS", "AREA_GRAINS", "DeviceCurve", "GrainPlayer", "grain_name", "hann_pulse", "tribometer_amplitude"]
 
 GRAINS = ("area-even", "area-grainy", "edge-tick")
 AREA_GRAINS = ("area-even", "area-grainy")
@@ -49,6 +49,28 @@ GRAINY_WIDTH = 0.004  # s (design choice)
 TICK_WIDTH = 0.010  # s (design choice)
 TRIBOMETER_BAND = (10.0, 500.0)  # Hz, Butterworth band-pass of Kim et al. Sec. 2.2
 TRIBOMETER_LARGEST = 50  # number of largest peak-to-peak amplitudes averaged (Sec. 2.2)
+
+
+@dataclass(frozen=True)
+class GrainParams:
+    """Parameters of the grain waveforms (design choices, see the module docstring).
+
+    grainy_rate  : grains per second of area-grainy (mean of a Poisson process).
+    grainy_width : s, duration of one raised-cosine grain of area-grainy.
+    tick_width   : s, duration of the edge tick's raised-cosine pulse.
+    """
+
+    grainy_rate: float = GRAINY_RATE
+    grainy_width: float = GRAINY_WIDTH
+    tick_width: float = TICK_WIDTH
+
+    def __post_init__(self):
+        if not (np.isfinite(self.grainy_rate) and 0 < self.grainy_rate <= 2000):
+            raise ConfigError("must be in (0, 2000] per second", field="grainy_rate")
+        for name in ("grainy_width", "tick_width"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and 0.0005 <= v <= 0.5):
+                raise ConfigError("must be within 0.5 ms and 0.5 s", field=name)
 
 
 def grain_name(name: str) -> str:
@@ -173,7 +195,8 @@ class GrainPlayer:
     the friction the display should add (>= 0).
     """
 
-    def __init__(self, grain: str, drive_rate: float, device: DeviceCurve, seed: int = 0):
+    def __init__(self, grain: str, drive_rate: float, device: DeviceCurve, seed: int = 0,
+                 params: GrainParams | None = None):
         self.grain = grain_name(grain)
         if self.grain not in AREA_GRAINS:
             raise ConfigError(f"{self.grain} is not an area grain ({', '.join(AREA_GRAINS)})", field="grain")
@@ -182,9 +205,10 @@ class GrainPlayer:
         self.drive_rate = float(drive_rate)
         self.device = device
         self.seed = int(seed)
-        self._grain_pulse = hann_pulse(GRAINY_WIDTH, self.drive_rate)
-        self._tick_pulse = hann_pulse(TICK_WIDTH, self.drive_rate)
-        self._p_event = GRAINY_RATE / self.drive_rate
+        self.params = params or GrainParams()
+        self._grain_pulse = hann_pulse(self.params.grainy_width, self.drive_rate)
+        self._tick_pulse = hann_pulse(self.params.tick_width, self.drive_rate)
+        self._p_event = self.params.grainy_rate / self.drive_rate
         self.reset()
 
     def reset(self) -> None:

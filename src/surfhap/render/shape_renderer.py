@@ -24,7 +24,7 @@ import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.render.carrier import PolarityCarrier, check_carrier
-from surfhap.render.grains import DeviceCurve, GrainPlayer, grain_name
+from surfhap.render.grains import DeviceCurve, GrainParams, GrainPlayer, grain_name
 from surfhap.render.safety import SafetyCounters, SafetyLimits, SafetyStage
 from surfhap.shape.calibration import ShapeCalibration, calibrate
 from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks, edge_ticks_walk, walk_spacing
@@ -54,6 +54,7 @@ class ShapeConfig:
     seed               : seed of the grainy grain.
     device             : intensity -> force curve; None = the simulated display's square law
                          (intensity 1 = v_max), see :func:`display_device_curve`.
+    grain_params       : waveform parameters of the grains.
     """
 
     fz: float = FZ_DEFAULT
@@ -67,6 +68,7 @@ class ShapeConfig:
     alpha: float | None = None
     seed: int = 0
     device: DeviceCurve | None = None
+    grain_params: GrainParams = field(default_factory=GrainParams)
     limits: SafetyLimits = field(default_factory=SafetyLimits)
     display: DisplayModel = field(default_factory=DisplayModel)
 
@@ -176,7 +178,7 @@ class ShapeDrive:
         self.drive_rate = int(cfg.drive_rate)
         self.alpha = float(cfg.alpha if cfg.alpha is not None else cfg.display.calibrated_alpha)
         self.device = cfg.device if cfg.device is not None else display_device_curve(cfg)
-        self.grains = GrainPlayer(cfg.grain, self.drive_rate, self.device, seed=cfg.seed)
+        self.grains = GrainPlayer(cfg.grain, self.drive_rate, self.device, seed=cfg.seed, params=cfg.grain_params)
         self.carrier = PolarityCarrier(cfg.carrier, self.drive_rate)
         self.safety = SafetyStage(self.drive_rate, cfg.limits)
         self.reset()
