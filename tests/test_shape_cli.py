@@ -82,3 +82,10 @@ def test_scenes_lists_twenty(capsys):
     assert main(["scenes"]) == 0
     lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.strip()]
     assert len(lines) == 20 and lines[0].startswith("gaussian-0B4H-spot")
+
+
+def test_profile_command(tmp_path):
+    assert main(["shape", "profile", "hole", "--mapping", "IP0.7", "--piecewise", "--out", str(tmp_path)]) == 0
+    data = np.load(tmp_path / "profile.npz")
+    assert data["intensity"].max() <= 1.0 and (tmp_path / "figure.png").exists()
+    assert main(["shape", "profile", "ridge", "--out", str(tmp_path)]) == 2

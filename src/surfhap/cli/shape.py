@@ -184,6 +184,26 @@ def calibrate_cmd(
                  f"{cal.n_samples} samples, theta_min {cal.theta_min_deg:.1f} deg) -> {path}")
 
 
+@shape_app.command("profile")
+def profile_cmd(
+    shape: str = typer.Argument("bump", help="bump | hole"),
+    out: Path = typer.Option(..., "--out", help="Output folder: profile.npz, figure.png."),
+    mapping: str = typer.Option("IP0.5", "--mapping", help="IP0.5 | IP0.7 (Kim et al. Sec. 3.1.2)."),
+    piecewise: bool = typer.Option(False, "--piecewise", help="Piecewise-linear intensity profile (Fig. 6b, d)."),
+) -> None:
+    """Write a 1-D profile of the formative study: geometry, force and intensity along the track."""
+    import numpy as np
+
+    from surfhap.shape.profiles import formative_profile
+
+    prof = formative_profile(shape, mapping, piecewise=piecewise)
+    out.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(out / "profile.npz", x=prof.x, height=prof.height, force=prof.force, intensity=prof.intensity)
+    prof.plot().savefig(out / "figure.png", dpi=110)
+    stdout.print(f"{prof.name}: force {prof.force.min():+.3f}..{prof.force.max():+.3f} N, intensity "
+                 f"{prof.intensity.min():.2f}..{prof.intensity.max():.2f} -> {out}")
+
+
 def scenes_cmd(
     out: Optional[Path] = typer.Option(None, "--out", help="Write each scene as OBJ plus a top-view PNG into this folder."),
     resolution: float = typer.Option(0.001, "--resolution", help="Grid step (m) of the Gaussian scenes."),
