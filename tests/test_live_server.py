@@ -175,3 +175,36 @@ def test_clients_do_not_stall_each_other(served):
         assert took < 4.0  # 0.75 s of events at 120 Hz; a stalled client would take far longer
         assert m["ack"] == 89 and m["rejected"] == 0
     assert session.engine.counters["errors"] == 0
+
+
+def test_page_server_in_its_own_process_feeds_the_engine():
+    from surfhap.live.webproc import WebProcess
+
+    session = build_session("cork", "sim")
+    session.start()
+    web = WebProcess(session, ServerConfig(port=0)).start()
+    try:
+        class _Srv:
+            port = web.port
+
+        m = asyncio.run(stream(_Srv, n=60))
+        assert m["ack"] == 59 and m["received"] == 60 and m["rejected"] == 0
+
+        async def hostile():
+            async with websockets.connect(ws_url(_Srv), origin=f"http://127.0.0.1:{web.port}") as ws:
+                await ws.send('{"type":"move","seq":1,"t":0,"x":9,"y":0}')
+                for _ in range(20):
+                    mm = json.loads(await asyncio.wait_for(ws.recv(), 2.0))
+                    if mm["rejected"]:
+                        return mm
+        assert asyncio.run(hostile())["rejected"] == 1
+        c = http.client.HTTPConnection("127.0.0.1", web.port, timeout=5)
+        c.request("GET", "/api/status")
+        st = json.loads(c.getresponse().read())
+        assert st["counters"]["blocks"] > 0 and st["server"]["rejected"] >= 1
+    finally:
+        web.stop()
+        session.stop()
+    eng = session.engine
+    assert web.bridge.received >= 60 and web.bridge.dropped == 0
+    assert eng.counters["touches"] >= 60 and eng.trace_since(0)[0][:, 5].max() > 50.0

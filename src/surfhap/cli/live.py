@@ -47,11 +47,13 @@ def serve_cmd(
     smoothing: float = typer.Option(1.0, "--smoothing", help="Exponential smoothing of predicted positions, (0, 1] (1 = off; KinesTouch: 0.15)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the texture noise."),
     duration: float = typer.Option(0.0, "--duration", help="Stop after this many seconds (0 = until Ctrl-C)."),
+    web_process: bool = typer.Option(True, "--web-process/--no-web-process",
+                                     help="Run the page server in its own process, so web traffic cannot delay the engine."),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Log connections and rejected messages at INFO."),
 ) -> None:
     """Serve the touch page: drag on it and the drive is rendered live to the chosen output."""
     from surfhap.live.server import ServerConfig, ServerThread, build_session, create_app
-    from surfhap.sim.trajectory import Trajectory  # noqa: F401
+    from surfhap.live.webproc import WebProcess
 
     _setup_logging(verbose)
     if mesh is not None:
@@ -80,14 +82,17 @@ def serve_cmd(
                             engine_config=_engine_config(block_ms, touch_latency_ms, smoothing),
                             osc_in=osc, replay=traj, replay_loop=True, seed=seed)
     cfg = ServerConfig(host=host, port=port, allowed_origins=tuple(allow_origin))
-    app = create_app(session, cfg)
     if host not in LOOPBACK:
         stderr.print(f"[yellow]warning:[/] binding {host}: the page is reachable from your network; "
                      "anyone who can reach it can drive the display", markup=True)
     session.start()
     server = None
     try:
-        server = ServerThread(app, host=host, port=port, max_message_bytes=cfg.max_message_bytes).start()
+        if web_process:
+            server = WebProcess(session, cfg).start()
+        else:
+            server = ServerThread(create_app(session, cfg), host=host, port=port,
+                                  max_message_bytes=cfg.max_message_bytes).start()
         shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
         stdout.print(f"surfhap live: {session.title} -> {output}; open http://{shown}:{port}/ (Ctrl-C stops)")
         end = time.monotonic() + duration if duration > 0 else None

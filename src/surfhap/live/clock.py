@@ -9,7 +9,7 @@ __all__ = ["now", "sleep_until"]
 now = time.perf_counter
 
 
-def sleep_until(deadline: float, spin: float = 0.0003) -> float:
+def sleep_until(deadline: float, spin: float = 0.0001) -> float:
     """Sleep until ``deadline`` on :func:`now` (coarse sleep, then a short spin); returns now."""
     while True:
         t = now()

@@ -42,7 +42,7 @@ import numpy as np
 from surfhap.live.clock import now
 from surfhap.live.sources import RateLimiter, RejectLog, TouchSpace
 
-__all__ = ["ServerConfig", "LiveSession", "create_app", "ServerThread", "material_preview", "build_session"]
+__all__ = ["ServerConfig", "LiveSession", "create_app", "ServerThread", "material_preview", "build_session", "FrameBuilder"]
 
 log = logging.getLogger("surfhap.live")
 
@@ -140,40 +140,78 @@ class LiveSession:
         self.started = False
 
 
-class _Hub:
-    """Shared state of the app: clients, counters, the current trace frame."""
+class FrameBuilder:
+    """Engine side of the trace stream: the rows written since the last call, binned to
+    at most ``points`` points, as a JSON fragment; and the engine status as JSON."""
 
-    def __init__(self, session: LiveSession, cfg: ServerConfig):
-        self.session = session
-        self.cfg = cfg
-        self.clients: dict[int, _Client] = {}
-        self.next_id = 1000
-        self.rejects = RejectLog()
-        self.refused = 0
-        self.frame = '"rows":[]'
-        self.frame_no = 0
-        self.status_json = "{}"
-        self._trace_idx = 0
+    def __init__(self, engine, backend, points: int = 64):
+        self.engine, self.backend, self.points = engine, backend, int(points)
+        self._idx = 0
 
-    def tick(self) -> None:
-        eng = self.session.engine
-        rows, self._trace_idx = eng.trace_since(self._trace_idx, limit=eng.trace.shape[0] // 2)
-        k = self.cfg.trace_points
+    def frame(self) -> str:
+        eng = self.engine
+        rows, self._idx = eng.trace_since(self._idx, limit=eng.trace.shape[0] // 2)
+        k = self.points
         if rows.shape[0] > k:  # bin to k points, keep each bin's peak voltage
             edges = np.linspace(0, rows.shape[0], k + 1).astype(int)
             keep = rows[edges[1:] - 1].copy()
             keep[:, 5] = np.maximum.reduceat(rows[:, 5], edges[:-1])
             rows = keep
         r = np.nan_to_num(rows, nan=0.0)
-        self.frame = ('"t":' + json.dumps(np.round(r[:, 0], 4).tolist()) + ',"v":' + json.dumps(np.round(r[:, 5], 2).tolist())
-                      + ',"f":' + json.dumps(np.round(r[:, 7], 4).tolist()) + ',"target":' + json.dumps(np.round(r[:, 6], 4).tolist())
-                      + ',"speed":' + json.dumps(np.round(r[:, 3], 4).tolist()))
+        return ('"t":' + json.dumps(np.round(r[:, 0], 4).tolist()) + ',"v":' + json.dumps(np.round(r[:, 5], 2).tolist())
+                + ',"f":' + json.dumps(np.round(r[:, 7], 4).tolist()) + ',"target":' + json.dumps(np.round(r[:, 6], 4).tolist())
+                + ',"speed":' + json.dumps(np.round(r[:, 3], 4).tolist()))
+
+    def status(self) -> str:
+        st = self.engine.status()
+        st["output"] = _safe_info(self.backend)
+        return json.dumps(st, default=_json_default)
+
+
+class _Hub:
+    """Shared state of the app: clients, counters, the newest trace frame.
+
+    ``publish`` (event-loop thread) stores a frame and wakes every client's sender; a
+    sender that is still busy with an older frame simply sends the newest one next."""
+
+    def __init__(self, cfg: ServerConfig):
+        self.cfg = cfg
+        self.clients: dict[int, _Client] = {}
+        self.next_id = 1000
+        self.rejects = RejectLog()
+        self.refused = 0
+        self.frames: list[str] = []  # recent frames, newest last (bounded)
+        self.frame_no = 0
+        self.engine_status = "{}"
+        self.status_json = "{}"
+        self.status_no = 0
+        self._event: asyncio.Event | None = None
+
+    def publish(self, frame: str, engine_status: str | None = None) -> None:
+        self.frames.append(frame)
+        if len(self.frames) > 8:
+            del self.frames[0]
         self.frame_no += 1
-        if self.frame_no % 5 == 1:
-            st = eng.status()
-            st["server"] = {"clients": len(self.clients), "rejected": self.rejects.count, "refused": self.refused}
-            st["output"] = _safe_info(self.session.backend)
-            self.status_json = json.dumps(st, default=_json_default)
+        if engine_status is not None:
+            self.engine_status = engine_status
+        if engine_status is not None or self.frame_no % 10 == 1:
+            server = json.dumps({"clients": len(self.clients), "rejected": self.rejects.count, "refused": self.refused})
+            es = self.engine_status
+            self.status_json = (es[:-1] + ("," if len(es) > 2 else "") + '"server":' + server + "}") if es.endswith("}") else es
+            self.status_no += 1
+        ev, self._event = self._event, asyncio.Event()
+        if ev is not None:
+            ev.set()
+
+    async def wait_frame(self, after: int, timeout: float) -> None:
+        if self.frame_no != after:
+            return
+        if self._event is None:
+            self._event = asyncio.Event()
+        try:
+            await asyncio.wait_for(self._event.wait(), timeout)
+        except asyncio.TimeoutError:
+            pass
 
 
 def _safe_info(backend) -> dict:
@@ -205,14 +243,19 @@ def _host_only(host_header: str) -> str:
     return h.rsplit(":", 1)[0] if h.count(":") == 1 else h
 
 
-def create_app(session: LiveSession, cfg: ServerConfig | None = None):
-    """The ASGI app (FastAPI) for ``session``."""
+def create_app(session, cfg: ServerConfig | None = None, *, frames: str = "local", trace_sock=None):
+    """The ASGI app (FastAPI) for ``session``.
+
+    ``frames="local"``: the engine runs in this process and a ticker builds the trace
+    frames. ``frames="remote"``: the engine runs in another process that sends frames as
+    datagrams to ``trace_sock`` (see :mod:`surfhap.live.webproc`).
+    """
     from fastapi import FastAPI, WebSocket
     from fastapi.responses import JSONResponse, Response
     from starlette.websockets import WebSocketDisconnect
 
     cfg = cfg or ServerConfig()
-    hub = _Hub(session, cfg)
+    hub = _Hub(cfg)
     loopback = {"127.0.0.1", "localhost", "::1"}
     allowed_hosts = {h.lower() for h in cfg.allowed_hosts} | ({cfg.host.lower()} | (loopback if cfg.host in loopback else set()))
     any_host = cfg.host in WILDCARD_HOSTS
@@ -232,17 +275,39 @@ def create_app(session: LiveSession, cfg: ServerConfig | None = None):
         return bool(host_header) and o == "http://" + host_header.strip().lower()
 
     async def ticker():
+        builder = FrameBuilder(session.engine, session.backend, cfg.trace_points)
         period = 1.0 / cfg.trace_hz
+        n = 0
         while True:
             try:
-                hub.tick()
+                hub.publish(builder.frame(), builder.status() if n % 5 == 0 else None)
             except Exception:  # noqa: BLE001 - monitoring must not die
                 log.exception("trace tick failed")
+            n += 1
             await asyncio.sleep(period)
+
+    class _Datagrams(asyncio.DatagramProtocol):
+        pending_status = None
+
+        def datagram_received(self, data, addr):
+            kind, body = data[:1], data[1:].decode("utf-8", "replace")
+            if kind == b"S":
+                self.pending_status = body
+            elif kind == b"F":
+                hub.publish(body, self.pending_status)
+                self.pending_status = None
 
     @asynccontextmanager
     async def lifespan(_app):
-        task = asyncio.get_running_loop().create_task(ticker())
+        loop = asyncio.get_running_loop()
+        if frames == "remote":
+            transport, _ = await loop.create_datagram_endpoint(_Datagrams, sock=trace_sock)
+            try:
+                yield
+            finally:
+                transport.close()
+            return
+        task = loop.create_task(ticker())
         try:
             yield
         finally:
@@ -342,29 +407,34 @@ def create_app(session: LiveSession, cfg: ServerConfig | None = None):
         hub.rejects.reject(client.peer, reason)
 
     async def sender(ws: WebSocket, client: _Client) -> None:
-        period = 1.0 / cfg.trace_hz
-        sent_frame = -1
-        last_status = None
+        sent_frame = hub.frame_no
+        sent_status = -1
         while True:
-            await asyncio.sleep(period)
+            await hub.wait_frame(sent_frame, 1.0)
             if hub.frame_no == sent_frame:
                 continue
+            # the frames this client has not seen yet (all of them unless it fell behind)
+            new = min(hub.frame_no - sent_frame, len(hub.frames))
             sent_frame = hub.frame_no
-            parts = ['{"type":"trace","ack":', str(client.last_seq), ',"ack_t":', repr(float(client.last_t)),
-                     ',"received":', str(client.received), ',"rejected":', str(client.rejected), ',', hub.frame]
-            if hub.status_json is not last_status:
-                last_status = hub.status_json
-                parts += [',"status":', hub.status_json]
-            parts.append("}")
-            try:
-                await asyncio.wait_for(ws.send_text("".join(parts)), cfg.send_timeout)
-                client.slow = 0
-            except asyncio.TimeoutError:
-                client.slow += 1
-                if client.slow >= 5:
-                    log.warning("closing %s: not reading its trace", client.peer)
-                    await ws.close(code=1008)
-                    return
+            for frame in hub.frames[len(hub.frames) - new:]:
+                parts = ['{"type":"trace","ack":', str(client.last_seq), ',"ack_t":', repr(float(client.last_t)),
+                         ',"received":', str(client.received), ',"rejected":', str(client.rejected), ',', frame]
+                if hub.status_no != sent_status:
+                    sent_status = hub.status_no
+                    parts += [',"status":', hub.status_json]
+                parts.append("}")
+                try:
+                    await asyncio.wait_for(ws.send_text("".join(parts)), cfg.send_timeout)
+                    client.slow = 0
+                except (WebSocketDisconnect, RuntimeError, OSError):
+                    return  # the client went away; its receive loop cleans up
+                except asyncio.TimeoutError:
+                    client.slow += 1
+                    if client.slow >= 5:
+                        log.warning("closing %s: not reading its trace", client.peer)
+                        await ws.close(code=1008)
+                        return
+                    break
 
     @app.websocket("/ws")
     async def ws_endpoint(ws: WebSocket):

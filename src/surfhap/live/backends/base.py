@@ -42,13 +42,17 @@ class Backend(Protocol):
 class PacedBackend:
     """Calls the engine from its own thread, one block per block period on the engine clock.
 
-    A late block (the thread woke more than one block period after its deadline) counts an
-    underrun and the schedule is re-anchored instead of bursting to catch up.
+    Like a sound card, the output is buffered: a block may be rendered up to ``buffer``
+    seconds after its nominal time (the thread then catches up block by block). A block
+    rendered later than that would have reached the output too late: it counts as an
+    underrun and the schedule is re-anchored instead of bursting. ``now`` given to the
+    engine is the actual render time, so the engine's latency figures exclude the buffer.
     Subclasses override :meth:`emit` (called with each block of volts, same thread).
     """
 
     name = "paced"
     drive_rate: int | None = None
+    buffer: float = 0.005
 
     def __init__(self):
         self._thread: threading.Thread | None = None
@@ -67,13 +71,14 @@ class PacedBackend:
         eng = self.engine
         frames = eng.block_frames
         period = eng.block_period
+        slack = max(self.buffer, period)
         deadline = now()
         while self._run:
             t = sleep_until(deadline)
-            if t - deadline > period:
+            if t - deadline > slack:
                 eng.counters["underruns"] += 1
                 deadline = t
-            volts = eng.render(frames, deadline)
+            volts = eng.render(frames, t)
             self.emit(volts)
             deadline += period
 

@@ -1,0 +1,262 @@
+"""Run the touch page server in its own process, apart from the real-time engine.
+
+In one Python process the web server and the engine's callback share the GIL: a burst of
+pointer messages from many clients then delays the audio callback (underruns). With
+:class:`WebProcess` the engine process keeps only two light threads next to the
+callback:
+
+* :class:`TouchBridge` receives validated touch samples from the web process as fixed-size
+  datagrams on 127.0.0.1 (64 bytes: a per-run random 16-byte token, source id, source time,
+  arrival time on the shared monotonic clock, x, y, load) and pushes them into the touch
+  ring; anything else is dropped and counted;
+* :class:`TracePublisher` sends the trace frames and the engine status back at
+  ``trace_hz`` as datagrams (``S`` + status JSON, ``F`` + frame JSON fragment).
+
+The web process does everything else (HTTP, WebSocket, origin/host checks, validation,
+rate limits) exactly as the in-process server; ``time.perf_counter`` is CLOCK_MONOTONIC
+on Linux, the same clock in both processes, so arrival stamps stay comparable.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import multiprocessing as mp
+import os
+import socket
+import struct
+import threading
+
+from surfhap.live.clock import now
+
+__all__ = ["TouchBridge", "TracePublisher", "WebProcess"]
+
+log = logging.getLogger("surfhap.live")
+
+_TOUCH = struct.Struct("<16sqddddd")  # token, source, t_event, t_arrival, x, y, load
+
+
+class TouchBridge:
+    """Engine side: receive touch datagrams on 127.0.0.1 and push them to the engine."""
+
+    def __init__(self, engine):
+        self.engine = engine
+        self.token = os.urandom(16)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.settimeout(0.2)
+        self.port = self.sock.getsockname()[1]
+        self.received = 0
+        self.dropped = 0
+        self._run = False
+        self._thread = None
+
+    def start(self) -> None:
+        self._run = True
+        self._thread = threading.Thread(target=self._loop, name="surfhap-touch-bridge", daemon=True)
+        self._thread.start()
+
+    def _loop(self) -> None:
+        size = _TOUCH.size
+        push = self.engine.push_touch
+        while self._run:
+            try:
+                data = self.sock.recv(256)
+            except socket.timeout:
+                continue
+            except OSError:
+                return
+            if len(data) != size:
+                self.dropped += 1
+                continue
+            token, src, t_ev, t_arr, x, y, load = _TOUCH.unpack(data)
+            if token != self.token:
+                self.dropped += 1
+                continue
+            t = now()
+            if not (t - 1.0 <= t_arr <= t):  # arrival stamps from the future or stale: use now
+                t_arr = t
+            push(src, x, y, load, t_event=t_ev, t_arrival=t_arr)
+            self.received += 1
+
+    def stop(self) -> None:
+        self._run = False
+        if self._thread is not None:
+            self._thread.join(1.0)
+        self.sock.close()
+
+
+class _RemoteEngine:
+    """Web side stand-in for the engine: ``push_touch`` sends a datagram to the bridge."""
+
+    def __init__(self, port: int, token: bytes, info: dict):
+        self._addr = ("127.0.0.1", port)
+        self._token = token
+        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._sock.setblocking(False)
+        self.drive_rate = info["drive_rate"]
+        self.model_rate = info["model_rate"]
+        self.block_period = info["block_period"]
+        self.v_max = info["v_max"]
+        self.dropped = 0
+
+    def push_touch(self, source, x, y, load, t_event=math.nan, t_arrival=None) -> bool:
+        ta = now() if t_arrival is None else t_arrival
+        try:
+            self._sock.sendto(_TOUCH.pack(self._token, int(source), t_event, ta, x, y, load), self._addr)
+            return True
+        except OSError:  # buffer full: drop, never wait
+            self.dropped += 1
+            return False
+
+
+class _StaticBackend:
+    def __init__(self, info: dict):
+        self._info = info
+
+    def info(self) -> dict:
+        return dict(self._info)
+
+
+class _RemoteSession:
+    def __init__(self, info: dict, engine):
+        self.engine = engine
+        self.backend = _StaticBackend(info["output"])
+        self.title = info["title"]
+        self.preview = info["preview"]
+        from surfhap.live.sources import TouchSpace
+
+        self.space = TouchSpace(*info["space"])
+
+
+class TracePublisher:
+    """Engine side: send trace frames and status to the web process at ``hz``."""
+
+    def __init__(self, session, port: int, hz: float = 30.0, points: int = 64):
+        from surfhap.live.server import FrameBuilder
+
+        self.builder = FrameBuilder(session.engine, session.backend, points)
+        self.addr = ("127.0.0.1", port)
+        self.hz = float(hz)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._stop = threading.Event()
+        self._thread = None
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._loop, name="surfhap-trace-pub", daemon=True)
+        self._thread.start()
+
+    def _loop(self) -> None:
+        n = 0
+        while not self._stop.wait(1.0 / self.hz):
+            try:
+                if n % 5 == 0:
+                    self.sock.sendto(b"S" + self.builder.status().encode(), self.addr)
+                self.sock.sendto(b"F" + self.builder.frame().encode(), self.addr)
+            except OSError:
+                pass
+            except Exception:  # noqa: BLE001 - monitoring must not die
+                log.exception("trace publisher failed")
+            n += 1
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(1.0)
+        self.sock.close()
+
+
+def _web_main(cfg, info: dict, bridge_port: int, token: bytes, conn, log_level: int) -> None:
+    """Entry point of the web process."""
+    logging.basicConfig(level=log_level, format="%(asctime)s %(levelname)s %(name)s[web]: %(message)s")
+    import uvicorn
+
+    from surfhap.live.server import create_app
+
+    try:
+        trace_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        trace_sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
+        trace_sock.bind(("127.0.0.1", 0))
+        fam = socket.AF_INET6 if ":" in cfg.host else socket.AF_INET
+        http_sock = socket.socket(fam, socket.SOCK_STREAM)
+        http_sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        http_sock.bind((cfg.host, cfg.port))
+    except OSError as exc:
+        conn.send(("error", f"cannot listen on {cfg.host}:{cfg.port} ({exc.strerror or exc})"))
+        return
+    session = _RemoteSession(info, _RemoteEngine(bridge_port, token, info))
+    app = create_app(session, cfg, frames="remote", trace_sock=trace_sock)
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", ws_max_size=cfg.max_message_bytes,
+                                           lifespan="on", ws_ping_interval=None))
+    conn.send(("ok", trace_sock.getsockname()[1], http_sock.getsockname()[1]))
+    server.run(sockets=[http_sock])
+
+
+class WebProcess:
+    """Start the page server for ``session`` in a separate (spawned) process."""
+
+    def __init__(self, session, cfg):
+        self.session = session
+        self.cfg = cfg
+        self.bridge = None
+        self.publisher = None
+        self.proc = None
+        self.port = None
+
+    @property
+    def url(self) -> str:
+        return f"http://{self.cfg.host}:{self.port}"
+
+    def start(self, timeout: float = 30.0) -> "WebProcess":
+        from surfhap.errors import ConfigError
+        from surfhap.live.server import _safe_info
+
+        s = self.session
+        eng = s.engine
+        info = {"drive_rate": eng.drive_rate, "model_rate": eng.model_rate, "block_period": eng.block_period,
+                "v_max": eng.v_max, "title": s.title, "preview": s.preview, "output": _safe_info(s.backend),
+                "space": (s.space.width, s.space.height, s.space.max_load, s.space.default_load)}
+        self.bridge = TouchBridge(eng)
+        self.bridge.start()
+        ctx = mp.get_context("spawn")
+        parent, child = ctx.Pipe()
+        self.proc = ctx.Process(target=_web_main, name="surfhap-web", daemon=True,
+                                args=(self.cfg, info, self.bridge.port, self.bridge.token, child,
+                                      logging.getLogger("surfhap").getEffectiveLevel()))
+        self.proc.start()
+        if not parent.poll(timeout):
+            self.stop()
+            raise RuntimeError("the web process did not start")
+        msg = parent.recv()
+        if msg[0] != "ok":
+            self.stop()
+            raise ConfigError(msg[1], source="--port")
+        self.port = msg[2]
+        self.publisher = TracePublisher(s, msg[1], self.cfg.trace_hz, self.cfg.trace_points)
+        self.publisher.start()
+        # wait until it answers HTTP (bounded)
+        import time
+        import urllib.request
+
+        host = "127.0.0.1" if self.cfg.host in ("0.0.0.0", "::", "") else self.cfg.host
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            try:
+                urllib.request.urlopen(f"http://{host}:{self.port}/api/status", timeout=1).read()
+                break
+            except OSError:
+                time.sleep(0.05)
+        return self
+
+    def stop(self) -> None:
+        if self.publisher is not None:
+            self.publisher.stop()
+        if self.proc is not None:
+            self.proc.terminate()
+            self.proc.join(5.0)
+            if self.proc.is_alive():
+                self.proc.kill()
+                self.proc.join(2.0)
+        if self.bridge is not None:
+            self.bridge.stop()
