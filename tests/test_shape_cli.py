@@ -43,6 +43,11 @@ def test_calibrate_then_render_with_it(tmp_path):
     s = json.loads((out / "summary.json").read_text())
     assert s["fsq_range"] == pytest.approx([cal["fmin"], cal["fmax"]])
     assert s["on_mesh_fraction"] > 0.5
+    # the calibration saved next to the mesh is found without --calibration
+    out2 = tmp_path / "o2"
+    assert main(["shape", str(mesh), "--size", "0.1", "--trajectory", str(traj), "--out", str(out2), "--no-figure"]) == 0
+    s2 = json.loads((out2 / "summary.json").read_text())
+    assert s2["fsq_range"] == pytest.approx([cal["fmin"], cal["fmax"]])
 
 
 def test_bunny_loads_and_renders(tmp_path):

@@ -99,7 +99,7 @@ def render_cmd(
     out: Path = typer.Option(..., "--out", help="Output folder: shape.npz, summary.json, figure.png."),
     scan: Optional[str] = typer.Option(None, "--scan", help="Straight scan 'x0,y0,x1,y1,speed' in m and m/s (mesh coordinates)."),
     trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Trajectory CSV: time (s), x, y (m), load (N)."),
-    calibration: Optional[Path] = typer.Option(None, "--calibration", help="Calibration JSON from 'surfhap shape calibrate' (default: calibrate now)."),
+    calibration: Optional[Path] = typer.Option(None, "--calibration", help="Calibration JSON from 'surfhap shape calibrate' (default: MESH.calibration.json next to the mesh if present, else calibrate now)."),
     rate: float = typer.Option(60.0, "--rate", help="Touch sampling rate of --scan, Hz (Kim et al.: 60)."),
     load: float = typer.Option(1.0, "--load", help="Finger load of --scan, N."),
     grain: str = typer.Option("area-even", "--grain", help="Area grain: area-even (smooth) | area-grainy (rough); edge-soft = area-even."),
@@ -119,7 +119,7 @@ def render_cmd(
     figure: bool = typer.Option(True, "--figure/--no-figure", help="Write figure.png."),
 ) -> None:
     """Render a scan over MESH on the simulated display (also: surfhap shape MESH ...)."""
-    from surfhap.exchange.shape_files import read_calibration, write_shape
+    from surfhap.exchange.shape_files import default_calibration_path, read_calibration, write_shape
     from surfhap.exchange.trajectory_csv import read_trajectory_csv
     from surfhap.render.shape_renderer import ShapeConfig, render_shape
     from surfhap.shape.scan import parse_scan
@@ -130,6 +130,8 @@ def render_cmd(
                       carrier=carrier, seed=seed)
     traj = parse_scan(scan, rate=rate, load=load) if scan is not None else read_trajectory_csv(trajectory)
     surf = load_surface(mesh, up=up, scale=scale, size=size, resolution=resolution, pixel_size=pixel_size, height=height)
+    if calibration is None and Path(mesh).is_file() and default_calibration_path(mesh).is_file():
+        calibration = default_calibration_path(mesh)  # saved by 'surfhap shape calibrate MESH'
     cal = read_calibration(calibration) if calibration is not None else None
     with progress_bar(f"rendering {surf.name}", enabled=traj.duration > 5.0) as update:
         result = render_shape(surf, traj, cal, cfg, progress=update)
@@ -141,7 +143,7 @@ def render_cmd(
     stdout.print(f"{surf.name}: {s['samples']} touch samples, {s['on_mesh_fraction']:.0%} on the mesh, "
                  f"force {s['force_range_n'][0]:+.3g}..{s['force_range_n'][1]:+.3g} N, {s['ticks']} edge ticks, "
                  f"Fsq range [{result.calibration.fmin:+.3g}, {result.calibration.fmax:+.3g}] "
-                 f"-> {paths['npz'].parent}")
+                 f"({'from ' + str(calibration) if calibration is not None else 'calibrated now'}) -> {paths['npz'].parent}")
 
 
 @shape_app.command("calibrate")
