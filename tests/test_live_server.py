@@ -199,8 +199,12 @@ def test_page_server_in_its_own_process_feeds_the_engine():
                         return mm
         assert asyncio.run(hostile())["rejected"] == 1
         c = http.client.HTTPConnection("127.0.0.1", web.port, timeout=5)
-        c.request("GET", "/api/status")
-        st = json.loads(c.getresponse().read())
+        for _ in range(40):  # the status is refreshed a few times a second
+            c.request("GET", "/api/status")
+            st = json.loads(c.getresponse().read())
+            if st["server"]["rejected"] >= 1:
+                break
+            time.sleep(0.05)
         assert st["counters"]["blocks"] > 0 and st["server"]["rejected"] >= 1
     finally:
         web.stop()
