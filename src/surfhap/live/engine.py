@@ -223,8 +223,11 @@ class LiveEngine:
             self._touch(now)
             self._produce(frames, now)
             r = self._fifo_r
-            for i in range(frames):
-                out[i] = self._fifo[(r + i) & self._fifo_mask]
+            a = r & self._fifo_mask
+            k = min(frames, self._fifo_cap - a)
+            out[:k] = self._fifo[a : a + k]
+            if k < frames:
+                out[k:] = self._fifo[: frames - k]
             self._fifo_r = r + frames
             self._apply_gain(out)
         except Exception:  # noqa: BLE001 - the callback must never raise
@@ -333,8 +336,11 @@ class LiveEngine:
             m = drive.shape[0]
             offset = self._fifo_w - self._fifo_r
             w = self._fifo_w
-            for i in range(m):
-                self._fifo[(w + i) & self._fifo_mask] = drive[i]
+            a = w & self._fifo_mask
+            k = min(m, self._fifo_cap - a)
+            self._fifo[a : a + k] = drive[:k]
+            if k < m:
+                self._fifo[: m - k] = drive[k:]
             self._fifo_w = w + m
             self._n_model += n
             friction = math.nan
@@ -355,8 +361,8 @@ class LiveEngine:
             row[2] = pred.y
             row[3] = sp[0]
             row[4] = self._load_now
-            row[5] = float(np.abs(drive).max()) if m else 0.0
-            row[6] = float(blk.drive_law.target.mean()) if n else 0.0
+            row[5] = max(drive.max(), -drive.min()) if m else 0.0
+            row[6] = blk.drive_law.target[0] if n else 0.0
             row[7] = friction
             self.trace_count += 1
 
