@@ -168,3 +168,15 @@ def test_malformed_hatt_files(hatt_file, edit, field):
 def test_import_of_empty_folder_fails(tmp_path):
     with pytest.raises(MaterialFormatError):
         import_hatt_folder(tmp_path, tmp_path / "out")
+
+
+def test_json_with_degenerate_triangle_is_a_located_error(hatt_file, tmp_path):
+    import json
+
+    out = import_hatt_folder(hatt_file, tmp_path / "json")[0]
+    spec = json.loads(out.read_text())
+    spec["texture"]["triangles"][0] = [0, 1, 2]  # three collinear vertices (force 0 row)
+    out.write_text(json.dumps(spec))
+    with pytest.raises(MaterialFormatError) as err:
+        read_material_json(out)
+    assert err.value.source == str(out) and err.value.field.startswith("texture")

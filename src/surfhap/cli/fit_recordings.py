@@ -33,10 +33,10 @@ def _command() -> str:
     return shlex.join(["surfhap", *sys.argv[1:]]) if sys.argv and Path(sys.argv[0]).name.startswith("surfhap") else "surfhap fit"
 
 
-def _check_jobs(jobs: int) -> int:
+def _check_jobs(jobs: int, scheduler: str | None) -> int:
     if jobs == 0 or jobs < -1:
         raise ConfigError("must be >= 1 (or -1 for all cores)", source="--jobs")
-    return jobs
+    return -1 if scheduler and jobs == 1 else jobs  # on a cluster, let the scheduler spread the work
 
 
 @fit_app.command("friction")
@@ -55,7 +55,7 @@ def fit_friction_cmd(
     columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'speed=v_x[mm/s],normal_force=Fz'."),
     report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
     jobs: int = typer.Option(1, "--jobs", help="Parallel workers (joblib); -1 = all cores."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address (needs the 'dask' extra)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there."),
 ) -> None:
     """Fit Coulomb mu0, the quasi-static law and AR textures per reference velocity (Otake et al.)."""
     from surfhap.exchange.materials import write_material_json
@@ -74,7 +74,7 @@ def fit_friction_cmd(
     with parallel_context(scheduler):
         fit = fit_friction(recs, material, cutoff=cutoff, reference_speeds=speeds, tolerance=tolerance / 1000.0,
                            min_span=min_span / 1000.0, max_order=max_order, criterion=criterion.lower(), estimator=estimator,
-                           jobs=_check_jobs(jobs))
+                           jobs=_check_jobs(jobs, scheduler))
     mat = fit.to_material(command=command)
     write_material_json(mat, out)
     qs = fit.quasi_static
@@ -103,7 +103,7 @@ def fit_accel_cmd(
     columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'acceleration=az[g],speed=v[mm/s]'."),
     report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
     jobs: int = typer.Option(1, "--jobs", help="Parallel workers (joblib); -1 = all cores."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address (needs the 'dask' extra)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there."),
 ) -> None:
     """Segment, fit AR per segment and interpolate over (speed, force) (HaTT / Zhao et al.)."""
     from surfhap.exchange.materials import write_material_json
@@ -115,7 +115,7 @@ def fit_accel_cmd(
     command = _command()
     with parallel_context(scheduler):
         fit = fit_accel(recs, material, model_rate=model_rate, highpass=highpass, max_order=max_order, criterion=criterion,
-                        min_segment=min_segment / 1000.0, mu0=mu0, jobs=_check_jobs(jobs))
+                        min_segment=min_segment / 1000.0, mu0=mu0, jobs=_check_jobs(jobs, scheduler))
     write_material_json(fit.to_material(command=command), out)
     stdout.print(f"{out}: {len(fit.segments)} segments, AR({fit.order}) models over (speed, force), "
                  f"{fit.bank.triangles.shape[0]} triangles; mu0 {fit.mu0:.3f}")

@@ -21,7 +21,7 @@ from __future__ import annotations
 import hashlib
 import re
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -291,7 +291,7 @@ def hatt_to_material(ms: HattModelSet, source: str, sha256: str | None = None, c
         notes=[f"imported from {Path(source).name}: {len(ms.models)} ARMA({ms.num_ar},{ms.num_ma}) models at "
                f"{ms.sample_rate:g} Hz, {ms.triangles.shape[0]} triangles"],
     )
-    return Material(spec.name, Material.from_spec(spec).coulomb, None, bank, spec)
+    return Material.from_spec(spec)
 
 
 def read_hatt_material(path: str | Path):

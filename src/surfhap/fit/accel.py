@@ -25,7 +25,7 @@ from scipy.signal import butter, resample_poly, sosfiltfilt
 from surfhap.errors import ConfigError, RecordingFormatError
 from surfhap.exchange.recordings import Recording
 from surfhap.fit.friction import CoulombFit, coulomb_from_sums
-from surfhap.fit.material_fit import _map, recording_provenance
+from surfhap.fit.material_fit import _map
 from surfhap.models.interpolated import InterpolatedARMABank
 from surfhap.signal.ar import autocovariance, information_criteria, levinson_durbin
 from surfhap.signal.lsf import ar_to_lsf
@@ -68,8 +68,8 @@ class AccelFit:
     name: str
     sample_rate: float
     bank: InterpolatedARMABank
-    segments: list
-    segmentations: dict
+    segments: list[AccelSegment]
+    segmentations: dict[str, Segmentation]
     order: int
     orders: np.ndarray
     total_criterion: np.ndarray

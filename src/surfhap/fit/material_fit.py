@@ -45,7 +45,7 @@ def parallel_context(scheduler: str | None = None):
     try:
         from dask.distributed import Client
     except ImportError:
-        raise ConfigError("needs dask.distributed: pip install 'surfhap[dask]'", source="--scheduler") from None
+        raise ConfigError("needs dask.distributed (install surfhap's optional 'dask' extra)", source="--scheduler") from None
     import joblib
 
     client = Client(scheduler)
@@ -96,7 +96,7 @@ class FrictionFit:
     quasi_static: QuasiStaticFit
     quasi_static_pooled: QuasiStaticFit
     quasi_static_by_participant: list
-    textures: list
+    textures: list[VelocityTexture]
     notes: list
     low_band: dict
     example: dict

@@ -111,7 +111,9 @@ def fit_velocity_texture(
     groups = [g for _, g in keep]
     n_total = sum(s.size for g in groups for s in g)
     n_spans = sum(len(g) for g in groups)
-    max_order = int(min(max_order, max(1, n_total // 10), max(1, min(s.size for g in groups for s in g) - 1) if estimator == "burg" else max_order))
+    max_order = int(min(max_order, max(1, n_total // 10)))
+    if estimator == "burg":  # Burg needs every span longer than the order
+        max_order = int(min(max_order, max(1, min(s.size for g in groups for s in g) - 1)))
     if n_total < 100:
         raise ValueError(f"only {n_total} spliced samples (need >= 100)")
     if estimator == "yule-walker":

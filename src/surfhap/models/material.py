@@ -165,6 +165,12 @@ class InterpolatedTextureSpec(_Strict):
         k = len(self.models)
         if any(not 0 <= i < k for t in self.triangles for i in t):
             raise ValueError(f"triangle indices must be within 0..{k - 1}")
+        from surfhap.models.interpolated import InterpolatedARMABank
+
+        InterpolatedARMABank(  # the domain checks (degenerate triangles ...), reported as a schema error
+            self.quantity, self.sample_rate, [m.speed for m in self.models], [m.force for m in self.models],
+            [m.ar_lsf for m in self.models], [m.ma_lsf for m in self.models], [m.variance for m in self.models],
+            [m.gain for m in self.models], [list(t) for t in self.triangles], self.max_speed, self.max_force)
         return self
 
 
