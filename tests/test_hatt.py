@@ -170,13 +170,22 @@ def test_import_of_empty_folder_fails(tmp_path):
         import_hatt_folder(tmp_path, tmp_path / "out")
 
 
-def test_json_with_degenerate_triangle_is_a_located_error(hatt_file, tmp_path):
+def test_json_schema_errors_are_located(hatt_file, tmp_path):
     import json
 
     out = import_hatt_folder(hatt_file, tmp_path / "json")[0]
     spec = json.loads(out.read_text())
-    spec["texture"]["triangles"][0] = [0, 1, 2]  # three collinear vertices (force 0 row)
+    spec["texture"]["models"][3]["ar_lsf"][0] = 3.5  # not increasing within (0, pi)
     out.write_text(json.dumps(spec))
     with pytest.raises(MaterialFormatError) as err:
         read_material_json(out)
     assert err.value.source == str(out) and err.value.field.startswith("texture")
+
+
+def test_degenerate_triangles_are_ignored():
+    bank = make_bank(5)
+    tris = np.vstack([[[0, 1, 2]], bank.triangles])  # collinear vertices (force 0 row)
+    bad = InterpolatedARMABank(bank.quantity, bank.sample_rate, bank.speeds, bank.forces, bank.ar_lsf, bank.ma_lsf,
+                               bank.variances, bank.gains, tris, bank.max_speed, bank.max_force)
+    speed, force = path_inputs(500)
+    np.testing.assert_array_equal(bad.synthesizer(1).process(speed, force), bank.synthesizer(1).process(speed, force))

@@ -124,7 +124,7 @@ def _resample(x: np.ndarray, fs: float, target: float) -> np.ndarray:
     return resample_poly(x, fr.numerator, fr.denominator)
 
 
-def _segment_recording(rec: Recording, model_rate, highpass, max_order, min_segment, step, min_speed, min_force):
+def _segment_recording(rec: Recording, model_rate, highpass, max_order, min_segment, step, min_speed, min_force, max_segment):
     rec.require("acceleration", "speed", "normal_force")
     fs = rec.sample_rate
     if model_rate > fs * 1.0001:
@@ -137,7 +137,8 @@ def _segment_recording(rec: Recording, model_rate, highpass, max_order, min_segm
             raise ConfigError(f"must be below {model_rate / 2:g} Hz", source="--highpass")
         sos = butter(4, highpass, btype="high", fs=model_rate, output="sos")
         acc = sosfiltfilt(sos, acc)
-    seg = segment_ar(acc, max_order=max_order, min_length=int(min_segment * model_rate), step=max(1, int(step * model_rate)))
+    seg = segment_ar(acc, max_order=max_order, min_length=int(min_segment * model_rate), step=max(1, int(step * model_rate)),
+                     max_length=None if not max_segment else int(max_segment * model_rate))
     pieces = []
     for (a, b), p in zip(seg.segments, seg.orders):
         v = float(np.mean(speed[a:b]))
@@ -163,18 +164,20 @@ def fit_accel(
     min_force: float = 0.1,
     mu0: float | None = None,
     jobs: int = 1,
+    max_segment: float | None = 10.0,
 ) -> AccelFit:
     """Fit an interpolated acceleration texture (module docstring).
 
     recordings need acceleration (m/s^2), speed (m/s) and normal_force (N); shear_force (or
-    cof) for mu0 unless ``mu0`` is given. min_segment, step : s; min_speed m/s; min_force N.
+    cof) for mu0 unless ``mu0`` is given. min_segment, step, max_segment (None: unlimited) : s;
+    min_speed m/s; min_force N.
     """
     if not recordings:
         raise RecordingFormatError("no recordings given")
     criterion = criterion.lower()
     if criterion not in ("aic", "bic"):
         raise ConfigError(f"must be 'aic' or 'bic', got {criterion!r}", source="--criterion")
-    results = _map(_segment_recording, [(r, model_rate, highpass, max_order, min_segment, step, min_speed, min_force)
+    results = _map(_segment_recording, [(r, model_rate, highpass, max_order, min_segment, step, min_speed, min_force, max_segment)
                                         for r in recordings], jobs)
     segments = []
     segmentations = {}

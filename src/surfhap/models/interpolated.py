@@ -14,7 +14,8 @@ render time::
 
 The output and excitation histories are kept across model changes (HaTT keeps one history
 per texture and only swaps the coefficients). A query outside every triangle (possible when
-the hull is not a rectangle) uses the nearest vertex's model.
+the hull is not a rectangle) uses the nearest vertex's model; degenerate triangles (collinear
+vertices) are ignored.
 
 The bank provides the texture protocol of :class:`surfhap.models.material.Material`:
 ``quantity``, ``sample_rate`` and ``synthesizer(seed)`` whose ``process(speed, load)``
@@ -62,15 +63,17 @@ class InterpolatedModel:
 
 
 def _triangle_transforms(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(t, 2, 2) inverse edge matrices for barycentric coordinates."""
+    """(t, 2, 2) inverse edge matrices for barycentric coordinates. A degenerate triangle
+    (collinear vertices; it contains no point) gets NaN, so it never matches a query."""
     out = np.empty((triangles.shape[0], 2, 2))
     for k, (i, j, l) in enumerate(triangles):
         m = np.array([[points[j, 0] - points[i, 0], points[l, 0] - points[i, 0]],
                       [points[j, 1] - points[i, 1], points[l, 1] - points[i, 1]]])
-        det = np.linalg.det(m)
-        if abs(det) < 1e-300:
-            raise ValueError(f"triangle {k} ({i}, {j}, {l}) is degenerate")
-        out[k] = np.linalg.inv(m)
+        scale = max(float(np.max(np.abs(m))), 1e-300)
+        if abs(np.linalg.det(m / scale)) < 1e-12:
+            out[k] = np.nan
+        else:
+            out[k] = np.linalg.inv(m)
     return out
 
 

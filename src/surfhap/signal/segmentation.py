@@ -64,7 +64,7 @@ def _segment_cost(S, C, s, e, max_order, r, a, prev, n_total_log):
 
 
 @numba.njit(cache=True, nogil=True)
-def _pelt(S, C, grid, min_len, max_order, penalty, prune_margin):
+def _pelt(S, C, grid, min_len, max_len, max_order, penalty, prune_margin):
     K = grid.shape[0]
     F = np.full(K, np.inf)
     F[0] = -penalty
@@ -82,7 +82,7 @@ def _pelt(S, C, grid, min_len, max_order, penalty, prune_margin):
         best_i = -1
         for ci in range(ncand):
             i = cand[ci]
-            if grid[j] - grid[i] < min_len:
+            if grid[j] - grid[i] < min_len or grid[j] - grid[i] > max_len:
                 costs[ci] = np.inf
                 continue
             c, _ = _segment_cost(S, C, grid[i], grid[j], max_order, r, a, prev, n_total_log)
@@ -97,6 +97,8 @@ def _pelt(S, C, grid, min_len, max_order, penalty, prune_margin):
         nn = 0
         for ci in range(ncand):
             i = cand[ci]
+            if grid[j] - grid[i] >= max_len:
+                continue  # too long already: never a valid start again
             if costs[ci] == np.inf or F[i] + costs[ci] - prune_margin <= F[j]:
                 cand[nn] = i
                 nn += 1
@@ -128,11 +130,15 @@ class Segmentation:
         return [(int(a), int(b)) for a, b in zip(self.bounds[:-1], self.bounds[1:])]
 
 
-def segment_ar(x: np.ndarray, max_order: int = 20, min_length: int = 200, step: int = 25) -> Segmentation:
+def segment_ar(x: np.ndarray, max_order: int = 20, min_length: int = 200, step: int = 25,
+               max_length: int | None = None) -> Segmentation:
     """Split x (n,) into stationary AR pieces by exact MDL minimisation (module docstring).
 
     max_order : largest AR order per segment; min_length : shortest segment, samples;
-    step : grid of candidate change points, samples (the resolution of the breaks).
+    step : grid of candidate change points, samples (the resolution of the breaks);
+    max_length : longest segment, samples (None: unlimited). The search costs
+    O((n / step)^2) segment fits without it and O(n / step x max_length / step) with it;
+    a stationary stretch longer than max_length is cut into similar pieces.
     """
     x = np.ascontiguousarray(x, dtype=float)
     n = x.size
@@ -150,7 +156,8 @@ def segment_ar(x: np.ndarray, max_order: int = 20, min_length: int = 200, step: 
     C = np.concatenate(([0.0], np.cumsum(x)))
     penalty = float(np.log(n))
     margin = 0.5 * (P + 2) * np.log(n) + np.log(max(P, 1)) + penalty
-    F, last = _pelt(S, C, grid, int(max(min_length, P + 2)), P, penalty, margin)
+    max_len = n if max_length is None else int(max(max_length, 2 * max(min_length, P + 2)))
+    F, last = _pelt(S, C, grid, int(max(min_length, P + 2)), max_len, P, penalty, margin)
     # backtrack
     idx = [grid.size - 1]
     while idx[-1] > 0:
