@@ -99,6 +99,7 @@ def fit_accel_cmd(
     max_order: int = typer.Option(20, "--max-order", min=1, max=100, help="Largest AR order considered."),
     criterion: str = typer.Option("aic", "--criterion", help="aic | bic (the common order)."),
     min_segment: float = typer.Option(250.0, "--min-segment", help="Shortest stationary segment, ms."),
+    max_segment: float = typer.Option(10.0, "--max-segment", help="Longest segment, s (0 = unlimited; the search grows quadratically)."),
     mu0: Optional[float] = typer.Option(None, "--mu0", help="Coulomb coefficient when the recordings have no shear force."),
     columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'acceleration=az[g],speed=v[mm/s]'."),
     report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
@@ -115,7 +116,8 @@ def fit_accel_cmd(
     command = _command()
     with parallel_context(scheduler):
         fit = fit_accel(recs, material, model_rate=model_rate, highpass=highpass, max_order=max_order, criterion=criterion,
-                        min_segment=min_segment / 1000.0, mu0=mu0, jobs=_check_jobs(jobs, scheduler))
+                        min_segment=min_segment / 1000.0, mu0=mu0, jobs=_check_jobs(jobs, scheduler),
+                        max_segment=max_segment or None)
     write_material_json(fit.to_material(command=command), out)
     stdout.print(f"{out}: {len(fit.segments)} segments, AR({fit.order}) models over (speed, force), "
                  f"{fit.bank.triangles.shape[0]} triangles; mu0 {fit.mu0:.3f}")
