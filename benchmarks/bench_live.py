@@ -3,7 +3,9 @@
 1. live_engine_overhead: ``LiveEngine.render`` per 1 ms block (20 kHz drive) with a
    material active and touches at 125 Hz, p99 CPU time <= 10 % of the block period
    (ratio = 0.10 / share). Run for cork (2 kHz friction model) and leather (texture),
-   with the simulated display off (what the sound-card callback runs) and on (``sim``).
+   with the simulated display off (what the sound-card callback runs) and on (``sim``),
+   and for a mesh (Blender's Suzanne from ../shared/data, when present) through the shape
+   renderer.
 2. live_touch_to_drive: the sim backend paced in real time, a producer thread pushing
    touches at 125 Hz at random phases; arrival -> first drive sample computed from it,
    p99 <= 2 blocks (ratio = 2 / p99_blocks).
@@ -45,7 +47,17 @@ def rss_bytes(pid: str = "self") -> int:
     return 0
 
 
+SUZANNE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data", "blender-suzanne",
+                       "suzanne.obj")
+
+
 def engine_for(material: str, display: bool) -> LiveEngine:
+    if material.startswith("mesh:"):
+        from surfhap.live.shape_live import load_live_shape
+
+        chain, _ = load_live_shape(material[5:], 20000, (0.217, 0.136))
+        disp = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.model_rate) if display else None
+        return LiveEngine(chain, EngineConfig(block_seconds=0.001), display=disp)
     chain = TextureChain(load_material(material), ChainConfig(drive_rate=20000))
     disp = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.model_rate) if display else None
     return LiveEngine(chain, EngineConfig(block_seconds=0.001), display=disp)
@@ -57,15 +69,15 @@ def bench_overhead(material: str, display: bool, n_blocks: int = 20000) -> None:
     cpu = np.empty(n_blocks)
     for b in range(n_blocks):
         t = b * eng.block_period
-        if b % 8 == 0:
-            x = 0.02 + 0.05 * abs(((t * 2.0) % 2.0) - 1.0)
-            eng.push_touch(1, x, 0.03, 0.5, t_event=t, t_arrival=t)
+        if b % 8 == 0:  # strokes across the middle of the surface
+            x = 0.06 + 0.1 * abs(((t * 1.0) % 2.0) - 1.0)
+            eng.push_touch(1, x, 0.068, 0.5, t_event=t, t_arrival=t)
         c0 = time.thread_time_ns()
         eng.render(eng.block_frames, t + 2e-4)
         cpu[b] = (time.thread_time_ns() - c0) * 1e-9
     p99 = float(np.percentile(cpu, 99))
     share = p99 / eng.block_period
-    report("live_engine_overhead", {"material": material, "model_rate_hz": eng.model_rate, "simulated_display": display,
+    report("live_engine_overhead", {"material": os.path.basename(material), "model_rate_hz": eng.model_rate, "simulated_display": display,
                                     "blocks": n_blocks, "median_us": round(float(np.median(cpu)) * 1e6, 1),
                                     "p99_us": round(p99 * 1e6, 1), "p99_share_of_block": round(share, 4)},
            0.10 / share, "p99 CPU per 1 ms block <= 10 % (ratio = 0.10 / share)", share <= 0.10)
@@ -157,7 +169,8 @@ def bench_clients(seconds: float, n_clients: int = 50, rate: float = 120.0) -> N
 
 def main():
     quick = "--quick" in sys.argv
-    for material in ("cork", "leather"):
+    renderers = ["cork", "leather"] + (["mesh:" + SUZANNE] if os.path.exists(SUZANNE) else [])
+    for material in renderers:
         for display in (False, True):
             bench_overhead(material, display)
     bench_latency(5.0 if quick else 10.0)

@@ -33,7 +33,7 @@ def _setup_logging(verbose: bool) -> None:
 
 def serve_cmd(
     material: Optional[str] = typer.Option(None, "--material", help="Built-in material name or material file (default: cork)."),
-    mesh: Optional[Path] = typer.Option(None, "--mesh", help="Render a 3-D mesh instead of a material (needs the shape renderer)."),
+    mesh: Optional[Path] = typer.Option(None, "--mesh", help="Render a 3-D mesh (OBJ, STL, PLY, ...) instead of a material; it is scaled to fit the touch surface."),
     output: str = typer.Option("sim", "--output", help="sim | sound[:DEVICE] | file:PATH.wav|.npz | osc://HOST:PORT[/intensity|/drive]."),
     host: str = typer.Option("127.0.0.1", "--host", help="Address to bind. Anything but loopback exposes the page to your network."),
     port: int = typer.Option(8765, "--port", help="TCP port of the page."),
@@ -62,9 +62,10 @@ def serve_cmd(
         try:
             import surfhap.render.shape_renderer  # noqa: F401
         except ImportError:
-            raise ConfigError("mesh rendering is not available in this installation yet (surfhap.render.shape_renderer missing)",
+            raise ConfigError("mesh rendering is not available in this installation (surfhap.render.shape_renderer missing)",
                               source="--mesh") from None
-        raise ConfigError("live mesh rendering is not wired up yet; render meshes offline with 'surfhap shape'", source="--mesh")
+        if not mesh.is_file():
+            raise ConfigError("no such file", source=str(mesh))
     if not 1 <= port <= 65535:
         raise ConfigError("must be within 1-65535", source="--port")
     osc = None
@@ -80,7 +81,7 @@ def serve_cmd(
         traj = read_trajectory_csv(replay)
     session = build_session(material or "cork", output, drive_rate=drive_rate, amp_gain=amp_gain,
                             engine_config=_engine_config(block_ms, touch_latency_ms, smoothing),
-                            osc_in=osc, replay=traj, replay_loop=True, seed=seed)
+                            osc_in=osc, replay=traj, replay_loop=True, seed=seed, mesh=mesh)
     cfg = ServerConfig(host=host, port=port, allowed_origins=tuple(allow_origin))
     if host not in LOOPBACK:
         stderr.print(f"[yellow]warning:[/] binding {host}: the page is reachable from your network; "

@@ -172,11 +172,18 @@ class LiveEngine:
         }
 
     def warm_up(self, blocks: int = 20) -> None:
-        """Run a few silent blocks (loads compiled kernels, touches every buffer), then reset.
+        """Run a few blocks with a short stroke (loads compiled kernels, touches every
+        buffer), then reset.
 
         Call before a backend starts, so the first real-time blocks are not slow."""
-        for i in range(blocks):
-            self.render(self.block_frames, self._clock())
+        t = self._clock()
+        for i in range(blocks):  # a short stroke, so the touch paths are compiled too
+            t += self.block_period
+            if i % 4 == 0 and i < blocks - 4:
+                self.push_touch(-1, 0.05 + 0.0005 * i, 0.05, 0.5, t_event=t, t_arrival=t)
+            elif i == blocks - 4:
+                self.push_touch(-1, 0.0, 0.0, 0.0, t_arrival=t)
+            self.render(self.block_frames, t)
         self.reset()
 
     def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan,

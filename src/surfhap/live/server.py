@@ -107,8 +107,12 @@ class LiveSession:
     """An engine with its backend and touch sources, plus what the page shows."""
 
     def __init__(self, engine, backend, *, title: str = "", preview: dict | None = None,
-                 space: TouchSpace | None = None, sources: list | None = None):
+                 space: TouchSpace | None = None, sources: list | None = None, positions: str = "physical"):
+        """``positions``: "physical" maps page positions to metres through CSS pixels (a
+        material: the finger speed is real); "surface" maps the page onto the whole touch
+        surface (a mesh: the shaded preview and the felt shape line up)."""
         self.engine = engine
+        self.positions = positions
         self.backend = backend
         self.title = title
         self.preview = preview or {"w": 1, "h": 1, "data": [128]}
@@ -256,6 +260,7 @@ def create_app(session, cfg: ServerConfig | None = None, *, frames: str = "local
 
     cfg = cfg or ServerConfig()
     hub = _Hub(cfg)
+    surface_positions = getattr(session, "positions", "physical") == "surface"
     loopback = {"127.0.0.1", "localhost", "::1"}
     allowed_hosts = {h.lower() for h in cfg.allowed_hosts} | ({cfg.host.lower()} | (loopback if cfg.host in loopback else set()))
     any_host = cfg.host in WILDCARD_HOSTS
@@ -377,8 +382,12 @@ def create_app(session, cfg: ServerConfig | None = None, *, frames: str = "local
                 return reject(client, "move needs seq (int), t (ms), x, y in 0-1, p in 0-1")
             sp = session.space
             load = (p if p > 0 else 0.5) * sp.max_load
-            xm = min(max(x, 0.0), 1.0) * client.width_px * CSS_PX_M
-            ym = min(max(y, 0.0), 1.0) * client.height_px * CSS_PX_M
+            if surface_positions:
+                xm = min(max(x, 0.0), 1.0) * sp.width
+                ym = min(max(y, 0.0), 1.0) * sp.height
+            else:
+                xm = min(max(x, 0.0), 1.0) * client.width_px * CSS_PX_M
+                ym = min(max(y, 0.0), 1.0) * client.height_px * CSS_PX_M
             session.engine.push_touch(client.id, xm, ym, load, t_event=t * 1e-3)
             client.down = True
         elif kind == "up":
@@ -521,9 +530,9 @@ class ServerThread:
 def build_session(material: str = "cork", output: str = "sim", *, drive_rate: int | None = None,
                   engine_config=None, amp_gain: float = 250.0, space: TouchSpace | None = None,
                   osc_in: tuple[str, int] | None = None, replay=None, replay_loop: bool = False,
-                  seed: int = 0, backend_options: dict | None = None) -> LiveSession:
-    """Everything ``surfhap serve`` runs: material -> texture chain -> engine -> backend,
-    plus optional OSC touch input ``(host, port)`` and a replayed trajectory."""
+                  seed: int = 0, backend_options: dict | None = None, mesh=None) -> LiveSession:
+    """Everything ``surfhap serve`` runs: material (or ``mesh`` file) -> renderer -> engine
+    -> backend, plus optional OSC touch input ``(host, port)`` and a replayed trajectory."""
     from surfhap.exchange.materials import load_material
     from surfhap.live.backends import open_backend, parse_output
     from surfhap.live.engine import EngineConfig, LiveEngine
@@ -532,18 +541,26 @@ def build_session(material: str = "cork", output: str = "sim", *, drive_rate: in
     from surfhap.sim.display import SimulatedDisplay
 
     kind, _ = parse_output(output)
-    mat = load_material(material)
     rate = int(drive_rate or (48000 if kind == "sound" else 20000))
-    chain = TextureChain(mat, ChainConfig(drive_rate=rate, seed=seed))
+    space = space or TouchSpace()
     cfg = engine_config or EngineConfig()
-    display = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.model_rate) if cfg.simulate_display else None
+    if mesh is not None:
+        from surfhap.live.shape_live import load_live_shape, shape_preview
+
+        chain, title = load_live_shape(mesh, rate, (space.width, space.height), seed=seed)
+        preview = shape_preview(chain.surface, (space.width, space.height))
+        display_model = chain.config.display
+    else:
+        mat = load_material(material)
+        chain = TextureChain(mat, ChainConfig(drive_rate=rate, seed=seed))
+        title, preview, display_model = f"{mat.name} ({chain.method})", material_preview(mat), chain.config.display
+    display = SimulatedDisplay(display_model, chain.drive_rate, chain.model_rate) if cfg.simulate_display else None
     engine = LiveEngine(chain, cfg, display=display)
     backend = open_backend(output, amp_gain=amp_gain, **(backend_options or {}))
-    space = space or TouchSpace()
     sources = []
     if osc_in is not None:
         sources.append(OscTouchSource(engine, osc_in[0], osc_in[1], space=space))
     if replay is not None:
         sources.append(ReplaySource(engine, replay, loop=replay_loop))
-    return LiveSession(engine, backend, title=f"{mat.name} ({chain.method})", preview=material_preview(mat),
-                       space=space, sources=sources)
+    return LiveSession(engine, backend, title=title, preview=preview, space=space, sources=sources,
+                       positions="surface" if mesh is not None else "physical")

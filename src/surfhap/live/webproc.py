@@ -124,6 +124,7 @@ class _RemoteSession:
         self.engine = engine
         self.backend = _StaticBackend(info["output"])
         self.title = info["title"]
+        self.positions = info.get("positions", "physical")
         self.preview = info["preview"]
         from surfhap.live.sources import TouchSpace
 
@@ -216,6 +217,7 @@ class WebProcess:
         eng = s.engine
         info = {"drive_rate": eng.drive_rate, "model_rate": eng.model_rate, "block_period": eng.block_period,
                 "v_max": eng.v_max, "title": s.title, "preview": s.preview, "output": _safe_info(s.backend),
+                "positions": getattr(s, "positions", "physical"),
                 "space": (s.space.width, s.space.height, s.space.max_load, s.space.default_load)}
         self.bridge = TouchBridge(eng)
         self.bridge.start()
