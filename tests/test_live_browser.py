@@ -52,7 +52,7 @@ def test_drag_on_page_drives_engine_and_draws_trace():
                 y = box["y"] + box["height"] / 2
                 page.mouse.move(box["x"] + 50, y)
                 page.mouse.down()
-                for k in range(3):  # three strokes, ~1.2 s
+                for k in range(2):  # two strokes, ~0.8 s
                     for i in range(40):
                         f = i / 39 if k % 2 == 0 else 1 - i / 39
                         page.mouse.move(box["x"] + 50 + f * (box["width"] - 100), y + 10 * (k - 1))
@@ -78,8 +78,8 @@ def test_drag_on_page_drives_engine_and_draws_trace():
         srv.stop()
         session.stop()
     received = eng.counters["touches"] - touches_before
-    assert received >= 100, f"server received only {received} pointer samples"
-    assert stats["sent"] >= 100 and stats["acked"] >= stats["sent"] - 5
+    assert received >= 70, f"server received only {received} pointer samples"
+    assert stats["sent"] >= 70 and stats["acked"] >= stats["sent"] - 5
     assert v_during > 50.0 and v_during > v_before, "the drive did not change"
     assert stats["maxV"] > 50.0
     assert lit > 50, "the trace canvas shows no drive curve"

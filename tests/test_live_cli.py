@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import os
+import selectors
+import signal
 import socket
 import subprocess
 import sys
@@ -68,11 +70,19 @@ def test_devices_lists_or_says_none(capsys):
 def test_serve_runs_the_page_from_the_command_line(tmp_path):
     port = free_port()
     env = dict(os.environ)
-    p = subprocess.Popen([*SURFHAP, "serve", "--material", "cork", "--port", str(port), "--duration", "6"],
+    p = subprocess.Popen([*SURFHAP, "serve", "--material", "cork", "--port", str(port), "--duration", "60"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
+        sel = selectors.DefaultSelector()
+        sel.register(p.stdout, selectors.EVENT_READ)
+        first = ""
+        end = time.monotonic() + 30
+        while "open http" not in first and time.monotonic() < end and p.poll() is None:  # bounded
+            if sel.select(timeout=0.5):
+                first += p.stdout.readline()
+        assert f"http://127.0.0.1:{port}/" in first
         page = None
-        for _ in range(100):  # bounded: up to ~10 s for start-up
+        for _ in range(100):  # bounded
             try:
                 page = urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2).read().decode()
                 break
@@ -81,11 +91,11 @@ def test_serve_runs_the_page_from_the_command_line(tmp_path):
         assert page is not None and "surfhap live" in page
         info = json.loads(urllib.request.urlopen(f"http://127.0.0.1:{port}/api/info", timeout=2).read())
         assert info["title"].startswith("cork") and info["drive_rate"] == 20000
+        p.send_signal(signal.SIGINT)  # Ctrl-C: ramped stop, status line, exit 0
         out, err = p.communicate(timeout=30)
     finally:
         if p.poll() is None:
             p.kill()
             p.wait(5)
     assert p.returncode == 0, err
-    assert f"http://127.0.0.1:{port}/" in out
     assert json.loads(out.strip().splitlines()[-1])["stopped"] is True

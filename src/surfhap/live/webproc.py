@@ -186,6 +186,16 @@ def _web_main(cfg, info: dict, bridge_port: int, token: bytes, conn, log_level: 
     except OSError as exc:
         conn.send(("error", f"cannot listen on {cfg.host}:{cfg.port} ({exc.strerror or exc})"))
         return
+    parent = os.getppid()
+
+    def watch_parent():  # never outlive the engine process, even if it is killed
+        import time
+
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(0)
+
+    threading.Thread(target=watch_parent, name="surfhap-parent-watch", daemon=True).start()
     session = _RemoteSession(info, _RemoteEngine(bridge_port, token, info))
     app = create_app(session, cfg, frames="remote", trace_sock=trace_sock)
     server = uvicorn.Server(uvicorn.Config(app, log_level="warning", ws_max_size=cfg.max_message_bytes,

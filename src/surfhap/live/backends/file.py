@@ -40,6 +40,7 @@ class FileBackend(PacedBackend):
 
     def start(self, engine) -> None:
         self._buf = np.zeros(int(self.max_seconds * engine.drive_rate))
+        self._buf.fill(0.0)  # commit the pages now, not block by block in the loop
         self._n = 0
         super().start(engine)
 
