@@ -95,6 +95,8 @@ def load_material(ref: str | Path) -> Material:
     """A built-in material by name, or a material file by path (any registered suffix)."""
     ref_str = str(ref)
     path = Path(ref_str)
+    if path.suffix.lower() == ".xml" and ".xml" not in _READERS:
+        import surfhap.exchange.hatt  # noqa: F401  (registers the HaTT Models_*.xml reader)
     if path.suffix.lower() in _READERS and (path.exists() or path.parent != Path(".")):
         if not path.exists():
             raise UnknownMaterialError("no such file", source=ref_str)

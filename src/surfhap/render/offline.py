@@ -8,7 +8,7 @@ simulated clock, and returns a :class:`RenderResult` with named arrays, a summar
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -62,7 +62,7 @@ class RenderResult:
     touching: int
     safety: SafetyCounters
     texture_quantity: str | None = None
-    texture_models: list = field(default_factory=list)
+    texture_model: object | None = None
     trajectory_name: str = ""
     effective_mass: float = 0.05
     constant_load: float | None = 1.6
@@ -87,18 +87,22 @@ class RenderResult:
     def expected_texture_psd(self, freqs: np.ndarray) -> np.ndarray | None:
         """PSD (N^2/Hz) the added friction's textural part should have, from the AR model at the
         median speed and load, or None for a method without texture."""
-        if not self.texture_models or self.method in ("friction-only", "square"):
+        bank = self.texture_model
+        if bank is None or self.method in ("friction-only", "square"):
             return None
         touching = self.load > 0
         if not np.any(touching):
             return None
         v = float(np.median(self.speed[touching]))
         fn = float(np.median(self.load[touching]))
-        refs = np.array([np.nan if m.reference_speed is None else m.reference_speed for m in self.texture_models])
-        i = 0 if len(refs) == 1 else int(np.nanargmin(np.abs(refs - v)))
-        model = self.texture_models[i]
         rate = self.texture_rate or self.model_rate
-        psd = np.where(np.asarray(freqs) < rate / 2, ar_psd(model.coefficients, model.variance, rate, freqs), 0.0)
+        f = np.asarray(freqs, dtype=float)
+        if hasattr(bank, "interpolate"):  # a bank interpolated over (speed, force), e.g. HaTT
+            psd = bank.interpolate(v, fn).psd(rate, f)
+        else:
+            model = bank.models[int(bank.select(np.array([v]))[0])]
+            psd = ar_psd(model.coefficients, model.variance, rate, f)
+        psd = np.where(f < rate / 2, psd, 0.0)
         if self.method == "zhao":
             load = fn if self.constant_load is None else self.constant_load
             scale = self.effective_mass if self.texture_quantity == "acceleration" else load
@@ -201,6 +205,6 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
         display_latency=display.delay, mu_panel=cfg.display.mu_panel, k=cfg.display.k,
         clipped=chain.law.clipped, touching=chain.law.touching, safety=chain.safety.counters,
         texture_quantity=None if bank is None else bank.quantity,
-        texture_models=[] if bank is None else list(bank.models), trajectory_name=trajectory.name,
+        texture_model=bank, trajectory_name=trajectory.name,
         effective_mass=cfg.effective_mass, constant_load=cfg.constant_load, v_max=cfg.limits.v_max, texture_rate=chain.texture_rate,
     )

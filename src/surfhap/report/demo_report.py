@@ -132,8 +132,9 @@ def write_demo_report(results, out_dir: str | Path, settings: DemoSettings = Dem
         fig.savefig(out / fn, dpi=100)
         page.heading(name)
         spec = runs[0]
-        tex = "friction-only (no real recording to fit a texture from)" if not spec.texture_models else \
-            f"texture: {spec.texture_quantity} AR({spec.texture_models[0].order}) fitted at {spec.texture_rate} Hz, rendered at {spec.model_rate} Hz"
+        bank = spec.texture_model
+        tex = "friction-only (no real recording to fit a texture from)" if bank is None else \
+            f"texture: {bank.quantity} AR({bank.max_order}) fitted at {spec.texture_rate} Hz, rendered at {spec.model_rate} Hz"
         page.paragraph(tex, cls="note")
         page.image(fn, f"{name} renders")
     path = out / "report.html"
