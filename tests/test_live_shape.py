@@ -56,3 +56,25 @@ def test_mesh_session_renders_on_the_shape_and_not_beside_it(bump_file):
     off = drive_along(eng, np.linspace(0.002, 0.01, 200), 0.003, t0=1.0)
     assert np.abs(off).max() == 0.0
     assert eng.counters["errors"] == 0
+
+
+def test_scalar_touch_stage_matches_the_shape_renderer(bump_file):
+    from surfhap.live.shape_live import load_live_shape
+
+    live, _ = load_live_shape(bump_file, 20000, (0.217, 0.136))
+    ref = live.touch_stage
+    rng = np.random.default_rng(3)
+    # a random walk over and off the bump, with rests (repeated points)
+    steps = rng.normal(0, 0.002, size=(400, 2))
+    steps[rng.random(400) < 0.1] = 0.0
+    pts = np.cumsum(steps, axis=0) + [-0.03, 0.0]
+    live.reset_touch()
+    fast = [live.touch_point(float(x), float(y)) for x, y in pts]
+    ref.reset()
+    blk = ref.process(pts[:, 0], pts[:, 1])
+    on = np.isfinite(blk.z)
+    want_i = np.where(on, blk.intensity, 0.0)
+    want_t = np.where(on, blk.edge, 0.0)
+    np.testing.assert_allclose([f[0] for f in fast], want_i, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose([f[1] for f in fast], want_t, rtol=1e-12, atol=1e-12)
+    assert on.any() and (~on).any()

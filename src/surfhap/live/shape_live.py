@@ -16,6 +16,7 @@ mesh (metres, centred on x = y = 0 by ``size``, y up) as ``x_mesh = x - W/2``,
 
 from __future__ import annotations
 
+import math
 from types import SimpleNamespace
 from typing import NamedTuple
 
@@ -63,12 +64,70 @@ class LiveShapeRenderer:
         self.reset()
 
     def reset(self) -> None:
-        self.touch_stage.reset()
+        self.reset_touch()
         self.drive_stage.reset()
         self._n_drive = 0
         self._have = False
         self._lx = self._ly = np.nan
         self._intensity = 0.0
+
+    def reset_touch(self) -> None:
+        self.touch_stage.reset()
+        self._prev = None  # (x, y, z, force) of the previous touch sample
+        self._prev_face = -1
+        self._prev_point = np.full(3, np.nan)
+
+    def touch_point(self, x: float, y: float) -> tuple[float, float]:
+        """The touch-rate stage for one new position: ``(intensity, tick)``.
+
+        Same results as ``ShapeRenderer.process`` on a one-sample block (asserted in the
+        tests) with scalar arithmetic, because its array code costs ~50 us per call, half
+        the block budget: vertical ray (``TopSurface.query_point``), lateral force from the
+        previous hit (eq. 3-7, held while the finger rests), signed square root (eq. 8),
+        intensity (eq. 9); edge ticks (eq. 10-11) only where the hit face changes, through
+        the shape package's own function. ``edge_walk`` uses the array path.
+        """
+        if self.config.edge_walk:
+            self._px[0], self._py[0] = x, y
+            blk = self.touch_stage.process(self._px, self._py, self._on)
+            on = np.isfinite(blk.z[0])
+            return (float(blk.intensity[0]) if on else 0.0), (float(blk.edge[0]) if on else 0.0)
+        from surfhap.shape.edges import edge_ticks
+        from surfhap.shape.gradient import I_MAX, I_MIN
+
+        cfg = self.config
+        z, face = self.surface.query_point(x, y)
+        on = face >= 0 and math.isfinite(z)
+        prev = self._prev
+        force = 0.0
+        if prev is not None:
+            px, py, pz, pf = prev
+            dr = math.hypot(x - px, y - py)
+            if dr > 0.0:
+                if on and math.isfinite(pz):
+                    force = -cfg.fz * (z - pz) / dr
+            elif math.isfinite(px):
+                force = pf  # at rest: hold
+        fsq = math.copysign(math.sqrt(abs(force)), force) if force else 0.0
+        cal = self.touch_stage.calibration
+        fmin, fmax = float(cal.fmin), float(cal.fmax)
+        if fsq <= fmin:
+            inten = I_MAX
+        elif fsq >= fmax:
+            inten = I_MIN
+        else:
+            inten = ((I_MAX - I_MIN) * fsq + I_MIN * fmin - I_MAX * fmax) / (fmin - fmax)
+            inten = min(max(inten, I_MIN), I_MAX)
+        tick = 0.0
+        if cfg.edges and on and self._prev_face >= 0 and face != self._prev_face:
+            t, _ = edge_ticks(np.array([face]), np.array([[x, y, z]]), self.touch_stage._normals,
+                              self.touch_stage.theta_min, threshold_deg=cfg.edge_threshold_deg,
+                              prev=(self._prev_face, self._prev_point))
+            tick = float(t[0])
+        self._prev = (x, y, z, force)
+        self._prev_face = int(face)
+        self._prev_point = np.array([x, y, z])
+        return (inten if on else 0.0), (tick if on else 0.0)
 
     def process(self, speed, load, touch_time, x, y) -> _Block:
         n = speed.shape[0]
@@ -79,15 +138,11 @@ class LiveShapeRenderer:
             xm = float(x[0]) - self.half[0]
             ym = self.half[1] - float(y[0])
             if not self._have or xm != self._lx or ym != self._ly:
-                self._px[0], self._py[0] = xm, ym
-                blk = self.touch_stage.process(self._px, self._py, self._on)
-                on_mesh = np.isfinite(blk.z[0])
-                self._intensity = float(blk.intensity[0]) if on_mesh else 0.0
-                tick = float(blk.edge[0]) if on_mesh else 0.0
+                self._intensity, tick = self.touch_point(xm, ym)
                 self._have = True
                 self._lx, self._ly = xm, ym
         elif self._have:
-            self.touch_stage.reset()  # a lift breaks the chain of hit points
+            self.reset_touch()  # a lift breaks the chain of hit points
             self._have = False
             self._intensity = 0.0
         inten = self._inten[:m]
