@@ -92,3 +92,20 @@ def test_lift_and_sensor_dropout_give_zero():
     assert np.all(r.drive[lifted] == 0.0)
     # the sensor stops at 1.0 s; a gap is handled by the watchdog in live use, offline the render ends there
     assert r.t[-1] <= t[-1]
+
+
+def test_hatt_model_set_renders_with_zhao_and_follows_its_spectrum(tmp_path):
+    """A HaTT-schema file (written by the writer) renders through the zhao law; the added
+    friction's spectrum follows the interpolated ARMA model (scaled by the rendering gain)."""
+    from test_hatt import make_bank
+
+    from surfhap.exchange.hatt import bank_to_hatt, write_hatt_xml
+
+    path = tmp_path / "Models_Synthetic Cork.xml"
+    write_hatt_xml(bank_to_hatt(make_bank(), "Synthetic Cork", 0.55, texture="24"), path)
+    r = render(load_material(str(path)), constant_scan(0.1, 1.0, 60.0), ChainConfig(method="zhao"))
+    assert r.summary()["saturated_fraction"] == 0.0
+    assert r.summary()["max_abs_voltage"] <= 250.0
+    f, p, e = render_spectrum(r)
+    _, dev = spectral_deviation_db(f, p, e, 3.5, 250.0)
+    assert np.max(np.abs(dev)) <= 1.5

@@ -24,7 +24,7 @@ import numpy as np
 from surfhap.errors import ConfigError
 from surfhap.models.material import Material
 from surfhap.render.carrier import PolarityCarrier, check_carrier
-from surfhap.render.drive import DriveBlock, DriveParams, make_drive_law
+from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
 from surfhap.render.resample import RationalResampler
 from surfhap.render.safety import SafetyLimits, SafetyStage
 from surfhap.render.texture_source import TextureSource
@@ -42,7 +42,9 @@ class ChainConfig:
     carrier      : Hz, polarity carrier (0 = off, else 2-20 kHz).
     control_rate : Hz, rate of the chain (friction law, drive envelope); a texture model fitted
                    at a lower rate is synthesised at its own rate and resampled up to it.
-    alpha        : V/sqrt(N); None = calibrated to the display (1/sqrt(mu_panel k)).
+    alpha        : V/sqrt(N); None = calibrated to the display (1/sqrt(mu_panel k)), except for
+                   zhao, whose 1.6 N constant load is scaled to half of v_max when it would
+                   exceed it (Zhao et al. scale the voltage proportionally, Sec. 2.2).
     beta, effective_mass, constant_load, square_frequency, square_amplitude: see DriveParams.
     seed         : seed of the texture noise.
     """
@@ -110,10 +112,18 @@ class TextureChain:
         cfg = config or ChainConfig()
         self.config = cfg
         self.material = material
-        alpha = cfg.alpha if cfg.alpha is not None else cfg.display.calibrated_alpha
+        self.alpha_calibrated = cfg.display.calibrated_alpha
+        alpha = cfg.alpha if cfg.alpha is not None else self.alpha_calibrated
+        method = cfg.method if cfg.method != "auto" else default_method(material)
+        if cfg.alpha is None and method == "zhao" and cfg.constant_load is not None and material.coulomb is not None:
+            # Zhao et al. render a 1.6 N load that no electrostatic display reaches and scale the
+            # voltage down proportionally (Sec. 2.2); by default the Coulomb part takes half of v_max.
+            nominal = material.coulomb.mu0 * cfg.constant_load
+            if nominal > 0 and alpha * np.sqrt(nominal) > 0.5 * cfg.limits.v_max:
+                alpha = 0.5 * cfg.limits.v_max / np.sqrt(nominal)
         self.params = DriveParams(alpha, cfg.beta, cfg.effective_mass, cfg.constant_load,
                                   cfg.square_frequency, cfg.square_amplitude)
-        probe = make_drive_law(cfg.method, material, self.params, cfg.control_rate)
+        probe = make_drive_law(method, material, self.params, cfg.control_rate)
         self.method = probe.method
         self.model_rate = int(cfg.control_rate)
         self.texture_rate = None

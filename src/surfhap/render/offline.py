@@ -43,6 +43,7 @@ class RenderResult:
     carrier: float
     alpha: float
     beta: float
+    alpha_calibrated: float
     t: np.ndarray
     speed: np.ndarray
     load: np.ndarray
@@ -80,6 +81,11 @@ class RenderResult:
         return self.clipped / self.touching if self.touching else 0.0
 
     @property
+    def rendering_gain(self) -> float:
+        """(alpha / alpha_calibrated)^2: the added friction is this times the target force."""
+        return float((self.alpha / self.alpha_calibrated) ** 2)
+
+    @property
     def added_friction(self) -> np.ndarray:
         """(n,) N: simulated friction minus the bare panel's mu_panel * load (what the drive added)."""
         return self.friction_sim - self.mu_panel * self.load
@@ -109,7 +115,7 @@ class RenderResult:
         else:
             per_load = 1.0 if self.texture_quantity == "cof" else self.effective_mass / fn
             scale = self.beta * per_load * fn
-        return psd * scale**2
+        return psd * (scale * self.rendering_gain) ** 2
 
     def summary(self) -> dict:
         """The JSON-ready summary of this render."""
@@ -126,6 +132,7 @@ class RenderResult:
             "carrier_hz": self.carrier,
             "alpha_v_per_sqrt_n": float(self.alpha),
             "beta": self.beta,
+            "rendering_gain": self.rendering_gain,
             "max_abs_voltage": float(np.max(np.abs(self.drive))) if self.drive.size else 0.0,
             "clipped_fraction": self.clipped_fraction,
             "saturated_fraction": s.clamped / s.samples if s.samples else 0.0,
@@ -198,7 +205,7 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
     bank = material.texture if chain.law.uses_texture else None
     return RenderResult(
         material=material.name, method=chain.method, seed=cfg.seed, model_rate=fm, drive_rate=chain.drive_rate,
-        carrier=cfg.carrier, alpha=chain.params.alpha, beta=chain.params.beta, t=t, speed=speed, load=load,
+        carrier=cfg.carrier, alpha=chain.params.alpha, beta=chain.params.beta, alpha_calibrated=chain.alpha_calibrated, t=t, speed=speed, load=load,
         texture=arr["texture"], mu_low=arr["mu_low"], mu_tex=arr["mu_tex"], target=arr["target"],
         voltage=arr["voltage"], drive=drive,
         friction_sim=friction, acc=arr["texture"] if uses_acc else None, latency=chain.latency,

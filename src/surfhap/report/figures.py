@@ -49,9 +49,11 @@ def plot_render(result, fig: Figure | None = None) -> Figure:
     start = max(0.0, float(t[-1]) / 2 - span / 2) if t.size else 0.0
     w = (t >= start) & (t <= start + span)
     ax.plot(t[w], result.friction_sim[w], lw=0.8, color="C0", label="simulated friction")
-    ax.plot(t[w], (result.mu_panel * result.load + result.target)[w], lw=0.8, color="C1", alpha=0.8, label="panel + target")
-    ax.plot(t[w], (result.mu_panel * result.load + result.mu_low * result.load * touching)[w], lw=1.2, color="k", ls="--",
-            label="panel + low band")
+    g = result.rendering_gain
+    scaled = "" if abs(g - 1) < 1e-9 else f" × {g:.3g}"
+    ax.plot(t[w], (result.mu_panel * result.load + g * result.target)[w], lw=0.8, color="C1", alpha=0.8, label=f"panel + target{scaled}")
+    ax.plot(t[w], (result.mu_panel * result.load + g * result.mu_low * result.load * touching)[w], lw=1.2, color="k", ls="--",
+            label=f"panel + low band{scaled}")
     ax.set(xlabel="time (s)", ylabel="lateral force (N)", title=f"{result.material} — {result.method}, {span:g} s window")
     ax.legend(loc="upper right", fontsize=8)
     ax = axs[0, 1]
