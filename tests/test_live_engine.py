@@ -250,3 +250,14 @@ def test_output_parser_errors():
     for bad in ("file:x.txt", "osc://nohost", "osc://127.0.0.1:9/whatever", "pigeon"):
         with pytest.raises(ConfigError):
             parse_output(bad)
+
+
+def test_renderer_swap_keeps_rendering():
+    e = make_engine()
+    run(e, 0.0, 0.1, touch=stroke)
+    new = TextureChain(load_material("leather"), ChainConfig(drive_rate=20000))
+    assert e.send("renderer", new)
+    out = run(e, 0.1, 0.2, touch=stroke)
+    assert e.renderer is new and e.counters["errors"] == 0
+    assert np.abs(out[-e.drive_rate // 50 :]).max() > 50
+    assert e.safety_counters()["faults"] == 0

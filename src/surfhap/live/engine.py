@@ -262,6 +262,7 @@ class LiveEngine:
                 self._ramp_step = 1.0 / max(1.0, self.config.stop_ramp * self.drive_rate)
             elif kind == "renderer":
                 self.renderer = cmd[1]
+                self._n_model = 0  # a new renderer's sample clock starts at 0
                 self.v_max = float(self.renderer.safety.limits.v_max)
                 self.model_rate = int(self.renderer.model_rate)
             elif kind == "gain":

@@ -48,7 +48,7 @@
   }
 
   function onMove(e) {
-    if (e.type === "pointermove" && e.buttons === 0 && e.pointerType === "mouse") return;
+    if (e.type === "pointermove" && e.buttons === 0) return; // hovering mouse or pen: no contact
     const r = surface.getBoundingClientRect();
     const s = seq++;
     const p = e.pressure > 0 ? e.pressure : 0.5;
