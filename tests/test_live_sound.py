@@ -85,3 +85,20 @@ def test_samples_reaching_jack_equal_engine_output(tmp_path):
     assert loud > 500, "the recorder heard too little drive"
     assert matched >= 0.98 * loud, f"only {matched} of {loud} recorded periods equal the engine output"
     assert in_order
+
+
+def test_devices_and_play_through_jack(tmp_path):
+    _need_jack()
+    cmd = [sys.executable, "-c", "import sys; from surfhap.cli import main; sys.exit(main())"]
+    with jack_dummy(rate=48000, period=48) as name:
+        env = jack_env(name)
+        dev = subprocess.run([*cmd, "devices"], env=env, capture_output=True, text=True, timeout=60)
+        play = subprocess.run([*cmd, "play", "wood", "--output", "sound:system", "--scan",
+                               "speed=0.1,load=0.5,duration=0.4,length=0.04"],
+                              env=env, capture_output=True, text=True, timeout=60)
+    assert dev.returncode == 0, dev.stderr
+    assert "system" in dev.stdout and "JACK" in dev.stdout
+    assert play.returncode == 0, play.stderr
+    summary = json.loads(play.stdout.strip().splitlines()[-1])
+    assert summary["touches"] >= 40 and summary["counters"]["errors"] == 0
+    assert summary["counters"]["frames"] >= 0.4 * 48000
