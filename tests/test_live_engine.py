@@ -96,7 +96,6 @@ def test_drive_follows_touch_within_two_blocks():
     run(e, 0.0, 0.1)  # silence, no finger
     assert not np.any(e.out[: e.block_frames])
     rng = np.random.default_rng(1)
-    lat = []
     t = 0.1
     for i in range(200):  # touches at random phases between blocks
         t_arr = t + rng.uniform(0, e.block_period)
@@ -178,7 +177,7 @@ def test_hostile_values_pushed_directly_keep_output_safe():
 
 def test_full_touch_ring_is_counted_not_fatal():
     e = make_engine(touch_capacity=16)
-    for i in range(100):
+    for _ in range(100):
         e.push_touch(1, 0.01, 0.01, 0.5, t_arrival=0.0)
     assert e.touches.dropped == 84
     e.render(e.block_frames, 0.001)

@@ -34,12 +34,11 @@ import logging
 import math
 import threading
 from contextlib import asynccontextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import resources
 
 import numpy as np
 
-from surfhap.live.clock import now
 from surfhap.live.sources import RateLimiter, RejectLog, TouchSpace
 
 __all__ = ["ServerConfig", "LiveSession", "create_app", "ServerThread", "material_preview", "build_session", "FrameBuilder"]
@@ -358,7 +357,6 @@ def create_app(session, cfg: ServerConfig | None = None, *, frames: str = "local
 
     def handle(client: _Client, text) -> None:
         """Validate one message and feed the engine; raises nothing."""
-        peer = client.peer
         if not isinstance(text, str):
             return reject(client, "binary frames are not accepted")
         if len(text) > cfg.max_message_bytes:

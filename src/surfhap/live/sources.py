@@ -26,7 +26,6 @@ import logging
 import math
 import socketserver
 import threading
-import time
 from dataclasses import dataclass
 
 from surfhap.errors import ConfigError
