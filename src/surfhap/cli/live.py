@@ -95,6 +95,7 @@ def serve_cmd(
             server = ServerThread(create_app(session, cfg), host=host, port=port,
                                   max_message_bytes=cfg.max_message_bytes).start()
         shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
+        shown = f"[{shown}]" if ":" in shown else shown
         stdout.print(f"surfhap live: {session.title} -> {output}; open http://{shown}:{port}/ (Ctrl-C stops)")
         end = time.monotonic() + duration if duration > 0 else None
         while end is None or time.monotonic() < end:

@@ -217,7 +217,8 @@ class WebProcess:
 
     @property
     def url(self) -> str:
-        return f"http://{self.cfg.host}:{self.port}"
+        h = self.cfg.host
+        return f"http://[{h}]:{self.port}" if ":" in h else f"http://{h}:{self.port}"
 
     def start(self, timeout: float = 30.0) -> "WebProcess":
         from surfhap.errors import ConfigError
@@ -252,6 +253,7 @@ class WebProcess:
         import urllib.request
 
         host = "127.0.0.1" if self.cfg.host in ("0.0.0.0", "::", "") else self.cfg.host
+        host = f"[{host}]" if ":" in host else host
         end = time.monotonic() + timeout
         while time.monotonic() < end:
             try:
