@@ -43,8 +43,8 @@ def test_drag_on_page_drives_engine_and_draws_trace():
             browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
             try:
                 page = browser.new_page(viewport={"width": 900, "height": 700})
-                page.goto(srv.url + "/", timeout=15000)
-                page.wait_for_function("window.surfhap && window.surfhap.open", timeout=10000)
+                page.goto(srv.url + "/", timeout=30000)
+                page.wait_for_function("window.surfhap && window.surfhap.open", timeout=20000)
                 box = page.locator("#surface").bounding_box()
                 assert box and box["width"] > 100
                 v_before = eng.trace_since(0)[0][:, 5].max() if eng.trace_count else 0.0
@@ -59,6 +59,10 @@ def test_drag_on_page_drives_engine_and_draws_trace():
                         page.wait_for_timeout(10)
                 rows, _ = eng.trace_since(0)
                 v_during = rows[:, 5].max()
+                # a resting finger keeps the drive on (keep-alive), no watchdog fade
+                n_rest = eng.trace_count
+                page.wait_for_timeout(300)
+                rest, _ = eng.trace_since(n_rest + 100)
                 page.mouse.up()
                 page.wait_for_function("window.surfhap.traceFrames > 10 && window.surfhap.tracePointsDrawn > 100",
                                        timeout=10000)
@@ -82,6 +86,7 @@ def test_drag_on_page_drives_engine_and_draws_trace():
     assert stats["sent"] >= 70 and stats["acked"] >= stats["sent"] - 5
     assert v_during > 50.0 and v_during > v_before, "the drive did not change"
     assert stats["maxV"] > 50.0
+    assert stats.get("keepAlive", 0) >= 5 and rest[:, 5].min() > 10.0, "the drive faded under a resting finger"
     assert lit > 50, "the trace canvas shows no drive curve"
     assert "ms" in latency_text
     assert (ARTIFACTS / "live_page.png").stat().st_size > 1000

@@ -47,22 +47,32 @@
     send({ type: "hello", w: Math.max(10, r.width), h: Math.max(10, r.height) });
   }
 
+  // While a finger rests, browsers send no pointermove; the engine's watchdog would then
+  // fade the output after 50 ms. A resting contact is re-sent every 20 ms (keep-alive).
+  let down = null, lastSend = 0;
+  function sendMove(t, x, y, p) {
+    const s = seq++;
+    if (send({ type: "move", seq: s, t: t, x: x, y: y, p: p })) {
+      stats.sent++; lastSend = performance.now(); sentAt.set(s, lastSend);
+      if (sentAt.size > 512) sentAt.delete(sentAt.keys().next().value);
+    }
+  }
   function onMove(e) {
     if (e.type === "pointermove" && e.buttons === 0) return; // hovering mouse or pen: no contact
     const r = surface.getBoundingClientRect();
-    const s = seq++;
-    const p = e.pressure > 0 ? e.pressure : 0.5;
-    if (send({ type: "move", seq: s, t: e.timeStamp, x: (e.clientX - r.left) / r.width,
-               y: (e.clientY - r.top) / r.height, p: p })) {
-      stats.sent++; sentAt.set(s, performance.now());
-      if (sentAt.size > 512) sentAt.delete(sentAt.keys().next().value);
-    }
+    down = { x: (e.clientX - r.left) / r.width, y: (e.clientY - r.top) / r.height, p: e.pressure > 0 ? e.pressure : 0.5 };
+    sendMove(e.timeStamp, down.x, down.y, down.p);
     e.preventDefault();
   }
   function onUp(e) {
+    down = null;
     const s = seq++;
     if (send({ type: "up", seq: s, t: e.timeStamp })) { stats.sent++; sentAt.set(s, performance.now()); }
   }
+  setInterval(() => {
+    const t = performance.now();
+    if (down && t - lastSend >= 20) { sendMove(t, down.x, down.y, down.p); stats.keepAlive = (stats.keepAlive || 0) + 1; }
+  }, 10);
   surface.addEventListener("pointerdown", (e) => { surface.setPointerCapture(e.pointerId); onMove(e); });
   surface.addEventListener("pointermove", onMove);
   for (const ev of ["pointerup", "pointercancel"]) surface.addEventListener(ev, onUp);
