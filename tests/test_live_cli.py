@@ -48,6 +48,8 @@ def test_play_to_file_writes_the_scan(tmp_path, capsys):
     (["serve", "--material", "no-such-material"], "unknown material"),
     (["serve", "--touch-latency-ms", "900"], "0-200 ms"),
     (["play", "cork", "--scan", "speed=0.1"], "missing"),
+    (["play", "cork", "--channels", "0"], "only applies to sound"),
+    (["play", "cork", "--output", "sound", "--channels", "a,b"], "channel numbers"),
 ])
 def test_bad_options_give_one_line_and_exit_2(capsys, args, message):
     code = main(args)

@@ -25,6 +25,20 @@ def _engine_config(block_ms: float, touch_latency_ms: float, smoothing: float):
     return EngineConfig(block_seconds=block_ms * 1e-3, touch_latency=touch_latency_ms * 1e-3, smoothing=smoothing)
 
 
+def _channel_options(text: str | None, output: str) -> dict:
+    if text is None:
+        return {}
+    if not output.startswith("sound"):
+        raise ConfigError("only applies to sound outputs", source="--channels")
+    try:
+        chans = tuple(int(c) for c in text.split(",") if c.strip())
+    except ValueError:
+        raise ConfigError(f"expected 0-based channel numbers like 0,2, got {text!r}", source="--channels") from None
+    if not chans or any(c < 0 or c > 255 for c in chans):
+        raise ConfigError("channels must be within 0-255", source="--channels")
+    return {"channels": chans, "n_channels": max(chans) + 1}
+
+
 def _setup_logging(verbose: bool) -> None:
     logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
@@ -42,6 +56,7 @@ def serve_cmd(
     replay: Optional[Path] = typer.Option(None, "--replay", help="Also replay a trajectory CSV (time, x, y, load) as a touch source."),
     drive_rate: Optional[int] = typer.Option(None, "--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000)."),
     amp_gain: float = typer.Option(250.0, "--amp-gain", help="Amplifier gain, V per DAC full scale (sound/file outputs)."),
+    channels: Optional[str] = typer.Option(None, "--channels", help="Sound output: 0-based channels that carry the drive, e.g. '0' or '0,2' (default: all)."),
     block_ms: float = typer.Option(1.0, "--block-ms", help="Block period, ms."),
     touch_latency_ms: float = typer.Option(0.0, "--touch-latency-ms", help="Touch latency to compensate by prediction, ms (0 = off)."),
     smoothing: float = typer.Option(1.0, "--smoothing", help="Exponential smoothing of predicted positions, (0, 1] (1 = off; KinesTouch: 0.15)."),
@@ -81,7 +96,8 @@ def serve_cmd(
         traj = read_trajectory_csv(replay)
     session = build_session(material or "cork", output, drive_rate=drive_rate, amp_gain=amp_gain,
                             engine_config=_engine_config(block_ms, touch_latency_ms, smoothing),
-                            osc_in=osc, replay=traj, replay_loop=True, seed=seed, mesh=mesh)
+                            osc_in=osc, replay=traj, replay_loop=True, seed=seed, mesh=mesh,
+                            backend_options=_channel_options(channels, output))
     cfg = ServerConfig(host=host, port=port, allowed_origins=tuple(allow_origin))
     if host not in LOOPBACK:
         stderr.print(f"[yellow]warning:[/] binding {host}: the page is reachable from your network; "
@@ -130,6 +146,7 @@ def play_cmd(
                              help="Scripted strokes: 'speed=M/S,load=N,duration=S[,length=M][,rate=HZ]'."),
     drive_rate: Optional[int] = typer.Option(None, "--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000)."),
     amp_gain: float = typer.Option(250.0, "--amp-gain", help="Amplifier gain, V per DAC full scale."),
+    channels: Optional[str] = typer.Option(None, "--channels", help="Sound output: 0-based channels that carry the drive (default: all)."),
     block_ms: float = typer.Option(1.0, "--block-ms", help="Block period, ms."),
     seed: int = typer.Option(0, "--seed", help="Seed of the texture noise."),
 ) -> None:
@@ -143,7 +160,8 @@ def play_cmd(
     traj = (strokes(kv["speed"], kv["load"], kv["duration"], length=kv["length"], sensor_rate=kv["rate"])
             if kv["length"] > 0 else constant_scan(kv["speed"], kv["load"], kv["duration"], sensor_rate=kv["rate"]))
     session = build_session(material, output, drive_rate=drive_rate, amp_gain=amp_gain,
-                            engine_config=_engine_config(block_ms, 0.0, 1.0), replay=traj, seed=seed)
+                            engine_config=_engine_config(block_ms, 0.0, 1.0), replay=traj, seed=seed,
+                            backend_options=_channel_options(channels, output))
     session.start()
     replay = session.sources[0]
     try:
