@@ -228,8 +228,10 @@ class GrainPlayer:
         return np.minimum(full[:m], 1.0)
 
     def process(self, intensity: np.ndarray, tick: np.ndarray) -> np.ndarray:
-        inten = np.nan_to_num(np.asarray(intensity, dtype=float), nan=0.0)
-        tick = np.nan_to_num(np.asarray(tick, dtype=float), nan=0.0)
+        inten = np.asarray(intensity, dtype=float)
+        inten = np.where(np.isfinite(inten), inten, 0.0)
+        tick = np.asarray(tick, dtype=float)
+        tick = np.where(np.isfinite(tick), tick, 0.0)
         m = inten.shape[0]
         if tick.shape != (m,):
             raise ValueError("intensity and tick must be (m,) arrays of one length")
