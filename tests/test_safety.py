@@ -86,3 +86,22 @@ def test_onset_is_rise_limited_and_polarity_free():
     assert np.all(np.abs(out[steps:]) == 250.0)
     assert np.all(np.sign(out) == np.sign(drive))
     np.testing.assert_allclose(np.abs(out[: steps - 1]), RISE * np.arange(1, steps))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 40).flatmap(lambda n: st.tuples(
+    arrays(np.float64, n, elements=st.one_of(anything, st.floats(-5, 5))),
+    arrays(np.float64, n, elements=loads),
+    arrays(np.float64, n, elements=st.one_of(anything, st.floats(-1, 1))))),
+    st.sampled_from(["otake2022", "otake2021", "friction-only", "square"]))
+def test_whole_chain_output_within_limits_for_any_touch_input(data, method):
+    """Arbitrary (even NaN / absurd) finger state through the full chain never exceeds the limits."""
+    from surfhap import ChainConfig, TextureChain, load_material
+
+    speed, load, touch_time = data
+    chain = TextureChain(load_material("leather"), ChainConfig(method=method, alpha=5000.0))
+    out = chain.process(speed, load, touch_time)
+    mag = np.abs(out.drive)
+    assert np.all(np.isfinite(out.drive))
+    assert np.all(mag <= LIM.v_max)
+    assert np.all(np.diff(np.concatenate(([0.0], mag))) <= RISE * (1 + 1e-12) + 1e-12)

@@ -105,6 +105,9 @@ def _hold_touch(n_drive0, drive_rate, n_model0, model_rate, load, touch_time, la
         out_age[j] = t - tt
 
 
+_MAX_SPEED = 10.0  # m/s: no finger slides faster; larger inputs are sensor faults
+
+
 class TextureChain:
     """Stateful processor chain; see the module docstring for the block contract."""
 
@@ -141,6 +144,7 @@ class TextureChain:
         self.carrier = PolarityCarrier(cfg.carrier, cfg.drive_rate)
         self.safety = SafetyStage(cfg.drive_rate, cfg.limits)
         self.drive_rate = int(cfg.drive_rate)
+        self._max_load = cfg.limits.max_load
         self.latency = self.upsampler.delay
         self.reset()
 
@@ -160,8 +164,9 @@ class TextureChain:
         n = speed.shape[0]
         if not (load.shape == touch_time.shape == (n,)):
             raise ValueError("speed, load and touch_time must be (n,) arrays of one length")
-        clean_load = np.where(np.isfinite(load) & (load > 0), load, 0.0)
-        clean_speed = np.where(np.isfinite(speed), speed, 0.0)
+        # the models see a physical finger state (absurd values are the safety stage's business)
+        clean_load = np.where(np.isfinite(load) & (load > 0) & (load <= self._max_load), load, 0.0)
+        clean_speed = np.where(np.isfinite(speed), np.clip(np.abs(speed), 0.0, _MAX_SPEED), 0.0)
         texture = self.synth.process(clean_speed, clean_load) if self.synth is not None else np.zeros(n)
         law = self.law.process(clean_speed, clean_load, texture)
         envelope = self.upsampler.process(law.voltage)
