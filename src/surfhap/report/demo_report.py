@@ -63,16 +63,27 @@ def _speed_figure(name: str, runs) -> Figure:
         lab = f"{v * 1e3:.0f} mm/s"
         sel = r.t >= r.t[-1] - 0.5
         a.plot(r.t[sel], r.added_friction[sel], lw=0.7, label=lab)
-        f, p, e = render_spectrum(r)
-        band = (f >= 3.5) & (f <= 0.4 * (r.texture_rate or r.model_rate))
-        if band.any():
+        if r.texture_model is None:
+            continue_spectrum = False
+        else:
+            f, p, e = render_spectrum(r)
+            band = (f >= 3.5) & (f <= 0.4 * (r.texture_rate or r.model_rate))
+            continue_spectrum = bool(band.any())
+        if continue_spectrum:
             line, = b.loglog(f[band], p[band], lw=0.7, label=lab)
             if e is not None:
                 b.loglog(f[band], e[band], lw=1.3, ls="--", color=line.get_color())
         sel2 = (r.t_drive >= 1.0) & (r.t_drive < 1.01)
         c.plot((r.t_drive[sel2] - 1.0) * 1e3, r.drive[sel2], lw=0.7, label=lab)
-    a.set(title=f"{name}: added friction, last 0.5 s", xlabel="time (s)", ylabel="N")
+    fig.suptitle(name)
+    a.set(title="added friction, last 0.5 s", xlabel="time (s)", ylabel="N")
     b.set(title="high band: simulated (solid) vs model (dashed)", xlabel="Hz", ylabel="N²/Hz")
+    if runs[0].texture_model is None:
+        b.text(0.5, 0.5, "friction-only:\nno texture to compare", ha="center", va="center", transform=b.transAxes)
+        b.set_xticks([])
+        b.set_yticks([])
+    elif len(getattr(runs[0].texture_model, "models", ())) == 1:
+        b.set_title("high band (one speed-independent model:\nthe speeds overlap)")
     c.set(title="drive after safety, 10 ms", xlabel="ms", ylabel="V")
     for ax in (a, b, c):
         if ax.lines:
