@@ -131,4 +131,4 @@ def run_clients(url: str, n: int = 50, rate: float = 120.0, seconds: float = 60.
 
 if __name__ == "__main__":
     a = sys.argv[1:]
-    print(json.dumps(run_clients(a[0], int(a[1]), float(a[2]), float(a[3]), int(a[4]) if len(a) > 4 else 0)))
+    sys.stdout.write(json.dumps(run_clients(a[0], int(a[1]), float(a[2]), float(a[3]), int(a[4]) if len(a) > 4 else 0)) + "\n")
