@@ -1,1 +1,0 @@
-"""surfhap.lab."""
