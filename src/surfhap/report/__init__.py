@@ -1,1 +1,1 @@
-"""surfhap.report."""
+"""Figures (matplotlib object API) and HTML reports built from result objects."""
