@@ -85,13 +85,17 @@ def test_lift_and_sensor_dropout_give_zero():
     from surfhap.sim.trajectory import Trajectory
 
     t = np.arange(0, 1.0, 0.008)
+    t = t[(t < 0.6) | (t > 0.8)]  # the touch sensor falls silent for 200 ms while the finger presses
     load = np.where((t > 0.3) & (t < 0.4), 0.0, 0.4)
     traj = Trajectory(t, 0.1 * t, 0 * t, load)
     r = render(load_material("wood"), traj)
     lifted = (r.t_drive > 0.31) & (r.t_drive < 0.39)
     assert np.all(r.drive[lifted] == 0.0)
-    # the sensor stops at 1.0 s; a gap is handled by the watchdog in live use, offline the render ends there
-    assert r.t[-1] <= t[-1]
+    last = t[t < 0.6][-1]
+    stale = (r.t_drive > last + 0.050 + 0.005 + 1e-4) & (r.t_drive < 0.8)
+    assert np.all(r.drive[stale] == 0.0)  # watchdog: zero within 5 ms of a 50 ms silence
+    assert np.max(np.abs(r.drive[(r.t_drive > 0.5) & (r.t_drive < last)])) > 100.0
+    assert np.max(np.abs(r.drive[r.t_drive > 0.85])) > 100.0  # and back once samples return
 
 
 def test_hatt_model_set_renders_with_zhao_and_follows_its_spectrum(tmp_path):

@@ -62,7 +62,6 @@ class RenderResult:
     clipped: int
     touching: int
     safety: SafetyCounters
-    texture_quantity: str | None = None
     texture_model: object | None = None
     trajectory_name: str = ""
     effective_mass: float = 0.05
@@ -79,6 +78,11 @@ class RenderResult:
     def clipped_fraction(self) -> float:
         """Fraction of touching model samples whose target force was negative (clipped to 0)."""
         return self.clipped / self.touching if self.touching else 0.0
+
+    @property
+    def texture_quantity(self) -> str | None:
+        """"cof" or "acceleration" for the rendered texture, None without one."""
+        return None if self.texture_model is None else self.texture_model.quantity
 
     @property
     def rendering_gain(self) -> float:
@@ -211,7 +215,6 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
         friction_sim=friction, acc=arr["texture"] if uses_acc else None, latency=chain.latency,
         display_latency=display.delay, mu_panel=cfg.display.mu_panel, k=cfg.display.k,
         clipped=chain.law.clipped, touching=chain.law.touching, safety=chain.safety.counters,
-        texture_quantity=None if bank is None else bank.quantity,
         texture_model=bank, trajectory_name=trajectory.name,
         effective_mass=cfg.effective_mass, constant_load=cfg.constant_load, v_max=cfg.limits.v_max, texture_rate=chain.texture_rate,
     )
