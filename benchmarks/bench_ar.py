@@ -7,7 +7,7 @@ Target: >= 100x faster, with the coefficients at the chosen order equal to stats
 import warnings
 
 import numpy as np
-from _common import best_time, report
+from _common import best_time, report, run
 from scipy.signal import lfilter
 from statsmodels.regression.linear_model import yule_walker as sm_yule_walker
 from statsmodels.tsa.ar_model import ar_select_order
@@ -36,4 +36,4 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

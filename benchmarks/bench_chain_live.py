@@ -12,7 +12,7 @@ import dataclasses
 import time
 
 import numpy as np
-from _common import report
+from _common import report, run
 from bench_render import bank
 
 from surfhap import ChainConfig, TextureChain, load_material
@@ -59,4 +59,4 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

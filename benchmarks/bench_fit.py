@@ -17,10 +17,10 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import json  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
+from _common import emit, run  # noqa: E402
 
 
 def _resonance(f, r, fs):
@@ -102,8 +102,8 @@ def main() -> None:
     for fn in (bench_fit_friction, bench_lsf_synthesis):
         out = fn()
         for row in out if isinstance(out, list) else [out]:
-            print(json.dumps(row), flush=True)
+            emit(row)
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

@@ -28,7 +28,7 @@ import threading
 import time
 
 import numpy as np
-from _common import report
+from _common import report, run
 
 from surfhap.exchange.materials import load_material
 from surfhap.live.engine import EngineConfig, LiveEngine, audit_drive
@@ -179,4 +179,4 @@ def main():
 
 if __name__ == "__main__":
     os.environ.setdefault("PYTHONUNBUFFERED", "1")
-    main()
+    run(main)

@@ -10,7 +10,7 @@ needs a realistic load, not a material).
 import dataclasses
 
 import numpy as np
-from _common import best_time, report
+from _common import best_time, report, run
 
 from surfhap import ChainConfig, load_material, render, strokes
 from surfhap.models.texture import ARModel, TextureBank
@@ -40,4 +40,4 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
-from _common import best_time, report
+from _common import best_time, report, run
 
 
 def best_cpu(fn, repeat: int = 3) -> float:
@@ -140,4 +140,4 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

@@ -14,3 +14,11 @@ def shared_data() -> Path:
             pytest.fail(f"CI needs the shared data at {SHARED_DATA}")
         pytest.skip(f"shared data not found at {SHARED_DATA}")
     return SHARED_DATA
+
+
+# Hypothesis on a loaded 2-core machine: no per-example deadline and no "too slow" health
+# check (both are timing, not correctness); tests that set @settings inherit this profile.
+from hypothesis import HealthCheck, settings  # noqa: E402
+
+settings.register_profile("surfhap", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "surfhap"))

@@ -4,11 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import trimesh
 
-trimesh = pytest.importorskip("trimesh")
-pytest.importorskip("surfhap.render.shape_renderer")
-
-from surfhap.live.server import build_session  # noqa: E402
+from surfhap.live.server import build_session
 
 
 @pytest.fixture

@@ -50,7 +50,15 @@ def test_every_builtin_loads_with_provenance():
                 assert (p.source == "paper" and "Table" in p.reference) or (p.source == "recording" and p.command.startswith("surfhap fit"))
         if m.texture is None:
             assert any("Friction-only" in n for n in spec.notes)
-    assert load_material("cork").texture is None
+        else:  # every built-in texture is HapMat acceleration: its strength comes from 003 Sec. IV-D
+            cal = spec.texture.calibration
+            assert "Sec. IV-D" in cal.provenance.reference and cal.provenance.command.startswith("surfhap calibrate-texture")
+        if spec.friction.quasi_static is not None:  # the units of Table I are an assumption, said so
+            assert "assumed" in spec.friction.quasi_static.provenance.note
+    # cork has no recording of its own: the nearest (wood) texture at cork's published ratio, said so
+    cork = load_material("cork")
+    assert cork.spec.texture.provenance.recording.endswith("wood_1.csv")
+    assert any("nearest" in n for n in cork.spec.notes)
 
 
 def test_material_file_errors_name_file_and_field(tmp_path):

@@ -1,6 +1,7 @@
 """The safety limits hold for any input sequence (hypothesis)."""
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -105,3 +106,50 @@ def test_whole_chain_output_within_limits_for_any_touch_input(data, method):
     assert np.all(np.isfinite(out.drive))
     assert np.all(mag <= LIM.v_max)
     assert np.all(np.diff(np.concatenate(([0.0], mag))) <= RISE * (1 + 1e-12) + 1e-12)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(st.integers(1, 80), st.one_of(anything, st.floats(-0.1, 0.2)), st.one_of(anything, st.floats(-0.5, 1.5)),
+                          st.booleans(), st.booleans()), min_size=1, max_size=8),
+       st.integers(0, 2**31 - 1))
+def test_output_pass_holds_the_limits_for_any_blocks_gain_and_ages(blocks, seed):
+    """OutputSafety (the last pass of a live output): for any drive, gain, touch age, halt
+    and stop, every sample is finite, within v_max, rise-limited across blocks, 0 V when the
+    touch data is older than timeout + ramp or when halted, and 0 V after the stop ramp."""
+    from surfhap.render.safety import OutputSafety
+
+    rng = np.random.default_rng(seed)
+    guard = OutputSafety(FS, LIM, ramp_seconds=0.002)
+    outs, ages, silent = [], [], []
+    stop_at = None
+    n_total = 0
+    for n, age0, gain, halt, stop in blocks:
+        x = rng.choice([0.0, 100.0, -250.0, 600.0, 2000.0, np.nan, np.inf], n) * rng.uniform(0.5, 1.0, n)
+        if stop:
+            guard.start_ramp()
+            stop_at = n_total if stop_at is None else stop_at
+        y = guard.process(x.copy(), np.empty(n), age0, gain, halt)
+        age = age0 + np.arange(n) / FS
+        outs.append(y)
+        ages.append(age)
+        idx = n_total + np.arange(n)
+        silent.append(np.full(n, halt) | ~(np.nan_to_num(age, nan=1.0) <= LIM.watchdog_timeout + LIM.watchdog_ramp)
+                      | ((idx >= stop_at + np.ceil(0.002 * FS)) if stop_at is not None else False))
+        n_total += n
+    out = np.concatenate(outs)
+    mag = np.abs(out)
+    assert np.all(np.isfinite(out)) and np.all(mag <= LIM.v_max)
+    assert np.all(np.diff(np.concatenate(([0.0], mag))) <= RISE * (1 + 1e-12) + 1e-12)
+    assert not np.any(out[np.concatenate(silent)])
+
+
+def test_output_pass_applies_gain_and_stop_ramp():
+    from surfhap.render.safety import OutputSafety
+
+    g = OutputSafety(FS, LIM, ramp_seconds=0.001)
+    steady = g.process(np.full(400, 200.0), np.empty(400), 0.0, 0.5)
+    assert steady[-1] == pytest.approx(100.0)  # gain inside the pass (after its rise)
+    g.start_ramp()
+    tail = g.process(np.full(40, 200.0), np.empty(40), 0.0, 0.5)
+    np.testing.assert_allclose(tail[:20], 100.0 * (1 - np.arange(20) / 20), atol=1e-9)
+    assert not np.any(tail[20:]) and g.ramped_down

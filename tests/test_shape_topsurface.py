@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from surfhap.errors import MeshFormatError
@@ -58,7 +58,9 @@ def check_against_brute(surf, n=1500, seed=0):
     tri = surf.vertices[surf.faces[face[both]]]
     nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     pts = np.column_stack([xy[both], z[both]])
-    assert np.max(np.abs(np.einsum("ij,ij->i", nrm, pts - tri[:, 0])) / np.linalg.norm(nrm, axis=1)) < 1e-9
+    # (initial=0: no point may fall on the surface at all, e.g. one small triangle)
+    assert np.max(np.abs(np.einsum("ij,ij->i", nrm, pts - tri[:, 0])) / np.linalg.norm(nrm, axis=1),
+                  initial=0.0) < 1e-9
     return both.mean()
 
 
@@ -156,6 +158,7 @@ def test_bad_meshes_raise_mesh_format_error():
 
 @settings(max_examples=40, deadline=None)
 @given(st.integers(min_value=0, max_value=2**32 - 1), st.integers(min_value=1, max_value=40))
+@example(seed=524287, n_tri=1)  # one triangle that no sample point falls on (found by hypothesis)
 def test_random_triangle_soups(seed, n_tri):
     rng = np.random.default_rng(seed)
     v = rng.uniform(-1, 1, (3 * n_tri, 3))

@@ -16,6 +16,8 @@ __all__ = [
     "RecordingFormatError",
     "MeshFormatError",
     "ConfigError",
+    "StudyFormatError",
+    "SceneFormatError",
 ]
 
 
@@ -62,3 +64,11 @@ class MeshFormatError(InputError):
 
 class ConfigError(InputError):
     """An option or configuration value outside its valid range."""
+
+
+class StudyFormatError(InputError):
+    """A study design, study folder or trial log that does not follow its schema."""
+
+
+class SceneFormatError(InputError):
+    """A force-feedback scene file (JSON) or one of its map / mesh files that cannot be used."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import tempfile
 import time
 import uuid
 from contextlib import contextmanager
@@ -41,21 +42,25 @@ def jack_env(name: str) -> dict:
 def jack_dummy(rate: int = 48000, period: int = 48, playback: int = 2):
     name = f"surfhap-test-{uuid.uuid4().hex[:8]}"
     env = jack_env(name)
+    # jackd's log goes to a file, never to a pipe nobody reads: on a loaded machine it logs
+    # every late cycle, a full pipe would block the server and with it every client.
+    log = tempfile.TemporaryFile()
     proc = subprocess.Popen(
         ["jackd", "--no-realtime", "-n", name, "-d", "dummy", "-r", str(rate), "-p", str(period), "-C", "0",
          "-P", str(playback)],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
+        env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
     )
     try:
-        deadline = time.monotonic() + 10.0
+        deadline = time.monotonic() + 60.0  # generous: a loaded machine
         while True:
             if proc.poll() is not None:
-                raise RuntimeError("jackd exited: " + proc.stderr.read().decode(errors="replace")[-500:])
-            r = subprocess.run(["jack_lsp"], env=env, capture_output=True, text=True, timeout=5)
+                log.seek(0)
+                raise RuntimeError("jackd exited: " + log.read().decode(errors="replace")[-500:])
+            r = subprocess.run(["jack_lsp"], env=env, capture_output=True, text=True, timeout=30)
             if r.returncode == 0 and "system:playback_1" in r.stdout:
                 break
             if time.monotonic() > deadline:
-                raise RuntimeError("jackd did not come up within 10 s")
+                raise RuntimeError("jackd did not come up within 60 s")
             time.sleep(0.1)
         yield name
     finally:
@@ -65,3 +70,4 @@ def jack_dummy(rate: int = 48000, period: int = 48, playback: int = 2):
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait(5)
+        log.close()

@@ -30,14 +30,19 @@ def main(outdir: str) -> None:
     backend.start(engine)
     wav = f"{outdir}/jack_rec.wav"
     ports = []
-    for _ in range(50):
-        lsp = subprocess.run(["jack_lsp"], capture_output=True, text=True).stdout.split()
+    end = time.monotonic() + 60.0  # bounded, generous: the stream's ports appear once it runs
+    while not ports and time.monotonic() < end:
+        lsp = subprocess.run(["jack_lsp"], capture_output=True, text=True, timeout=30).stdout.split()
         ports = [p for p in lsp if p.startswith("PortAudio") and ":out_" in p]
-        if ports:
-            break
-        time.sleep(0.05)
+        if not ports:
+            time.sleep(0.05)
     rec = subprocess.Popen(["jack_rec", "-f", wav, "-d", "1.2", "-b", "32", *sorted(ports)],
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    end = time.monotonic() + 60.0  # bounded: start the strokes once the recorder's ports exist
+    while time.monotonic() < end and rec.poll() is None:
+        if set(subprocess.run(["jack_lsp"], capture_output=True, text=True, timeout=30).stdout.split()) - set(lsp):
+            break
+        time.sleep(0.02)
     time.sleep(0.1)
     t0 = time.perf_counter()
     k = 0
@@ -47,7 +52,7 @@ def main(outdir: str) -> None:
         engine.push_touch(1, x, 0.03, 0.6, t_event=t)
         k += 1
         time.sleep(0.005)
-    rec.wait(10)
+    rec.wait(120)
     backend.stop()
     np.save(f"{outdir}/engine_out.npy", backend.capture[: backend.captured])
     print(json.dumps({"devices": devices, "status": engine.status(), "touches": k, "ports": ports,

@@ -1,7 +1,10 @@
 """The ``surfhap`` command line (typer). One module per command group.
 
 Every command turns :class:`surfhap.errors.InputError` (and other ``ValueError`` /
-``OSError`` raised by bad input) into one line on stderr and exit code 2.
+``OSError`` raised by bad input) and every usage error into one line on stderr and exit
+code 2. Command modules import nothing heavy at module level (numba, scipy, matplotlib,
+trimesh, fastapi, ... are imported inside the command functions), so ``surfhap --help``
+starts quickly.
 """
 
 from __future__ import annotations
@@ -10,7 +13,7 @@ import sys
 
 import typer
 
-from surfhap.cli._common import run_guarded
+from surfhap.cli._common import run_guarded, stdout
 
 __all__ = ["app", "main"]
 
@@ -25,9 +28,26 @@ app = typer.Typer(
 )
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        import surfhap
+
+        stdout.print(f"surfhap {surfhap.__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", help="Print surfhap's version and exit.",
+                                 is_eager=True, callback=_print_version),
+) -> None:
+    """Make flat touchscreens feel like materials and shapes."""
+
+
 # Command modules, in --help order. Each has ``register(app)``; a module that is not
 # present in this installation is skipped.
-COMMAND_MODULES = ("materials", "render", "demo", "fit", "fit_recordings", "importers", "shape", "live")
+COMMAND_MODULES = ("materials", "render", "demo", "fit", "fit_recordings", "importers", "shape", "live", "ff", "calibrate",
+                   "study", "compare")
 
 _registered = False
 

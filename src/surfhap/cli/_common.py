@@ -2,44 +2,96 @@
 
 from __future__ import annotations
 
-import sys
+import re
 from contextlib import contextmanager
 
-import click
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.text import Text
 
 from surfhap.errors import ConfigError, SurfhapError
 
-__all__ = ["run_guarded", "fail", "progress_bar", "parse_key_values", "stderr", "stdout"]
+__all__ = ["run_guarded", "fail", "error_line", "progress_bar", "parse_key_values", "stderr", "stdout",
+           "OPTIONAL_MODULES", "require_modules"]
 
 stderr = Console(stderr=True, highlight=False)
 stdout = Console(highlight=False)
 
+# Third-party modules that only an optional extra installs: import name -> extra.
+OPTIONAL_MODULES = {
+    "fastapi": "live",
+    "starlette": "live",
+    "uvicorn": "live",
+    "websockets": "live",
+    "pythonosc": "live",
+    "sounddevice": "live",
+    "dask": "dask",
+    "distributed": "dask",
+}
+
+
+def require_modules(*names: str) -> None:
+    """Raise ``ModuleNotFoundError`` (which :func:`run_guarded` turns into "install the
+    extra") unless every module is importable. Cheap: finds, does not import."""
+    from importlib.util import find_spec
+
+    for name in names:
+        if find_spec(name) is None:
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+
+
+def error_line(message: str) -> None:
+    """Print ``error: message`` as exactly one line on stderr (no markup is interpreted)."""
+    flat = re.sub(r"\s+", " ", str(message)).strip()
+    stderr.print(Text.assemble(("error:", "bold red"), " ", flat), soft_wrap=True)
+
 
 def fail(message: str) -> None:
     """Print one error line and exit with code 2."""
-    stderr.print(f"[bold red]error:[/] {message}", markup=True, soft_wrap=True)
+    error_line(message)
     raise typer.Exit(2)
 
 
+def _usage_line(exc: typer.TyperException) -> str:
+    ctx = getattr(exc, "ctx", None)
+    message = exc.format_message()
+    if ctx is None:
+        return message
+    return f"{message} (try '{ctx.command_path} --help')"
+
+
 def run_guarded(app: typer.Typer, argv: list[str]) -> int:
-    """Run the typer app; bad input becomes one line on stderr and exit code 2."""
+    """Run the typer app and return its exit code.
+
+    Usage errors (missing or unknown argument, option or command, bad option value) and bad
+    input (:class:`~surfhap.errors.SurfhapError`, ``ValueError``, ``OSError``) become one line
+    on stderr and exit code 2; a command that needs a missing optional extra says which one
+    to install (exit 2). A group called without a command prints its help (exit 2).
+    """
     try:
-        app(args=argv, prog_name="surfhap", standalone_mode=False)
-    except click.exceptions.Exit as exc:
-        return int(exc.exit_code or 0)
-    except click.exceptions.Abort:
-        stderr.print("aborted")
+        code = app(args=argv, prog_name="surfhap", standalone_mode=False)
+    except typer.Abort:
+        error_line("aborted")
         return 130
-    except click.ClickException as exc:  # usage errors: typer's own message
-        exc.show(file=sys.stderr)
+    except typer.TyperException as exc:  # typer's own usage errors (vendored click classes)
+        ctx = getattr(exc, "ctx", None)
+        if type(exc).__name__ == "NoArgsIsHelpError" and ctx is not None:
+            exc.show()  # a bare group: its help
+        else:
+            error_line(_usage_line(exc))
+        return 2
+    except ModuleNotFoundError as exc:
+        extra = OPTIONAL_MODULES.get((exc.name or "").split(".")[0])
+        if extra is None:
+            raise
+        error_line(f"this command needs the optional '{extra}' extra (missing module {exc.name!r}): "
+                   f"pip install 'surfhap[{extra}]'")
         return 2
     except (SurfhapError, ValueError, OSError) as exc:
-        stderr.print(f"[bold red]error:[/] {exc}", markup=True, soft_wrap=True)
+        error_line(str(exc))
         return 2
-    return 0
+    # standalone_mode=False: typer returns the code of a typer.Exit, or the command's value
+    return code if isinstance(code, int) and not isinstance(code, bool) else 0
 
 
 @contextmanager
@@ -48,6 +100,8 @@ def progress_bar(description: str, enabled: bool = True):
     if not enabled:
         yield lambda fraction: None
         return
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                   TimeElapsedColumn(), TimeRemainingColumn(), console=stderr, transient=True) as prog:
         task = prog.add_task(description, total=1.0)

@@ -44,7 +44,8 @@ def fit_imu(
     fit = fit_imu_texture(rec.accel, rec.sample_rate, cutoff=cutoff, order=order, max_order=max_order)
     base = read_material_json(into)
     how = f"fixed at {order}" if order is not None else f"aic over 1..{max_order}"
-    aic_note = f"AIC over 1..{max(max_order, order or 0)} chooses {fit.selection.order}"
+    aic_note = (f"AIC over 1..{max(max_order, order or 0)} chooses {fit.selection.aic_order} (BIC {fit.selection.bic_order}; "
+                f"edge-trimmed, tapered, notch below {2 * cutoff:g} Hz continued flat)")
     command = ["surfhap", "fit", "imu", str(recording), "--into", str(into)]
     if out is not None:
         command += ["--out", str(out)]

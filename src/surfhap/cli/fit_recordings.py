@@ -52,7 +52,10 @@ def fit_friction_cmd(
     max_order: int = typer.Option(60, "--max-order", min=1, max=400, help="Largest AR order considered."),
     criterion: str = typer.Option("aic", "--criterion", help="aic | bic."),
     estimator: str = typer.Option("yule-walker", "--estimator", help="yule-walker (averaged spectra, the paper's) | burg."),
-    columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'speed=v_x[mm/s],normal_force=Fz'."),
+    edge_trim: Optional[float] = typer.Option(None, "--edge-trim", min=0.0,
+                                              help="Cut from both ends of every contact run before splicing, ms "
+                                                   "(default: one cut-off period, where the band split is an extrapolation)."),
+    columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'speed=v_x\\[mm/s],normal_force=Fz'."),
     report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
     jobs: int = typer.Option(1, "--jobs", help="Parallel workers (joblib); -1 = all cores."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there."),
@@ -74,13 +77,14 @@ def fit_friction_cmd(
     with parallel_context(scheduler):
         fit = fit_friction(recs, material, cutoff=cutoff, reference_speeds=speeds, tolerance=tolerance / 1000.0,
                            min_span=min_span / 1000.0, max_order=max_order, criterion=criterion.lower(), estimator=estimator,
+                           edge_trim=None if edge_trim is None else edge_trim / 1000.0,
                            jobs=_check_jobs(jobs, scheduler))
     mat = fit.to_material(command=command)
     write_material_json(mat, out)
     qs = fit.quasi_static
     stdout.print(f"{out}: mu0 {fit.coulomb.mu0:.3f}; quasi-static a={qs.params['a']:.3f} b={qs.params['b']:.3f} "
                  f"c={qs.params['c']:.3f} d={qs.params['d']:.3f} q={qs.params['q']:.3f} (R² {qs.r2:.2f}); "
-                 f"AR orders {', '.join(f'{t.reference_speed * 1e3:g} mm/s: {t.model.order}' for t in fit.textures) or 'none'}")
+                 f"AR orders {', '.join(f'{t.reference_speed * 1e3:g} mm/s: {t.model.order} (AIC {t.selection.aic_order}, BIC {t.selection.bic_order})' for t in fit.textures) or 'none'}")
     for note in fit.notes:
         stdout.print(f"note: {note}")
     if report is not None:
@@ -101,7 +105,7 @@ def fit_accel_cmd(
     min_segment: float = typer.Option(250.0, "--min-segment", help="Shortest stationary segment, ms."),
     max_segment: float = typer.Option(10.0, "--max-segment", help="Longest segment, s (0 = unlimited; the search grows quadratically)."),
     mu0: Optional[float] = typer.Option(None, "--mu0", help="Coulomb coefficient when the recordings have no shear force."),
-    columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'acceleration=az[g],speed=v[mm/s]'."),
+    columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'acceleration=az\\[g],speed=v\\[mm/s]'."),
     report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
     jobs: int = typer.Option(1, "--jobs", help="Parallel workers (joblib); -1 = all cores."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there."),
@@ -119,7 +123,7 @@ def fit_accel_cmd(
                         min_segment=min_segment / 1000.0, mu0=mu0, jobs=_check_jobs(jobs, scheduler),
                         max_segment=max_segment or None)
     write_material_json(fit.to_material(command=command), out)
-    stdout.print(f"{out}: {len(fit.segments)} segments, AR({fit.order}) models over (speed, force), "
+    stdout.print(f"{out}: {len(fit.segments)} segments, AR({fit.order}) models (AIC {fit.aic_order}, BIC {fit.bic_order}) over (speed, force), "
                  f"{fit.bank.triangles.shape[0]} triangles; mu0 {fit.mu0:.3f}")
     if report is not None:
         from surfhap.report.fit_report import write_fit_report

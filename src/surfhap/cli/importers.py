@@ -33,7 +33,6 @@ def import_hatt_cmd(
 
 
 def register(app: typer.Typer) -> None:
+    # HaTT ``Models_*.xml`` is accepted wherever the CLI takes a material:
+    # surfhap.exchange.materials.load_material imports the reader when it meets a .xml file.
     app.add_typer(import_app, name="import")
-    # HaTT ``Models_*.xml`` is accepted wherever the CLI takes a material: importing the
-    # module registers its reader with surfhap.exchange.materials (cheap: no parsing).
-    import surfhap.exchange.hatt  # noqa: F401

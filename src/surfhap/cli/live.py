@@ -1,22 +1,62 @@
 """``surfhap serve`` / ``devices`` / ``play``: live rendering to a sound card, OSC, a file or
-the simulated display, with a touch page in the browser."""
+the simulated display, with a touch page in the browser.
+
+Ctrl-C and SIGTERM stop the same way: the output ramps to zero (``stop_ramp``, 10 ms), the
+recording is flushed, the status is printed as JSON, exit code 0. Exit code 3: the output
+backend failed (raised or stalled); the engine drove 0 V from then on and the status's
+``failure`` says why.
+"""
 
 from __future__ import annotations
 
 import json
 import logging
+import signal
+import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
 from typing import List, Optional
 
 import typer
 
-from surfhap.cli._common import parse_key_values, stderr, stdout
+from surfhap.cli._common import parse_key_values, require_modules, stderr, stdout
+from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, resolve_display_and_range
 from surfhap.errors import ConfigError
 
 __all__ = ["register"]
 
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
+EXIT_BACKEND_FAILED = 3
+
+
+@contextmanager
+def _sigterm_as_interrupt():
+    """Within the block, SIGTERM raises KeyboardInterrupt in the main thread once (later
+    ones are ignored while shutting down), so it stops like Ctrl-C."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    fired = []
+
+    def handler(signum, frame):
+        if not fired:
+            fired.append(signum)
+            raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _finish(engine) -> None:
+    """Exit 3 (after the status was printed) when the output backend failed."""
+    if engine.failure is not None:
+        stderr.print(f"[bold red]error:[/] {engine.failure}; the output was halted at 0 V", markup=True,
+                     soft_wrap=True)
+        raise typer.Exit(EXIT_BACKEND_FAILED)
 
 
 def _engine_config(block_ms: float, touch_latency_ms: float, smoothing: float):
@@ -40,18 +80,45 @@ def _channel_options(text: str | None, output: str) -> dict:
 
 
 def _setup_logging(verbose: bool) -> None:
-    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    from surfhap.live.logfilter import install_rate_limit
+
+    root = logging.getLogger()
+    if not root.handlers:  # logging not configured by the caller (as in a test or an embedding app)
+        logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
+                            format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+        install_rate_limit(root)  # one line per kind per second, whatever a client provokes
     logging.getLogger("surfhap").setLevel(logging.INFO)
+
+
+def _allowed_hosts(host: str, values: list[str]) -> tuple[str, ...]:
+    """The ``--allow-host`` names (repeatable, comma-separated), checked. A bind other
+    than loopback needs at least one: otherwise a page on any web site could reach the
+    server through a DNS name it controls (DNS rebinding)."""
+    names = []
+    for v in values:
+        for n in v.split(","):
+            n = n.strip().lower()
+            if not n:
+                continue
+            if n == "*" or "/" in n or " " in n or (n.count("*") and not (n.startswith("*.") and n.count("*") == 1)):
+                raise ConfigError(f"{n!r} is not a host name (give names like lab-pc.local or *.lab.example)",
+                                  source="--allow-host")
+            names.append(n)
+    if host not in LOOPBACK and not names:
+        raise ConfigError(f"binding {host} needs --allow-host NAME: the host names the page is opened by "
+                          "(e.g. --allow-host lab-pc.local,192.168.1.20); other Host headers are refused",
+                          source="--host")
+    return tuple(names)
 
 
 def serve_cmd(
     material: Optional[str] = typer.Option(None, "--material", help="Built-in material name or material file (default: cork)."),
     mesh: Optional[Path] = typer.Option(None, "--mesh", help="Render a 3-D mesh (OBJ, STL, PLY, ...) instead of a material; it is scaled to fit the touch surface."),
-    output: str = typer.Option("sim", "--output", help="sim | sound[:DEVICE] | file:PATH.wav|.npz | osc://HOST:PORT[/intensity|/drive]."),
+    output: str = typer.Option("sim", "--output", help="sim | sound[:DEVICE] | file:PATH.wav|.npz | osc://HOST:PORT\\[/intensity|/drive]."),
     host: str = typer.Option("127.0.0.1", "--host", help="Address to bind. Anything but loopback exposes the page to your network."),
     port: int = typer.Option(8765, "--port", help="TCP port of the page."),
     allow_origin: List[str] = typer.Option([], "--allow-origin", help="Extra WebSocket origin to accept (repeatable), e.g. https://lab.example:8443."),
+    allow_host: List[str] = typer.Option([], "--allow-host", help="Host name the page may be opened by (repeatable or comma-separated, *.domain allowed). Required when --host is not loopback; other Host headers are refused (DNS rebinding)."),
     osc_in: Optional[str] = typer.Option(None, "--osc-in", help="Also accept OSC touch messages on HOST:PORT (UDP), e.g. 127.0.0.1:9000."),
     replay: Optional[Path] = typer.Option(None, "--replay", help="Also replay a trajectory CSV (time, x, y, load) as a touch source."),
     drive_rate: Optional[int] = typer.Option(None, "--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000)."),
@@ -65,12 +132,19 @@ def serve_cmd(
     web_process: bool = typer.Option(True, "--web-process/--no-web-process",
                                      help="Run the page server in its own process, so web traffic cannot delay the engine."),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Log connections and rejected messages at INFO."),
+    display: Optional[str] = typer.Option(None, "--display", help=DISPLAY_HELP),
+    config: Optional[Path] = typer.Option(None, "--config", help=CONFIG_HELP),
 ) -> None:
-    """Serve the touch page: drag on it and the drive is rendered live to the chosen output."""
+    """Serve the touch page: drag on it and the drive is rendered live to the chosen output.
+
+    Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
+    (exit 0); exit 3 when the output backend failed."""
+    require_modules("fastapi", "starlette", "uvicorn")  # the page; else: install surfhap[live]
     from surfhap.live.server import ServerConfig, ServerThread, build_session, create_app
     from surfhap.live.webproc import WebProcess
 
     _setup_logging(verbose)
+    disp = None if display is None and config is None else resolve_display_and_range(display, None, None, config)[0]
     if mesh is not None:
         if material is not None:
             raise ConfigError("give --material or --mesh, not both", source="--mesh")
@@ -83,12 +157,19 @@ def serve_cmd(
             raise ConfigError("no such file", source=str(mesh))
     if not 1 <= port <= 65535:
         raise ConfigError("must be within 1-65535", source="--port")
+    allowed_hosts = _allowed_hosts(host, allow_host)
     osc = None
     if osc_in:
         h, _, p = osc_in.rpartition(":")
         if not h or not p.isdigit() or not 0 <= int(p) <= 65535:
             raise ConfigError("expected HOST:PORT", source="--osc-in")
-        osc = (h, int(p))
+        osc = (h.strip("[]"), int(p))
+    if host not in LOOPBACK:
+        stderr.print(f"[yellow]warning:[/] binding {host}: the page is reachable from your network; "
+                     "anyone who can reach it can drive the display", markup=True, soft_wrap=True)
+    if osc is not None and osc[0] not in LOOPBACK:
+        stderr.print(f"[yellow]warning:[/] --osc-in binds {osc[0]}: OSC touch input is reachable from your "
+                     "network; anyone who can send it a datagram can drive the display", markup=True, soft_wrap=True)
     traj = None
     if replay is not None:
         from surfhap.exchange.trajectory_csv import read_trajectory_csv
@@ -97,34 +178,32 @@ def serve_cmd(
     session = build_session(material or "cork", output, drive_rate=drive_rate, amp_gain=amp_gain,
                             engine_config=_engine_config(block_ms, touch_latency_ms, smoothing),
                             osc_in=osc, replay=traj, replay_loop=True, seed=seed, mesh=mesh,
-                            backend_options=_channel_options(channels, output))
-    cfg = ServerConfig(host=host, port=port, allowed_origins=tuple(allow_origin))
-    if host not in LOOPBACK:
-        stderr.print(f"[yellow]warning:[/] binding {host}: the page is reachable from your network; "
-                     "anyone who can reach it can drive the display", markup=True)
-    session.start()
+                            backend_options=_channel_options(channels, output), display=disp)
+    cfg = ServerConfig(host=host, port=port, allowed_origins=tuple(allow_origin), allowed_hosts=allowed_hosts)
     server = None
-    try:
-        if web_process:
-            server = WebProcess(session, cfg).start()
-        else:
-            server = ServerThread(create_app(session, cfg), host=host, port=port,
-                                  max_message_bytes=cfg.max_message_bytes).start()
-        shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
-        shown = f"[{shown}]" if ":" in shown else shown
-        stdout.print(f"surfhap live: {session.title} -> {output}; open http://{shown}:{port}/ (Ctrl-C stops)")
-        end = time.monotonic() + duration if duration > 0 else None
-        while end is None or time.monotonic() < end:
-            time.sleep(0.2)
-    except KeyboardInterrupt:
-        pass
-    except OSError as exc:
-        raise ConfigError(f"cannot listen on {host}:{port} ({exc.strerror or exc})", source="--port") from None
-    finally:
-        if server is not None:
-            server.stop()
-        session.stop()
+    with _sigterm_as_interrupt():
+        try:
+            session.start()
+            if web_process:
+                server = WebProcess(session, cfg).start()
+            else:
+                server = ServerThread(create_app(session, cfg), host=host, port=port, config=cfg).start()
+            shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
+            shown = f"[{shown}]" if ":" in shown else shown
+            stdout.print(f"surfhap live: {session.title} -> {output}; open http://{shown}:{port}/ (Ctrl-C stops)")
+            end = time.monotonic() + duration if duration > 0 else None
+            while (end is None or time.monotonic() < end) and session.engine.failure is None:
+                time.sleep(0.05)
+        except KeyboardInterrupt:
+            pass
+        except OSError as exc:
+            raise ConfigError(f"cannot listen on {host}:{port} ({exc.strerror or exc})", source="--port") from None
+        finally:
+            if server is not None:
+                server.stop()
+            session.stop()
     typer.echo(json.dumps(session.engine.status(), default=float))
+    _finish(session.engine)
 
 
 def devices_cmd() -> None:
@@ -149,11 +228,17 @@ def play_cmd(
     channels: Optional[str] = typer.Option(None, "--channels", help="Sound output: 0-based channels that carry the drive (default: all)."),
     block_ms: float = typer.Option(1.0, "--block-ms", help="Block period, ms."),
     seed: int = typer.Option(0, "--seed", help="Seed of the texture noise."),
+    display: Optional[str] = typer.Option(None, "--display", help=DISPLAY_HELP),
+    config: Optional[Path] = typer.Option(None, "--config", help=CONFIG_HELP),
 ) -> None:
-    """Play a scripted scan of MATERIAL live, to check the sound card and amplifier chain."""
+    """Play a scripted scan of MATERIAL live, to check the sound card and amplifier chain.
+
+    Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
+    (exit 0); exit 3 when the output backend failed."""
     from surfhap.live.server import build_session
     from surfhap.sim.trajectory import constant_scan, strokes
 
+    disp = None if display is None and config is None else resolve_display_and_range(display, None, None, config)[0]
     kv = parse_key_values(scan, "--scan", {"speed": None, "load": None, "duration": None, "length": 0.0, "rate": 125.0})
     if not 0 < kv["duration"] <= 600:
         raise ConfigError("must be within (0, 600] s", source="--scan", field="duration")
@@ -161,19 +246,25 @@ def play_cmd(
             if kv["length"] > 0 else constant_scan(kv["speed"], kv["load"], kv["duration"], sensor_rate=kv["rate"]))
     session = build_session(material, output, drive_rate=drive_rate, amp_gain=amp_gain,
                             engine_config=_engine_config(block_ms, 0.0, 1.0), replay=traj, seed=seed,
-                            backend_options=_channel_options(channels, output))
-    session.start()
+                            backend_options=_channel_options(channels, output), display=disp)
     replay = session.sources[0]
-    try:
-        replay.done.wait(kv["duration"] + 5.0)
-        time.sleep(0.05)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        session.stop()
+    with _sigterm_as_interrupt():
+        try:
+            session.start()
+            end = time.monotonic() + kv["duration"] + 5.0
+            while not replay.done.wait(0.05) and time.monotonic() < end and session.engine.failure is None:
+                pass
+            time.sleep(0.05)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            session.stop()
     st = session.engine.status()
     typer.echo(json.dumps({"material": session.title, "output": output, "touches": replay.sent,
-                             "counters": st["counters"], "safety": st["safety"], "latency": st["latency"]}, default=float))
+                           "counters": st["counters"], "safety": st["safety"], "output_safety": st["output_safety"],
+                           "latency": st["latency"], "stopped": st["stopped"], "failure": st["failure"]},
+                          default=float))
+    _finish(session.engine)
 
 
 def register(app: typer.Typer) -> None:

@@ -1,20 +1,91 @@
-"""``surfhap materials``: list the built-in materials."""
+"""``surfhap materials``: list the built-in materials, or show one with its gain plan;
+``surfhap calibrate-texture``: set a texture's strength from a published voltage ratio."""
 
 from __future__ import annotations
+
+import shlex
+from pathlib import Path
+from typing import Optional
 
 import typer
 from rich.table import Table
 
 from surfhap.cli._common import stdout
+from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, LOAD_RANGE_HELP, SPEED_RANGE_HELP, resolve_display_and_range
+from surfhap.errors import ConfigError
 
 __all__ = ["register"]
 
 
-def materials() -> None:
+def _texture_text(m) -> str:
+    if m.texture is None:
+        return "none (friction-only)"
+    orders = ",".join(str(x.order) for x in m.texture.models)
+    tex = f"{m.texture.quantity} AR({orders}) @ {m.texture.sample_rate:g} Hz"
+    cal = getattr(m.spec.texture, "calibration", None)
+    if cal is not None:
+        tex += f"\nvoltage ratio 10:{10 * cal.target_voltage_ratio:g} (calibrated)"
+    return tex
+
+
+def _show(name: str, display, rng) -> None:
+    from surfhap.exchange.materials import load_material
+    from surfhap.render.drive import default_method
+    from surfhap.render.gain_plan import plan_gains
+
+    m = load_material(name)
+    spec = m.spec
+    stdout.print(f"[bold]{m.name}[/]: {spec.description}", markup=True)
+    fr = spec.friction
+    if fr.quasi_static:
+        q = fr.quasi_static
+        stdout.print(f"  quasi-static mu_p = a fn^b (1 + d v^q)/(1 + c v): a={q.a:g} b={q.b:g} c={q.c:g} d={q.d:g} q={q.q:g}")
+        stdout.print(f"    from: {q.provenance.reference}")
+    if fr.coulomb:
+        stdout.print(f"  Coulomb mu0 = {fr.coulomb.mu0:g}\n    from: {fr.coulomb.provenance.reference}")
+    stdout.print(f"  texture: {_texture_text(m).replace(chr(10), '; ')}")
+    if spec.texture is not None:
+        p = spec.texture.provenance
+        stdout.print(f"    from: {p.reference or p.recording}" + (f" ({p.note})" if p.note else ""))
+        cal = getattr(spec.texture, "calibration", None)
+        if cal is not None:
+            stdout.print(f"    strength: r = {cal.target_voltage_ratio:g}, beta = {cal.beta:g}, sd(x) = {cal.reference_std:.4g}, "
+                         f"mu_t = {cal.relative_scale:.4g} * mu_low * x")
+            stdout.print(f"    from: {cal.provenance.reference}")
+            if cal.provenance.note:
+                stdout.print(f"    how: {cal.provenance.note}")
+    for note in spec.notes:
+        stdout.print(f"  note: {note}")
+    method = default_method(m)
+    plan = plan_gains(m, method, display, rng)
+    stdout.print(f"  gain plan ({method}, display: {display.source}; loads {rng.loads[0]:g}-{rng.loads[1]:g} N, "
+                 f"speeds {rng.speeds[0]:g}-{rng.speeds[1]:g} m/s):")
+    stdout.print(f"    alpha = {plan.alpha:.1f} V/sqrt(N) (calibrated {plan.alpha_calibrated:.1f}; bound by {plan.binding}), "
+                 f"rendering gain {plan.rendering_gain:.3f}, headroom {plan.headroom:.3f} ({plan.headroom_db:.2f} dB) "
+                 f"at the texture's {plan.percentile:g}th percentile")
+    table = Table(title=None)
+    for col in ("load N", "added friction N (over speeds)", f"peak V ({plan.percentile:g} %)"):
+        table.add_column(col)
+    for i in range(0, plan.loads.size, max(1, plan.loads.size // 6)):
+        table.add_row(f"{plan.loads[i]:.2f}", f"{plan.friction_low_n[i]:.4f} - {plan.friction_high_n[i]:.4f}", f"{plan.peak_voltage[i]:.1f}")
+    stdout.print(table)
+
+
+def materials(
+    show: Optional[str] = typer.Option(None, "--show", help="Show one material: parameters, provenance and its gain plan."),
+    display: Optional[str] = typer.Option(None, "--display", help=DISPLAY_HELP),
+    load_range: Optional[str] = typer.Option(None, "--load-range", help=LOAD_RANGE_HELP),
+    speed_range: Optional[str] = typer.Option(None, "--speed-range", help=SPEED_RANGE_HELP),
+    config: Optional[Path] = typer.Option(None, "--config", help=CONFIG_HELP),
+) -> None:
     """List the built-in materials, their friction laws, texture models and sources."""
     from surfhap.exchange.materials import builtin_names, load_material
     from surfhap.render.drive import default_method
 
+    if show is not None:
+        disp, rng = resolve_display_and_range(display, load_range, speed_range, config)
+        _show(show, disp, rng)
+        return
     table = Table(title="built-in materials", show_lines=False)
     for col in ("name", "friction", "texture", "default method", "sources"):
         table.add_column(col)
@@ -26,20 +97,63 @@ def materials() -> None:
             fr.append(f"mu_p: a={q.a:g} b={q.b:g} c={q.c:g} d={q.d:g} q={q.q:g}")
         if m.coulomb:
             fr.append(f"mu0={m.coulomb.mu0:g}")
-        if m.texture is None:
-            tex = "none (friction-only)"
-        else:
-            orders = ",".join(str(x.order) for x in m.texture.models)
-            tex = f"{m.texture.quantity} AR({orders}) @ {m.texture.sample_rate:g} Hz"
         srcs = []
         spec = m.spec
         for part in (spec.friction.quasi_static, spec.friction.coulomb, spec.texture):
             if part is not None:
                 p = part.provenance
                 srcs.append(p.reference.split(",")[0].split(" (")[0] if p.source == "paper" else f"fit of {p.recording}")
-        table.add_row(name, "\n".join(fr), tex, default_method(m), "\n".join(dict.fromkeys(srcs)))
+        table.add_row(name, "\n".join(fr), _texture_text(m), default_method(m), "\n".join(dict.fromkeys(srcs)))
     stdout.print(table)
+    stdout.print("Show one with its provenance and gain plan: surfhap materials --show NAME")
+
+
+def calibrate_texture(
+    material_file: Path = typer.Argument(..., help="Material JSON whose texture strength is set (written back)."),
+    ratio: float = typer.Option(..., "--ratio", help="Texture:friction voltage ratio r (10:3 -> 0.3); see docs/texture.md."),
+    reference: str = typer.Option(..., "--reference", help="Where the ratio comes from (paper file, section, value)."),
+    beta: float = typer.Option(1.8, "--beta", help="Textural gain of the drive law the ratio is meant for."),
+    cutoff: float = typer.Option(3.5, "--cutoff", help="Band split, Hz: sd(x) is taken above it (003 Sec. II: 3.5)."),
+    note: Optional[str] = typer.Option(None, "--note", help="Extra text for the provenance (e.g. why this ratio)."),
+) -> None:
+    """Set the strength of MATERIAL_FILE's texture so its voltage ratio is RATIO at every load and speed.
+
+    For textures recorded in another modality than a textural CoF (e.g. stick acceleration):
+    the drive laws then use mu_t = s * mu_low * x with s = ratio^2 / (beta * sd(x)), sd(x) the
+    standard deviation of the AR model's output above the band split. The command and numbers
+    go into the provenance.
+    """
+    from surfhap.exchange.materials import read_material_json, write_material_json
+    from surfhap.models.material import Provenance, TextureCalibrationSpec, TextureSpec
+    from surfhap.models.texture_calibration import relative_scale, texture_band_std
+
+    if not (0 < ratio <= 2):
+        raise ConfigError("must be within (0, 2]", source="--ratio")
+    if not (0 <= cutoff < 1000):
+        raise ConfigError("must be within [0, 1000) Hz", source="--cutoff")
+    if not (0 < beta <= 100):
+        raise ConfigError("must be within (0, 100]", source="--beta")
+    mat = read_material_json(material_file)
+    tex = mat.spec.texture
+    if not isinstance(tex, TextureSpec):
+        raise ConfigError("has no AR texture bank to calibrate", source=str(material_file), field="texture")
+    sds = [texture_band_std(m.coefficients, m.variance, tex.sample_rate, cutoff) for m in tex.models]
+    sd = float(sum(s * s for s in sds) / len(sds)) ** 0.5
+    scale = relative_scale(ratio, beta, sd)
+    command = ["surfhap", "calibrate-texture", str(material_file), "--ratio", f"{ratio:g}", "--beta", f"{beta:g}",
+               "--cutoff", f"{cutoff:g}", "--reference", reference] + (["--note", note] if note else [])
+    how = (f"sd(x) = {sd:.6g} {'m/s^2' if tex.quantity == 'acceleration' else ''} is the standard deviation above {cutoff:g} Hz of "
+           f"the AR model{'s (RMS over models)' if len(sds) > 1 else ''}; s = r^2 / (beta sd(x)) = {ratio:g}^2 / "
+           f"({beta:g} x {sd:.6g}) = {scale:.6g}")
+    prov = Provenance(source="paper", reference=reference, command=shlex.join(command),
+                      note=how + (f". {note}" if note else ""))
+    cal = TextureCalibrationSpec(target_voltage_ratio=ratio, beta=beta, reference_std=sd, relative_scale=scale, provenance=prov)
+    spec = mat.spec.model_copy(update={"texture": tex.model_copy(update={"calibration": cal})})
+    spec = type(spec).model_validate(spec.model_dump())
+    write_material_json(spec, material_file)
+    stdout.print(f"{mat.name}: r = {ratio:g} -> mu_t = {scale:.6g} * mu_low * x -> {material_file}")
 
 
 def register(app: typer.Typer) -> None:
     app.command("materials")(materials)
+    app.command("calibrate-texture")(calibrate_texture)

@@ -7,7 +7,8 @@ from typing import Optional
 
 import typer
 
-from surfhap.cli._common import parse_key_values, progress_bar, stdout
+from surfhap.cli._common import parse_key_values, progress_bar, stderr, stdout
+from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, LOAD_RANGE_HELP, SPEED_RANGE_HELP, resolve_display_and_range
 from surfhap.errors import ConfigError
 
 __all__ = ["register", "trajectory_from_options"]
@@ -37,11 +38,16 @@ def render_cmd(
     trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Recorded trajectory CSV with columns time (s), x, y (m), load (N)."),
     method: str = typer.Option("auto", "--method", help="otake2022 | otake2021 | zhao | friction-only | square (auto: otake2022 when the material has the quasi-static law)."),
     drive_rate: int = typer.Option(20000, "--drive-rate", help="DAC rate, Hz (2000-48000)."),
-    carrier: float = typer.Option(2000.0, "--carrier", help="Polarity carrier, Hz (2000-20000; 0 = off)."),
+    carrier: Optional[float] = typer.Option(None, "--carrier", help="Polarity carrier, Hz (2000-20000; 0 = off). Default: the method's paper (otake2021: 20 kHz, capped at half the drive rate; else 2 kHz)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the texture noise (same seed, same output)."),
-    alpha: Optional[float] = typer.Option(None, "--alpha", help="Gain V/sqrt(N) (default: calibrated to the simulated display)."),
-    beta: float = typer.Option(1.8, "--beta", help="Gain of the textural component (Otake et al. 2021: 1.8)."),
+    alpha: Optional[float] = typer.Option(None, "--alpha", help="Gain V/sqrt(N), overriding the gain plan (default: planned so the operating range does not saturate)."),
+    beta: float = typer.Option(1.8, "--beta", help="Gain of the textural component (Otake et al. 2021: 1.8; used for 2022 too, see docs/texture.md)."),
     square_frequency: float = typer.Option(100.0, "--square-frequency", help="Baseline square wave, Hz (30-300)."),
+    square_reference: str = typer.Option("0.5,0.1", "--square-reference", help="Square baseline: 'LOAD,SPEED' (N, m/s) at which its mean equals the friction-only mean."),
+    display: Optional[str] = typer.Option(None, "--display", help=DISPLAY_HELP),
+    load_range: Optional[str] = typer.Option(None, "--load-range", help=LOAD_RANGE_HELP),
+    speed_range: Optional[str] = typer.Option(None, "--speed-range", help=SPEED_RANGE_HELP),
+    config: Optional[Path] = typer.Option(None, "--config", help=CONFIG_HELP),
     v_max: float = typer.Option(250.0, "--v-max", help="Safety limit on |V| (V)."),
     amp_gain: Optional[float] = typer.Option(None, "--amp-gain", help="Amplifier gain, V per DAC full scale, for drive.wav (default: --v-max)."),
     figure: bool = typer.Option(True, "--figure/--no-figure", help="Write figure.png."),
@@ -51,14 +57,18 @@ def render_cmd(
     from surfhap.exchange.render_files import write_render
     from surfhap.render.chain import ChainConfig
     from surfhap.render.offline import render
+    from surfhap.cli._display_options import parse_range
     from surfhap.render.safety import SafetyLimits
 
+    disp, rng = resolve_display_and_range(display, load_range, speed_range, config)
+    sq_load, sq_speed = parse_range(square_reference, "--square-reference")
     mat = load_material(material)
     traj = trajectory_from_options(scan, trajectory)
     if not (v_max > 0 and v_max <= 1000):
         raise ConfigError("must be within (0, 1000] V", source="--v-max")
     cfg = ChainConfig(method=method, drive_rate=drive_rate, carrier=carrier, seed=seed, alpha=alpha, beta=beta,
-                      square_frequency=square_frequency, limits=SafetyLimits(v_max=v_max, rise_rate=v_max * 1e4))
+                      square_frequency=square_frequency, square_reference_load=sq_load, square_reference_speed=sq_speed,
+                      operating_range=rng, display=disp, limits=SafetyLimits(v_max=v_max, rise_rate=v_max * 1e4))
     with progress_bar(f"rendering {mat.name}", enabled=traj.duration > 2.0) as update:
         result = render(mat, traj, cfg, progress=update)
     paths = write_render(result, out, amp_gain=amp_gain)
@@ -66,8 +76,12 @@ def render_cmd(
         fig = result.plot()
         fig.savefig(Path(out) / "figure.png", dpi=110)
     s = result.summary()
-    stdout.print(f"{mat.name} ({s['method']}): max |V| {s['max_abs_voltage']:.1f} V, clipped {s['clipped_fraction']:.1%}, "
+    stdout.print(f"{mat.name} ({s['method']}): alpha {s['alpha_v_per_sqrt_n']:.1f} V/sqrt(N) ({s['alpha_source']}, "
+                 f"rendering gain {s['rendering_gain']:.3f}), max |V| {s['max_abs_voltage']:.1f} V, clipped {s['clipped_fraction']:.1%}, "
                  f"saturated {s['saturated_fraction']:.1%} -> {paths['npz'].parent}")
+    warning = result.saturation_warning()
+    if warning is not None:
+        stderr.print(f"[bold yellow]warning:[/] {warning}", markup=True, soft_wrap=True)
 
 
 def register(app: typer.Typer) -> None:

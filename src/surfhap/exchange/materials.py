@@ -105,5 +105,5 @@ def load_material(ref: str | Path) -> Material:
     if ref_str in names:
         return read_material_json(builtin_path(ref_str))
     if path.exists():
-        raise MaterialFormatError(f"unknown material file type {path.suffix!r} (known: {', '.join(sorted(_READERS))})", source=ref_str)
+        raise MaterialFormatError(f"unknown material file type {path.suffix!r} (known: {', '.join(sorted(set(_READERS) | {'.xml'}))})", source=ref_str)
     raise UnknownMaterialError(f"unknown material (built-in: {', '.join(names)}; or give a path to a material file)", source=ref_str)

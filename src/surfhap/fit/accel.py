@@ -27,17 +27,27 @@ from surfhap.exchange.recordings import Recording
 from surfhap.fit.friction import CoulombFit, coulomb_from_sums
 from surfhap.fit.material_fit import _map
 from surfhap.models.interpolated import InterpolatedARMABank
-from surfhap.signal.ar import autocovariance, information_criteria, levinson_durbin
+from surfhap.signal.ar import information_criteria, levinson_durbin
+from surfhap.signal.bands import highpass_gain
+from surfhap.signal.filters import zero_phase_lowpass
 from surfhap.signal.lsf import ar_to_lsf
 from surfhap.signal.segmentation import Segmentation, segment_ar
+from surfhap.signal.spectra import average_spectra
 
-__all__ = ["AccelSegment", "AccelFit", "fit_accel"]
+__all__ = ["AccelSegment", "AccelFit", "fit_accel", "ORDER_TAPER"]
+
+#: Tukey fraction of the taper on each segment before its Yule–Walker fit (as the friction route)
+ORDER_TAPER = 0.5
+#: the high-pass (4th order, forward-backward) has power gain 0.5 at 1.1 x its corner; below
+#: this multiple of the corner the spectrum is continued flat, above it the gain is divided out
+HIGHPASS_FILL = 1.1
 
 
 @dataclass(frozen=True)
 class AccelSegment:
     """One stationary piece: source recording, [start, stop) at the model rate, mean speed
-    m/s and force N, MDL order of the segmentation, and the criterion curve (orders 0..P)."""
+    m/s and force N, MDL order of the segmentation, the chosen criterion curve (orders
+    0..P), the AIC and BIC curves, and the equivalent sample count of the tapered segment."""
 
     source: str
     start: int
@@ -47,6 +57,9 @@ class AccelSegment:
     mdl_order: int
     criterion: np.ndarray
     levinson: object
+    aic: np.ndarray | None = None
+    bic: np.ndarray | None = None
+    n_effective: float = 0.0
 
     @property
     def n(self) -> int:
@@ -61,6 +74,7 @@ class AccelFit:
     segments       : list of AccelSegment kept for models.
     segmentations  : {source: Segmentation}.
     order          : the common AR order; orders / total_criterion : the summed criterion.
+    aic_order, bic_order : the minima of the summed AIC and of the summed BIC.
     coulomb        : CoulombFit (from shear / normal) or None when mu0 was given.
     mu0            : the Coulomb coefficient written to the material.
     """
@@ -79,6 +93,8 @@ class AccelFit:
     notes: list
     recordings: list
     signals: dict
+    aic_order: int = 0
+    bic_order: int = 0
 
     def to_material(self, command: str = "surfhap fit accel", description: str = ""):
         """Material with Coulomb mu0 and the interpolated acceleration texture."""
@@ -90,7 +106,9 @@ class AccelFit:
         digest = hashlib.sha256("".join(r[2] for r in self.recordings).encode()).hexdigest()
         note = "sha256 is taken over the per-file SHA-256 hex digests, in the order listed"
         prov_t = Provenance(source="recording", recording=names, sha256=digest, command=command,
-                            note=f"{len(self.segments)} segments, AR({self.order}) by summed {self.criterion.upper()}; {note}")
+                            note=f"{len(self.segments)} segments, AR({self.order}) by summed {self.criterion.upper()} "
+                                 f"(AIC minimum {self.aic_order}, BIC minimum {self.bic_order}); MA part empty: "
+                                 f"see docs/fitting.md; {note}")
         if self.coulomb is not None:
             prov_f = Provenance(source="recording", recording=names, sha256=digest, command=command,
                                 note=f"mu0 = mean shear / mean normal over contact samples; {note}")
@@ -118,10 +136,25 @@ class AccelFit:
 
 
 def _resample(x: np.ndarray, fs: float, target: float) -> np.ndarray:
+    """Polyphase resampling of the acceleration to the model rate. ``padtype="line"``: the
+    default zero padding makes every channel start and end with a transient."""
     if abs(fs - target) < 1e-9 * target:
         return x
     fr = Fraction(target / fs).limit_denominator(1000)
-    return resample_poly(x, fr.numerator, fr.denominator)
+    return resample_poly(x, fr.numerator, fr.denominator, padtype="line")
+
+
+def _resample_slow(x: np.ndarray, fs: float, target: float, n_out: int) -> np.ndarray:
+    """Speed and force to the model rate: zero-phase anti-alias low-pass at 0.45 x the lower
+    rate (line-through edge extension, so a constant or a ramp passes unchanged up to
+    rounding), then linear interpolation onto the model-rate grid (n_out,). A polyphase
+    resampler zero-pads the ends (a constant 50 mm/s read 27 mm/s at t = 0) and has a
+    DC-gain ripple of ~1e-4 across its phases; these channels only label segments, so a
+    slow, exact path is the right one."""
+    if abs(fs - target) < 1e-9 * target:
+        return x
+    y = zero_phase_lowpass(x, fs, 0.45 * min(fs, target)) if x.size > 2 else x
+    return np.interp(np.arange(n_out) / target, np.arange(x.size) / fs, y)
 
 
 def _segment_recording(rec: Recording, model_rate, highpass, max_order, min_segment, step, min_speed, min_force, max_segment):
@@ -130,13 +163,16 @@ def _segment_recording(rec: Recording, model_rate, highpass, max_order, min_segm
     if model_rate > fs * 1.0001:
         raise RecordingFormatError(f"sampled at {fs:g} Hz, below the model rate {model_rate:g} Hz", source=rec.source, field="time")
     acc = _resample(rec.get("acceleration"), fs, model_rate)
-    speed = np.abs(_resample(rec.get("speed"), fs, model_rate))
-    force = _resample(rec.get("normal_force"), fs, model_rate)
+    speed = np.abs(_resample_slow(rec.get("speed"), fs, model_rate, acc.size))
+    force = _resample_slow(rec.get("normal_force"), fs, model_rate, acc.size)
     if highpass and highpass > 0:
         if not highpass < model_rate / 2:
             raise ConfigError(f"must be below {model_rate / 2:g} Hz", source="--highpass")
         sos = butter(4, highpass, btype="high", fs=model_rate, output="sos")
         acc = sosfiltfilt(sos, acc)
+    comp = {}
+    if highpass and highpass > 0:
+        comp = {"fill_below": HIGHPASS_FILL * highpass, "gain": lambda f: highpass_gain(f, model_rate, highpass)}
     seg = segment_ar(acc, max_order=max_order, min_length=int(min_segment * model_rate), step=max(1, int(step * model_rate)),
                      max_length=None if not max_segment else int(max_segment * model_rate))
     pieces = []
@@ -145,9 +181,12 @@ def _segment_recording(rec: Recording, model_rate, highpass, max_order, min_segm
         f = float(np.mean(force[a:b]))
         if v < min_speed or f < min_force:
             continue
-        x = acc[a:b]
-        lev = levinson_durbin(autocovariance(x, max_order), max_order)
-        pieces.append((a, b, v, f, int(p), lev, x.size))
+        # tapered periodogram; the high-pass's gain divided out where it is >= 0.5 and its
+        # notch continued flat below (the all-pole model would otherwise spend its poles on
+        # the notch; docs/fitting.md)
+        avg = average_spectra([[acc[a:b]]], model_rate, max_order, taper=ORDER_TAPER, **comp)
+        lev = levinson_durbin(avg.autocovariance, max_order)
+        pieces.append((a, b, v, f, int(p), lev, avg.n_effective))
     return seg, pieces, {"acceleration": acc, "speed": speed, "force": force}
 
 
@@ -187,13 +226,15 @@ def fit_accel(
         signals[rec.source] = sig
         for a, b, v, f, p, lev, n in pieces:
             aic, bic = information_criteria(lev.variances, n)
-            segments.append(AccelSegment(rec.source, a, b, v, f, p, aic if criterion == "aic" else bic, lev))
+            segments.append(AccelSegment(rec.source, a, b, v, f, p, aic if criterion == "aic" else bic, lev, aic, bic, float(n)))
     if not segments:
         raise RecordingFormatError(f"no stationary segment with speed >= {min_speed * 1000:g} mm/s and force >= {min_force:g} N",
                                    source=recordings[0].source, field="speed")
     total = np.sum([s.criterion for s in segments], axis=0)
     orders = np.arange(total.size)
     order = int(1 + np.argmin(total[1:]))
+    aic_order = int(1 + np.argmin(np.sum([s.aic for s in segments], axis=0)[1:]))
+    bic_order = int(1 + np.argmin(np.sum([s.bic for s in segments], axis=0)[1:]))
     lsfs, variances, speeds, forces = [], [], [], []
     for s in segments:
         phi, var = s.levinson.order(order)
@@ -223,7 +264,13 @@ def fit_accel(
         "acceleration", model_rate, [u[0] for u in uniq], [u[1] for u in uniq], lsfs[[u[2] for u in uniq]],
         [u[3] for u in uniq], max_speed=vmax, max_force=fmax)
     notes = [f"{len(segments)} stationary segments from {len(recordings)} recording(s); AR({order}) by summed "
-             f"{criterion.upper()}; high-pass {highpass:g} Hz; model rate {model_rate:g} Hz"]
+             f"{criterion.upper()} (AIC minimum {aic_order}, BIC minimum {bic_order}; Tukey {ORDER_TAPER:g} taper per segment"
+             + (f", high-pass notch below {2 * highpass:g} Hz continued flat" if highpass and highpass > 0 else "")
+             + f"); high-pass {highpass:g} Hz; model rate {model_rate:g} Hz",
+             "MA part left empty (AR-only models): the available ARMA estimators (statsmodels ARIMA, innovations, "
+             "Hannan-Rissanen) fit the full band in the time domain, and on high-passed segments of a pure AR texture "
+             "BIC then asks for the largest MA order tried and the MA polynomial digs a notch at DC, i.e. the MA part "
+             "models the high-pass, not the texture (docs/fitting.md, 'The MA part')"]
     coulomb = None
     if mu0 is None:
         if not all(r.has("shear_force") for r in recordings):
@@ -246,4 +293,4 @@ def fit_accel(
         mu = float(mu0)
     recs = [(r.source, r.participant, r.sha256) for r in recordings]
     return AccelFit(name, float(model_rate), bank, segments, segmentations, order, orders, total, criterion, coulomb, mu, notes,
-                    recs, signals)
+                    recs, signals, aic_order, bic_order)

@@ -104,6 +104,7 @@ class FrictionFit:
     criterion: str = "aic"
     estimator: str = "yule-walker"
     participants: tuple = field(default_factory=tuple)
+    edge_trim: float = 0.0
 
     def to_material(self, command: str = "surfhap fit friction", description: str = ""):
         """A :class:`~surfhap.models.material.Material` with recording provenance."""
@@ -131,12 +132,16 @@ class FrictionFit:
                 models=[ARModelSpec(coefficients=[float(c) for c in t.model.coefficients], variance=float(t.model.variance),
                                     reference_speed=t.reference_speed,
                                     order_selection=f"{t.selection.criterion.upper()} over orders {int(t.selection.orders[0])}.."
-                                                    f"{int(t.selection.orders[-1])}, {t.estimator}, {len(t.participants)} "
-                                                    f"participant(s), {t.n_samples} samples in {t.n_spans} spans; "
-                                                    f"similarity index {t.similarity_mean:.3f}")
+                                                    f"{int(t.selection.orders[-1])} (AIC minimum {t.selection.aic_order}, "
+                                                    f"BIC minimum {t.selection.bic_order}, n_eff {t.n_effective:.0f}), "
+                                                    f"{t.estimator}, {len(t.participants)} "
+                                                    f"participant(s), {t.n_samples} samples in {t.n_spans} spans"
+                                                    + (f", Tukey {t.taper:g} taper, notch below {t.fill_below:g} Hz continued flat"
+                                                       if t.estimator == "yule-walker" else "")
+                                                    + f"; similarity index {t.similarity_mean:.3f}")
                         for t in self.textures],
                 provenance=prov(f"high band (>= {self.cutoff:g} Hz) of the CoF, spans >= 100 ms within +-20 mm/s of each "
-                                "reference velocity"),
+                                f"reference velocity, {self.edge_trim * 1000:.0f} ms cut from both ends of every contact run"),
             )
         spec = MaterialFile(name=self.name, description=description or f"Fitted from {len(self.recordings)} friction recording(s).",
                             friction=friction, texture=texture, notes=list(self.notes))
@@ -154,10 +159,10 @@ def _prepare(rec, cutoff):
     return prepare_friction_recording(rec, cutoff)
 
 
-def _velocity_job(groups, labels, fs, vref, max_order, criterion, estimator, f_lo):
+def _velocity_job(groups, labels, fs, vref, max_order, criterion, estimator, f_lo, taper, fill_below):
     try:
         return fit_velocity_texture(groups, labels, fs, vref, max_order=max_order, criterion=criterion,
-                                    estimator=estimator, f_lo=f_lo)
+                                    estimator=estimator, f_lo=f_lo, taper=taper, fill_below=fill_below)
     except ValueError as exc:
         return str(exc)
 
@@ -174,7 +179,9 @@ def fit_friction(
     estimator: str = "yule-walker",
     decimate_to: float | None = None,
     jobs: int = 1,
-    edge_trim: float = 0.0,
+    edge_trim: float | None = None,
+    taper: float = 0.5,
+    fill_below: float | None = None,
 ) -> FrictionFit:
     """Fit a material from friction recordings (see the module docstring).
 
@@ -182,7 +189,19 @@ def fit_friction(
     (or position), all at one sample rate. cutoff Hz; reference_speeds, tolerance m/s;
     min_span s. ``decimate_to`` (Hz) is the rate of the low-band law fit (default 4 x
     cutoff, twice the low band's Nyquist rate).
+
+    Texture order (docs/fitting.md, "Why the orders were 50-60"): ``edge_trim`` s are cut
+    from both ends of every contact run before splicing (default one cut-off period, where
+    the band split is an extrapolation); ``taper`` is the Tukey fraction on each span and
+    ``fill_below`` Hz (default 2 x cutoff; 0 = off) where the band split's DC notch is
+    continued flat before the Yule–Walker fit.
     """
+    if edge_trim is None:
+        edge_trim = 1.0 / cutoff
+    if fill_below is None:
+        fill_below = 2.0 * cutoff
+    if edge_trim < 0 or not 0 <= taper <= 1 or fill_below < 0:
+        raise ConfigError("edge_trim and fill_below must be >= 0 and taper within [0, 1]", source="fit_friction")
     if not recordings:
         raise RecordingFormatError("no recordings given")
     rates = {round(r.sample_rate, 6) for r in recordings}
@@ -240,7 +259,7 @@ def fit_friction(
                     for s0, s1 in speed_spans(p.speed[a:b], fs, vref, tolerance, min_span, valid=valid):
                         spans.append(p.cof_high[a + s0 : a + s1])
             groups.append(spans)
-        jobs_v.append((groups, participants, fs, vref, max_order, criterion, estimator, cutoff))
+        jobs_v.append((groups, participants, fs, vref, max_order, criterion, estimator, cutoff, taper, fill_below or None))
     results = _map(_velocity_job, jobs_v, jobs)
     textures = []
     for vref, res in zip(refs, results):
@@ -256,4 +275,4 @@ def fit_friction(
                "source": best.source}
     recs = [(r.source, r.participant, r.sha256) for r in recordings]
     return FrictionFit(name, fs, float(cutoff), refs, coulomb, coul_parts, chosen, pooled, qs_parts, textures, notes, low,
-                       example, recs, criterion, estimator, participants)
+                       example, recs, criterion, estimator, participants, float(edge_trim))

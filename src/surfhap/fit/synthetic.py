@@ -14,13 +14,47 @@ from scipy.signal import lfilter
 from surfhap.exchange.recordings import Recording
 from surfhap.models.friction import QuasiStaticLaw
 
-__all__ = ["ar_process", "synthetic_friction_recordings", "piecewise_ar", "synthetic_accel_recording"]
+__all__ = ["ar_process", "random_ar", "scale_to_std", "synthetic_friction_recordings", "piecewise_ar",
+           "synthetic_accel_recording"]
 
 
 def ar_process(phi: np.ndarray, variance: float, n: int, rng: np.random.Generator, burn: int = 2000) -> np.ndarray:
     """n samples of ``x[n] = sum phi_j x[n-j] + w``, w ~ N(0, variance) (after a burn-in)."""
     w = rng.standard_normal(n + burn) * np.sqrt(variance)
     return lfilter([1.0], np.concatenate(([1.0], -np.asarray(phi, dtype=float))), w)[burn:]
+
+
+def random_ar(order: int, rng: np.random.Generator, sample_rate: float, freq_range: tuple = (20.0, 900.0),
+              radius_range: tuple = (0.85, 0.97)) -> np.ndarray:
+    """Prediction coefficients phi (order,) of a stable AR process whose poles are drawn at
+    random: order // 2 resonances with radii uniform in ``radius_range`` and frequencies
+    stratified over ``freq_range`` Hz (one uniform draw in each of order // 2 equal slices, so
+    the peaks spread over the band as in a broadband texture and the spectrum has no
+    valley deeper than a Yule–Walker estimate can resolve), plus one real pole in
+    [0.5, 0.9] when the order is odd.
+
+    The order is identifiable from data only when the last coefficient (the product of
+    the pole radii) clearly exceeds the sampling noise of a partial autocorrelation,
+    about 2 / sqrt(n); the default radii keep |phi_p| >= ~0.02 up to order 40.
+    """
+    m = order // 2
+    edges = np.linspace(freq_range[0], freq_range[1], m + 1)
+    f = rng.uniform(edges[:-1], edges[1:]) if m else np.zeros(0)
+    r = rng.uniform(*radius_range, m)
+    roots = np.concatenate((r * np.exp(2j * np.pi * f / sample_rate), r * np.exp(-2j * np.pi * f / sample_rate)))
+    if order % 2:
+        roots = np.concatenate((roots, [rng.uniform(0.5, 0.9)]))
+    return -np.real(np.poly(roots))[1:]
+
+
+def scale_to_std(phi: np.ndarray, std: float) -> float:
+    """Innovation variance that gives the AR process ``phi`` the standard deviation ``std``
+    (from the impulse response of 1 / A(z): var = sigma2 sum h_k^2)."""
+    phi = np.asarray(phi, dtype=float)
+    imp = np.zeros(1 << 15)
+    imp[0] = 1.0
+    h = lfilter([1.0], np.concatenate(([1.0], -phi)), imp)
+    return float(std**2 / np.sum(h * h))
 
 
 def synthetic_friction_recordings(

@@ -4,10 +4,12 @@ For each reference velocity the spliced high-band spans of every participant (co
 runs >= 100 ms with the speed within +-20 mm/s of it, Otake et al. 2022) are collected.
 Estimators:
 
-* ``"yule-walker"`` (default, the paper's): the participants' periodograms are averaged
-  (:func:`surfhap.signal.spectra.average_spectra`) and the AR model of every order comes
-  from the autocovariance of the averaged spectrum (Levinson–Durbin); the order is the AIC
-  (or BIC) minimum with n = all spliced samples.
+* ``"yule-walker"`` (default, the paper's): the participants' periodograms (each span
+  Tukey-tapered) are averaged (:func:`surfhap.signal.spectra.average_spectra`), the bins
+  below ``fill_below`` (the band split's DC notch) are continued flat, and the AR model of
+  every order comes from the autocovariance of that averaged spectrum (Levinson–Durbin);
+  the order is the AIC (or BIC) minimum with n = the equivalent number of samples of the
+  tapered spans. Both criteria are kept (``selection.aic_order``, ``selection.bic_order``).
 * ``"burg"``: Burg's method over all spans of all participants jointly
   (:func:`surfhap.signal.burg.select_order_burg`), better on short spans; it weights the
   participants by their amount of data instead of equally.
@@ -43,6 +45,9 @@ class VelocityTexture:
     selection       : OrderSelection (criteria over candidate orders).
     estimator       : "yule-walker" or "burg".
     n_samples, n_spans : spliced samples and spans used; participants : their labels.
+    n_effective     : equivalent samples after the taper (the n of AIC / BIC).
+    taper, fill_below : the Tukey fraction and the notch-continuation frequency (Hz or None)
+                      used by the Yule–Walker estimator.
     freqs           : (m,) Hz; measured_psd (m,) mean Welch PSD over participants;
     participant_psds: (g, m); model_psd (m,).
     similarity      : (g,) similarity index of each participant's spectrum vs the model,
@@ -66,6 +71,9 @@ class VelocityTexture:
     spectrum_error_db: float
     sample_rate: float
     band: tuple
+    n_effective: float = 0.0
+    taper: float = 0.0
+    fill_below: float | None = None
 
     @property
     def similarity_mean(self) -> float:
@@ -93,11 +101,16 @@ def fit_velocity_texture(
     estimator: str = "yule-walker",
     f_lo: float = 0.0,
     nperseg: int = 256,
+    taper: float = 0.0,
+    fill_below: float | None = None,
 ) -> VelocityTexture:
     """Fit one reference velocity from ``groups`` (one list of high-band spans per participant).
 
-    max_order is lowered to a tenth of the spliced samples when data are scarce. Raises
-    ValueError when there is too little data.
+    max_order is lowered to a tenth of the spliced samples when data are scarce. ``taper``
+    (Tukey fraction) and ``fill_below`` (Hz) go to
+    :func:`~surfhap.signal.spectra.average_spectra` (Yule–Walker only); the friction
+    pipeline passes 0.5 and twice the band-split cut-off. Raises ValueError when there is
+    too little data.
     """
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
@@ -117,14 +130,16 @@ def fit_velocity_texture(
     if n_total < 100:
         raise ValueError(f"only {n_total} spliced samples (need >= 100)")
     if estimator == "yule-walker":
-        avg = average_spectra(groups, sample_rate, max_order)
+        avg = average_spectra(groups, sample_rate, max_order, taper=taper, fill_below=fill_below)
         lev = levinson_durbin(avg.autocovariance, max_order)
-        aic, bic = information_criteria(lev.variances, avg.n_samples)
+        n_eff = avg.n_effective
+        aic, bic = information_criteria(lev.variances, n_eff)
         crit = aic[1:] if criterion == "aic" else bic[1:]
         order = int(1 + np.argmin(crit))
         phi, var = lev.order(order)
-        sel = OrderSelection(order, phi, var, np.arange(1, max_order + 1), aic[1:], bic[1:], criterion, avg.n_samples)
+        sel = OrderSelection(order, phi, var, np.arange(1, max_order + 1), aic[1:], bic[1:], criterion, int(round(n_eff)))
     else:
+        n_eff, taper, fill_below = float(n_total), 0.0, None
         sel = select_order_burg([s for g in groups for s in g], max_order=max_order, criterion=criterion)
     model = ARModel(sel.coefficients, sel.variance, reference_speed)
     psds = []
@@ -142,5 +157,5 @@ def fit_velocity_texture(
     return VelocityTexture(
         float(reference_speed), model, sel, estimator, int(n_total), int(n_spans), labels, freqs, mean_psd, psds, model_psd,
         si, similarity_index(freqs, mean_psd, model_psd, f_lo), log_spectral_distance(freqs, mean_psd, model_psd, f_lo),
-        float(sample_rate), (float(f_lo), float(sample_rate) / 2),
+        float(sample_rate), (float(f_lo), float(sample_rate) / 2), float(n_eff), float(taper), fill_below,
     )

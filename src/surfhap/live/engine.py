@@ -19,10 +19,17 @@ Real-time contract of :meth:`LiveEngine.render` (it runs inside PortAudio's call
   The engine's own buffers are allocated in ``__init__``; the texture chain's numpy kernels
   make a few short temporaries per block (bounded size; no per-sample allocation).
 
+The last processor before the backend is the engine's :class:`~surfhap.render.safety.OutputSafety`
+pass (``self.guard``): gain and stop ramp are applied inside it, and it holds ``v_max``,
+the rise limit (remembering the last emitted magnitude across blocks, lifts, gain changes
+and renderer switches) and the watchdog on each sample's emission time. ``fail(reason)``
+halts the engine at 0 V (a backend that raised or stalled).
+
 Touch samples are time-stamped at arrival (``t_arrival`` on :func:`surfhap.live.clock.now`).
 At each block the freshest sample is mapped onto the chain's sample clock as
 ``chain_time - (now - t_arrival)``, so the watchdog of the safety stage (touch older than
-50 ms -> ramp to zero within 5 ms) sees how old the finger data really is.
+50 ms -> ramp to zero within 5 ms) sees how old the finger data really is. A stamp is
+never refreshed: data that waited during a stall stays stale.
 
 Latency (``latency_stats``): for every touch sample applied, the time from its arrival to
 the emission of the first drive sample computed from it (the block's start time plus the
@@ -41,6 +48,7 @@ from surfhap.errors import ConfigError
 from surfhap.live.clock import now as clock_now
 from surfhap.live.prediction import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing
+from surfhap.render.safety import OutputSafety
 
 __all__ = ["EngineConfig", "LiveEngine", "TRACE_FIELDS", "audit_drive"]
 
@@ -137,6 +145,7 @@ class LiveEngine:
         self.trace = np.zeros((cfg.trace_capacity, len(TRACE_FIELDS)))
         self.latencies = np.zeros(cfg.latency_capacity)
         self.block_times = np.zeros(cfg.latency_capacity)  # seconds spent in render()
+        self.guard = OutputSafety(self.drive_rate, renderer.safety.limits, cfg.stop_ramp)
         self._clock = clock_now
         self.reset()
 
@@ -159,16 +168,18 @@ class LiveEngine:
         self._last_source_time = math.nan
         self._load_now = 0.0
         self._gain = 1.0
-        self._ramp_step = 0.0
-        self._ramp_pos = 1.0
+        self.guard.set_limits(self.renderer.safety.limits)
+        self.guard.reset()
         self.stopping = False
         self.stopped = False
+        self.halted = False
+        self.failure: str | None = None
         self.trace_count = 0
         self.latency_count = 0
         self.block_time_count = 0
         self.counters = {
             "blocks": 0, "frames": 0, "touches": 0, "touches_ignored": 0, "underruns": 0,
-            "overruns": 0, "errors": 0, "commands": 0,
+            "overruns": 0, "errors": 0, "commands": 0, "backend_failures": 0,
         }
 
     def warm_up(self, blocks: int = 20) -> None:
@@ -198,7 +209,8 @@ class LiveEngine:
 
     def send(self, *command) -> bool:
         """Queue a command: ``("stop",)``, ``("renderer", new_renderer)`` (same drive rate;
-        build it outside the callback), ``("gain", g)`` with g in [0, 1]."""
+        build it outside the callback), ``("gain", g)`` with g in [0, 1] (anything else is ignored);
+        the gain is applied inside the output safety pass, so a gain step is rise-limited."""
         if command and command[0] == "renderer":
             r = command[1]
             if int(r.drive_rate) != self.drive_rate:
@@ -210,6 +222,15 @@ class LiveEngine:
     def request_stop(self) -> None:
         """Ramp the output to zero over ``stop_ramp`` and then output silence."""
         self.send("stop")
+
+    def fail(self, reason: str) -> None:
+        """Mark the output as failed (a backend raised or stalled; any thread): every later
+        block is 0 V, ``failure`` holds the first reason and ``counters['backend_failures']``
+        counts the reports. The engine stays halted until :meth:`reset`."""
+        if self.failure is None:
+            self.failure = str(reason)[:300]
+        self.halted = True
+        self.counters["backend_failures"] += 1
 
     # ------------------------------------------------------------------ real-time side
     def render(self, frames: int, now: float | None = None) -> np.ndarray:
@@ -236,10 +257,19 @@ class LiveEngine:
             if k < frames:
                 out[k:] = self._fifo[: frames - k]
             self._fifo_r = r + frames
-            self._apply_gain(out)
         except Exception:  # noqa: BLE001 - the callback must never raise
             self.counters["errors"] += 1
             out[:] = 0.0
+        # the last processor before the backend: gain, stop ramp, v_max, rise limit and
+        # watchdog on the emitted samples, remembering the last emitted magnitude
+        try:
+            self.guard.process(out, out, now - self._last_arrival, self._gain, self.halted)
+            if self.stopping and self.guard.ramped_down:
+                self.stopped = True
+        except Exception:  # noqa: BLE001
+            self.counters["errors"] += 1
+            out[:] = 0.0
+            self.guard.silence()
         c = self.counters
         c["blocks"] += 1
         c["frames"] += frames
@@ -259,16 +289,17 @@ class LiveEngine:
             kind = cmd[0]
             if kind == "stop" and not self.stopping:
                 self.stopping = True
-                self._ramp_step = 1.0 / max(1.0, self.config.stop_ramp * self.drive_rate)
+                self.guard.start_ramp()
             elif kind == "renderer":
                 self.renderer = cmd[1]
                 self._n_model = 0  # a new renderer's sample clock starts at 0
                 self.v_max = float(self.renderer.safety.limits.v_max)
                 self.model_rate = int(self.renderer.model_rate)
+                self.guard.set_limits(self.renderer.safety.limits)
             elif kind == "gain":
-                g = float(cmd[1])
-                if 0.0 <= g <= 1.0:
-                    self._gain = g
+                g = cmd[1]
+                if isinstance(g, (int, float)) and 0.0 <= g <= 1.0:  # NaN fails the test
+                    self._gain = float(g)
 
     def _touch(self, now: float) -> None:
         n = self.touches.pop_into(self._touch_buf)
@@ -374,23 +405,6 @@ class LiveEngine:
             row[7] = friction
             self.trace_count += 1
 
-    def _apply_gain(self, out: np.ndarray) -> None:
-        g = self._gain
-        if not self.stopping:
-            if g != 1.0:
-                out *= g
-            return
-        step = self._ramp_step
-        ramp = self._ramp_pos
-        for i in range(out.shape[0]):
-            out[i] *= g * ramp
-            ramp -= step
-            if ramp < 0.0:
-                ramp = 0.0
-        self._ramp_pos = ramp
-        if ramp == 0.0:
-            self.stopped = True
-
     # ------------------------------------------------------------------ monitoring side
     def trace_since(self, index: int, limit: int | None = None) -> tuple[np.ndarray, int]:
         """Rows of the trace written since ``index`` (oldest first) and the new index.
@@ -419,11 +433,19 @@ class LiveEngine:
         c = self.renderer.safety.counters
         return {k: getattr(c, k) for k in ("samples", "clamped", "rise_limited", "faults", "lifted", "watchdog")}
 
+    def output_safety_counters(self) -> dict:
+        c = self.guard.counters
+        return {k: getattr(c, k) for k in ("samples", "clamped", "rise_limited", "faults", "watchdog", "halted")}
+
     def status(self) -> dict:
-        """Counters, latency and timing as plain JSON-able values (monitoring threads)."""
+        """Counters, latency and timing as plain JSON-able values (monitoring threads).
+
+        ``failure`` is None, or why the output failed (backend raised or stalled)."""
         return {
             "counters": dict(self.counters, touches_dropped=self.touches.dropped, commands_dropped=self.commands.dropped),
             "safety": self.safety_counters(),
+            "output_safety": self.output_safety_counters(),
+            "failure": self.failure,
             "latency": self.latency_stats(),
             "block_time": self.block_time_stats(),
             "block_period": self.block_period,
@@ -443,13 +465,36 @@ def _stats(ring: np.ndarray, count: int) -> dict:
             "max": float(vals.max()), "last": last}
 
 
-def audit_drive(drive: np.ndarray, drive_rate: float, limits) -> dict:
-    """Count safety violations in an emitted drive stream (volts): samples beyond ``v_max``
-    and magnitude rises faster than ``rise_rate`` (with a 1e-9 V tolerance)."""
-    d = np.abs(np.asarray(drive, dtype=float))
+def audit_drive(drive: np.ndarray, drive_rate: float, limits, touch_age: np.ndarray | None = None,
+                silent: np.ndarray | None = None, prev: float = 0.0) -> dict:
+    """Count safety violations in an emitted drive stream (volts, shape (n,)), independently
+    of the engine's own bookkeeping:
+
+    * ``over_v_max``: samples with ``|V| > v_max``;
+    * ``rise_too_fast``: magnitude rises beyond ``rise_rate / drive_rate`` per sample (the
+      stream starts from magnitude ``prev``, 0 V by default);
+    * ``non_finite``: NaN or infinite samples;
+    * ``watchdog`` (when ``touch_age`` is given: (n,) s, age of the freshest touch sample at
+      each sample's emission, ``inf`` if none): nonzero samples whose touch data is older
+      than ``watchdog_timeout + watchdog_ramp``;
+    * ``not_silent`` (when ``silent`` is given: (n,) bool, samples that must be 0 V, e.g.
+      after a stop ramp): nonzero samples among them.
+
+    A 1e-9 V tolerance covers rounding. ``violations`` is the sum.
+    """
+    raw = np.asarray(drive, dtype=float)
+    d = np.abs(raw)
     over = int(np.count_nonzero(d > limits.v_max + 1e-9))
     step = limits.rise_rate / drive_rate
-    rise = int(np.count_nonzero(np.diff(np.concatenate(([0.0], d))) > step + 1e-9)) if d.size else 0
-    nonfinite = int(np.count_nonzero(~np.isfinite(np.asarray(drive, dtype=float))))
-    return {"over_v_max": over, "rise_too_fast": rise, "non_finite": nonfinite,
-            "violations": over + rise + nonfinite}
+    rise = int(np.count_nonzero(np.diff(np.concatenate(([abs(prev)], d))) > step + 1e-9)) if d.size else 0
+    nonfinite = int(np.count_nonzero(~np.isfinite(raw)))
+    wd = 0
+    if touch_age is not None:
+        age = np.asarray(touch_age, dtype=float)
+        stale = ~(age <= limits.watchdog_timeout + limits.watchdog_ramp)  # NaN counts as stale
+        wd = int(np.count_nonzero(stale & (d != 0.0)))
+    loud = 0
+    if silent is not None:
+        loud = int(np.count_nonzero(np.asarray(silent, dtype=bool) & (d != 0.0)))
+    return {"over_v_max": over, "rise_too_fast": rise, "non_finite": nonfinite, "watchdog": wd,
+            "not_silent": loud, "violations": over + rise + nonfinite + wd + loud}

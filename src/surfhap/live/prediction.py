@@ -24,7 +24,11 @@ A fixed ``k_pred`` can be given instead to reproduce the paper exactly.
 
 Speed is the distance between consecutive (corrected) positions over their time
 difference, smoothed by a one-pole low-pass of ``cutoff`` Hz (as
-:class:`surfhap.render.kinematics.Kinematics`). All arithmetic is on Python floats:
+:class:`surfhap.render.kinematics.Kinematics`). The velocity vector (``vx``, ``vy``, m/s)
+is the same difference per axis and filter. ``velocity_alpha`` replaces that low-pass by
+the paper's own velocity filter: exponential smoothing per sample with factor 0.45
+(004 Sec. 4.2, last sentence of "Handling latency issues"); ``speed`` is then the norm of
+the smoothed velocity. All arithmetic is on Python floats:
 nothing allocates per sample, so it may run inside the real-time callback.
 """
 
@@ -44,10 +48,13 @@ class TouchPredictor:
     cutoff  : Hz, low-pass of the speed estimate.
     max_gap : s, a gap between samples longer than this restarts the filters.
     max_k   : largest prediction gain used (bounds the noise amplification at fast sensors).
+    velocity_alpha : per-sample exponential smoothing factor of the velocity in (0, 1]
+              (paper: 0.45); None = the ``cutoff`` low-pass.
     """
 
     def __init__(self, latency: float = 0.0, alpha: float = 1.0, k_pred: float | None = None,
-                 cutoff: float = 20.0, max_gap: float = 0.1, max_k: float = 20.0):
+                 cutoff: float = 20.0, max_gap: float = 0.1, max_k: float = 20.0,
+                 velocity_alpha: float | None = None):
         if not (math.isfinite(latency) and 0.0 <= latency <= 0.2):
             raise ValueError("latency must be within 0-0.2 s")
         if not (math.isfinite(alpha) and 0.0 < alpha <= 1.0):
@@ -56,6 +63,9 @@ class TouchPredictor:
             raise ValueError("k_pred must be within 0-100")
         if not (math.isfinite(cutoff) and cutoff > 0):
             raise ValueError("cutoff must be > 0 Hz")
+        if velocity_alpha is not None and not (math.isfinite(velocity_alpha) and 0.0 < velocity_alpha <= 1.0):
+            raise ValueError("velocity_alpha must be in (0, 1]")
+        self.velocity_alpha = None if velocity_alpha is None else float(velocity_alpha)
         self.latency = float(latency)
         self.alpha = float(alpha)
         self.k_pred = None if k_pred is None else float(k_pred)
@@ -73,6 +83,8 @@ class TouchPredictor:
         self.x = 0.0  # corrected position (eq. 7 output)
         self.y = 0.0
         self.speed = 0.0
+        self.vx = 0.0  # smoothed velocity, m/s
+        self.vy = 0.0
 
     def gain(self, dt: float) -> float:
         """k_pred of eq. 6 for a sample interval ``dt``."""
@@ -93,7 +105,7 @@ class TouchPredictor:
                 return
             self.started = True
             self.t, self.mx, self.my, self.x, self.y = t, x, y, x, y
-            self.speed = 0.0
+            self.speed = self.vx = self.vy = 0.0
             return
         dt = t - self.t
         k = self.gain(dt)
@@ -104,6 +116,15 @@ class TouchPredictor:
         a = self.alpha
         nx = a * px + (1.0 - a) * self.x
         ny = a * py + (1.0 - a) * self.y
-        raw = math.hypot(nx - self.x, ny - self.y) / dt
-        self.speed += dt / (self._tau + dt) * (raw - self.speed)
+        rvx = (nx - self.x) / dt
+        rvy = (ny - self.y) / dt
+        if self.velocity_alpha is None:
+            g = dt / (self._tau + dt)
+            self.speed += g * (math.hypot(rvx, rvy) - self.speed)
+        else:
+            g = self.velocity_alpha
+        self.vx += g * (rvx - self.vx)
+        self.vy += g * (rvy - self.vy)
+        if self.velocity_alpha is not None:
+            self.speed = math.hypot(self.vx, self.vy)
         self.t, self.mx, self.my, self.x, self.y = t, x, y, nx, ny

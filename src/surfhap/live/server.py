@@ -3,18 +3,22 @@ WebSocket into the live engine, and the live trace back.
 
 Security (see docs/live.md):
 
-* binds 127.0.0.1 unless told otherwise; the ``Host`` header must name an allowed host
-  (defeats DNS rebinding) - when bound to a wildcard address every host is allowed;
+* binds 127.0.0.1 unless told otherwise; the ``Host`` header must name a loopback name,
+  the bound address or one of ``allowed_hosts`` (``*.example.org`` patterns allowed), which
+  defeats DNS rebinding - also when bound to a wildcard address;
 * a WebSocket is refused (close code 1008, one log line) unless its ``Origin`` is the page's
   own origin (``http://`` + ``Host``) or listed in ``allowed_origins``; a client that sends no
   ``Origin`` (not a browser) is allowed only with ``allow_missing_origin``;
 * every message is size-checked (``max_message_bytes``, also enforced by uvicorn),
   rate-limited per client (token bucket), parsed as JSON (never evaluated) and
-  range-checked; rejected messages are logged (rate-limited) and counted, and a client
-  that keeps misbehaving is disconnected;
+  range-checked (a number too large for a float, 10**400, is bad input like NaN);
+  rejected messages are logged (rate-limited) and counted, and a client that keeps
+  misbehaving is disconnected;
 * each client has its own receive loop and its own sender with a send timeout; the engine
   is fed through the non-blocking touch ring, so no client can stall the engine or another
-  client; ``max_clients`` bounds the connections.
+  client; ``max_clients`` bounds the WebSocket clients;
+* the HTTP server closes connections that do not send their request headers in time and
+  caps open connections (:mod:`surfhap.live.httpguard`).
 
 Page -> server messages (JSON text, one per pointer event)::
 
@@ -31,7 +35,6 @@ round trip) and, every few frames, the engine's counters and latency.
 import asyncio
 import json
 import logging
-import math
 import threading
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
@@ -39,7 +42,7 @@ from importlib import resources
 
 import numpy as np
 
-from surfhap.live.sources import RateLimiter, RejectLog, TouchSpace
+from surfhap.live.sources import RateLimiter, RejectLog, TouchSpace, finite_in_range
 
 __all__ = ["ServerConfig", "LiveSession", "create_app", "ServerThread", "material_preview", "build_session", "FrameBuilder"]
 
@@ -49,6 +52,7 @@ CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres (CSS reference pixel: 1/96 i
 STATIC_FILES = {"app.js": "text/javascript; charset=utf-8", "style.css": "text/css; charset=utf-8",
                 "index.html": "text/html; charset=utf-8"}
 WILDCARD_HOSTS = ("0.0.0.0", "::", "")
+LOOPBACK_NAMES = ("127.0.0.1", "localhost", "::1")
 
 
 @dataclass(frozen=True)
@@ -68,6 +72,17 @@ class ServerConfig:
     trace_hz: float = 30.0
     send_timeout: float = 1.0
     trace_points: int = 64
+    # HTTP connection limits (surfhap.live.httpguard). The page loads with a handful of
+    # requests and one WebSocket per client; 256 connections is four per WebSocket client
+    # slot (max_clients); fewer when the process may not open that many files.
+    max_connections: int = 256
+    # a request's headers must be complete this long after the connection starts waiting
+    # (nginx's client_header_timeout is 60 s for the open internet; a page on a lab network
+    # sends its headers in one packet, 10 s leaves room for a congested Wi-Fi)
+    header_timeout: float = 10.0
+    keep_alive_timeout: float = 5.0  # idle keep-alive connections (uvicorn's default)
+    max_header_bytes: int = 8192  # request line + headers (nginx's large header buffer size)
+    backlog: int = 64  # pending connections; asyncio also accepts at most this many per wake-up
 
 
 @dataclass
@@ -133,13 +148,15 @@ class LiveSession:
         self.started = True
 
     def stop(self) -> None:
-        for s in self.sources:
-            s.stop()
+        # the backend first: its stop ramp runs on the live signal (a source's final lift
+        # would cut it short), then the sources
         if self.started:
             import sys
 
             self.backend.stop()
             sys.setswitchinterval(self._switch)
+        for s in self.sources:
+            s.stop()
         self.started = False
 
 
@@ -188,6 +205,7 @@ class _Hub:
         self.engine_status = "{}"
         self.status_json = "{}"
         self.status_no = 0
+        self.guard = None  # the HTTP connection guard, when served by uvicorn_config
         self._event: asyncio.Event | None = None
 
     def publish(self, frame: str, engine_status: str | None = None) -> None:
@@ -198,7 +216,10 @@ class _Hub:
         if engine_status is not None:
             self.engine_status = engine_status
         if engine_status is not None or self.frame_no % 10 == 1:
-            server = json.dumps({"clients": len(self.clients), "rejected": self.rejects.count, "refused": self.refused})
+            srv = {"clients": len(self.clients), "rejected": self.rejects.count, "refused": self.refused}
+            if self.guard is not None:
+                srv["connections"] = self.guard.counters()
+            server = json.dumps(srv)
             es = self.engine_status
             self.status_json = (es[:-1] + ("," if len(es) > 2 else "") + '"server":' + server + "}") if es.endswith("}") else es
             self.status_no += 1
@@ -232,11 +253,29 @@ def _json_default(o):
     return str(o)
 
 
-def _num(v, lo: float, hi: float) -> float | None:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        return None
-    v = float(v)
-    return v if math.isfinite(v) and lo <= v <= hi else None
+_num = finite_in_range
+
+
+def host_allow_list(bind_host: str, allowed_hosts=()) -> tuple[str, ...]:
+    """The names a ``Host`` header may carry: the loopback names, the bound address
+    (unless it is a wildcard) and ``allowed_hosts`` (exact names or ``*.domain`` patterns).
+    A wildcard bind does not widen the list: that is what keeps DNS rebinding out."""
+    names = [*LOOPBACK_NAMES, *(h.strip().lower().rstrip(".") for h in allowed_hosts)]
+    if bind_host not in WILDCARD_HOSTS:
+        names.append(bind_host.lower())
+    return tuple(dict.fromkeys(n for n in names if n))
+
+
+def host_allowed(host: str, allowed: tuple[str, ...]) -> bool:
+    """True when ``host`` (lower case, port removed) matches the allow-list."""
+    host = host.rstrip(".")
+    for name in allowed:
+        if name.startswith("*."):
+            if host.endswith(name[1:]) and len(host) > len(name) - 1:
+                return True
+        elif host == name:
+            return True
+    return False
 
 
 def _host_only(host_header: str) -> str:
@@ -260,15 +299,11 @@ def create_app(session, cfg: ServerConfig | None = None, *, frames: str = "local
     cfg = cfg or ServerConfig()
     hub = _Hub(cfg)
     surface_positions = getattr(session, "positions", "physical") == "surface"
-    loopback = {"127.0.0.1", "localhost", "::1"}
-    allowed_hosts = {h.lower() for h in cfg.allowed_hosts} | ({cfg.host.lower()} | (loopback if cfg.host in loopback else set()))
-    any_host = cfg.host in WILDCARD_HOSTS
+    allowed_hosts = host_allow_list(cfg.host, cfg.allowed_hosts)
     allowed_origins = {o.rstrip("/").lower() for o in cfg.allowed_origins}
 
     def host_ok(host_header: str | None) -> bool:
-        if any_host:
-            return True
-        return bool(host_header) and _host_only(host_header) in allowed_hosts
+        return bool(host_header) and host_allowed(_host_only(host_header), allowed_hosts)
 
     def origin_ok(origin: str | None, host_header: str | None) -> bool:
         if origin is None:
@@ -356,7 +391,14 @@ def create_app(session, cfg: ServerConfig | None = None, *, frames: str = "local
         return Response(hub.status_json, media_type="application/json")
 
     def handle(client: _Client, text) -> None:
-        """Validate one message and feed the engine; raises nothing."""
+        """Validate one message and feed the engine; raises nothing: a message that makes
+        the validation itself fail is one more rejected message."""
+        try:
+            validate(client, text)
+        except Exception as exc:  # noqa: BLE001 - a hostile message must not end the connection
+            reject(client, f"malformed message ({type(exc).__name__})")
+
+    def validate(client: _Client, text) -> None:
         if not isinstance(text, str):
             return reject(client, "binary frames are not accepted")
         if len(text) > cfg.max_message_bytes:
@@ -489,7 +531,11 @@ def create_app(session, cfg: ServerConfig | None = None, *, frames: str = "local
 class ServerThread:
     """Run uvicorn for ``app`` in a background thread (tests, benchmarks, notebooks)."""
 
-    def __init__(self, app, host: str = "127.0.0.1", port: int = 0, max_message_bytes: int = 1024):
+    def __init__(self, app, host: str = "127.0.0.1", port: int = 0, max_message_bytes: int = 1024,
+                 config: ServerConfig | None = None):
+        """``config``: the limits to serve with (connection cap, timeouts, message size);
+        by default a :class:`ServerConfig` with ``max_message_bytes``. ``host``/``port``
+        are where to bind."""
         import socket
 
         import uvicorn
@@ -498,9 +544,12 @@ class ServerThread:
         self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         self._sock.bind((host, port))
         self.host, self.port = host, self._sock.getsockname()[1]
-        config = uvicorn.Config(app, log_level="warning", ws_max_size=max_message_bytes, lifespan="on",
-                                ws_ping_interval=None)
-        self.server = uvicorn.Server(config)
+        self.app = app
+        from surfhap.live.httpguard import uvicorn_config
+
+        cfg = config or ServerConfig(host=host, port=port, max_message_bytes=max_message_bytes)
+        uconfig, self.guard = uvicorn_config(app, cfg)
+        self.server = uvicorn.Server(uconfig)
         self._thread = threading.Thread(target=self.server.run, kwargs={"sockets": [self._sock]},
                                         name="surfhap-http", daemon=True)
 
@@ -528,7 +577,7 @@ class ServerThread:
 def build_session(material: str = "cork", output: str = "sim", *, drive_rate: int | None = None,
                   engine_config=None, amp_gain: float = 250.0, space: TouchSpace | None = None,
                   osc_in: tuple[str, int] | None = None, replay=None, replay_loop: bool = False,
-                  seed: int = 0, backend_options: dict | None = None, mesh=None) -> LiveSession:
+                  seed: int = 0, backend_options: dict | None = None, mesh=None, display=None) -> LiveSession:
     """Everything ``surfhap serve`` runs: material (or ``mesh`` file) -> renderer -> engine
     -> backend, plus optional OSC touch input ``(host, port)`` and a replayed trajectory."""
     from surfhap.exchange.materials import load_material
@@ -550,7 +599,7 @@ def build_session(material: str = "cork", output: str = "sim", *, drive_rate: in
         display_model = chain.config.display
     else:
         mat = load_material(material)
-        chain = TextureChain(mat, ChainConfig(drive_rate=rate, seed=seed))
+        chain = TextureChain(mat, ChainConfig(drive_rate=rate, seed=seed, **({} if display is None else {"display": display})))
         title, preview, display_model = f"{mat.name} ({chain.method})", material_preview(mat), chain.config.display
     display = SimulatedDisplay(display_model, chain.drive_rate, chain.model_rate) if cfg.simulate_display else None
     engine = LiveEngine(chain, cfg, display=display)

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import logging
 import math
+import socket
 import socketserver
 import threading
 from dataclasses import dataclass
@@ -31,7 +32,8 @@ from dataclasses import dataclass
 from surfhap.errors import ConfigError
 from surfhap.live.clock import now, sleep_until
 
-__all__ = ["TouchSpace", "RateLimiter", "RejectLog", "OscTouchSource", "ReplaySource", "OSC_ADDRESSES"]
+__all__ = ["TouchSpace", "RateLimiter", "RejectLog", "OscTouchSource", "ReplaySource", "OSC_ADDRESSES",
+           "finite_in_range"]
 
 log = logging.getLogger("surfhap.live")
 
@@ -64,16 +66,17 @@ class TouchSpace:
 class RateLimiter:
     """Token bucket: ``rate`` messages/s sustained, ``burst`` at once."""
 
-    def __init__(self, rate: float, burst: float):
+    def __init__(self, rate: float, burst: float, t: float | None = None):
+        """``t``: the current time on the caller's clock (default :func:`now`)."""
         self.rate = float(rate)
         self.burst = float(burst)
         self.tokens = float(burst)
-        self.t = now()
+        self.t = now() if t is None else t
 
     def allow(self, t: float | None = None) -> bool:
         t = now() if t is None else t
-        self.tokens = min(self.burst, self.tokens + (t - self.t) * self.rate)
-        self.t = t
+        self.tokens = min(self.burst, self.tokens + max(0.0, t - self.t) * self.rate)
+        self.t = max(self.t, t)
         if self.tokens >= 1.0:
             self.tokens -= 1.0
             return True
@@ -94,13 +97,31 @@ class RejectLog:
             self.logger.warning("rejected message from %s: %s (%d rejected so far)", peer, reason, c)
 
 
-def _finite(v, lo: float, hi: float) -> float | None:
+def finite_in_range(v, lo: float, hi: float) -> float | None:
+    """``v`` as a float when it is a real number (int or float, not bool) within
+    [lo, hi]; None for anything else: other types, NaN, infinities, and integers too
+    large for a float (``10**400``: ``float()`` would raise OverflowError)."""
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         return None
-    v = float(v)
+    try:
+        v = float(v)
+    except OverflowError:
+        return None
     if not (math.isfinite(v) and lo <= v <= hi):
         return None
     return v
+
+
+_finite = finite_in_range
+
+
+class _Sender:
+    """One entry of the OSC sender table."""
+
+    __slots__ = ("source", "limiter", "last_seen", "proven")
+
+    def __init__(self, source: int, limiter: RateLimiter, t: float):
+        self.source, self.limiter, self.last_seen, self.proven = source, limiter, t, False
 
 
 class OscTouchSource:
@@ -108,21 +129,51 @@ class OscTouchSource:
 
     Each sender (IP, port) is its own touch source id. ``port=0`` picks a free port
     (see ``.port`` after ``start``).
+
+    The sender table holds at most ``max_senders`` entries, each with its own token
+    bucket (``rate`` messages/s, ``burst``). It cannot be locked by junk:
+
+    * a datagram from an unknown sender needs a token of the *admission* bucket
+      (``admit_rate`` new senders/s, ``admit_burst`` at once), so a flood from ever-new
+      source ports costs at most that many table changes per second;
+    * an entry that has not yet sent one valid message ("unproven") is the first to go
+      when the table is full (the one seen longest ago); a sender that has sent a valid
+      message keeps its entry while it is active;
+    * any entry idle for ``sender_idle`` s expires (a sender that comes back later is
+      admitted again, under a new source id).
+
+    So after any burst of junk a new sender is admitted within ``1 / admit_rate`` s; only
+    while a flood of new addresses lasts are new senders delayed (established ones are
+    not). ``clock`` (s, monotonic) is injectable for tests.
     """
 
     def __init__(self, engine, host: str = "127.0.0.1", port: int = 9000, space: TouchSpace | None = None,
-                 rate: float = 2000.0, burst: float = 200.0, max_senders: int = 64, source_base: int = 2000):
+                 rate: float = 2000.0, burst: float = 200.0, max_senders: int = 64, source_base: int = 1 << 32,
+                 admit_rate: float = 20.0, admit_burst: float = 16.0, sender_idle: float = 10.0, clock=now):
+        """``source_base``: first source id of OSC senders, far above the page's client
+        ids (which count up from 1000), so the two never collide.
+
+        ``admit_rate``/``admit_burst``: a lab has a few OSC senders that start at about the
+        same time; 16 at once and 20 more per second is far above that and still bounds a
+        flood. ``sender_idle``: an OSC sender streams at >= 25 Hz while touching, so 10 s of
+        silence means it has stopped (the watchdog silenced it after 50 ms)."""
         from pythonosc.osc_message import OscMessage  # noqa: F401  (fail early if missing)
 
         self.engine = engine
         self.host, self.port = host, int(port)
         self.space = space or TouchSpace()
         self.rate, self.burst = rate, burst
-        self.max_senders = max_senders
-        self.source_base = source_base
+        self.max_senders = int(max_senders)
+        self.source_base = int(source_base)
+        self.sender_idle = float(sender_idle)
+        self.clock = clock
+        self.admission = RateLimiter(admit_rate, admit_burst, t=clock())
         self.rejects = RejectLog()
         self.accepted = 0
-        self._senders: dict[tuple, tuple[int, RateLimiter]] = {}
+        self.expired = 0
+        self.evicted = 0
+        self._next_source = 0
+        self._senders: dict[tuple, _Sender] = {}
         self._server = None
         self._thread = None
 
@@ -131,9 +182,18 @@ class OscTouchSource:
 
         class Handler(socketserver.BaseRequestHandler):
             def handle(self):
-                source._datagram(self.request[0], self.client_address)
+                try:
+                    source._datagram(self.request[0], self.client_address)
+                except Exception as exc:  # noqa: BLE001 - a datagram must never end the listener
+                    source.rejects.reject(f"osc {self.client_address}", f"bad datagram ({type(exc).__name__})")
 
-        self._server = socketserver.UDPServer((self.host, self.port), Handler)
+        server_cls = socketserver.UDPServer
+        if ":" in self.host:  # an IPv6 address such as ::1 or ::
+
+            class server_cls(socketserver.UDPServer):  # noqa: N801
+                address_family = socket.AF_INET6
+
+        self._server = server_cls((self.host, self.port), Handler)
         self.port = self._server.server_address[1]
         self._thread = threading.Thread(target=self._server.serve_forever, kwargs={"poll_interval": 0.1},
                                         name="surfhap-osc-in", daemon=True)
@@ -153,15 +213,14 @@ class OscTouchSource:
         if len(data) > MAX_DATAGRAM:
             self.rejects.reject(peer, f"datagram of {len(data)} bytes (limit {MAX_DATAGRAM})")
             return
+        t = self.clock()
         entry = self._senders.get(addr)
         if entry is None:
-            if len(self._senders) >= self.max_senders:
-                self.rejects.reject(peer, "too many OSC senders")
+            entry = self._admit(addr, peer, t)
+            if entry is None:
                 return
-            entry = (self.source_base + len(self._senders), RateLimiter(self.rate, self.burst))
-            self._senders[addr] = entry
-        src, limiter = entry
-        if not limiter.allow():
+        entry.last_seen = t
+        if not entry.limiter.allow(t):
             self.rejects.reject(peer, "rate limit exceeded")
             return
         if data.startswith(b"#bundle"):
@@ -173,29 +232,58 @@ class OscTouchSource:
         except (ParseError, Exception) as exc:  # noqa: BLE001 - any parse failure is a bad message
             self.rejects.reject(peer, f"malformed OSC ({type(exc).__name__})")
             return
-        self._message(src, peer, address, args)
+        if self._message(entry.source, peer, address, args):
+            entry.proven = True
 
-    def _message(self, src: int, peer: str, address: str, args: list) -> None:
+    def _admit(self, addr: tuple, peer: str, t: float) -> _Sender | None:
+        """A table entry for a new sender, or None (rejected and counted)."""
+        if not self.admission.allow(t):
+            self.rejects.reject(peer, "too many new OSC senders at once")
+            return None
+        table = self._senders
+        if len(table) >= self.max_senders:
+            for a in [a for a, e in table.items() if t - e.last_seen > self.sender_idle]:
+                del table[a]
+                self.expired += 1
+        if len(table) >= self.max_senders:
+            unproven = [(e.last_seen, a) for a, e in table.items() if not e.proven]
+            if not unproven:
+                self.rejects.reject(peer, f"{len(table)} OSC senders active")
+                return None
+            del table[min(unproven)[1]]
+            self.evicted += 1
+        entry = _Sender(self.source_base + self._next_source, RateLimiter(self.rate, self.burst, t=t), t)
+        self._next_source += 1
+        table[addr] = entry
+        return entry
+
+    @property
+    def senders(self) -> int:
+        """Entries in the sender table."""
+        return len(self._senders)
+
+    def _message(self, src: int, peer: str, address: str, args: list) -> bool:
+        """Check one parsed message and feed the engine; True when it was accepted."""
         sp = self.space
         t_arr = now()
         if address == "/surfhap/lift":
             if args:
                 self.rejects.reject(peer, "/surfhap/lift takes no arguments")
-                return
+                return False
             self.engine.push_touch(src, 0.0, 0.0, 0.0, t_arrival=t_arr)
             self.accepted += 1
-            return
+            return True
         if address == "/surfhap/touch":
             if len(args) not in (2, 3):
                 self.rejects.reject(peer, f"{address} needs x y [load], got {len(args)} arguments")
-                return
+                return False
             x = _finite(args[0], -0.01, sp.width + 0.01)
             y = _finite(args[1], -0.01, sp.height + 0.01)
             load = sp.default_load if len(args) == 2 else _finite(args[2], 0.0, 20.0)
         elif address == "/surfhap/touch/norm":
             if len(args) not in (2, 3):
                 self.rejects.reject(peer, f"{address} needs u v [pressure], got {len(args)} arguments")
-                return
+                return False
             u = _finite(args[0], 0.0, 1.0)
             v = _finite(args[1], 0.0, 1.0)
             p = 0.5 if len(args) == 2 else _finite(args[2], 0.0, 1.0)
@@ -204,12 +292,13 @@ class OscTouchSource:
             load = None if p is None else p * sp.max_load
         else:
             self.rejects.reject(peer, f"unknown address {address[:64]!r} (known: {', '.join(OSC_ADDRESSES)})")
-            return
+            return False
         if x is None or y is None or load is None:
             self.rejects.reject(peer, f"{address}: argument not a number or out of range: {args!r}"[:200])
-            return
+            return False
         self.engine.push_touch(src, x, y, load, t_arrival=t_arr)
         self.accepted += 1
+        return True
 
 
 class ReplaySource:

@@ -13,7 +13,8 @@ callback:
   ``trace_hz`` as datagrams (``S`` + status JSON, ``F`` + frame JSON fragment).
 
 The web process does everything else (HTTP, WebSocket, origin/host checks, validation,
-rate limits) exactly as the in-process server; ``time.perf_counter`` is CLOCK_MONOTONIC
+rate limits, the connection guard of :mod:`surfhap.live.httpguard`, rate-limited logging)
+exactly as the in-process server; ``time.perf_counter`` is CLOCK_MONOTONIC
 on Linux, the same clock in both processes, so arrival stamps stay comparable.
 """
 
@@ -75,8 +76,10 @@ class TouchBridge:
                 self.dropped += 1
                 continue
             t = now()
-            if not (t - 1.0 <= t_arr <= t):  # arrival stamps from the future or stale: use now
+            if not t_arr <= t:  # a stamp from the future (or NaN) is not trusted: use now
                 t_arr = t
+            # a stale stamp stays stale (datagrams queued while this process was stopped):
+            # the engine's watchdog then keeps the output at zero until fresh data arrives
             push(src, x, y, load, t_event=t_ev, t_arrival=t_arr)
             self.received += 1
 
@@ -173,7 +176,11 @@ def _web_main(cfg, info: dict, bridge_port: int, token: bytes, conn, log_level: 
     logging.basicConfig(level=log_level, format="%(asctime)s %(levelname)s %(name)s[web]: %(message)s")
     import uvicorn
 
+    from surfhap.live.httpguard import uvicorn_config
+    from surfhap.live.logfilter import install_rate_limit
     from surfhap.live.server import create_app
+
+    install_rate_limit()  # one line per kind per second, whatever a client provokes
 
     try:
         trace_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -198,8 +205,7 @@ def _web_main(cfg, info: dict, bridge_port: int, token: bytes, conn, log_level: 
     threading.Thread(target=watch_parent, name="surfhap-parent-watch", daemon=True).start()
     session = _RemoteSession(info, _RemoteEngine(bridge_port, token, info))
     app = create_app(session, cfg, frames="remote", trace_sock=trace_sock)
-    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", ws_max_size=cfg.max_message_bytes,
-                                           lifespan="on", ws_ping_interval=None))
+    server = uvicorn.Server(uvicorn_config(app, cfg)[0])
     conn.send(("ok", trace_sock.getsockname()[1], http_sock.getsockname()[1]))
     server.run(sockets=[http_sock])
 

@@ -5,6 +5,14 @@ Steps (the acceleration route of Zhao et al. / HaTT, with the band split of Otak
 zero-phase Butterworth), then fit an AR model by Yule–Walker with the order chosen by AIC
 (or fixed, e.g. to the order Otake et al. 2021 report in Table II). The result is a
 single-model acceleration :class:`~surfhap.models.texture.TextureBank` at the recording rate.
+
+The order is chosen as in the friction route (docs/fitting.md): one cut-off period is cut
+from both ends (the band split's edge transients), the rest is Tukey-tapered and the
+band split's DC notch below twice the cut-off is continued flat before Levinson–Durbin,
+and AIC/BIC use the equivalent sample count. Without this, AIC chased the notch (it is
+14 % of the band at 100 Hz) and chose 29-60 on the HapMat recordings. The coefficients at
+the chosen (or fixed) order are the plain Yule–Walker ones on the whole high band, as
+before, so fixed-order fits are unchanged.
 """
 
 from __future__ import annotations
@@ -14,8 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from surfhap.models.texture import ARModel, TextureBank
-from surfhap.signal.ar import OrderSelection, autocovariance, levinson_durbin, select_order
+from surfhap.signal.ar import OrderSelection, autocovariance, information_criteria, levinson_durbin
 from surfhap.signal.filters import band_split, dft321
+from surfhap.signal.spectra import average_spectra
 
 __all__ = ["ImuTextureFit", "fit_imu_texture"]
 
@@ -56,13 +65,20 @@ def fit_imu_texture(accel: np.ndarray, sample_rate: float, *, cutoff: float = 3.
     combined = dft321(accel)
     _, high = band_split(combined, sample_rate, cutoff)
     top = max(max_order, order or 0)
-    selection = select_order(high, max_order=top, criterion=criterion)
-    if order is None:
-        phi, var = selection.coefficients, selection.variance
-        used = selection.order
-    else:
-        if order < 1:
-            raise ValueError("order must be >= 1")
-        phi, var = levinson_durbin(autocovariance(high, order), order).order(order)
-        used = int(order)
+    criterion = criterion.lower()
+    if criterion not in ("aic", "bic"):
+        raise ValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
+    if order is not None and order < 1:
+        raise ValueError("order must be >= 1")
+    if high.size <= top + 1:
+        raise ValueError(f"need more than {top + 1} samples for max_order={top}")
+    trim = int(round(sample_rate / cutoff))
+    core = high[trim:high.size - trim] if high.size > 2 * trim + 4 * (top + 1) else high
+    avg = average_spectra([[core]], sample_rate, top, taper=0.5, fill_below=2.0 * cutoff)
+    aic, bic = information_criteria(levinson_durbin(avg.autocovariance, top).variances, avg.n_effective)
+    chosen = int(1 + np.argmin((aic if criterion == "aic" else bic)[1:]))
+    used = chosen if order is None else int(order)
+    phi, var = levinson_durbin(autocovariance(high, used), used).order(used)
+    selection = OrderSelection(chosen, *levinson_durbin(autocovariance(high, chosen), chosen).order(chosen),
+                               np.arange(1, top + 1), aic[1:], bic[1:], criterion, int(round(avg.n_effective)))
     return ImuTextureFit(high, selection, used, phi, float(var), float(sample_rate), float(cutoff))

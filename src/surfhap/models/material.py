@@ -29,6 +29,7 @@ __all__ = [
     "QuasiStaticSpec",
     "FrictionSpec",
     "ARModelSpec",
+    "TextureCalibrationSpec",
     "TextureSpec",
     "InterpolatedModelSpec",
     "InterpolatedTextureSpec",
@@ -113,11 +114,42 @@ class ARModelSpec(_Strict):
         return v
 
 
+class TextureCalibrationSpec(_Strict):
+    """Strength of a texture recorded in another modality than a textural CoF (e.g. stick
+    acceleration), calibrated to a published friction:texture voltage ratio.
+
+    The drive laws of Otake et al. then use ``mu_t = relative_scale * mu_low(fn, v) * x`` where
+    ``x`` is the texture in its own unit: the textural CoF is a fraction of the quasi-static
+    one, so the voltage ratio holds at every load and speed (see docs/texture.md).
+
+    target_voltage_ratio : texture:friction voltage ratio r (0.3 for 10:3), see
+                           :mod:`surfhap.models.texture_calibration` for the definition.
+    beta                 : the textural gain of the drive law the calibration assumed.
+    reference_std        : standard deviation of the texture above the band split (its own unit).
+    relative_scale       : r^2 / (beta * reference_std), per unit of the texture quantity.
+    """
+
+    mode: Literal["relative-to-friction"] = "relative-to-friction"
+    target_voltage_ratio: float = Field(gt=0, le=2)
+    beta: float = Field(gt=0, le=100)
+    reference_std: float = Field(gt=0)
+    relative_scale: float = Field(gt=0)
+    provenance: Provenance
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        expected = self.target_voltage_ratio ** 2 / (self.beta * self.reference_std)
+        if not math.isclose(self.relative_scale, expected, rel_tol=1e-9):
+            raise ValueError(f"relative_scale must equal target_voltage_ratio^2 / (beta reference_std) = {expected:.6g}")
+        return self
+
+
 class TextureSpec(_Strict):
     quantity: Literal["cof", "acceleration"]
     sample_rate: float = Field(gt=0, le=100_000, description="model rate, Hz")
     models: list[ARModelSpec] = Field(min_length=1)
     provenance: Provenance
+    calibration: TextureCalibrationSpec | None = None
 
 
 class InterpolatedModelSpec(_Strict):
@@ -200,6 +232,9 @@ class Material:
     quasi_static : QuasiStaticLaw or None (needed by otake2022).
     texture      : TextureBank, InterpolatedARMABank, or None (friction-only when None).
     spec         : the validated file contents, provenance included.
+    texture_relative_scale : per texture unit, or None: when set, the Otake drive laws use
+                   ``mu_t = texture_relative_scale * mu_low * x`` (a calibrated texture from
+                   another modality, :class:`TextureCalibrationSpec`).
     """
 
     name: str
@@ -207,6 +242,7 @@ class Material:
     quasi_static: QuasiStaticLaw | None
     texture: "TextureBank | InterpolatedARMABank | None"
     spec: MaterialFile
+    texture_relative_scale: float | None = None
 
     @classmethod
     def from_spec(cls, spec: MaterialFile) -> "Material":
@@ -231,7 +267,10 @@ class Material:
                 t.sample_rate,
                 tuple(ARModel(m.coefficients, m.variance, m.reference_speed) for m in t.models),
             )
-        return cls(spec.name, coulomb, quasi, texture, spec)
+        scale = None
+        if isinstance(spec.texture, TextureSpec) and spec.texture.calibration is not None:
+            scale = spec.texture.calibration.relative_scale
+        return cls(spec.name, coulomb, quasi, texture, spec, scale)
 
     @property
     def low_frequency_law(self) -> CoulombLaw | QuasiStaticLaw:

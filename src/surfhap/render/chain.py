@@ -25,12 +25,30 @@ from surfhap.errors import ConfigError
 from surfhap.models.material import Material
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
+from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
 from surfhap.render.resample import RationalResampler
 from surfhap.render.safety import SafetyLimits, SafetyStage
 from surfhap.render.texture_source import TextureSource
 from surfhap.sim.display import DisplayModel
 
-__all__ = ["ChainConfig", "ChainBlock", "TextureChain"]
+__all__ = ["ChainConfig", "ChainBlock", "TextureChain", "PAPER_CARRIERS", "resolve_carrier"]
+
+# polarity carrier of each method's paper: 001 Sec. II (20 kHz), 003 Sec. IV-D (2 kHz)
+PAPER_CARRIERS = {"otake2021": 20000.0, "otake2022": 2000.0}
+DEFAULT_CARRIER = 2000.0
+
+
+def resolve_carrier(carrier: float | None, method: str, drive_rate: int) -> tuple[float, str]:
+    """The carrier (Hz) to use and why: the given one, else the paper's for the method, capped at
+    half the drive rate (a 20 kHz carrier needs a 40 kHz DAC; the cap is reported)."""
+    if carrier is not None:
+        return float(carrier), "given"
+    want = PAPER_CARRIERS.get(method, DEFAULT_CARRIER)
+    if want <= drive_rate / 2:
+        why = "paper" if method in PAPER_CARRIERS else "default (2 kHz, as 003)"
+        return want, why
+    capped = float(np.floor(drive_rate / 2))
+    return capped, f"the paper's {want:g} Hz needs a drive rate of {2 * want:g} Hz; capped at half of {drive_rate} Hz"
 
 
 @dataclass(frozen=True)
@@ -39,19 +57,24 @@ class ChainConfig:
 
     method       : "auto", "otake2022", "otake2021", "zhao", "friction-only" or "square".
     drive_rate   : Hz, DAC rate (2-48 kHz).
-    carrier      : Hz, polarity carrier (0 = off, else 2-20 kHz).
+    carrier      : Hz, polarity carrier (0 = off, else 2-20 kHz); None = the method's paper
+                   (otake2021: 20 kHz, 001 Sec. II; otherwise 2 kHz, 003 Sec. IV-D), capped at
+                   half the drive rate (see :func:`resolve_carrier`).
     control_rate : Hz, rate of the chain (friction law, drive envelope); a texture model fitted
                    at a lower rate is synthesised at its own rate and resampled up to it.
-    alpha        : V/sqrt(N); None = calibrated to the display (1/sqrt(mu_panel k)), except for
-                   zhao, whose 1.6 N constant load is scaled to half of v_max when it would
-                   exceed it (Zhao et al. scale the voltage proportionally, Sec. 2.2).
-    beta, effective_mass, constant_load, square_frequency, square_amplitude: see DriveParams.
+    alpha        : V/sqrt(N); None = planned by :func:`surfhap.render.gain_plan.plan_gains` over
+                   ``operating_range`` (no saturation at the texture's 99.9th percentile, never
+                   above the display's calibrated 1/sqrt(mu_panel k)); a number overrides the plan.
+    operating_range : loads and speeds the plan must serve (default 0.1-1.0 N, 0.02-0.3 m/s).
+    beta, effective_mass, constant_load, square_frequency, square_amplitude,
+    square_reference_load, square_reference_speed, texture_gain: see DriveParams.
     seed         : seed of the texture noise.
+    display      : the panel rendered for and simulated (DisplayModel; defaults are assumptions).
     """
 
     method: str = "auto"
     drive_rate: int = 20000
-    carrier: float = 2000.0
+    carrier: float | None = None
     control_rate: int = 2000
     alpha: float | None = None
     beta: float = 1.8
@@ -59,6 +82,10 @@ class ChainConfig:
     constant_load: float | None = 1.6
     square_frequency: float = 100.0
     square_amplitude: float | None = None
+    square_reference_load: float = 0.5
+    square_reference_speed: float = 0.1
+    texture_gain: float = 1.0
+    operating_range: OperatingRange = OperatingRange()
     seed: int = 0
     limits: SafetyLimits = SafetyLimits()
     display: DisplayModel = DisplayModel()
@@ -68,7 +95,8 @@ class ChainConfig:
             raise ConfigError(f"must be a whole number of Hz within 2000-48000, got {self.drive_rate}", field="drive_rate")
         if int(self.control_rate) != self.control_rate or not 100 <= self.control_rate <= self.drive_rate:
             raise ConfigError("must be a whole number of Hz within 100 and the drive rate", field="control_rate")
-        check_carrier(self.carrier, self.drive_rate)
+        if self.carrier is not None:
+            check_carrier(self.carrier, self.drive_rate)
         if self.alpha is not None and not (np.isfinite(self.alpha) and self.alpha > 0):
             raise ConfigError("must be > 0", field="alpha")
 
@@ -116,18 +144,25 @@ class TextureChain:
         self.config = cfg
         self.material = material
         self.alpha_calibrated = cfg.display.calibrated_alpha
-        alpha = cfg.alpha if cfg.alpha is not None else self.alpha_calibrated
         method = cfg.method if cfg.method != "auto" else default_method(material)
-        if cfg.alpha is None and method == "zhao" and cfg.constant_load is not None and material.coulomb is not None:
-            # Zhao et al. render a 1.6 N load that no electrostatic display reaches and scale the
-            # voltage down proportionally (Sec. 2.2); by default the Coulomb part takes half of v_max.
-            nominal = material.coulomb.mu0 * cfg.constant_load
-            if nominal > 0 and alpha * np.sqrt(nominal) > 0.5 * cfg.limits.v_max:
-                alpha = 0.5 * cfg.limits.v_max / np.sqrt(nominal)
+        # validate the method against the material before planning (one clear error)
+        make_drive_law(method, material, DriveParams(self.alpha_calibrated, cfg.beta, cfg.effective_mass, cfg.constant_load,
+                                                     cfg.square_frequency, cfg.square_amplitude, cfg.square_reference_load,
+                                                     cfg.square_reference_speed, cfg.texture_gain), cfg.control_rate)
+        # Zhao et al. render a 1.6 N load no electrostatic display reaches and scale the voltage
+        # down proportionally (Sec. 2.2): the plan does this over the operating range.
+        self.plan: GainPlan = plan_gains(
+            material, method, cfg.display, cfg.operating_range, cfg.limits, beta=cfg.beta, texture_gain=cfg.texture_gain,
+            effective_mass=cfg.effective_mass, constant_load=cfg.constant_load,
+            square_reference=(cfg.square_reference_load, cfg.square_reference_speed))
+        alpha = cfg.alpha if cfg.alpha is not None else self.plan.alpha
+        self.alpha_source = "manual (--alpha)" if cfg.alpha is not None else "plan"
         self.params = DriveParams(alpha, cfg.beta, cfg.effective_mass, cfg.constant_load,
-                                  cfg.square_frequency, cfg.square_amplitude)
+                                  cfg.square_frequency, cfg.square_amplitude, cfg.square_reference_load,
+                                  cfg.square_reference_speed, cfg.texture_gain)
         probe = make_drive_law(method, material, self.params, cfg.control_rate)
         self.method = probe.method
+        self.carrier_hz, self.carrier_choice = resolve_carrier(cfg.carrier, self.method, int(cfg.drive_rate))
         self.model_rate = int(cfg.control_rate)
         self.texture_rate = None
         if probe.uses_texture:
@@ -141,7 +176,7 @@ class TextureChain:
         self.law = make_drive_law(self.method, material, self.params, self.model_rate)
         self.synth = TextureSource(material.texture, self.model_rate, seed=cfg.seed) if self.law.uses_texture else None
         self.upsampler = RationalResampler(self.model_rate, int(cfg.drive_rate))
-        self.carrier = PolarityCarrier(cfg.carrier, cfg.drive_rate)
+        self.carrier = PolarityCarrier(self.carrier_hz, cfg.drive_rate)
         self.safety = SafetyStage(cfg.drive_rate, cfg.limits)
         self.drive_rate = int(cfg.drive_rate)
         self._max_load = cfg.limits.max_load

@@ -13,12 +13,24 @@ otake2022       (mu_p(fn, v) + beta mu_t) fn                                    
 otake2021       (mu0 + beta mu_t) fn, beta = 1.8                                     001 eq. 5
 zhao            mu0 fn_c + m_eff acc, fn_c = 1.6 N, m_eff = 0.05 kg                  000 eq. 3-4
 friction-only   mu_low(fn, v) fn (quasi-static if the material has it, else mu0)     003 Sec. IV-B
-square          2 mu_low fn gated by a 50 % square wave at 30-300 Hz (mean = F_low)  000 Sec. 3
+square          constant V_sq, 50 % square wave at 30-300 Hz, V_sq^2 = alpha^2 2 F_ref  000 Sec. 3
 =============== =================================================================== ==========
 
-A texture bank of accelerations enters the friction laws as ``mu_t = m_eff acc / fn``; a
-bank of textural CoF enters Zhao's law as ``f_texture = mu_t fn_c``: one texture force,
-whichever quantity was recorded.
+beta = 1.8 is the value of 001 (Sec. IV-C, after eq. 5). 003 publishes no beta; it publishes the
+resulting friction:texture voltage ratios (Sec. IV-D), which the built-in textures are
+calibrated to at beta = 1.8 (:mod:`surfhap.models.texture_calibration`), so one beta serves
+both methods (a documented choice).
+
+A texture bank of textural CoF enters as ``mu_t``; a calibrated texture from another modality
+(``Material.texture_relative_scale`` s) as ``mu_t = s mu_low(fn, v) x``; an uncalibrated bank
+of accelerations as ``mu_t = m_eff acc / fn``. Zhao's law uses ``f_texture = m_eff acc`` (or
+``mu_t fn_c`` for a CoF bank). ``texture_gain`` multiplies the texture in every law.
+
+The square baseline (000 Sec. 3: "standard square wave signals with constant amplitude") has a
+fixed voltage: ``V_sq = alpha sqrt(2 F_ref)`` with ``F_ref = mu_low(fn_ref, v_ref) fn_ref`` at a
+reference load and speed (default 0.5 N, 0.1 m/s), so its mean added friction equals the
+friction-only mean there. It does not follow the instantaneous load or speed; a lifted finger
+still gets 0 V from the safety stage.
 """
 
 from __future__ import annotations
@@ -45,7 +57,9 @@ class DriveParams:
     effective_mass   : kg, hand mass turning acceleration into force (Zhao / HaTT: 0.05).
     constant_load    : N, Zhao's constant load (1.6 N); None uses the measured load.
     square_frequency : Hz, baseline square wave (30-300 Hz, Zhao et al. after Bau et al.).
-    square_amplitude : V, fixed baseline amplitude; None matches the friction-only mean.
+    square_amplitude : V, fixed baseline amplitude; None matches the friction-only mean at
+                       (square_reference_load N, square_reference_speed m/s).
+    texture_gain     : multiplier on the texture (1 = the material's calibrated strength).
     """
 
     alpha: float
@@ -54,6 +68,9 @@ class DriveParams:
     constant_load: float | None = 1.6
     square_frequency: float = 100.0
     square_amplitude: float | None = None
+    square_reference_load: float = 0.5
+    square_reference_speed: float = 0.1
+    texture_gain: float = 1.0
 
     def __post_init__(self):
         if not (np.isfinite(self.alpha) and self.alpha > 0):
@@ -66,6 +83,12 @@ class DriveParams:
             raise ConfigError("must be > 0", field="constant_load")
         if self.square_amplitude is not None and not self.square_amplitude >= 0:
             raise ConfigError("must be >= 0", field="square_amplitude")
+        if not (np.isfinite(self.square_reference_load) and 0 < self.square_reference_load <= 50):
+            raise ConfigError("must be within (0, 50] N", field="square_reference_load")
+        if not (np.isfinite(self.square_reference_speed) and 0 <= self.square_reference_speed <= 10):
+            raise ConfigError("must be within [0, 10] m/s", field="square_reference_speed")
+        if not (np.isfinite(self.texture_gain) and self.texture_gain >= 0):
+            raise ConfigError("must be >= 0", field="texture_gain")
 
 
 class DriveBlock(NamedTuple):
@@ -104,11 +127,25 @@ class DriveLaw:
         if method == "square" and params.square_frequency >= self.sample_rate / 2:
             raise ConfigError(f"square frequency must be below half the model rate ({self.sample_rate / 2:g} Hz)", field="square_frequency")
         self._quantity = None if material.texture is None else material.texture.quantity
+        self._relative = material.texture_relative_scale
         if method in ("otake2022", "friction-only", "square"):
             self._law = material.low_frequency_law if method != "otake2022" else material.quasi_static
         else:
             self._law = material.coulomb
+        self.square_amplitude = None
+        if method == "square":
+            self.square_amplitude = self._square_amplitude()
         self.reset()
+
+    def _square_amplitude(self) -> float:
+        """V: the fixed square amplitude (000 Sec. 3), matched to the friction-only mean at the
+        reference load and speed unless given."""
+        p = self.params
+        if p.square_amplitude is not None:
+            return float(p.square_amplitude)
+        fr, vr = p.square_reference_load, p.square_reference_speed
+        f_ref = float(self._law.coefficient(np.array([fr]), np.array([vr]))[0]) * fr
+        return float(p.alpha * np.sqrt(2.0 * f_ref))
 
     @property
     def uses_texture(self) -> bool:
@@ -119,13 +156,16 @@ class DriveLaw:
         self.clipped = 0
         self.touching = 0
 
-    def _texture_cof(self, texture: np.ndarray, load: np.ndarray) -> np.ndarray:
+    def _texture_cof(self, texture: np.ndarray, load: np.ndarray, mu_low: np.ndarray) -> np.ndarray:
         if not self.uses_texture:
             return np.zeros_like(load)
+        g = self.params.texture_gain
+        if self._relative is not None:
+            return (g * self._relative) * mu_low * texture
         if self._quantity == "cof":
-            return texture
+            return g * texture
         with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(load > 0, self.params.effective_mass * texture / load, 0.0)
+            return np.where(load > 0, (g * self.params.effective_mass) * texture / load, 0.0)
 
     def process(self, speed: np.ndarray, load: np.ndarray, texture: np.ndarray) -> DriveBlock:
         p = self.params
@@ -139,9 +179,9 @@ class DriveLaw:
             if not self.uses_texture:
                 f_tex = np.zeros_like(load)
             elif self._quantity == "acceleration":
-                f_tex = p.effective_mass * texture
+                f_tex = (p.texture_gain * p.effective_mass) * texture
             else:
-                f_tex = texture * fn
+                f_tex = p.texture_gain * texture * fn
             f_tex = np.where(load > 0, f_tex, 0.0)
             target = mu_low * fn + f_tex
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -151,12 +191,9 @@ class DriveLaw:
             n = load.shape[0]
             phase = ((self._n + np.arange(n)) * (p.square_frequency / self.sample_rate)) % 1.0
             gate = (phase < 0.5).astype(float)
-            if p.square_amplitude is None:
-                target = 2.0 * mu_low * load * gate
-            else:
-                target = np.where(load > 0, (p.square_amplitude / p.alpha) ** 2, 0.0) * gate
+            target = ((self.square_amplitude / p.alpha) ** 2) * gate
         else:
-            mu_tex = self._texture_cof(texture, load)
+            mu_tex = self._texture_cof(texture, load, mu_low)
             beta = p.beta if m != "friction-only" else 0.0
             target = (mu_low + beta * mu_tex) * load
         touching = load > 0

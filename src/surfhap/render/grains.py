@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from surfhap.errors import ConfigError
+from surfhap.signal.tribometer import TRIBOMETER_BAND, TRIBOMETER_LARGEST, fit_quadratic, tribometer_amplitude  # noqa: F401 (re-exported)
 
 __all__ = ["GrainParams", "GRAINS", "AREA_GRAINS", "DeviceCurve", "GrainPlayer", "grain_name", "hann_pulse", "tribometer_amplitude"]
 
@@ -47,8 +48,6 @@ _ALIASES = {"edge-soft": "area-even", "smooth": "area-even", "grainy": "area-gra
 GRAINY_RATE = 100.0  # grains per second (design choice)
 GRAINY_WIDTH = 0.004  # s (design choice)
 TICK_WIDTH = 0.010  # s (design choice)
-TRIBOMETER_BAND = (10.0, 500.0)  # Hz, Butterworth band-pass of Kim et al. Sec. 2.2
-TRIBOMETER_LARGEST = 50  # number of largest peak-to-peak amplitudes averaged (Sec. 2.2)
 
 
 @dataclass(frozen=True)
@@ -87,32 +86,6 @@ def hann_pulse(width: float, rate: float) -> np.ndarray:
     """(k,) raised-cosine pulse of ``width`` s at ``rate`` Hz, peak 1, zero at both ends."""
     k = max(int(round(width * rate)), 3)
     return 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(1, k + 1) / (k + 1))
-
-
-def tribometer_amplitude(force: np.ndarray, fs: float, n_largest: int = TRIBOMETER_LARGEST,
-                         band: tuple[float, float] = TRIBOMETER_BAND, order: int = 2) -> float:
-    """Characteristic force amplitude of one tribometer recording (Kim et al. Sec. 2.2).
-
-    force (n,) float N tangential force at ``fs`` Hz. Band-pass (Butterworth, zero phase,
-    ``order`` per pass: the paper gives the band, not the order), then the peak-to-peak
-    amplitudes between consecutive extrema; returns the mean of the ``n_largest``.
-    """
-    from scipy.signal import butter, sosfiltfilt
-
-    x = np.asarray(force, dtype=float)
-    if x.ndim != 1 or x.size < 64 or not np.all(np.isfinite(x)):
-        raise ConfigError("need a finite 1-D recording of at least 64 samples", field="force")
-    lo, hi = band
-    if not (0 < lo < hi < fs / 2):
-        raise ConfigError(f"band {band} Hz must lie below half the sample rate {fs / 2:g} Hz", field="band")
-    y = sosfiltfilt(butter(order, [lo, hi], btype="bandpass", fs=fs, output="sos"), x)
-    d = np.diff(y)
-    ext = np.nonzero(np.sign(d[1:]) != np.sign(d[:-1]))[0] + 1  # local extrema
-    if ext.size < 2:
-        return 0.0
-    pp = np.abs(np.diff(y[ext]))
-    k = min(int(n_largest), pp.size)
-    return float(np.mean(np.sort(pp)[-k:]))
 
 
 @dataclass(frozen=True)
@@ -165,10 +138,8 @@ class DeviceCurve:
         f = np.asarray(force, dtype=float)
         if i.shape != f.shape or i.ndim != 1 or i.size < 3:
             raise ConfigError("need at least three (intensity, force) pairs", field="device")
-        if not (np.all(np.isfinite(i)) and np.all(np.isfinite(f))):
-            raise ConfigError("intensity and force must be finite", field="device")
-        a, b, c = np.polyfit(i, f, 2)
-        return cls(float(a), float(b), float(c), source=source)
+        c, b, a = fit_quadratic(i, f).coefficients
+        return cls(a, b, c, source=source)
 
     @classmethod
     def from_tribometer(cls, recordings: dict, fs: float, source: str = "tribometer") -> "DeviceCurve":

@@ -68,6 +68,12 @@ class RenderResult:
     constant_load: float | None = 1.6
     v_max: float = 250.0
     texture_rate: int | None = None
+    plan: object | None = None
+    alpha_source: str = "plan"
+    carrier_choice: str = ""
+    display_info: dict | None = None
+    square_amplitude: float | None = None
+    square_reference: tuple[float, float] | None = None
 
     @property
     def t_drive(self) -> np.ndarray:
@@ -78,6 +84,35 @@ class RenderResult:
     def clipped_fraction(self) -> float:
         """Fraction of touching model samples whose target force was negative (clipped to 0)."""
         return self.clipped / self.touching if self.touching else 0.0
+
+    @property
+    def saturated_fraction(self) -> float:
+        """Fraction of drive samples the safety stage clamped to v_max ("saturated")."""
+        s = self.safety
+        return s.clamped / s.samples if s.samples else 0.0
+
+    @property
+    def saturation_onset_load(self) -> float | None:
+        """N: the smallest load at which the drive envelope reached v_max, or None if it never did."""
+        sat = (self.load > 0) & (self.voltage >= self.v_max)
+        return float(np.min(self.load[sat])) if np.any(sat) else None
+
+    def saturation_warning(self, threshold: float = 0.01) -> str | None:
+        """One line saying where saturation starts and what to change, when more than
+        ``threshold`` of the drive samples saturated; else None."""
+        frac = self.saturated_fraction
+        if frac <= threshold:
+            return None
+        onset = self.saturation_onset_load
+        where = f"from {onset:.2f} N load on" if onset is not None else "at onsets"
+        if self.alpha_source == "plan" and self.plan is not None:
+            rng = self.plan.operating_range
+            fix = (f"widen --load-range/--speed-range to cover this scan (the gain plan covers {rng.loads[0]:g}-{rng.loads[1]:g} N, "
+                   f"{rng.speeds[0]:g}-{rng.speeds[1]:g} m/s)")
+        else:
+            fix = "lower --alpha, or drop --alpha to use the gain plan"
+        return (f"{frac:.1%} of drive samples saturated at {self.v_max:g} V ({where}); "
+                f"the friction no longer follows the model there: {fix}")
 
     @property
     def texture_quantity(self) -> str | None:
@@ -138,8 +173,10 @@ class RenderResult:
             "beta": self.beta,
             "rendering_gain": self.rendering_gain,
             "max_abs_voltage": float(np.max(np.abs(self.drive))) if self.drive.size else 0.0,
+            "alpha_source": self.alpha_source,
             "clipped_fraction": self.clipped_fraction,
-            "saturated_fraction": s.clamped / s.samples if s.samples else 0.0,
+            "saturated_fraction": self.saturated_fraction,
+            "saturation_onset_load_n": self.saturation_onset_load,
             "safety": {
                 "samples": s.samples, "clamped": s.clamped, "rise_limited": s.rise_limited,
                 "faults": s.faults, "lifted": s.lifted, "watchdog": s.watchdog,
@@ -149,7 +186,15 @@ class RenderResult:
             "v_max": self.v_max,
             "mu_panel": self.mu_panel,
             "k_n_per_v2": self.k,
-        }
+            "carrier_choice": self.carrier_choice,
+            "display": self.display_info,
+            "gain_plan": self.plan.to_dict() if self.plan is not None else None,
+        } | ({} if self.square_amplitude is None else {
+            "square_baseline": {
+                "amplitude_v": self.square_amplitude,
+                "reference_load_n": self.square_reference[0], "reference_speed_m_per_s": self.square_reference[1],
+                "rule": "constant amplitude; mean added friction equals the friction-only mean at the reference load and speed",
+            }})
 
     def plot(self, fig=None):
         """Time course and spectrum of the rendered friction against the model (matplotlib Figure)."""
@@ -209,7 +254,7 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
     bank = material.texture if chain.law.uses_texture else None
     return RenderResult(
         material=material.name, method=chain.method, seed=cfg.seed, model_rate=fm, drive_rate=chain.drive_rate,
-        carrier=cfg.carrier, alpha=chain.params.alpha, beta=chain.params.beta, alpha_calibrated=chain.alpha_calibrated, t=t, speed=speed, load=load,
+        carrier=chain.carrier_hz, alpha=chain.params.alpha, beta=chain.params.beta, alpha_calibrated=chain.alpha_calibrated, t=t, speed=speed, load=load,
         texture=arr["texture"], mu_low=arr["mu_low"], mu_tex=arr["mu_tex"], target=arr["target"],
         voltage=arr["voltage"], drive=drive,
         friction_sim=friction, acc=arr["texture"] if uses_acc else None, latency=chain.latency,
@@ -217,4 +262,7 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
         clipped=chain.law.clipped, touching=chain.law.touching, safety=chain.safety.counters,
         texture_model=bank, trajectory_name=trajectory.name,
         effective_mass=cfg.effective_mass, constant_load=cfg.constant_load, v_max=cfg.limits.v_max, texture_rate=chain.texture_rate,
+        plan=chain.plan, alpha_source=chain.alpha_source, carrier_choice=chain.carrier_choice,
+        display_info=cfg.display.describe(), square_amplitude=chain.law.square_amplitude,
+        square_reference=(cfg.square_reference_load, cfg.square_reference_speed) if chain.law.square_amplitude is not None else None,
     )

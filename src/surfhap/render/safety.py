@@ -1,6 +1,7 @@
-"""The safety stage: the last processor before any backend, for every output.
+"""The safety stages: :class:`SafetyStage` ends every renderer; :class:`OutputSafety` is the
+last pass of a live output, after gain and stop ramp, right before the backend.
 
-Its limits hold for *any* input sequence (property-tested with hypothesis):
+The limits of :class:`SafetyStage` hold for *any* input sequence (property-tested with hypothesis):
 
 * ``|y| <= v_max`` (default 250 V, Otake et al. 2022 Sec. IV-D) for every sample;
 * the magnitude may rise by at most ``rise_rate / drive_rate`` volts per sample (an onset
@@ -25,7 +26,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-__all__ = ["SafetyLimits", "SafetyStage", "SafetyCounters"]
+__all__ = ["SafetyLimits", "SafetyStage", "SafetyCounters", "OutputSafety", "OutputCounters"]
 
 
 @dataclass(frozen=True)
@@ -163,3 +164,148 @@ class SafetyStage:
     @property
     def counters(self) -> SafetyCounters:
         return SafetyCounters(*(int(c) for c in self._counters))
+
+
+# state layout (float64): 0 previous emitted magnitude, 1 stop-ramp position (1 = full, 0 = stopped)
+# counters layout (int64): samples, clamped, rise_limited, faults, watchdog, halted
+@numba.njit(cache=True, nogil=True)
+def _output_kernel(x, out, state, counters, gain, ramp_step, age0, dt, v_max, rise_step, wd_step,
+                   timeout, hard_age, absurd, halt):
+    prev = state[0]
+    ramp = state[1]
+    n = out.shape[0]
+    for i in range(n):
+        v = x[i]
+        age = age0 + i * dt
+        counters[0] += 1
+        scale = gain * ramp
+        if ramp_step > 0.0:
+            ramp -= ramp_step
+            if ramp < 1e-9:  # rounding of the repeated subtraction: end exactly at 0
+                ramp = 0.0
+        if halt:
+            counters[5] += 1
+            prev = 0.0
+            out[i] = 0.0
+            continue
+        if not (np.isfinite(v) and np.isfinite(scale)) or abs(v) > absurd:
+            counters[3] += 1
+            prev = 0.0
+            out[i] = 0.0
+            continue
+        mag = abs(v) * scale
+        if mag > v_max:
+            mag = v_max
+            counters[1] += 1
+        if not age <= timeout:  # stale, no touch yet (inf) or NaN
+            counters[4] += 1
+            cap = prev - wd_step
+            if cap < 0.0 or not age <= hard_age:
+                cap = 0.0
+            if mag > cap:
+                mag = cap
+        elif mag > prev + rise_step:
+            mag = prev + rise_step
+            counters[2] += 1
+        prev = mag
+        out[i] = mag if v >= 0.0 else -mag
+    state[0] = prev
+    state[1] = ramp
+
+
+@dataclass(frozen=True)
+class OutputCounters:
+    """Sample counts of the :class:`OutputSafety` pass since the last reset."""
+
+    samples: int
+    clamped: int
+    rise_limited: int
+    faults: int
+    watchdog: int
+    halted: int
+
+
+class OutputSafety:
+    """The final safety pass of a live output: what the backend receives, sample by sample.
+
+    Everything that touches the signal after a renderer's own :class:`SafetyStage` (gain,
+    stop ramp, silencing of queued drive on lift, a renderer switch, an engine halt) is
+    folded into this one pass, so its limits hold on the emitted stream whatever happened
+    upstream. It knows the last emitted magnitude across blocks and enforces, per sample:
+
+    * gain (0-1) and the stop ramp (linear, ``ramp_seconds`` from full to zero) applied
+      first, so they can never make the output rise faster than allowed;
+    * ``|y| <= v_max``; magnitude rise at most ``rise_rate / drive_rate`` per sample;
+    * a non-finite or absurd sample (beyond ``absurd_factor * v_max``) gives 0 V;
+    * watchdog on the emission time: when the freshest touch sample is older than
+      ``watchdog_timeout`` the magnitude ramps to zero (``watchdog_ramp``), and it is 0 V
+      for every sample older than ``watchdog_timeout + watchdog_ramp``;
+    * ``halt``: 0 V (a failed backend or a stopped engine).
+
+    ``process(x, out, age0, gain, halt)`` works in place when ``x is out``; it allocates
+    nothing and never raises for any float input.
+    """
+
+    def __init__(self, drive_rate: float, limits: SafetyLimits | None = None, ramp_seconds: float = 0.010):
+        if not (np.isfinite(drive_rate) and drive_rate > 0):
+            raise ValueError("drive_rate must be positive")
+        if not (np.isfinite(ramp_seconds) and ramp_seconds > 0):
+            raise ValueError("ramp_seconds must be positive")
+        self.drive_rate = float(drive_rate)
+        self.ramp_seconds = float(ramp_seconds)
+        self._state = np.zeros(2)
+        self._counters = np.zeros(6, dtype=np.int64)
+        self.set_limits(limits or SafetyLimits())
+        self.reset()
+
+    def set_limits(self, limits: SafetyLimits) -> None:
+        """Take new limits (e.g. those of a renderer switched in); the state is kept."""
+        self.limits = lim = limits
+        fs = self.drive_rate
+        self._dt = 1.0 / fs
+        self._v_max = float(lim.v_max)
+        self._rise = float(lim.rise_rate / fs)
+        self._wd_step = float(lim.v_max / (lim.watchdog_ramp * fs))
+        self._timeout = float(lim.watchdog_timeout)
+        self._hard_age = float(lim.watchdog_timeout + lim.watchdog_ramp)
+        self._absurd = float(lim.absurd_factor * lim.v_max)
+
+    def reset(self) -> None:
+        """Silence remembered, stop ramp back to full, counters zeroed."""
+        self._state[0] = 0.0
+        self._state[1] = 1.0
+        self._counters[:] = 0
+        self._ramp_step = 0.0
+
+    def start_ramp(self) -> None:
+        """Begin the ramp to zero (stop); it takes ``ramp_seconds``."""
+        if self._ramp_step == 0.0:
+            self._ramp_step = 1.0 / max(1.0, self.ramp_seconds * self.drive_rate)
+
+    @property
+    def ramped_down(self) -> bool:
+        """True once the stop ramp has reached zero."""
+        return self._ramp_step > 0.0 and self._state[1] <= 0.0
+
+    @property
+    def last_magnitude(self) -> float:
+        return float(self._state[0])
+
+    def process(self, x: np.ndarray, out: np.ndarray, age0: float, gain: float = 1.0, halt: bool = False) -> np.ndarray:
+        """``x``, ``out``: (n,) float64 volts (may be the same array); ``age0``: s, age of the
+        freshest touch sample at the first sample (``inf`` if none); ``gain`` in [0, 1]."""
+        g = float(gain)
+        if not 0.0 <= g <= 1.0:  # also catches NaN
+            g = 0.0
+        _output_kernel(x, out, self._state, self._counters, g, self._ramp_step, float(age0), self._dt,
+                       self._v_max, self._rise, self._wd_step, self._timeout, self._hard_age, self._absurd,
+                       bool(halt))
+        return out
+
+    def silence(self) -> None:
+        """After a block was replaced by zeros outside the kernel: remember 0 V."""
+        self._state[0] = 0.0
+
+    @property
+    def counters(self) -> OutputCounters:
+        return OutputCounters(*(int(c) for c in self._counters))

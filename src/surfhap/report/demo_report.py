@@ -20,39 +20,66 @@ from surfhap.signal.bands import spectral_deviation_db
 __all__ = ["DemoSettings", "run_demo", "write_demo_report", "DEMO_SPEEDS"]
 
 DEMO_SPEEDS = (0.05, 0.10, 0.15)  # m/s: three of the reference velocities of Otake et al. 2022
+DEMO_LOADS = (0.26, 0.5, 0.96)  # N: the ends and middle of the participants' mean loads (003 Sec. II)
 
 
 @dataclass(frozen=True)
 class DemoSettings:
-    """speeds (m/s), load (N: within the 0.26-0.96 N participants used, Otake et al. 2022), seconds per render."""
+    """speeds (m/s), loads (N, 003 Sec. II: 0.26-0.96 N), ``load`` (N) of the per-material figures,
+    seconds per render, seed, display (DisplayModel or None for the documented assumptions)."""
 
     speeds: tuple[float, ...] = DEMO_SPEEDS
-    load: float = 0.3
+    loads: tuple[float, ...] = DEMO_LOADS
+    load: float = 0.5
     duration: float = 10.0
     seed: int = 0
+    display: object | None = None
 
 
-def run_demo(settings: DemoSettings = DemoSettings(), progress: Callable[[float], None] | None = None):
-    """Render every built-in material at each speed; returns {material: [RenderResult, ...]}."""
+@dataclass
+class DemoResults:
+    """renders {material: [RenderResult at ``settings.load``, one per speed]}; grid: list of
+    (RenderResult, FidelityMetrics) over loads x speeds x materials; plans {material: GainPlan}."""
+
+    renders: dict
+    grid: list
+    plans: dict
+
+
+def run_demo(settings: DemoSettings = DemoSettings(), progress: Callable[[float], None] | None = None) -> DemoResults:
+    """Render every built-in material at each load and speed; returns :class:`DemoResults`."""
     from surfhap.exchange.materials import builtin_names, load_material
     from surfhap.render.chain import ChainConfig
+    from surfhap.render.fidelity import fidelity_metrics
     from surfhap.render.offline import render
+    from surfhap.sim.display import DisplayModel
     from surfhap.sim.trajectory import constant_scan
 
     names = builtin_names()
-    results = {}
-    total = len(names) * len(settings.speeds)
+    loads = tuple(dict.fromkeys((*settings.loads, settings.load)))
+    renders, grid, plans = {}, [], {}
+    total = len(names) * len(settings.speeds) * len(loads)
     done = 0
+    display = settings.display or DisplayModel()
     for name in names:
         mat = load_material(name)
-        results[name] = []
-        for speed in settings.speeds:
-            traj = constant_scan(speed, settings.load, settings.duration)
-            results[name].append(render(mat, traj, ChainConfig(seed=settings.seed)))
-            done += 1
-            if progress is not None:
-                progress(done / total)
-    return results
+        cal = getattr(mat.spec.texture, "calibration", None)
+        target = None if cal is None else cal.target_voltage_ratio
+        renders[name] = []
+        for i, load in enumerate(loads):
+            for j, speed in enumerate(settings.speeds):
+                # one noise seed per cell, so the table shows the spread over texture realisations
+                cfg = ChainConfig(seed=settings.seed + 10 * i + j, display=display)
+                r = render(mat, constant_scan(speed, load, settings.duration), cfg)
+                plans[name] = r.plan
+                if load == settings.load:
+                    renders[name].append(r)
+                if load in settings.loads:
+                    grid.append((r, fidelity_metrics(r, target_voltage_ratio=target)))
+                done += 1
+                if progress is not None:
+                    progress(done / total)
+    return DemoResults(renders, grid, plans)
 
 
 def _speed_figure(name: str, runs) -> Figure:
@@ -97,24 +124,68 @@ def _law_figure(results) -> Figure:
     for i, (name, runs) in enumerate(results.items()):
         v = [float(np.median(r.speed[r.load > 0])) for r in runs]
         sim = [float(np.mean(r.added_friction[r.t > 0.5])) for r in runs]
-        law = [float(np.mean((r.mu_low * r.load)[r.t > 0.5])) for r in runs]
+        law = [r.rendering_gain * float(np.mean((r.mu_low * r.load)[r.t > 0.5])) for r in runs]
         ax.plot(np.array(v) * 1e3, law, "-", color=f"C{i}", lw=1)
         ax.plot(np.array(v) * 1e3, sim, "o", color=f"C{i}", label=name)
     ax.set(xlabel="scan speed (mm/s)", ylabel="mean added friction (N)",
-           title="simulated display (dots) vs friction law mu_low(fn, v)·fn (lines)")
+           title="simulated display (dots) vs G·mu_low(fn, v)·fn (lines)")
     ax.legend(fontsize=8)
     return fig
 
 
-def write_demo_report(results, out_dir: str | Path, settings: DemoSettings = DemoSettings()) -> Path:
-    """Write one figure per material, a validation figure and ``report.html``; returns its path."""
+def _fidelity_rows(grid) -> tuple[list[str], list[list[str]]]:
+    head = ["material", "load N", "speed mm/s", "method", "gain G", "saturated", "clipped", "low band vs G·law",
+            "texture r", "voltage ratio", "target", "ratio error", "targets met"]
+    rows = []
+    for r, m in grid:
+        ok = (m.saturated_fraction <= 0.001 and abs(m.low_band_error) <= 0.02
+              and (m.texture_correlation is None or m.texture_correlation >= 0.95)
+              and (m.ratio_error is None or abs(m.ratio_error) <= 0.2))
+        rows.append([m.material, f"{m.load:.2f}", f"{m.speed * 1e3:.0f}", m.method, f"{m.rendering_gain:.3f}",
+                     f"{m.saturated_fraction:.2%}", f"{m.clipped_fraction:.2%}", f"{100 * m.low_band_error:+.2f} %",
+                     "-" if m.texture_correlation is None else f"{m.texture_correlation:.4f}", f"{m.voltage_ratio:.3f}",
+                     "-" if m.target_voltage_ratio is None else f"{m.target_voltage_ratio:g}",
+                     "-" if m.ratio_error is None else f"{100 * m.ratio_error:+.1f} %", "yes" if ok else "NO"])
+    return head, rows
+
+
+def load_material_notes(name: str) -> list[str]:
+    """The notes of a built-in material file (provenance remarks shown under its figure)."""
+    from surfhap.exchange.materials import load_material
+
+    return list(load_material(name).spec.notes)
+
+
+def write_demo_report(results: DemoResults, out_dir: str | Path, settings: DemoSettings = DemoSettings()) -> Path:
+    """Write the gain plans, the fidelity table, one figure per material and ``report.html``;
+    returns its path."""
+    from surfhap.report.plan_figures import plan_table, plot_gain_plans
+
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     page = Page("surfhap demo: built-in materials on the simulated electrostatic display")
-    page.paragraph(f"Each material is rendered by its default method along a straight scan at "
-                   f"{', '.join(f'{s * 1e3:g}' for s in settings.speeds)} mm/s under a {settings.load:g} N load for "
-                   f"{settings.duration:g} s, through the safety stage (250 V limit) onto the simulated display "
-                   f"(mu_panel and k of eq. 1 are documented defaults, not measurements).")
+    first = next(iter(results.plans.values()))
+    page.paragraph(f"Each material is rendered by its default method along straight scans at "
+                   f"{', '.join(f'{s * 1e3:g}' for s in settings.speeds)} mm/s under loads of "
+                   f"{', '.join(f'{x:g}' for x in settings.loads)} N (003 Sec. II: 0.26-0.96 N) for "
+                   f"{settings.duration:g} s each, through the safety stage ({first.v_max:g} V limit) onto the simulated "
+                   f"display (display: {next(iter(results.renders.values()))[0].display_info['source']}).")
+    page.heading("Gain plan: what the display can render over the operating range")
+    page.paragraph(f"alpha is planned per material so that the friction law plus the texture's {first.percentile:g}th "
+                   f"percentile stays under v_max over loads {first.operating_range.loads[0]:g}-{first.operating_range.loads[1]:g} N "
+                   f"and speeds {first.operating_range.speeds[0]:g}-{first.operating_range.speeds[1]:g} m/s; the display then adds "
+                   f"G = (alpha / alpha_calibrated)^2 times the law's force (docs/texture.md).")
+    plot_gain_plans(list(results.plans.values())).savefig(out / "figures" / "gain_plan.png", dpi=100)
+    page.image("figures/gain_plan.png", "renderable friction range over load")
+    page.table(["material", "method", "alpha V/sqrt(N)", "gain G", "bound by", "headroom dB"], plan_table(results.plans.values()))
+    page.heading("Fidelity over load x speed x material")
+    page.paragraph("Targets: saturated <= 0.1 %; low-band mean of the added friction within 2 % of G·mu_p(fn, v)·fn; "
+                   "band-passed (>= 3.5 Hz) friction follows the texture the law asked for with r >= 0.95; "
+                   "texture:friction voltage ratio within 20 % of the material's calibrated target (003 Sec. IV-D). "
+                   "Definitions: docs/texture.md, 'Fidelity metrics'.")
+    head, rows = _fidelity_rows(results.grid)
+    page.table(head, rows)
+    results = results.renders
     law = _law_figure(results)
     law.savefig(out / "figures" / "friction_law.png", dpi=100)
     page.heading("Low band: does the display add the friction the law asks for?")
@@ -124,7 +195,7 @@ def write_demo_report(results, out_dir: str | Path, settings: DemoSettings = Dem
         for r in runs:
             s = r.summary()
             warm = r.t > 0.5
-            law_mean = float(np.mean((r.mu_low * r.load)[warm]))
+            law_mean = r.rendering_gain * float(np.mean((r.mu_low * r.load)[warm]))
             sim_mean = float(np.mean(r.added_friction[warm]))
             f, p, e = render_spectrum(r)
             dev = "n/a"
@@ -135,7 +206,7 @@ def write_demo_report(results, out_dir: str | Path, settings: DemoSettings = Dem
             rows.append([name, s["method"], f"{np.median(r.speed[r.load > 0]) * 1e3:.0f}", f"{r.texture_rate or '-'}",
                          f"{law_mean:.4f}", f"{sim_mean:.4f}", f"{100 * (sim_mean / law_mean - 1):+.2f} %",
                          dev, f"{s['max_abs_voltage']:.1f}", f"{s['clipped_fraction']:.1%}", f"{s['saturated_fraction']:.1%}"])
-    page.table(["material", "method", "speed mm/s", "texture rate Hz", "law N", "simulated N", "error",
+    page.table(["material", "method", "speed mm/s", "texture rate Hz", "G·law N", "simulated N", "error",
                 "spectrum max dev (1/3 oct)", "max |V|", "clipped", "saturated"], rows)
     for name, runs in results.items():
         fig = _speed_figure(name, runs)
@@ -146,6 +217,9 @@ def write_demo_report(results, out_dir: str | Path, settings: DemoSettings = Dem
         bank = spec.texture_model
         tex = "friction-only (no real recording to fit a texture from)" if bank is None else \
             f"texture: {bank.quantity} AR({bank.max_order}) fitted at {spec.texture_rate} Hz, rendered at {spec.model_rate} Hz"
+        note = next((n for n in load_material_notes(name)), None)
+        if note:
+            tex += f". {note}"
         page.paragraph(tex, cls="note")
         page.image(fn, f"{name} renders")
     path = out / "report.html"

@@ -39,8 +39,10 @@ def write_friction_report(fit, out_dir: str | Path, command: str = "") -> Path:
                    "Table I; the pooled fit with asymptotic errors when there is one participant).", cls="note")
     _save(fit.plot("friction-law"), out, "friction_law.png", page, "friction law vs data")
     page.heading("High band: AR models per reference velocity")
-    page.table(["velocity (mm/s)", "order", "variance", "samples", "spans", "participants", "SI mean ± SE", "SI pooled", "mean |ΔdB|"],
-               [[f"{t.reference_speed * 1e3:g}", t.model.order, f"{t.model.variance:.3g}", t.n_samples, t.n_spans,
+    page.table(["velocity (mm/s)", "order", "AIC min", "BIC min", "variance", "samples", "n_eff", "spans", "participants",
+                "SI mean ± SE", "SI pooled", "mean |ΔdB|"],
+               [[f"{t.reference_speed * 1e3:g}", t.model.order, t.selection.aic_order, t.selection.bic_order,
+                 f"{t.model.variance:.3g}", t.n_samples, f"{t.n_effective:.0f}", t.n_spans,
                  len(t.participants), f"{t.similarity_mean:.3f} ± {0 if np.isnan(t.similarity_se) else t.similarity_se:.3f}",
                  f"{t.similarity_pooled:.3f}", f"{t.spectrum_error_db:.2f}"] for t in fit.textures])
     for note in fit.notes:
@@ -49,6 +51,11 @@ def write_friction_report(fit, out_dir: str | Path, command: str = "") -> Path:
         _save(fit.plot("aic"), out, "aic.png", page, "order selection")
         _save(fit.plot("spectra"), out, "spectra.png", page, "measured vs modelled spectra")
         _save(fit.plot("similarity"), out, "similarity.png", page, "similarity index")
+    page.paragraph(f"Order: the {fit.criterion.upper()} minimum (both AIC and BIC minima are listed). n_eff is the "
+                   "equivalent number of samples of the tapered spans, the n of both criteria. Before the Yule–Walker "
+                   f"fit, {fit.edge_trim * 1000:.0f} ms are cut from both ends of every contact run (band-split edge "
+                   "transients), each span is Tukey-tapered and the band split's notch below twice the cut-off is "
+                   "continued flat (docs/fitting.md).", cls="note")
     page.paragraph("Similarity index SI = 1 − Σ|S_meas − S_model| / Σ(S_meas + S_model) over the band above the cut-off "
                    "(1: identical spectra; see docs/fitting.md).", cls="note")
     path = out / "index.html"

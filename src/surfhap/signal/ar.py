@@ -109,12 +109,13 @@ def yule_walker(x: np.ndarray, order: int, demean: bool = True) -> tuple[np.ndar
     return levinson_durbin(r, order).order(order)
 
 
-def information_criteria(variances: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+def information_criteria(variances: np.ndarray, n: float) -> tuple[np.ndarray, np.ndarray]:
     """AIC and BIC for each order p = 0..P from the innovation variances.
 
     Uses the Gaussian log-likelihood ``-2 L = n log(sigma2_p) + const``, so
     ``AIC(p) = n log sigma2_p + 2 p`` (Otake et al. 2021, eq. 3) and
-    ``BIC(p) = n log sigma2_p + p log n``. Returns two (P + 1,) arrays.
+    ``BIC(p) = n log sigma2_p + p log n``. ``n`` may be an equivalent (non-integer) number
+    of samples, e.g. for tapered data. Returns two (P + 1,) arrays.
     """
     v = np.maximum(np.asarray(variances, dtype=float), np.finfo(float).tiny)
     p = np.arange(v.size)
@@ -143,6 +144,16 @@ class OrderSelection:
     bic: np.ndarray
     criterion: str
     n: int
+
+    @property
+    def aic_order(self) -> int:
+        """Order at the AIC minimum."""
+        return int(self.orders[int(np.argmin(self.aic))])
+
+    @property
+    def bic_order(self) -> int:
+        """Order at the BIC minimum."""
+        return int(self.orders[int(np.argmin(self.bic))])
 
     def plot(self, ax=None):
         """Plot the criteria against the order (see :mod:`surfhap.report.figures`)."""

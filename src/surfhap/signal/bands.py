@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import butter, sosfreqz
 
-__all__ = ["band_average", "band_split_high_gain", "spectral_deviation_db"]
+__all__ = ["band_average", "band_split_high_gain", "highpass_gain", "spectral_deviation_db"]
 
 
 def band_average(freqs: np.ndarray, psd: np.ndarray, fmin: float, fmax: float, fraction: int = 3):
@@ -40,6 +40,14 @@ def band_split_high_gain(freqs: np.ndarray, sample_rate: float, cutoff: float, o
     sos = butter(order, cutoff, btype="low", fs=sample_rate, output="sos")
     _, h = sosfreqz(sos, worN=np.asarray(freqs, dtype=float), fs=sample_rate)
     return (1.0 - np.abs(h) ** 2) ** 2
+
+
+def highpass_gain(freqs: np.ndarray, sample_rate: float, cutoff: float, order: int = 4) -> np.ndarray:
+    """Power gain (m,) at freqs Hz of a Butterworth high-pass applied forward and backward
+    (``sosfiltfilt``): |H|^4."""
+    sos = butter(order, cutoff, btype="high", fs=sample_rate, output="sos")
+    _, h = sosfreqz(sos, worN=np.asarray(freqs, dtype=float), fs=sample_rate)
+    return np.abs(h) ** 4
 
 
 def spectral_deviation_db(freqs, measured, expected, fmin, fmax, fraction: int = 3):

@@ -9,6 +9,10 @@ FFT is exactly the biased autocovariance. The mean over participants of these pe
 therefore has as inverse FFT the mean of their autocovariances, which is what
 Levinson–Durbin (Yule–Walker) needs: "average the power spectra, then estimate from the
 averaged spectrum", without resynthesising a time series and without joints between spans.
+Optionally each span is tapered (Tukey; the normalisation becomes sum w^2 and the
+equivalent sample count sum (sum w^2)^2 / sum w^4), a known pre-filter's gain is divided
+out and the bins below a frequency are continued flat (the high-pass notch an all-pole
+model cannot represent); see :func:`average_spectra` and docs/fitting.md.
 
 Similarity index between a measured and a modelled one-sided PSD on a common uniform
 frequency grid, over a band [f_lo, f_hi]::
@@ -26,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.signal import get_window
+from scipy.signal.windows import tukey
 
 __all__ = [
     "AveragedSpectrum",
@@ -43,9 +48,14 @@ class AveragedSpectrum:
     freqs          : (m,) Hz, rfft grid of ``nfft``.
     psd            : (m,) one-sided PSD (units^2/Hz) of the average periodogram.
     autocovariance : (max_lag + 1,) the inverse FFT of the average periodogram.
-    n_samples      : total samples over all groups (the n of AIC).
+    n_samples      : total samples over all groups.
     n_groups       : number of groups that contributed.
     nfft           : FFT length.
+    n_effective    : equivalent number of independent samples, the n of AIC / BIC:
+                     sum over spans of (sum w^2)^2 / sum w^4 for the taper w (= n_samples
+                     without a taper).
+    taper          : Tukey taper fraction used on every span (0 = rectangular).
+    fill_below     : Hz; bins below it were replaced (see :func:`average_spectra`), or None.
     """
 
     freqs: np.ndarray
@@ -54,6 +64,9 @@ class AveragedSpectrum:
     n_samples: int
     n_groups: int
     nfft: int
+    n_effective: float = 0.0
+    taper: float = 0.0
+    fill_below: float | None = None
 
 
 def _next_pow2(n: int) -> int:
@@ -66,12 +79,35 @@ def average_spectra(
     max_lag: int,
     demean: bool = True,
     min_samples: int = 1,
+    taper: float = 0.0,
+    fill_below: float | None = None,
+    gain=None,
 ) -> AveragedSpectrum:
     """Average the periodograms of several groups of spans (see the module docstring).
 
     groups : one sequence of 1-D spans per participant. Groups with fewer than
     ``min_samples`` samples are skipped. Each span is demeaned on its own when ``demean``.
+
+    taper : Tukey fraction (0..1) applied to every span before its FFT; the participant's
+    periodogram is then ``sum |FFT(w span)|^2 / sum w^2``. Yule–Walker from a rectangular
+    window suffers end effects of order (spectral dynamic range) / (span length), which on
+    peaky spectra is enough for AIC to add spurious poles; a taper removes them (Percival &
+    Walden 1993, Sec. 9.4). ``n_effective`` then counts the equivalent samples.
+
+    fill_below : Hz or None. The periodogram bins below it are replaced by the mean of the
+    bins in [fill_below, 1.5 fill_below] (a flat continuation) before the autocovariance is
+    taken. Use it when the spans were high-passed (the band split): the high band has a
+    notch of depth ~ (f / f_c)^16 at DC that an all-pole model cannot represent and chases
+    with ever more poles; the notch says nothing about the texture, whose own spectrum there
+    is unknown (the low band owns those frequencies).
+
+    gain : None or a function freqs (m,) Hz -> (m,) power gain of a known zero-phase
+    pre-filter (a high-pass); at and above ``fill_below`` the periodogram is divided by it,
+    so the model describes the signal before that filter (choose ``fill_below`` where the
+    gain is still >= ~0.5).
     """
+    if not 0.0 <= taper <= 1.0:
+        raise ValueError(f"taper must be within [0, 1], got {taper}")
     spans_by_group = []
     for g in groups:
         spans = [np.asarray(s, dtype=float).reshape(-1) for s in g]
@@ -82,28 +118,50 @@ def average_spectra(
     if not spans_by_group:
         raise ValueError("no group has enough samples to estimate a spectrum")
     longest = max(s.size for g in spans_by_group for s in g)
-    nfft = _next_pow2(max(2 * longest - 1, 2 * (max_lag + 1)))
+    nfft = _next_pow2(max(2 * longest - 1, 2 * (max_lag + 1), int(np.ceil(4 * sample_rate / fill_below)) if fill_below else 0))
     acc = np.zeros(nfft // 2 + 1)
     n_total = 0
+    n_eff = 0.0
     for spans in spans_by_group:
         per = np.zeros(nfft // 2 + 1)
         n_g = 0
+        w2 = 0.0
         for s in spans:
             if demean:
                 s = s - s.mean()
+            if taper > 0:
+                w = tukey(s.size, taper)
+                s = s * w
+                sw2, sw4 = float(w @ w), float(np.sum(w**4))
+            else:
+                sw2 = sw4 = float(s.size)
             X = np.fft.rfft(s, nfft)
             per += X.real**2 + X.imag**2
             n_g += s.size
-        acc += per / n_g
+            w2 += sw2
+            n_eff += sw2 * sw2 / sw4
+        acc += per / w2
         n_total += n_g
     mean_per = acc / len(spans_by_group)
+    freqs = np.fft.rfftfreq(nfft, 1.0 / sample_rate)
+    if gain is not None:
+        if not fill_below:
+            raise ValueError("gain compensation needs fill_below (where the gain is too small to divide by)")
+        above = freqs >= fill_below
+        mean_per = mean_per.copy()
+        mean_per[above] /= np.maximum(np.asarray(gain(freqs[above]), dtype=float), 1e-12)
+    if fill_below:
+        ref = (freqs >= fill_below) & (freqs <= 1.5 * fill_below)
+        if not np.any(ref):
+            raise ValueError(f"no frequency bin within [{fill_below}, {1.5 * fill_below}] Hz to continue below {fill_below} Hz")
+        mean_per = np.where(freqs < fill_below, np.mean(mean_per[ref]), mean_per)
     acov = np.fft.irfft(mean_per, nfft)[: max_lag + 1]
     psd = 2.0 * mean_per / sample_rate
     psd[0] /= 2.0
     if nfft % 2 == 0:
         psd[-1] /= 2.0
-    freqs = np.fft.rfftfreq(nfft, 1.0 / sample_rate)
-    return AveragedSpectrum(freqs, psd, acov, int(n_total), len(spans_by_group), int(nfft))
+    return AveragedSpectrum(freqs, psd, acov, int(n_total), len(spans_by_group), int(nfft), float(n_eff), float(taper),
+                            float(fill_below) if fill_below else None)
 
 
 def welch_spans(spans: Sequence[np.ndarray], sample_rate: float, nperseg: int = 256) -> tuple[np.ndarray, np.ndarray]:

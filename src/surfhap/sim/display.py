@@ -13,7 +13,9 @@ the model rate for comparison with the material model.
 
 ``mu_panel`` (0.5) and the 50 ms leakage constant are documented assumptions for a
 simulated panel, not measurements; the electrostatic constant ``k`` comes from
-:class:`~surfhap.sim.electrostatics.ElectrostaticStack` (eq. 1 of Zhao et al.).
+:class:`~surfhap.sim.electrostatics.ElectrostaticStack` (eq. 1 of Zhao et al.) unless a
+measured ``k_measured`` is given (``--display k=...`` or a display file,
+:mod:`surfhap.exchange.display_file`).
 """
 
 from __future__ import annotations
@@ -31,22 +33,50 @@ __all__ = ["DisplayModel", "SimulatedDisplay"]
 
 @dataclass(frozen=True)
 class DisplayModel:
-    """Parameters of the simulated panel (SI)."""
+    """Parameters of the panel the drive laws render for and the simulator simulates (SI).
+
+    mu_panel              : panel friction coefficient (assumed 0.5 by default).
+    stack                 : finger/insulator stack giving k by eq. 1 (assumed values).
+    leakage_time_constant : s, charge leakage of the simulated finger (assumed 50 ms).
+    k_measured            : N/V^2, a measured electrostatic constant; overrides the stack's.
+    device_curve          : optional measured (input, (c0, c1, c2)) lateral-force curve, carried
+                            from a display file (not used by the texture drive laws).
+    source                : where the numbers come from ("assumed defaults", a file, ...).
+    """
 
     mu_panel: float = 0.5
     stack: ElectrostaticStack = field(default_factory=ElectrostaticStack)
     leakage_time_constant: float = 0.050
+    k_measured: float | None = None
+    device_curve: tuple | None = None
+    source: str = "assumed defaults (docs/texture.md)"
 
     def __post_init__(self):
         if not (np.isfinite(self.mu_panel) and self.mu_panel > 0):
             raise ValueError("mu_panel must be > 0")
         if not (np.isfinite(self.leakage_time_constant) and self.leakage_time_constant > 0):
             raise ValueError("leakage_time_constant must be > 0 s")
+        if self.k_measured is not None and not (np.isfinite(self.k_measured) and self.k_measured > 0):
+            raise ValueError("k must be > 0 N/V^2")
 
     @property
     def k(self) -> float:
-        """Electrostatic constant, N/V^2."""
-        return self.stack.k
+        """Electrostatic constant, N/V^2 (measured if given, else eq. 1 of the stack)."""
+        return float(self.k_measured) if self.k_measured is not None else self.stack.k
+
+    @property
+    def area(self) -> float:
+        """m^2, contact area of the stack."""
+        return self.stack.contact_area
+
+    def describe(self) -> dict:
+        """JSON-ready parameters and their source."""
+        return {"k_n_per_v2": self.k, "mu_panel": self.mu_panel, "area_m2": self.area,
+                "leakage_time_constant_s": self.leakage_time_constant,
+                "k_from": "measured" if self.k_measured is not None else "eq. 1 of the stack",
+                "device_curve": None if self.device_curve is None else
+                {"input": self.device_curve[0], "coefficients": list(self.device_curve[1])},
+                "source": self.source}
 
     @property
     def calibrated_alpha(self) -> float:

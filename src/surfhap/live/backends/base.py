@@ -9,6 +9,12 @@ sends the returned volts somewhere. Protocol:
   stops calling and releases the device;
 * ``info()`` a small dict for the status page (name, rate, channels, output latency);
 * ``drive_rate`` the rate it needs (``None`` = whatever the engine uses).
+
+A backend that fails is never left holding its last sample silently: an exception in its
+output thread or callback, or no block for ``stall_timeout`` seconds (:class:`StallWatch`),
+calls ``engine.fail(reason)``. The engine then renders 0 V for every later block, the
+reason shows in ``engine.status()["failure"]`` (and on the page), and the CLI exits with
+code 3. The paced thread emits one block of 0 V after an exception and ends.
 """
 
 from __future__ import annotations
@@ -19,10 +25,17 @@ import time
 from typing import Protocol, runtime_checkable
 from urllib.parse import urlparse
 
+import numpy as np
+
 from surfhap.errors import ConfigError
 from surfhap.live.clock import now, sleep_until
 
-__all__ = ["Backend", "PacedBackend", "parse_output", "open_backend"]
+__all__ = ["Backend", "PacedBackend", "StallWatch", "parse_output", "open_backend", "STALL_TIMEOUT"]
+
+# s without a rendered block before a running backend counts as stalled. A choice: long
+# enough that a loaded machine's scheduling hiccups (tens of ms) never trip it, short
+# enough that a hung output is reported (and the engine halted) within a second.
+STALL_TIMEOUT = 1.0
 
 log = logging.getLogger("surfhap.live")
 
@@ -37,6 +50,49 @@ class Backend(Protocol):
     def stop(self, timeout: float = 1.0) -> None: ...
 
     def info(self) -> dict: ...
+
+
+class StallWatch:
+    """Thread that reports a backend stall: no new block (``engine.counters['blocks']``)
+    for ``timeout`` seconds while the backend runs -> ``engine.fail(...)`` (the engine
+    renders 0 V from then on) and ``on_stall()`` of the backend, once."""
+
+    def __init__(self, engine, name: str, timeout: float = STALL_TIMEOUT, on_stall=None):
+        if not (timeout > 0 and timeout < 3600):
+            raise ConfigError("must be within 0-3600 s", field="stall_timeout")
+        self.engine, self.name, self.timeout, self.on_stall = engine, name, float(timeout), on_stall
+        self.stalled = False
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, name=f"surfhap-{name}-watch", daemon=True)
+
+    def start(self) -> "StallWatch":
+        self._thread.start()
+        return self
+
+    def _loop(self) -> None:
+        eng = self.engine
+        poll = min(0.05, self.timeout / 4)
+        last, t_last = eng.counters["blocks"], now()
+        while not self._stop.wait(poll):
+            b = eng.counters["blocks"]
+            t = now()
+            if b != last:
+                last, t_last = b, t
+            elif t - t_last > self.timeout:
+                self.stalled = True
+                eng.fail(f"{self.name} output stalled: no block for {1e3 * (t - t_last):.0f} ms")
+                log.error("%s output stalled: the engine is halted (0 V)", self.name)
+                if self.on_stall is not None:
+                    try:
+                        self.on_stall()
+                    except Exception:  # noqa: BLE001 - best effort on a hung device
+                        log.exception("could not abort the stalled %s output", self.name)
+                return
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(1.0)
 
 
 class PacedBackend:
@@ -54,10 +110,13 @@ class PacedBackend:
     drive_rate: int | None = None
     buffer: float = 0.005
 
-    def __init__(self):
+    def __init__(self, stall_timeout: float = STALL_TIMEOUT):
         self._thread: threading.Thread | None = None
         self._run = False
         self.engine = None
+        self.stall_timeout = float(stall_timeout)
+        self._watch: StallWatch | None = None
+        self.error: str | None = None
 
     def start(self, engine) -> None:
         if self._thread is not None:
@@ -66,6 +125,7 @@ class PacedBackend:
         self._run = True
         self._thread = threading.Thread(target=self._loop, name=f"surfhap-{self.name}", daemon=True)
         self._thread.start()
+        self._watch = StallWatch(engine, self.name, self.stall_timeout).start()
 
     def _loop(self) -> None:
         eng = self.engine
@@ -73,21 +133,33 @@ class PacedBackend:
         period = eng.block_period
         slack = max(self.buffer, period)
         deadline = now()
-        while self._run:
-            t = sleep_until(deadline)
-            if t - deadline > slack:
-                eng.counters["underruns"] += 1
-                deadline = t
-            volts = eng.render(frames, t)
-            self.emit(volts)
-            deadline += period
+        try:
+            while self._run:
+                t = sleep_until(deadline)
+                if t - deadline > slack:
+                    eng.counters["underruns"] += 1
+                    deadline = t
+                volts = eng.render(frames, t)
+                self.emit(volts)
+                deadline += period
+        except Exception as exc:  # noqa: BLE001 - reported, never silent
+            self.error = f"{self.name} output failed: {type(exc).__name__}: {exc}"
+            eng.fail(self.error)
+            log.error("%s; the engine is halted (0 V)", self.error)
+            try:
+                self.emit(np.zeros(frames))  # best effort: leave the output at 0 V
+            except Exception:  # noqa: BLE001
+                pass
 
     def emit(self, volts) -> None:  # pragma: no cover - overridden
         pass
 
     def stop(self, timeout: float = 1.0) -> None:
+        if self._watch is not None:
+            self._watch.stop()
+            self._watch = None
         eng = self.engine
-        if eng is not None and self._thread is not None and self._thread.is_alive():
+        if eng is not None and self._thread is not None and self._thread.is_alive() and not eng.halted:
             eng.request_stop()
             end = time.monotonic() + timeout
             while not eng.stopped and time.monotonic() < end:

@@ -7,7 +7,7 @@ keeps the last block for inspection.
 
 from __future__ import annotations
 
-from surfhap.live.backends.base import PacedBackend
+from surfhap.live.backends.base import STALL_TIMEOUT, PacedBackend
 
 __all__ = ["SimBackend"]
 
@@ -15,8 +15,8 @@ __all__ = ["SimBackend"]
 class SimBackend(PacedBackend):
     name = "sim"
 
-    def __init__(self, **_ignored):
-        super().__init__()
+    def __init__(self, stall_timeout: float = STALL_TIMEOUT, **_ignored):
+        super().__init__(stall_timeout)
         self.blocks = 0
 
     def emit(self, volts) -> None:

@@ -8,7 +8,9 @@ The stream runs at the engine's drive rate with the engine's block size; PortAud
 ``channels`` (0-based; default: all channels of the stream). ``amp_gain`` is the
 amplifier's gain in volts per DAC full-scale unit, from the rig's configuration.
 
-PortAudio's underflow flags count as engine underruns. ``capture_seconds`` keeps a copy of
+PortAudio's underflow flags count as engine underruns. An exception in the callback writes
+0 V and calls ``engine.fail`` (every later callback then writes 0 V); no callback for
+``stall_timeout`` seconds also calls ``engine.fail`` and aborts the stream. ``capture_seconds`` keeps a copy of
 the first samples written (preallocated), for checking the amplifier chain.
 """
 
@@ -20,6 +22,7 @@ import time
 import numpy as np
 
 from surfhap.errors import ConfigError
+from surfhap.live.backends.base import STALL_TIMEOUT, StallWatch
 from surfhap.live.clock import now
 
 __all__ = ["SoundBackend", "list_devices"]
@@ -57,7 +60,7 @@ class SoundBackend:
 
     def __init__(self, device: int | str | None = None, amp_gain: float = 250.0, n_channels: int | None = None,
                  channels: tuple[int, ...] | None = None, latency: str | float = "low",
-                 capture_seconds: float = 0.0, **_ignored):
+                 capture_seconds: float = 0.0, stall_timeout: float = STALL_TIMEOUT, **_ignored):
         if not (np.isfinite(amp_gain) and amp_gain > 0):
             raise ConfigError("must be > 0 V per DAC unit", field="amp_gain")
         self.device = device
@@ -71,6 +74,9 @@ class SoundBackend:
         self.engine = None
         self._stream = None
         self.clipped = 0
+        self.stall_timeout = float(stall_timeout)
+        self._watch = None
+        self.error: str | None = None
 
     def start(self, engine) -> None:
         sd = _sd()
@@ -99,10 +105,25 @@ class SoundBackend:
         except sd.PortAudioError as exc:
             self._stream = None
             raise ConfigError(f"cannot open sound output at {engine.drive_rate} Hz ({exc})", source="--output") from None
+        self._watch = StallWatch(engine, self.name, self.stall_timeout, on_stall=self._abort).start()
         log.info("sound output on %r: %d channel(s) at %d Hz, block %d, output latency %.1f ms",
                  dev["name"], n_ch, engine.drive_rate, engine.block_frames, 1e3 * self._stream.latency)
 
     def _callback(self, outdata, frames, time_info, status) -> None:
+        try:
+            self._fill(outdata, frames, status)
+        except Exception as exc:  # noqa: BLE001 - the device must not keep the last samples
+            outdata.fill(0.0)
+            if self.error is None:
+                self.error = f"sound output failed: {type(exc).__name__}: {exc}"
+            self.engine.fail(self.error)
+
+    def _abort(self) -> None:
+        stream = self._stream
+        if stream is not None:
+            stream.abort()
+
+    def _fill(self, outdata, frames, status) -> None:
         # real-time: no allocation beyond numpy views, no locks, no logging
         eng = self.engine
         if status.output_underflow:
@@ -122,12 +143,15 @@ class SoundBackend:
             self.captured = k + m
 
     def stop(self, timeout: float = 1.0) -> None:
+        if self._watch is not None:
+            self._watch.stop()
+            self._watch = None
         if self._stream is None:
             return
         eng = self.engine
         eng.request_stop()
         end = time.monotonic() + timeout
-        while not eng.stopped and time.monotonic() < end:
+        while not eng.stopped and not eng.halted and time.monotonic() < end:
             time.sleep(0.002)
         try:
             self._stream.stop()

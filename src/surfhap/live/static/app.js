@@ -5,6 +5,7 @@
   const surface = document.getElementById("surface");
   const trace = document.getElementById("trace");
   const $ = (id) => document.getElementById(id);
+  const satHist = [];  // [samples, clamped] of the last few status messages
   const stats = { sent: 0, acked: -1, traceFrames: 0, tracePointsDrawn: 0, lastRtt: null, maxV: 0, open: false };
   window.surfhap = stats;
   const sentAt = new Map(); // seq -> performance.now() at send (bounded below)
@@ -121,7 +122,16 @@
       $("blocks").textContent = `${c.blocks} × ${(s.block_period * 1e3).toFixed(2)} ms`;
       $("runs").textContent = `${c.underruns} / ${c.overruns}`;
       $("safety").textContent = `${sf.clamped} / ${sf.watchdog} / ${sf.faults}`;
-      $("output").textContent = s.output ? s.output.name : "–";
+      // saturation indicator: share of drive samples clamped to v_max since the status before last
+      satHist.push([sf.samples, sf.clamped]);
+      if (satHist.length > 6) satHist.shift();
+      const [s0, c0] = satHist[0], dS = sf.samples - s0, dC = sf.clamped - c0;
+      if (dS > 0) {
+        const frac = dC / dS;
+        $("sat").textContent = frac > 0.01 ? `${(100 * frac).toFixed(1)} % – SATURATED` : `${(100 * frac).toFixed(2)} %`;
+        $("sat").className = frac > 0.01 ? "bad" : "ok";
+      }
+      $("output").textContent = s.failure ? `FAILED (0 V): ${s.failure}` : (s.output ? s.output.name : "–");
     }
     drawTrace();
   }

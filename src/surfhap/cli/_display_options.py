@@ -1,0 +1,87 @@
+"""Options shared by the commands that render for a display: ``--display``, ``--load-range``,
+``--speed-range`` and ``--config FILE.toml`` (a ``[display]`` section).
+
+Precedence: command-line options, then the config file, then the documented assumptions.
+The ``[display]`` section may hold ``file`` (a display JSON, relative to the config file),
+``k`` (N/V^2), ``mu_panel``, ``area`` (m^2), ``leakage_time_constant`` (s), ``load_range``
+([low, high] N) and ``speed_range`` ([low, high] m/s).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+from surfhap.errors import ConfigError
+
+__all__ = ["DISPLAY_HELP", "LOAD_RANGE_HELP", "SPEED_RANGE_HELP", "CONFIG_HELP", "resolve_display_and_range", "parse_range"]
+
+DISPLAY_HELP = ("Your display: 'k=N/V^2,mu_panel=..,area=m^2[,leakage=s]' or a surfhap-display JSON file "
+                "(default: the documented assumptions, docs/texture.md).")
+LOAD_RANGE_HELP = "Loads the gain plan must serve, 'LOW,HIGH' in N (default 0.1,1.0)."
+SPEED_RANGE_HELP = "Speeds the gain plan must serve, 'LOW,HIGH' in m/s (default 0.02,0.3)."
+CONFIG_HELP = "TOML file with a \\[display] section (file, k, mu_panel, area, leakage_time_constant, load_range, speed_range)."
+
+_TOML_KEYS = ("file", "k", "mu_panel", "area", "leakage_time_constant", "load_range", "speed_range")
+
+
+def parse_range(text, source: str, field: str | None = None) -> tuple[float, float]:
+    """'LOW,HIGH' (or a 2-list from TOML) -> (low, high) floats."""
+    parts = text.split(",") if isinstance(text, str) else list(text) if isinstance(text, (list, tuple)) else None
+    if parts is None or len(parts) != 2:
+        raise ConfigError("expected LOW,HIGH", source=source, field=field)
+    try:
+        lo, hi = (float(p) for p in parts)
+    except (TypeError, ValueError):
+        raise ConfigError(f"expected two numbers, got {text!r}", source=source, field=field) from None
+    return lo, hi
+
+
+def _read_config(path: Path) -> dict:
+    try:
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ConfigError(f"cannot read file ({exc.strerror})", source=str(path)) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"malformed TOML ({exc})", source=str(path)) from None
+    sec = raw.get("display", {})
+    if not isinstance(sec, dict):
+        raise ConfigError("must be a table", source=str(path), field="display")
+    for key in sec:
+        if key not in _TOML_KEYS:
+            raise ConfigError(f"unknown key (known: {', '.join(_TOML_KEYS)})", source=str(path), field=f"display.{key}")
+    return sec
+
+
+def resolve_display_and_range(display: str | None, load_range: str | None, speed_range: str | None,
+                              config: Path | None):
+    """Returns (DisplayModel, OperatingRange) from the options; ConfigError names the culprit."""
+    from surfhap.exchange.display_file import display_from_values, load_display
+    from surfhap.render.gain_plan import OperatingRange
+
+    sec = _read_config(Path(config)) if config is not None else {}
+    src = str(config) if config is not None else ""
+    if display is not None:
+        model = load_display(display)
+    elif sec:
+        base = load_display(str(Path(config).parent / sec["file"])) if "file" in sec else None
+        vals = {}
+        for key, arg in (("k", "k"), ("mu_panel", "mu_panel"), ("area", "area"), ("leakage_time_constant", "leakage")):
+            if key in sec:
+                v = sec[key]
+                if not isinstance(v, (int, float)) or isinstance(v, bool) or not (0 < v < float("inf")):
+                    raise ConfigError("must be a number > 0", source=src, field=f"display.{key}")
+                vals[arg] = float(v)
+        model = display_from_values(**vals, source=f"{src} [display]", base=base) if (vals or base is None) else base
+    else:
+        model = load_display(None)
+    loads = parse_range(load_range, "--load-range") if load_range is not None else (
+        parse_range(sec["load_range"], src, "display.load_range") if "load_range" in sec else OperatingRange().loads)
+    speeds = parse_range(speed_range, "--speed-range") if speed_range is not None else (
+        parse_range(sec["speed_range"], src, "display.speed_range") if "speed_range" in sec else OperatingRange().speeds)
+    try:
+        rng = OperatingRange(loads=loads, speeds=speeds)
+    except ConfigError as exc:
+        opt = "--load-range" if exc.field == "load_range" else "--speed-range"
+        raise ConfigError(exc.message, source=opt if (load_range or speed_range) else (src or opt)) from None
+    return model, rng

@@ -1,0 +1,291 @@
+"""``surfhap ff``: force-feedback touchscreen (KinesTouch): list scenes, simulate, run live."""
+
+from __future__ import annotations
+
+import json
+import logging
+import signal
+import time
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from surfhap.cli._common import stderr, stdout
+from surfhap.errors import ConfigError
+
+__all__ = ["register"]
+
+ff_app = typer.Typer(name="ff", no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+                     help="Force-feedback touchscreen (a 3-DoF impedance device moving the tablet, KinesTouch): "
+                          "stiffness, shape, roughness and sliding effects over a scene.")
+
+PAPER_LATENCY_MS = 40.0  # "a few dozens of ms" (004 Sec. 4.2); the issue's 40 ms
+
+
+def _device(gain: Optional[float], slew: Optional[float], f_max: Optional[float]):
+    from surfhap.ff.params import DeviceParams
+
+    kw = {}
+    if gain is not None:
+        kw["gain"] = gain
+    if slew is not None:
+        kw["slew"] = slew
+    if f_max is not None:
+        kw["f_max"] = (f_max, f_max, f_max)
+    try:
+        return DeviceParams(**kw)
+    except ConfigError as exc:
+        raise ConfigError(exc.message, source=f"--{(exc.field or 'device').replace('_', '-')}") from None
+
+
+def _predictor(predict: bool, latency_ms: float, k_pred: Optional[float], alpha: float, velocity_alpha: float):
+    from surfhap.live.prediction import TouchPredictor
+
+    if not 0.0 <= latency_ms <= 200.0:
+        raise ConfigError("must be within 0-200 ms", source="--touch-latency-ms")
+    if not 0.0 < alpha <= 1.0:
+        raise ConfigError("must be in (0, 1]", source="--alpha")
+    if not 0.0 < velocity_alpha <= 1.0:
+        raise ConfigError("must be in (0, 1]", source="--velocity-alpha")
+    if k_pred is not None and not 0.0 <= k_pred <= 100.0:
+        raise ConfigError("must be within 0-100", source="--k-pred")
+    if not predict:
+        return TouchPredictor(velocity_alpha=velocity_alpha)
+    return TouchPredictor(latency=latency_ms * 1e-3, alpha=alpha, k_pred=k_pred, velocity_alpha=velocity_alpha)
+
+
+def _default_strokes(size):
+    """0.5 Hz strokes of +-3 cm through the content centre, 1 N, 6 s (the study's pace, 004 Sec. 5.2)."""
+    import numpy as np
+
+    from surfhap.sim.trajectory import Trajectory
+
+    t = np.arange(0.0, 6.0, 1e-3)
+    return Trajectory(t, size[0] / 2 + 0.03 * np.sin(np.pi * t), np.full(t.size, size[1] / 2), np.ones(t.size),
+                      name="strokes 0.5 Hz +-3 cm, 1 N")
+
+
+# Options shared by simulate and run
+_LAT = typer.Option(None, "--touch-latency-ms", help="Touch latency of the touch path, ms (default 40, the KinesTouch tablet's 'few dozens of ms'; 0 for a trajectory replay).")
+_PRED = typer.Option(True, "--predict/--no-predict", help="Compensate the touch latency by prediction (004 eq. 6-7).")
+_KPRED = typer.Option(None, "--k-pred", help="Fixed prediction gain of eq. 6 (paper: 8 at 60 Hz); default: derived from the latency.")
+_ALPHA = typer.Option(0.15, "--alpha", help="Position smoothing of eq. 7, (0, 1] (paper: 0.15).")
+_VALPHA = typer.Option(0.45, "--velocity-alpha", help="Velocity smoothing per touch sample, (0, 1] (paper: 0.45).")
+_GAIN = typer.Option(None, "--gain", help="Device units per newton (default 4.5: a Falcon through CHAI3D, 004 Sec. 4.3).")
+_SLEW = typer.Option(None, "--slew", help="Largest force change per axis, N/s (default 400).")
+_FMAX = typer.Option(None, "--f-max", help="Per-axis force limit, N (default 8: the Falcon's largest force).")
+
+
+def scenes_cmd() -> None:
+    """List the built-in example scenes."""
+    from surfhap.ff.scene import builtin_scene_names, builtin_scene_path
+
+    for name in builtin_scene_names():
+        desc = json.loads(builtin_scene_path(name).read_text(encoding="utf-8")).get("description", "")
+        stdout.print(f"{name:<10} {desc}")
+
+
+def simulate_cmd(
+    scene: str = typer.Argument(..., help="Built-in scene name (see 'surfhap ff scenes') or scene JSON file."),
+    trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Finger trajectory CSV (time s, x m, y m, load N) in content coordinates; default: 0.5 Hz strokes through the centre."),
+    out: Path = typer.Option(Path("ff-sim"), "--out", help="Output directory (NPZ, summary.json, figures)."),
+    touch_rate: float = typer.Option(60.0, "--touch-rate", help="Touch report rate of the simulated tablet, Hz (paper: 60)."),
+    mu: float = typer.Option(0.0, "--mu", help="Finger-screen Coulomb friction coefficient of the simulated finger (0 = none)."),
+    touch_latency_ms: Optional[float] = _LAT, predict: bool = _PRED, k_pred: Optional[float] = _KPRED,
+    alpha: float = _ALPHA, velocity_alpha: float = _VALPHA, gain: Optional[float] = _GAIN,
+    slew: Optional[float] = _SLEW, f_max: Optional[float] = _FMAX,
+    figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
+) -> None:
+    """Simulate SCENE on a simulated device with a simulated finger: forces, screen motion,
+    finger-screen relative sliding and effect switches."""
+    import numpy as np
+
+    from surfhap.ff.engine import FFEngine
+    from surfhap.ff.scene import load_scene
+    from surfhap.sim.ff_device import SimDevice, SimFinger
+    from surfhap.sim.ff_sim import simulate_ff
+
+    if touch_latency_ms is None:
+        touch_latency_ms = PAPER_LATENCY_MS
+    if not 10.0 <= touch_rate <= 1000.0:
+        raise ConfigError("must be within 10-1000 Hz", source="--touch-rate")
+    if not 0.0 <= mu <= 3.0:
+        raise ConfigError("must be within 0-3", source="--mu")
+    dev = _device(gain, slew, f_max)
+    sc = load_scene(scene, dev)
+    if trajectory is not None:
+        from surfhap.exchange.trajectory_csv import read_trajectory_csv
+
+        tr = read_trajectory_csv(trajectory)
+        if tr.duration > 600:
+            raise ConfigError("longer than 600 s", source=str(trajectory), field="time")
+    else:
+        tr = _default_strokes(sc.size)
+    pred = _predictor(predict, touch_latency_ms, k_pred, alpha, velocity_alpha)
+    lat = touch_latency_ms * 1e-3
+    eng = FFEngine(sc.effects, dev, pred, touch_latency=lat)
+    res = simulate_ff(eng, SimFinger(tr, touch_rate=touch_rate, latency=lat, mu=mu), SimDevice(gain=dev.gain),
+                      name=f"{sc.name} / {tr.name}")
+    out.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(out / "ff_simulation.npz", t=res.t, force=res.force, screen=res.screen, screen_v=res.screen_v,
+                        finger=res.finger, finger_v=res.finger_v, sliding=res.sliding, finger_est=res.finger_est,
+                        touched=res.touched, mask=res.mask, load=res.load, effects=np.array(res.effects))
+    summary = res.summary()
+    summary.update(scene=sc.source, trajectory=str(trajectory) if trajectory else tr.name, device=dev.name,
+                   gain=dev.gain, touch_latency_ms=touch_latency_ms, predict=predict,
+                   switch_log=[{"t_s": round(t, 4), "active": names} for t, names in res.switches()[:200]])
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    if figures:
+        from surfhap.report.ff_figures import plot_ff_top_view
+
+        res.plot().savefig(out / "ff_simulation.png", dpi=110)
+        plot_ff_top_view(res, sc.picture_array(), sc.size).savefig(out / "ff_top_view.png", dpi=110)
+    stdout.print(f"{sc.name}: {summary['ticks']} ticks, max |F| {summary['force_abs_max_N']} N, "
+                 f"sliding rms {summary['sliding_speed_rms_m_s'] * 1e3:.1f} mm/s "
+                 f"(finger {summary['finger_speed_rms_m_s'] * 1e3:.1f} mm/s) -> {out}")
+
+
+def run_cmd(
+    scene: str = typer.Argument(..., help="Built-in scene name or scene JSON file."),
+    device: str = typer.Option("sim", "--device", help="sim | osc://HOST:PORT (a device bridge receiving /surfhap/ff/force)."),
+    device_listen: str = typer.Option("127.0.0.1:9101", "--device-listen", help="HOST:PORT where the bridge sends /surfhap/ff/position (osc device)."),
+    touch: str = typer.Option("osc://127.0.0.1:9100", "--touch", help="osc://HOST:PORT (listen for /surfhap/touch, screen coordinates) | web (the touch page) | trajectory:FILE.csv (finger in the world, as for simulate)."),
+    host: str = typer.Option("127.0.0.1", "--host", help="Address of the touch page (--touch web)."),
+    port: int = typer.Option(8766, "--port", help="TCP port of the touch page (--touch web)."),
+    trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Replay this trajectory CSV as the touch source (same as --touch trajectory:FILE)."),
+    feedback: Optional[str] = typer.Option(None, "--feedback", help="osc://HOST:PORT of the tablet: 60 Hz /surfhap/ff/screen, /offset, /force."),
+    duration: float = typer.Option(0.0, "--duration", help="Stop after this many seconds (0 = until Ctrl-C / SIGTERM)."),
+    touch_latency_ms: Optional[float] = _LAT, predict: bool = _PRED, k_pred: Optional[float] = _KPRED,
+    alpha: float = _ALPHA, velocity_alpha: float = _VALPHA, gain: Optional[float] = _GAIN,
+    slew: Optional[float] = _SLEW, f_max: Optional[float] = _FMAX,
+    verbose: bool = typer.Option(False, "--verbose", "-v", help="Log at INFO."),
+) -> None:
+    """Run SCENE live: a 1 kHz haptic thread driving the device and a 60 Hz position-feedback
+    thread; Ctrl-C or SIGTERM ramps the force to zero and stops."""
+    from surfhap.ff.engine import FFEngine
+    from surfhap.ff.scene import load_scene
+    from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_osc_url
+    from surfhap.live.ff_loop import FFLoop, OscFeedback, WorldTouchAdapter
+
+    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    if duration < 0 or duration > 86400:
+        raise ConfigError("must be within 0-86400 s", source="--duration")
+    dev = _device(gain, slew, f_max)
+    sc = load_scene(scene, dev)
+    if trajectory is not None:
+        touch = f"trajectory:{trajectory}"
+    if touch_latency_ms is None:  # a replay arrives on time; a tablet has the paper's latency
+        touch_latency_ms = 0.0 if touch.startswith("trajectory:") else PAPER_LATENCY_MS
+    if device == "sim":
+        from surfhap.sim.ff_device import SimDevice
+
+        backend = SimDeviceBackend(SimDevice(gain=dev.gain), dev.gain)
+    else:
+        host, port = parse_osc_url(device, "--device")
+        lh, _, lp = device_listen.rpartition(":")
+        if not lh or not lp.isdigit() or not 0 <= int(lp) <= 65535:
+            raise ConfigError("expected HOST:PORT", source="--device-listen")
+        backend = OscDeviceBackend(host, port, dev.gain, listen=(lh, int(lp)))
+    fb = None
+    if feedback is not None:
+        fb = OscFeedback(*parse_osc_url(feedback, "--feedback"))
+    pred = _predictor(predict, touch_latency_ms, k_pred, alpha, velocity_alpha)
+    eng = FFEngine(sc.effects, dev, pred, touch_latency=touch_latency_ms * 1e-3)
+    loop = FFLoop(eng, backend, feedback=fb)
+    if touch.startswith("trajectory:"):
+        from surfhap.exchange.trajectory_csv import read_trajectory_csv
+        from surfhap.live.sources import ReplaySource
+
+        source = ReplaySource(WorldTouchAdapter(loop, backend), read_trajectory_csv(touch[len("trajectory:"):]),
+                              loop=duration > 0)
+    elif touch.startswith("osc://"):
+        from surfhap.live.sources import OscTouchSource, TouchSpace
+
+        host, port = parse_osc_url(touch, "--touch")
+        w, h = sc.size
+        source = OscTouchSource(loop, host=host, port=port, space=TouchSpace(width=w, height=h))
+    elif touch == "web":
+        source = _WebSource(sc, loop, dev, host, port)
+    else:
+        raise ConfigError("expected osc://HOST:PORT, web or trajectory:FILE", source="--touch")
+    stopping = {"sig": None}
+
+    def _on_signal(signum, _frame):
+        stopping["sig"] = signum
+        loop.request_stop()
+
+    old = signal.signal(signal.SIGTERM, _on_signal)
+    try:
+        try:
+            source.start()
+        except OSError as exc:
+            raise ConfigError(f"cannot listen ({exc.strerror or exc})", source="--touch") from None
+        try:
+            loop.start()
+        except OSError as exc:
+            source.stop()
+            raise ConfigError(f"cannot open the device link ({exc.strerror or exc})", source="--device") from None
+        stderr.print(f"surfhap ff: {sc.name} on {backend.name} at {loop.rate:.0f} Hz; touch {touch}"
+                     f"{'' if backend.name != 'osc' else f'; positions on udp port {backend.listen_port}'}"
+                     " (Ctrl-C stops)")
+        end = time.monotonic() + duration if duration > 0 else None
+        while not loop.done.is_set():
+            if end is not None and time.monotonic() >= end:
+                loop.request_stop()
+                end = None
+            if getattr(source, "done", None) is not None and source.done.is_set() and duration == 0:
+                loop.request_stop()
+            time.sleep(0.05)
+    except KeyboardInterrupt:
+        loop.request_stop()
+    finally:
+        source.stop()
+        loop.stop()
+        signal.signal(signal.SIGTERM, old)
+    st = loop.stats()
+    st["scene"] = sc.name
+    typer.echo(json.dumps(st, default=float))
+
+
+class _WebSource:
+    """The touch page (its own process) feeding the loop; the page's trace shows |F|."""
+
+    def __init__(self, scene, loop, dev, host: str, port: int):
+        from surfhap.live.ff_web import build_ff_session
+
+        if not 1 <= port <= 65535:
+            raise ConfigError("must be within 1-65535", source="--port")
+        self.session = build_ff_session(scene, loop, max(dev.f_max))
+        self.host, self.port = host, port
+        self.loop = loop
+        self.server = None
+        record = self.session.engine.record
+        osc = loop.feedback
+
+        def feedback(t, px, py, pz, dx, dy, fx, fy, fz):
+            record(t, px, py, pz, fx, fy, fz)
+            if osc is not None:
+                osc(t, px, py, pz, dx, dy, fx, fy, fz)
+
+        loop.feedback = feedback
+
+    def start(self) -> None:
+        from surfhap.live.server import ServerConfig
+        from surfhap.live.webproc import WebProcess
+
+        self.server = WebProcess(self.session, ServerConfig(host=self.host, port=self.port)).start()
+        stdout.print(f"touch page: http://{self.host}:{self.port}/")
+
+    def stop(self) -> None:
+        if self.server is not None:
+            self.server.stop()
+            self.server = None
+
+
+def register(app: typer.Typer) -> None:
+    ff_app.command("scenes")(scenes_cmd)
+    ff_app.command("simulate")(simulate_cmd)
+    ff_app.command("run")(run_cmd)
+    app.add_typer(ff_app, name="ff")

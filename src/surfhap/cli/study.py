@@ -1,0 +1,309 @@
+"""``surfhap study``: perception studies of the papers, from design to analysis.
+
+::
+
+    surfhap study templates
+    surfhap study new DESIGN --out STUDY/ [--seed N] [--participants N]
+    surfhap study run STUDY --participant P01 [--gain G] [--comfort-voltage V] [--port 8780]
+    surfhap study run STUDY --participant P01 --simulate SEED     (dry run, no page)
+    surfhap study comfort STUDY --participant P01 [--output sim]      (comfort voltage, staircase)
+    surfhap study status STUDY
+    surfhap study analyze STUDY --report DIR
+
+DESIGN is a design file (JSON, ``surfhap-study-design``) or a built-in template name.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from surfhap.cli._common import stderr, stdout
+
+__all__ = ["register"]
+
+study_app = typer.Typer(no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+                        help="Perception studies: generate a counterbalanced design, run participants on a touch "
+                             "page with a loss-free log, analyse the results as in the papers.")
+
+
+@study_app.command("templates")
+def templates() -> None:
+    """List the built-in study designs (one per paper)."""
+    from surfhap.lab.designs import TEMPLATES
+
+    for name, d in TEMPLATES.items():
+        stdout.print(f"{name:26s} {d['kind']:18s} {d['participants']:3d} participants  {d['name']}")
+
+
+@study_app.command("new")
+def new(
+    design: str = typer.Argument(..., help="Design file (JSON) or built-in template name (see 'study templates')."),
+    out: Path = typer.Option(..., "--out", help="Study folder to create (must not hold a study yet)."),
+    seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (overrides the design's)."),
+    participants: Optional[int] = typer.Option(None, "--participants", help="Number of participants (overrides)."),
+) -> None:
+    """Generate every participant's trial list into STUDY/study.json."""
+    from surfhap.errors import StudyFormatError
+    from surfhap.lab.designs import TEMPLATES, build_study, template
+    from surfhap.lab.schema import load_design
+
+    if Path(design).is_file() or design.endswith(".json"):
+        spec = load_design(design)
+        upd = {k: v for k, v in (("seed", seed), ("participants", participants)) if v is not None}
+        if upd:
+            spec = spec.model_validate({**spec.model_dump(), **upd})
+    elif design in TEMPLATES:
+        spec = template(design, seed=seed or 0, participants=participants)
+    else:
+        raise StudyFormatError(f"neither a file nor a template ({', '.join(TEMPLATES)})", source=design, field="design")
+    try:
+        study = build_study(spec)
+    except StudyFormatError as exc:  # name the design file in the one-line message
+        raise StudyFormatError(exc.message, source=exc.source or design, field=exc.field) from None
+    target = out / "study.json"
+    if target.exists():
+        raise StudyFormatError("already holds a study (choose another --out)", source=str(out), field="study.json")
+    out.mkdir(parents=True, exist_ok=True)
+    target.write_text(json.dumps(study.model_dump(mode="json"), indent=1) + "\n", encoding="utf-8")
+    (out / "logs").mkdir(exist_ok=True)
+    n = len(study.participants[0].trials)
+    stdout.print(f"{spec.name}: {len(study.participants)} participants x {n} trials, seed {spec.seed}")
+    stdout.print(f"wrote {target}")
+
+
+def _simulate(runner, seed: int, p_correct: float, pace: float) -> None:
+    import sys
+    import time
+
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    while not runner.finished:
+        st = runner.state()
+        if st["status"] == "rest":
+            runner.resume()
+            continue
+        t = runner.current()
+        ids = [c.id for c in t.choices]
+        if t.response == "toggles":
+            want = dict(x.split("=") for x in t.correct.split(",")) if t.correct else {}
+            ans = ",".join(f"{q}={want[q] if want and rng.random() < p_correct else ids[rng.integers(len(ids))]}"
+                           for q in t.toggles)
+        elif t.correct is not None and rng.random() < p_correct:
+            ans = t.correct
+        else:
+            ans = ids[int(rng.integers(len(ids)))]
+        runner.answer(t.id, ans, rt_client_s=float(rng.gamma(4.0, 0.5)))
+        sys.stdout.write(f"logged {t.id}\n")
+        sys.stdout.flush()
+        if pace > 0:
+            time.sleep(pace)
+
+
+@study_app.command("run")
+def run(
+    study: Path = typer.Argument(..., help="Study folder (made by 'study new')."),
+    participant: str = typer.Option(..., "--participant", "-p", help="Participant id, e.g. P01."),
+    gain: Optional[float] = typer.Option(None, "--gain", help="This participant's multiplier of the drive gain "
+                                                              "alpha (0-4]; the safety limit still clamps."),
+    comfort_voltage: Optional[float] = typer.Option(None, "--comfort-voltage",
+                                                    help="This participant's comfort threshold (V, <= 250): "
+                                                         "the session's safety limit."),
+    host: str = typer.Option("127.0.0.1", "--host", help="Address the page binds (loopback by default)."),
+    port: int = typer.Option(8780, "--port", help="Port of the page (0: any free port)."),
+    simulate: Optional[int] = typer.Option(None, "--simulate", help="Dry run without a page: a simulated "
+                                                                    "participant with this seed answers."),
+    p_correct: float = typer.Option(0.8, "--p-correct", help="With --simulate: chance of a correct answer."),
+    pace: float = typer.Option(0.0, "--pace", help="With --simulate: seconds between answers."),
+    output: Optional[str] = typer.Option(None, "--output", help="Render the stimuli live under the finger on the "
+                                                                "page's touch pad: sim | sound[:DEVICE] | "
+                                                                "file:PATH.wav|.npz (as 'surfhap serve'). "
+                                                                "Default: answers only."),
+    amp_gain: float = typer.Option(250.0, "--amp-gain", help="With a sound output: amplifier volts per unit "
+                                                             "of sound-card full scale (as 'surfhap serve')."),
+    lsl: bool = typer.Option(False, "--lsl", help="Push Lab Streaming Layer markers (stimulus on/off, touch, "
+                                                  "answer); needs the 'lsl' extra (pylsl)."),
+) -> None:
+    """Run (or resume) one participant: the page shows the trials, the terminal the progress."""
+    from surfhap.lab.comfort import comfort_voltage_of
+    from surfhap.lab.session import SessionRunner
+
+    measured = None
+    if comfort_voltage is None:
+        from surfhap.lab.schema import load_study
+
+        pid = load_study(study).participant(participant).id
+        comfort_voltage = measured = comfort_voltage_of(study, pid)
+    runner = SessionRunner(study, participant, gain=gain, comfort_voltage=comfort_voltage,
+                           mode="simulated" if simulate is not None else "page",
+                           extra_config={"comfort_voltage_from": "study comfort" if measured is not None else
+                                         ("--comfort-voltage" if comfort_voltage is not None else None)})
+    try:
+        if measured is not None:
+            stderr.print(f"comfort voltage {measured:.1f} V (from 'study comfort'): session limit {runner.v_max:.1f} V")
+        if runner.n_done:
+            stderr.print(f"resuming {runner.plan.id}: {runner.n_done}/{runner.total} trials already logged")
+        if simulate is not None:
+            _simulate(runner, simulate, p_correct, pace)
+        else:
+            _run_page(runner, host, port, output, amp_gain, lsl)
+        stderr.print(f"{runner.plan.id}: {runner.n_done}/{runner.total} trials logged in {runner.log.path}")
+    finally:
+        runner.close()
+
+
+def _first_material(runner) -> str:
+    for t in runner.plan.trials:
+        for s in t.stimuli:
+            if "material" in s.render:
+                return str(s.render["material"])
+    return "cork"
+
+
+def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float, lsl: bool = False) -> None:
+    import time
+
+    from rich.live import Live
+    from rich.table import Table
+
+    from surfhap.lab.markers import open_markers
+    from surfhap.lab.page import PageServer, StimulusPlayer
+
+    markers = open_markers(lsl, runner.plan.id)
+    if markers.enabled:
+        stderr.print(f"LSL markers: stream 'surfhap-{runner.plan.id}' (type Markers)")
+    session = player = None
+    if output is not None:
+        from surfhap.live.server import build_session
+
+        session = build_session(_first_material(runner), output, amp_gain=amp_gain)
+        player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max)
+        player.mute()
+        session.start()
+    try:
+        server = PageServer(runner, host=host, port=port, player=player, markers=markers).start()
+    except BaseException:
+        if session is not None:
+            session.stop()
+        raise
+    stderr.print(f"participant page: [bold]{server.url}[/]  (Ctrl-C pauses; run again to resume)")
+
+    def table() -> Table:
+        tb = Table(show_header=False, box=None)
+        st = runner.state()
+        tb.add_row("participant", runner.plan.id + (f" ({runner.plan.group})" if runner.plan.group else ""))
+        tb.add_row("progress", f"{runner.n_done}/{runner.total}")
+        tb.add_row("status", st["status"] + (f" - {st.get('block_label') or st.get('next_block') or ''}"))
+        last = runner.last_record
+        if last:
+            ok = "" if last["is_correct"] is None else (" correct" if last["is_correct"] else " wrong")
+            rt = "" if last["rt_s"] is None else f", {last['rt_s']:.2f} s"
+            tb.add_row("last answer", f"{last['trial_id']}: {last['answer']}{ok}{rt}")
+        return tb
+
+    try:
+        with Live(table(), console=stderr, refresh_per_second=4, transient=False) as live:
+            while not runner.finished:
+                time.sleep(0.25)
+                live.update(table())
+            live.update(table())
+        time.sleep(1.0)  # let the page fetch the "done" screen
+    except KeyboardInterrupt:
+        stderr.print("paused; every answered trial is in the log")
+    finally:
+        server.stop()
+        if session is not None:
+            session.stop()
+
+
+@study_app.command("comfort")
+def comfort(
+    study: Path = typer.Argument(..., help="Study folder."),
+    participant: str = typer.Option(..., "--participant", "-p", help="Participant id, e.g. P01."),
+    start: float = typer.Option(60.0, "--start", help="First amplitude (V)."),
+    material: Optional[str] = typer.Option(None, "--material", help="Material of the square wave (default: the "
+                                                                    "study's first)."),
+    host: str = typer.Option("127.0.0.1", "--host", help="Address the page binds."),
+    port: int = typer.Option(8780, "--port", help="Port of the page (0: any free port)."),
+    output: Optional[str] = typer.Option(None, "--output", help="Live output for the square wave: sim | "
+                                                                "sound[:DEVICE] | file:PATH (as 'surfhap serve')."),
+    amp_gain: float = typer.Option(250.0, "--amp-gain", help="With a sound output: volts per unit full scale."),
+    simulate: Optional[int] = typer.Option(None, "--simulate", help="Dry run: a simulated participant (seed)."),
+    simulated_threshold: float = typer.Option(120.0, "--simulated-threshold",
+                                              help="With --simulate: the simulated participant's threshold (V)."),
+) -> None:
+    """Measure a participant's comfort voltage with a staircase (Zhao et al.); 'study run' then
+    uses it as the session's safety limit."""
+    import numpy as np
+
+    from surfhap.lab.comfort import ComfortRunner, default_comfort_params
+    from surfhap.lab.session import SAFETY_V_MAX
+
+    if not 5.0 <= start <= SAFETY_V_MAX:
+        from surfhap.errors import ConfigError
+
+        raise ConfigError(f"must be within 5-{SAFETY_V_MAX:g} V", source="--start", field="start")
+    runner = ComfortRunner(study, participant, default_comfort_params(start), material=material)
+    try:
+        if simulate is not None:
+            rng = np.random.default_rng(simulate)
+            while not runner.finished:
+                st = runner.state()
+                v = runner.stair.level
+                p_no = 1.0 / (1.0 + np.exp(-(v - simulated_threshold) / (0.1 * simulated_threshold)))
+                runner.answer(st["trial"]["id"], "no" if rng.random() < p_no else "yes", float(rng.gamma(4, 0.4)))
+        else:
+            _run_page(runner, host, port, output, amp_gain)
+        res = runner.result()
+        if runner.finished:
+            thr = "none (no reversal)" if res.threshold is None else f"{res.threshold:.1f} V"
+            stdout.print(f"{runner.plan.id}: comfort voltage {thr} after {res.levels.size} trials "
+                         f"({res.stopped_by})")
+        else:
+            stdout.print(f"{runner.plan.id}: {res.levels.size} staircase trials logged; run again to continue")
+    finally:
+        runner.close()
+
+
+@study_app.command("status")
+def status(study: Path = typer.Argument(..., help="Study folder.")) -> None:
+    """Progress of every participant: trials logged, sessions, comfort voltage."""
+    from rich.table import Table
+
+    from surfhap.lab.comfort import comfort_voltage_of
+    from surfhap.lab.schema import load_study
+    from surfhap.lab.triallog import read_log
+
+    st = load_study(study)
+    folder = study if study.is_dir() else study.parent
+    table = Table("participant", "group", "trials", "sessions", "comfort V", title=st.design.name)
+    for plan in st.participants:
+        log = read_log(folder / "logs" / f"{plan.id}.jsonl")
+        v = comfort_voltage_of(folder, plan.id)
+        table.add_row(plan.id, plan.group, f"{len(log.trials)}/{len(plan.trials)}", str(len(log.sessions)),
+                      "-" if v is None else f"{v:.1f}")
+    stdout.print(table)
+
+
+@study_app.command("analyze")
+def analyze(
+    study: Path = typer.Argument(..., help="Study folder."),
+    report: Path = typer.Option(..., "--report", help="Folder for the HTML report and its figures."),
+) -> None:
+    """Analyse every participant's log as in the paper of the design; write an HTML report."""
+    from surfhap.lab.analyze_study import analyze_study
+    from surfhap.report.lab_report import write_study_report
+
+    result = analyze_study(study)
+    path = write_study_report(result, report)
+    for line in result.summary_lines():
+        stdout.print(line)
+    stdout.print(f"wrote {path}")
+
+
+def register(app: typer.Typer) -> None:
+    app.add_typer(study_app, name="study")

@@ -1,0 +1,94 @@
+"""Display parameters from the user: a display JSON file or ``k=...,mu_panel=...,area=...``.
+
+``load_display(text)`` accepts either a path to a ``surfhap-display`` file
+(:mod:`surfhap.models.display`) or inline ``key=value`` pairs (keys ``k`` in N/V^2,
+``mu_panel``, ``area`` in m^2, ``leakage`` in s) and returns a
+:class:`~surfhap.sim.display.DisplayModel`. Missing values keep the documented assumptions.
+``k`` overrides the one computed from the stack; ``area`` alone rescales the stack's contact
+area (k of eq. 1 is proportional to it). Any problem raises
+:class:`~surfhap.errors.ConfigError` naming the file (or option) and the field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+from pydantic import ValidationError
+
+from surfhap.errors import ConfigError
+from surfhap.models.display import DisplayFile
+from surfhap.sim.display import DisplayModel
+
+__all__ = ["read_display_json", "parse_display_option", "load_display", "display_from_values"]
+
+_KEYS = ("k", "mu_panel", "area", "leakage")
+
+
+def display_from_values(k: float | None = None, mu_panel: float | None = None, area: float | None = None,
+                        leakage: float | None = None, device_curve: tuple | None = None,
+                        source: str = "command line", base: DisplayModel | None = None) -> DisplayModel:
+    """A DisplayModel from the given values over ``base`` (default: the documented assumptions)."""
+    base = base or DisplayModel()
+    stack = base.stack if area is None else dataclasses.replace(base.stack, contact_area=float(area))
+    return DisplayModel(mu_panel=base.mu_panel if mu_panel is None else float(mu_panel), stack=stack,
+                        leakage_time_constant=base.leakage_time_constant if leakage is None else float(leakage),
+                        k_measured=base.k_measured if k is None else float(k),
+                        device_curve=device_curve if device_curve is not None else base.device_curve, source=source)
+
+
+def read_display_json(path: str | Path) -> DisplayModel:
+    """Read and validate a display file; raises ConfigError(source=file, field=...) on any problem."""
+    path = Path(path)
+    src = str(path)
+    try:
+        raw = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ConfigError(f"cannot read file ({exc.strerror})", source=src) from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"malformed JSON ({exc})", source=src) from None
+    if not isinstance(raw, dict):
+        raise ConfigError("top level must be a JSON object", source=src)
+    try:
+        spec = DisplayFile.model_validate(raw)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        field = ".".join(str(p) for p in first.get("loc", ())) or None
+        raise ConfigError(first.get("msg", "invalid value"), source=src, field=field) from None
+    curve = None if spec.device_curve is None else (spec.device_curve.input, tuple(spec.device_curve.coefficients))
+    source = f"{path.name} ({spec.provenance.source})"
+    if spec.k is None:
+        source += "; k not measured: the assumed stack value"
+    return display_from_values(spec.k, spec.mu_panel, spec.area, spec.leakage_time_constant, curve, source=source)
+
+
+def parse_display_option(text: str, option: str = "--display") -> DisplayModel:
+    """Parse ``k=5e-6,mu_panel=0.4,area=1e-4[,leakage=0.05]``."""
+    values: dict[str, float] = {}
+    for part in filter(None, (p.strip() for p in text.split(","))):
+        if "=" not in part:
+            raise ConfigError(f"expected key=value or a display JSON file, got {part!r}", source=option)
+        key, value = (s.strip() for s in part.split("=", 1))
+        if key not in _KEYS:
+            raise ConfigError(f"unknown key (known: {', '.join(_KEYS)})", source=option, field=key)
+        try:
+            val = float(value)
+        except ValueError:
+            raise ConfigError(f"{value!r} is not a number", source=option, field=key) from None
+        if not (val > 0 and val < float("inf")):
+            raise ConfigError("must be a finite number > 0", source=option, field=key)
+        values[key] = val
+    if not values:
+        raise ConfigError("give k=..., mu_panel=..., area=... or a display JSON file", source=option)
+    return display_from_values(**values, source=f"{option} {text}")
+
+
+def load_display(text: str | Path | None, option: str = "--display") -> DisplayModel:
+    """None -> the documented assumptions; a path ending in .json -> the file; else key=value pairs."""
+    if text is None:
+        return DisplayModel()
+    s = str(text)
+    if s.lower().endswith(".json") or ("=" not in s and Path(s).exists()):
+        return read_display_json(s)
+    return parse_display_option(s, option)

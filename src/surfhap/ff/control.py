@@ -1,0 +1,133 @@
+"""One control law for all active effects: KinesTouch eq. 8, merged per axis.
+
+Eq. 8 (004 Sec. 4.3) sums the effects' terms under one stabilisation matrix K:
+
+    F = (m g + delta sin(phi)) e_z + alpha f_dot - nu f_dot ^ e_z + K (X0 + h e_z - X_t)
+
+with K from Table 2 for the effect in use. Fixed here as the physics means it (see
+:mod:`surfhap.ff.effects` for the roughness phase and the sliding terms):
+
+* several effects may be active together (the picture use case combines stiffness,
+  friction and roughness maps): each axis takes the *most compliant* stiffness any active
+  effect asks for (Table 2 matrices only relax axes of K_max I3: Stiffness relaxes z to
+  k_mat, Sliding frees x and y), the normal offsets h add (shape + grating), and the
+  feed-forward forces add;
+* the grating is an offset of the normal reference of depth delta (not a force);
+* a damping ``-D v`` acts on the position-controlled axes, ``D = damping sqrt(K / K_max)``
+  (a constant damping ratio as K changes): eq. 8 has none, but without it K_max on the
+  tablet's mass rings at 8 Hz (see :class:`surfhap.ff.params.DeviceParams`);
+* the weight compensation ``m g e_z`` (Sec. 4.2 "Transparency") is always applied;
+* the reference height is kept inside the workspace;
+* bumpless switching: the reference position ``X0 + h e_z`` is not applied at once but
+  approached at no more than ``ref_speed`` (m/s) per axis, and on an axis left free
+  (K = 0, Sliding) the reference follows the screen. Otherwise a switch (lift-off on a high
+  floor, leaving a Sliding region far from X0) asks K_max x (a few cm) = tens of N, which the
+  force limit clips and the tablet overshoots into the workspace walls. The grating's
+  offset (Roughness, ``vibration = True``) is added after the rate limit, unaltered.
+
+Not touched (or a stale touch stream): Idle (eq. 5) only. Force jumps at switches are
+bounded by the safety stage's slew limit, which is the last stage before the device.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from surfhap.ff.effects import Effect, TickState
+from surfhap.ff.params import DeviceParams
+
+__all__ = ["ControlLaw"]
+
+
+class ControlLaw:
+    """``compute(s) -> (3,) float N`` for the effects of a scene on one device.
+
+    effects : the scene's effects, in order (bit i of ``mask`` = effect i active).
+    device  : :class:`DeviceParams` (K_max, damping, weight, workspace, ref_speed).
+    rate    : Hz, tick rate (for the reference rate limit).
+    """
+
+    def __init__(self, effects: list[Effect], device: DeviceParams, rate: float = 1000.0):
+        self.effects = list(effects)
+        if len(self.effects) > 30:
+            raise ValueError("at most 30 effects per scene")
+        self.device = device
+        self.k_max = device.k_max
+        self.damping = device.damping
+        self.weight = device.weight
+        self.h_lim = device.workspace[2]
+        self.out = np.zeros(3)
+        self.mask = 0
+        self._calls = [(e.terms, bool(getattr(e, "vibration", False))) for e in self.effects]
+        self.ref_step = device.ref_speed / rate
+        self.reset()
+
+    def reset(self) -> None:
+        for e in self.effects:
+            e.reset()
+        self.mask = 0
+        self.out[:] = 0.0
+        self.rx = self.ry = self.rz = 0.0  # reference position (m, relative to X0)
+        self._fresh = True
+
+    def compute(self, s: TickState) -> np.ndarray:
+        """The merged force (3,) N, device frame (a view of ``self.out``)."""
+        out = self.out
+        out[0], out[1], out[2] = self.compute_xyz(s)
+        return out
+
+    def compute_xyz(self, s: TickState) -> tuple[float, float, float]:
+        """The merged force as three floats (N): the allocation-free path of the engine."""
+        km = self.k_max
+        kx = ky = kz = km
+        h = hv = fx = fy = fz = 0.0
+        mask = 0
+        if s.touched:
+            bit = 1
+            for call, vib in self._calls:
+                r = call(s)
+                if r is not None:
+                    mask |= bit
+                    a, b, c, hh, p, q, w = r
+                    if a < kx:
+                        kx = a
+                    if b < ky:
+                        ky = b
+                    if c < kz:
+                        kz = c
+                    if vib:
+                        hv += hh
+                    else:
+                        h += hh
+                    fx += p
+                    fy += q
+                    fz += w
+                bit <<= 1
+        self.mask = mask
+        lim = self.h_lim
+        if h > lim:
+            h = lim
+        elif h < -lim:
+            h = -lim
+        # bumpless reference: free axes track the screen, held axes approach the target at ref_speed
+        st = self.ref_step
+        if self._fresh:
+            self.rx, self.ry, self.rz = s.px, s.py, s.pz
+            self._fresh = False
+        rx = s.px if kx <= 0.0 else self.rx + max(-st, min(st, -self.rx))
+        ry = s.py if ky <= 0.0 else self.ry + max(-st, min(st, -self.ry))
+        rz = s.pz if kz <= 0.0 else self.rz + max(-st, min(st, h - self.rz))
+        self.rx, self.ry, self.rz = rx, ry, rz
+        d = self.damping
+        dx = d if kx == km else (0.0 if kx <= 0.0 else d * math.sqrt(kx / km))
+        dy = d if ky == km else (0.0 if ky <= 0.0 else d * math.sqrt(ky / km))
+        dz = d if kz == km else (0.0 if kz <= 0.0 else d * math.sqrt(kz / km))
+        return (fx + kx * (rx - s.px) - dx * s.vx, fy + ky * (ry - s.py) - dy * s.vy,
+                self.weight + fz + kz * (rz + hv - s.pz) - dz * s.vz)
+
+    def active_names(self, mask: int | None = None) -> list[str]:
+        """Names of the effects in ``mask`` (default: the last tick's); [] = idle."""
+        m = self.mask if mask is None else int(mask)
+        return [e.name for i, e in enumerate(self.effects) if m >> i & 1]

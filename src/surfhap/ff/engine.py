@@ -1,0 +1,197 @@
+"""The force-feedback engine: touch kinematics -> effects (control law) -> safety stage.
+
+One object, driven tick by tick by a clock that is not its business (the 1 kHz haptic
+thread of :mod:`surfhap.live.ff_loop`, or the offline loop of :mod:`surfhap.sim.ff_sim`):
+
+* ``touch(t, x, y, load)`` whenever a touch sample arrives (screen coordinates in m as the
+  tablet reports them, load N, 0 = lifted; ``t`` its time stamp in s on the engine clock);
+* ``tick(t, px, py, pz, t_pos)`` once per haptic tick with the freshest device position
+  (m, relative to X0) and its time; returns the safe force (3,) N in the device frame.
+
+Screen -> world: the touch position is on the moving screen; the content is drawn
+compensated (shifted by ``-X_t``, :meth:`content_offset`) so that it stays still in the
+world. The finger's world (= content) position is therefore ``f_screen + X_t,xy``, with
+``X_t`` taken *when the touch was sampled*: ``touch_latency`` s before the sample arrived
+(the engine keeps the last 0.5 s of device positions). Prediction then runs on the world
+stream, which is the person's smooth hand motion. Mixing a late touch position with the
+current screen position instead would feed the screen's own motion back with the touch
+latency, and makes the Sliding effect unstable (delayed velocity feedback with gain
+nu * latency / m > pi / 2 for the paper's numbers). Between touch samples the predicted
+position is extrapolated with the predicted velocity (for at most ``max_extrapolate``).
+
+Prediction: ``predictor`` is the live side's :class:`surfhap.live.prediction.TouchPredictor`
+(or any object with ``reset()``, ``update(t, x, y)`` and ``x``, ``y``, ``vx``, ``vy``
+attributes); it is passed in because this layer does not import the live package.
+
+Watchdogs: no touch sample for ``touch_timeout`` (100 ms) -> untouched (Idle); no device
+position for ``device_timeout`` (10 ms) -> zero force (in the safety stage).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from surfhap.ff.control import ControlLaw
+from surfhap.ff.effects import Effect, TickState
+from surfhap.ff.params import DeviceParams
+from surfhap.ff.safety import ForceSafety
+
+__all__ = ["FFEngine"]
+
+
+class FFEngine:
+    """Kinematics + control law + safety for one scene on one device at ``rate`` Hz.
+
+    effects         : list of :class:`surfhap.ff.effects.Effect`.
+    device          : :class:`DeviceParams`.
+    predictor       : touch prediction filter (see module docstring).
+    rate            : Hz, haptic tick rate (004: 1 kHz).
+    touch_latency   : s, age of a touch sample when it arrives (004: "a few dozens of ms";
+                      the predictor should compensate the same latency).
+    velocity_cutoff : Hz, one-pole low-pass of the device velocity (finite differences of
+                      positions). CHOICE: 100 Hz, well above the 8 Hz K_max resonance.
+    accel_cutoff    : Hz, one-pole low-pass of the finger acceleration (differences of the
+                      predicted velocity per touch sample). CHOICE: 5 Hz, ten times the
+                      0.5 Hz strokes of the paper's study (Sec. 5.2).
+    max_extrapolate : s, longest extrapolation of the touch position between samples.
+    """
+
+    def __init__(self, effects: list[Effect], device: DeviceParams, predictor, rate: float = 1000.0,
+                 touch_latency: float = 0.0, velocity_cutoff: float = 100.0, accel_cutoff: float = 5.0,
+                 max_extrapolate: float = 0.05):
+        if not (math.isfinite(touch_latency) and 0.0 <= touch_latency <= 0.4):
+            raise ValueError("touch_latency must be within 0-0.4 s")
+        self.touch_latency = float(touch_latency)
+        self._hist_n = 512
+        self._hist_x = [0.0] * self._hist_n
+        self._hist_y = [0.0] * self._hist_n
+        self._hist_k = 0  # ticks recorded
+        self.device = device
+        self.rate = float(rate)
+        self.dt = 1.0 / self.rate
+        self.law = ControlLaw(effects, device, self.rate)
+        self.safety = ForceSafety(device, self.rate)
+        self.predictor = predictor
+        self.max_extrapolate = float(max_extrapolate)
+        tau = 1.0 / (2.0 * math.pi * velocity_cutoff)
+        self._vg = self.dt / (tau + self.dt)
+        self._atau = 1.0 / (2.0 * math.pi * accel_cutoff)
+        self.state = TickState()
+        self.state.dt = self.dt
+        self.reset()
+
+    def reset(self) -> None:
+        self.law.reset()
+        self.safety.reset()
+        self.predictor.reset()
+        s = self.state
+        s.touched = False
+        s.fx = s.fy = s.fvx = s.fvy = s.fax = s.fay = s.speed = s.load = 0.0
+        self._pvx = self._pvy = 0.0
+        self._pt = math.nan
+        s.px = s.py = s.pz = s.vx = s.vy = s.vz = 0.0
+        self._have_pos = False
+        self._t_touch = -math.inf  # arrival time of the last touch sample
+        self._t_pred = 0.0  # time stamp of the last predictor update
+        self._finger = False  # last sample said "finger down"
+        self.stopping = False
+        self._hist_k = 0
+        self._t_last = 0.0
+
+    # ----------------------------------------------------------------- inputs
+    def touch(self, t: float, x: float, y: float, load: float, t_event: float = math.nan) -> None:
+        """One touch sample: screen position (m), load (N; <= 0 = lifted), arrival time ``t``
+        (s, engine clock) and optionally the source's own time stamp ``t_event`` (s, its own
+        clock; used by the prediction filter when finite)."""
+        if not (math.isfinite(t) and math.isfinite(x) and math.isfinite(y) and math.isfinite(load)):
+            return
+        self._t_touch = t
+        if load <= 0.0:
+            self._finger = False
+            self.predictor.reset()
+            self.state.fax = self.state.fay = 0.0
+            self._pt = math.nan
+            return
+        self._finger = True
+        self.state.load = load
+        sx, sy = self._screen_at(t - self.touch_latency)
+        te = t_event if math.isfinite(t_event) else t
+        pr = self.predictor
+        pr.update(te, x + sx, y + sy)
+        st = self.state
+        h = te - self._pt
+        if 0.0 < h <= 0.1:
+            g = h / (self._atau + h)
+            st.fax += g * ((pr.vx - self._pvx) / h - st.fax)
+            st.fay += g * ((pr.vy - self._pvy) / h - st.fay)
+        else:
+            st.fax = st.fay = 0.0
+        self._pt, self._pvx, self._pvy = te, pr.vx, pr.vy
+        self._t_pred = t
+
+    def _screen_at(self, ts: float) -> tuple[float, float]:
+        """Screen x, y (m) recorded at the tick nearest to time ts (clamped to the history)."""
+        k = self._hist_k
+        if k == 0:
+            return 0.0, 0.0
+        back = int(round((self._t_last - ts) * self.rate))
+        if back < 0:
+            back = 0
+        lim = min(k, self._hist_n) - 1
+        if back > lim:
+            back = lim
+        j = (k - 1 - back) % self._hist_n
+        return self._hist_x[j], self._hist_y[j]
+
+    def stop(self) -> None:
+        """Ramp the force to zero (safety stage slew) and keep it there."""
+        self.stopping = True
+
+    # ----------------------------------------------------------------- tick
+    def tick(self, t: float, px: float, py: float, pz: float, t_pos: float) -> np.ndarray:
+        """Safe force (3,) N for this tick; see the module docstring."""
+        s = self.state
+        s.t = t
+        if math.isfinite(px) and math.isfinite(py) and math.isfinite(pz):
+            if self._have_pos:
+                g = self._vg / self.dt
+                s.vx += g * ((px - s.px) - s.vx * self.dt)
+                s.vy += g * ((py - s.py) - s.vy * self.dt)
+                s.vz += g * ((pz - s.pz) - s.vz * self.dt)
+            self._have_pos = True
+            s.px, s.py, s.pz = px, py, pz
+        j = self._hist_k % self._hist_n
+        self._hist_x[j] = s.px
+        self._hist_y[j] = s.py
+        self._hist_k += 1
+        self._t_last = t
+        touched = self._finger and (t - self._t_touch) <= self.device.touch_timeout and self.predictor.started
+        if touched:
+            pr = self.predictor
+            ahead = t - self._t_pred
+            if ahead < 0.0:
+                ahead = 0.0
+            elif ahead > self.max_extrapolate:
+                ahead = self.max_extrapolate
+            s.fx = pr.x + pr.vx * ahead
+            s.fy = pr.y + pr.vy * ahead
+            s.fvx = pr.vx
+            s.fvy = pr.vy
+            s.speed = math.hypot(s.fvx, s.fvy)
+        else:
+            s.fvx = s.fvy = s.speed = 0.0
+        s.touched = touched
+        f0, f1, f2 = self.law.compute_xyz(s)
+        return self.safety.process_xyz(f0, f1, f2, t, t_pos, px, py, pz, self.stopping)
+
+    # ----------------------------------------------------------------- outputs
+    @property
+    def mask(self) -> int:
+        """Bit mask of the effects active on the last tick (0 = idle)."""
+        return self.law.mask
+
+    def content_offset(self) -> tuple[float, float]:
+        """m, shift to draw the content by so it stays still in the world (``-X_t,xy``)."""
+        return -self.state.px, -self.state.py

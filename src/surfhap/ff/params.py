@@ -1,0 +1,107 @@
+"""Numbers of the force-feedback side, each with its source.
+
+Device frame (used by every effect, the control law, the safety stage and the backends):
+``x`` along the display's width and ``y`` along its height, in the same directions as the
+touch coordinates; ``z`` normal to the display, positive towards the user ("up" in the
+KinesTouch notation, 004 Sec. 3.1). Positions are metres relative to the workspace centre
+``X0`` (so ``X0 = 0``), forces newtons applied to the screen. Mapping these axes onto a
+particular device's axes (the Falcon lies on its side in the paper, Sec. 4.1) is the
+device bridge's job.
+
+Sources
+-------
+* 004 = KinesTouch (paper 004_33de855a42b166de): K_max = 1 N/mm (Sec. 3.1), tablet mass
+  389 g (Galaxy Tab SM-T810, Sec. 4.1), Falcon force gain about 4.5 through CHAI3D
+  (Sec. 4.3), prediction k_pred = 8, alpha = 0.15, velocity smoothing 0.45 and a 60 Hz
+  tablet (Sec. 4.2), 1 kHz haptic thread and 60 Hz position thread (Sec. 4.2).
+* CHAI3D's Falcon driver (``CFalconDevice.cpp``, ``m_specifications``): largest force
+  8.0 N, largest stable stiffness 3000 N/m, largest damping 20 N s/m, workspace radius
+  0.04 m (the Falcon's "4 inch cube").
+* Choices where both are silent are marked CHOICE with the reason.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from surfhap.errors import ConfigError
+
+__all__ = ["DeviceParams", "FALCON", "K_MAX", "TABLET_MASS", "GRAVITY", "FALCON_GAIN"]
+
+K_MAX = 1000.0  # N/m: "1 N/mm in our setup" (004 Sec. 3.1)
+TABLET_MASS = 0.389  # kg: Galaxy Tab SM-T810 (004 Sec. 4.1)
+GRAVITY = 9.81  # m/s^2
+FALCON_GAIN = 4.5  # requested / produced force of a Falcon through CHAI3D (004 Sec. 4.3)
+
+
+def _check(name: str, v: float, lo: float, hi: float) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
+        raise ConfigError(f"must be within {lo:g}-{hi:g}, got {v!r}", field=name)
+    return float(v)
+
+
+@dataclass(frozen=True)
+class DeviceParams:
+    """One impedance device carrying the screen.
+
+    name          : label.
+    gain          : device force units per newton: the backend sends ``gain * F``
+                    (Falcon through CHAI3D: 4.5, 004 Sec. 4.3; 1 for a calibrated device).
+    f_max         : N, per-axis force limit (x, y, z) that no command may exceed (Falcon: 8 N).
+    workspace     : m, half-size of the workspace box per axis around X0 (Falcon: 0.04 m).
+    k_max         : N/m, the high stiffness of pseudo position control (004: 1 N/mm).
+    damping       : N s/m, damping added on position-controlled axes. CHOICE: eq. 8 has none,
+                    but K_max on the 0.389 kg tablet is an undamped 8 Hz oscillator; 10 N s/m
+                    (half the Falcon's 20 N s/m maximum) gives a damping ratio of 0.25.
+    moving_mass   : kg, mass carried (tablet 0.389 kg, 004 Sec. 4.1; the adapter's mass is not
+                    given, add it here), used by the weight compensation m g.
+    slew          : N/s, largest change of any force component per second. CHOICE: 8 N in
+                    no less than 20 ms (400 N/s), which still passes a 0.2 mm grating at
+                    K_max (0.2 N amplitude) unaltered up to ~300 Hz.
+    wall_k        : N/m, stiffness of the workspace wall (CHOICE: K_max).
+    ref_speed     : m/s, fastest move of the position-control reference on a switch (bumpless
+                    transfer, see :mod:`surfhap.ff.control`). CHOICE: 0.2 m/s, twice the
+                    peak speed of the study's 0.5 Hz strokes (Sec. 5.2), so shapes under
+                    ordinary strokes are followed unaltered; crossing the Falcon's 8 cm
+                    workspace takes 0.4 s.
+    device_timeout: s, no device position for this long -> force ramps to zero (10 ms).
+    touch_timeout : s, no touch sample for this long -> Idle (100 ms).
+    """
+
+    name: str = "falcon"
+    gain: float = FALCON_GAIN
+    f_max: tuple[float, float, float] = (8.0, 8.0, 8.0)
+    workspace: tuple[float, float, float] = (0.04, 0.04, 0.04)
+    k_max: float = K_MAX
+    damping: float = 10.0
+    moving_mass: float = TABLET_MASS
+    slew: float = 400.0
+    wall_k: float = K_MAX
+    ref_speed: float = 0.2
+    device_timeout: float = 0.010
+    touch_timeout: float = 0.100
+    extra: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        _check("gain", self.gain, 1e-3, 1e3)
+        if len(self.f_max) != 3 or len(self.workspace) != 3:
+            raise ConfigError("needs three values (x, y, z)", field="f_max/workspace")
+        object.__setattr__(self, "f_max", tuple(_check("f_max", v, 0.01, 100.0) for v in self.f_max))
+        object.__setattr__(self, "workspace", tuple(_check("workspace", v, 1e-3, 1.0) for v in self.workspace))
+        _check("k_max", self.k_max, 1.0, 1e5)
+        _check("damping", self.damping, 0.0, 1e3)
+        _check("moving_mass", self.moving_mass, 0.0, 20.0)
+        _check("slew", self.slew, 1.0, 1e6)
+        _check("wall_k", self.wall_k, 0.0, 1e5)
+        _check("ref_speed", self.ref_speed, 1e-3, 10.0)
+        _check("device_timeout", self.device_timeout, 1e-4, 1.0)
+        _check("touch_timeout", self.touch_timeout, 1e-3, 10.0)
+
+    @property
+    def weight(self) -> float:
+        """N, the weight m g that the control law compensates (004 Sec. 4.2 "Transparency")."""
+        return self.moving_mass * GRAVITY
+
+
+FALCON = DeviceParams()

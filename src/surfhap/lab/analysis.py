@@ -1,0 +1,325 @@
+"""Statistics of perception studies (scipy / statsmodels; results are objects with named fields).
+
+* :func:`proportions`: pooled proportions with Wilson, Clopper-Pearson ("beta") or normal
+  ("normal") intervals (statsmodels ``proportion_confint``);
+* :func:`participant_means`: the mean over participants of each participant's proportion with
+  a normal interval mean +- z sd / sqrt(n) - the form of Otake et al. 2022 Tables II-III, whose
+  printed intervals match the population sd (ddof = 0), the default here;
+* :func:`binomial_test` (chance level), :func:`z_test_one` / :func:`z_test_two` (proportions),
+  :func:`t_test` (one-sample, paired, independent), all with ``alternative``;
+* :func:`bonferroni`: adjusted p-values (statsmodels ``multipletests``), capped at 1;
+* :func:`confusion`: confusion matrix, row = presented, column = answered;
+* :func:`pearson`: correlation with its t-test and Fisher-z interval;
+* :func:`rm_anova`: repeated-measures ANOVA (statsmodels ``AnovaRM``; balanced data, one value
+  per subject and cell, averaged over repetitions);
+* :func:`discrimination_score`: KinesTouch ``|2p - 1|`` for a preference rate p (Table 3).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from surfhap.errors import ConfigError
+
+__all__ = ["ProportionResult", "proportions", "participant_means", "TestResult", "binomial_test", "z_test_one",
+           "z_test_two", "t_test", "bonferroni", "ConfusionResult", "confusion", "PearsonResult", "pearson",
+           "AnovaResult", "rm_anova", "discrimination_score"]
+
+
+@dataclass(frozen=True)
+class ProportionResult:
+    """labels (k,), successes (k,) float, n (k,), proportion (k,), ci_low / ci_high (k,);
+    method ("wilson", "beta", "normal", "participants"), confidence, title."""
+
+    labels: tuple[str, ...]
+    successes: np.ndarray
+    n: np.ndarray
+    proportion: np.ndarray
+    ci_low: np.ndarray
+    ci_high: np.ndarray
+    method: str
+    confidence: float
+    title: str = ""
+
+    def rows(self) -> list[list]:
+        return [[lab, f"{s:g}/{n:g}", f"{p:.3f}", f"[{lo:.3f}, {hi:.3f}]"]
+                for lab, s, n, p, lo, hi in zip(self.labels, self.successes, self.n, self.proportion, self.ci_low,
+                                                self.ci_high)]
+
+    def plot(self, fig=None, chance: float | None = None):
+        from surfhap.report.lab_figures import plot_proportions
+
+        return plot_proportions(self, fig=fig, chance=chance)
+
+
+def _conf(confidence: float) -> float:
+    if not 0 < confidence < 1:
+        raise ConfigError("must be in (0, 1)", field="confidence")
+    return confidence
+
+
+def proportions(successes: Sequence[float], n: Sequence[float], labels: Sequence[str] | None = None,
+                method: str = "wilson", confidence: float = 0.95, title: str = "") -> ProportionResult:
+    """Pooled proportions successes/n with intervals (statsmodels ``proportion_confint``)."""
+    from statsmodels.stats.proportion import proportion_confint
+
+    s = np.asarray(successes, dtype=float)
+    m = np.asarray(n, dtype=float)
+    if s.shape != m.shape or np.any(m <= 0) or np.any(s < 0) or np.any(s > m):
+        raise ConfigError("need 0 <= successes <= n and n > 0", field="successes")
+    if method not in ("wilson", "beta", "normal"):
+        raise ConfigError("must be wilson, beta (Clopper-Pearson) or normal", field="method")
+    lo, hi = proportion_confint(s, m, alpha=1 - _conf(confidence), method=method)
+    labs = tuple(labels) if labels is not None else tuple(str(i) for i in range(s.size))
+    return ProportionResult(labs, s, m, s / m, np.clip(np.asarray(lo, float), 0, 1), np.clip(np.asarray(hi, float), 0, 1),
+                            method, confidence, title)
+
+
+def participant_means(values: Sequence[Sequence[float]], labels: Sequence[str] | None = None,
+                      confidence: float = 0.95, ddof: int = 0, title: str = "") -> ProportionResult:
+    """Mean over participants of per-participant proportions, with a normal interval.
+
+    values: one sequence per label, holding each participant's proportion (e.g. 0, 0.5, 1 for
+    two trials). Interval: mean +- z_(1-a/2) sd_ddof / sqrt(n_participants)."""
+    from scipy.stats import norm
+
+    z = norm.ppf(0.5 + _conf(confidence) / 2)
+    means, lo, hi, ns = [], [], [], []
+    for v in values:
+        a = np.asarray(v, dtype=float)
+        if a.size < 2:
+            raise ConfigError("need two participants or more per label", field="values")
+        mu = float(a.mean())
+        half = z * float(a.std(ddof=ddof)) / np.sqrt(a.size)
+        means.append(mu)
+        lo.append(mu - half)
+        hi.append(mu + half)
+        ns.append(a.size)
+    labs = tuple(labels) if labels is not None else tuple(str(i) for i in range(len(means)))
+    mean = np.array(means)
+    return ProportionResult(labs, mean * np.array(ns), np.array(ns, float), mean, np.array(lo), np.array(hi),
+                            "participants", confidence, title)
+
+
+@dataclass(frozen=True)
+class TestResult:
+    """One test: name, statistic, p (unadjusted), df (or None), alternative, estimate."""
+
+    name: str
+    statistic: float
+    p: float
+    df: float | None = None
+    alternative: str = "two-sided"
+    estimate: float | None = None
+
+
+def binomial_test(k: int, n: int, p0: float, alternative: str = "greater") -> TestResult:
+    """Exact binomial test of k successes in n against chance p0 (scipy ``binomtest``)."""
+    from scipy.stats import binomtest
+
+    r = binomtest(int(k), int(n), p0, alternative=alternative)
+    return TestResult("binomial", float(k), float(r.pvalue), None, alternative, k / n)
+
+
+def z_test_one(k: float, n: float, p0: float, alternative: str = "two-sided") -> TestResult:
+    """z test of a proportion k/n against p0 (statsmodels ``proportions_ztest``, null variance)."""
+    from statsmodels.stats.proportion import proportions_ztest
+
+    alt = {"two-sided": "two-sided", "greater": "larger", "less": "smaller"}[alternative]
+    z, p = proportions_ztest(k, n, value=p0, alternative=alt, prop_var=p0)
+    return TestResult("z (one proportion)", float(z), float(p), None, alternative, k / n)
+
+
+def z_test_two(k1: float, n1: float, k2: float, n2: float, alternative: str = "two-sided") -> TestResult:
+    """Two-proportion z test with pooled variance (statsmodels ``proportions_ztest``)."""
+    from statsmodels.stats.proportion import proportions_ztest
+
+    alt = {"two-sided": "two-sided", "greater": "larger", "less": "smaller"}[alternative]
+    with np.errstate(invalid="ignore", divide="ignore"):  # both 0 % or both 100 %: z undefined (nan)
+        z, p = proportions_ztest([k1, k2], [n1, n2], alternative=alt)
+    return TestResult("z (two proportions)", float(z), float(p), None, alternative, k1 / n1 - k2 / n2)
+
+
+def t_test(a: Sequence[float], b: Sequence[float] | float | None = None, *, paired: bool = False,
+           alternative: str = "two-sided") -> TestResult:
+    """t test (scipy): one-sample against the number ``b``, paired, or independent (equal variances).
+    Constant data give an infinite or undefined statistic (scipy's precision warning is silenced)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=RuntimeWarning)
+        return _t_test(a, b, paired, alternative)
+
+
+def _t_test(a, b, paired: bool, alternative: str) -> TestResult:
+    from scipy import stats
+
+    x = np.asarray(a, dtype=float)
+    if b is None or np.isscalar(b):
+        r = stats.ttest_1samp(x, 0.0 if b is None else float(b), alternative=alternative)
+        return TestResult("t (one sample)", float(r.statistic), float(r.pvalue), float(x.size - 1), alternative,
+                          float(x.mean()))
+    y = np.asarray(b, dtype=float)
+    if paired:
+        r = stats.ttest_rel(x, y, alternative=alternative)
+        return TestResult("t (paired)", float(r.statistic), float(r.pvalue), float(x.size - 1), alternative,
+                          float(np.mean(x - y)))
+    r = stats.ttest_ind(x, y, alternative=alternative)
+    return TestResult("t (independent)", float(r.statistic), float(r.pvalue), float(x.size + y.size - 2),
+                      alternative, float(x.mean() - y.mean()))
+
+
+def bonferroni(p: Sequence[float]) -> np.ndarray:
+    """Bonferroni-adjusted p-values, min(1, m p) (statsmodels ``multipletests``)."""
+    from statsmodels.stats.multitest import multipletests
+
+    return np.asarray(multipletests(np.asarray(p, dtype=float), method="bonferroni")[1])
+
+
+@dataclass(frozen=True)
+class ConfusionResult:
+    """labels (k,), counts (k, k) int (row = presented, column = answered), proportions (k, k)
+    (each row divided by its total), accuracy (diagonal total / total), title."""
+
+    labels: tuple[str, ...]
+    counts: np.ndarray
+    proportions: np.ndarray
+    accuracy: float
+    title: str = ""
+
+    @property
+    def per_class(self) -> np.ndarray:
+        """(k,) proportion correct per presented label."""
+        return np.diag(self.proportions)
+
+    def plot(self, fig=None):
+        from surfhap.report.lab_figures import plot_confusion
+
+        return plot_confusion(self, fig=fig)
+
+
+def confusion(presented: Sequence[str] | None = None, answered: Sequence[str] | None = None,
+              labels: Sequence[str] | None = None, *, counts: np.ndarray | None = None,
+              title: str = "") -> ConfusionResult:
+    """Confusion matrix from paired lists of labels, or from a ``counts`` matrix."""
+    if counts is None:
+        pres = [str(x) for x in presented]
+        ans = [str(x) for x in answered]
+        if len(pres) != len(ans):
+            raise ConfigError("presented and answered differ in length", field="answered")
+        labs = list(labels) if labels is not None else sorted(set(pres) | set(ans))
+        idx = {lab: i for i, lab in enumerate(labs)}
+        c = np.zeros((len(labs), len(labs)), dtype=int)
+        for p_, a_ in zip(pres, ans):
+            if p_ in idx and a_ in idx:
+                c[idx[p_], idx[a_]] += 1
+    else:
+        c = np.asarray(counts, dtype=int)
+        labs = list(labels) if labels is not None else [str(i) for i in range(c.shape[0])]
+        if c.ndim != 2 or c.shape[0] != c.shape[1] or c.shape[0] != len(labs):
+            raise ConfigError("counts must be a square matrix matching the labels", field="counts")
+    rows = c.sum(axis=1, keepdims=True)
+    prop = np.divide(c, rows, out=np.zeros(c.shape), where=rows > 0)
+    total = c.sum()
+    return ConfusionResult(tuple(labs), c, prop, float(np.trace(c) / total) if total else float("nan"), title)
+
+
+@dataclass(frozen=True)
+class PearsonResult:
+    """r, p (two-sided t test with n - 2 df), n, ci_low / ci_high (Fisher z), and the data
+    x (n,), y (n,), labels, x_name, y_name for the scatter plot."""
+
+    r: float
+    p: float
+    n: int
+    ci_low: float
+    ci_high: float
+    x: np.ndarray
+    y: np.ndarray
+    labels: tuple[str, ...] = ()
+    x_name: str = "x"
+    y_name: str = "y"
+
+    def plot(self, fig=None):
+        from surfhap.report.lab_figures import plot_rating_scatter
+
+        return plot_rating_scatter(self, fig=fig)
+
+
+def pearson(x: Sequence[float], y: Sequence[float], labels: Sequence[str] = (), x_name: str = "real",
+            y_name: str = "virtual", confidence: float = 0.95) -> PearsonResult:
+    """Pearson correlation (scipy ``pearsonr``) with its confidence interval."""
+    from scipy.stats import pearsonr
+
+    a = np.asarray(x, dtype=float)
+    b = np.asarray(y, dtype=float)
+    if a.shape != b.shape or a.size < 3:
+        raise ConfigError("need two equally long samples of 3 or more", field="x")
+    res = pearsonr(a, b)
+    ci = res.confidence_interval(confidence_level=_conf(confidence))
+    return PearsonResult(float(res.statistic), float(res.pvalue), int(a.size), float(ci.low), float(ci.high), a, b,
+                         tuple(str(s) for s in labels), x_name, y_name)
+
+
+@dataclass(frozen=True)
+class AnovaResult:
+    """Repeated-measures ANOVA: rows of (effect, F, df_num, df_den, p); subjects; depvar."""
+
+    rows: tuple[tuple[str, float, float, float, float], ...]
+    subjects: int
+    depvar: str
+
+    def effect(self, name: str) -> tuple[str, float, float, float, float]:
+        for r in self.rows:
+            if r[0] == name:
+                return r
+        raise KeyError(name)
+
+
+def rm_anova(records: Sequence[dict], depvar: str, subject: str, within: Sequence[str]) -> AnovaResult:
+    """Repeated-measures ANOVA over ``records`` (dicts with the subject, the within factors
+    and the dependent variable); repetitions are averaged per subject and cell (statsmodels
+    ``AnovaRM``, which needs every subject in every cell)."""
+    import pandas as pd
+    from statsmodels.stats.anova import AnovaRM
+
+    df = pd.DataFrame.from_records(list(records))
+    for col in (depvar, subject, *within):
+        if col not in df.columns:
+            raise ConfigError(f"no column {col!r}", field="records")
+    # integer codes for the factors: AnovaRM silently drops some string-typed factors (pandas 3)
+    for col in (subject, *within):
+        levels = sorted({str(v) for v in df[col]})
+        df[col] = df[col].map(lambda v, lv={lab: i for i, lab in enumerate(levels)}: lv[str(v)]).astype(int)
+    df[depvar] = df[depvar].astype(float)
+    # AnovaRM (statsmodels 0.15) loses factors depending on their names (e.g. a factor sorting
+    # after the subject column): run it on neutral names f0, f1, ... and map them back
+    names = {w: f"f{i}" for i, w in enumerate(within)}
+    df = df.rename(columns={**names, subject: "zsubject", depvar: "zvalue"})
+    inner = list(names.values())
+    cells = df.groupby(["zsubject", *inner])["zvalue"].mean().reset_index()
+    n_cells = int(np.prod([cells[w].nunique() for w in inner]))
+    complete = cells.groupby("zsubject").size() == n_cells
+    cells = cells[cells["zsubject"].isin(complete[complete].index)]
+    if cells["zsubject"].nunique() < 2:
+        raise ConfigError("need two subjects or more with data in every cell", field="records")
+    tab = AnovaRM(cells, "zvalue", "zsubject", within=inner).fit().anova_table
+    back = {v: k for k, v in names.items()}
+    rows = tuple((":".join(back[x] for x in str(idx).split(":")), float(r["F Value"]), float(r["Num DF"]),
+                  float(r["Den DF"]), float(r["Pr > F"])) for idx, r in tab.iterrows())
+    if len(rows) != 2 ** len(within) - 1:
+        raise ConfigError("the ANOVA lost an effect (constant or collinear factor?)", field="records")
+    return AnovaResult(rows, int(cells["zsubject"].nunique()), depvar)
+
+
+def discrimination_score(preference_rate: float | np.ndarray) -> float | np.ndarray:
+    """KinesTouch discrimination score |2p - 1| for a preference rate p in [0, 1]
+    (Sec. 5.2, Table 3: 50 % -> 0, 75 % -> 0.5, 100 % -> 1)."""
+    p = np.asarray(preference_rate, dtype=float)
+    if np.any((p < 0) | (p > 1)):
+        raise ConfigError("a preference rate must be in [0, 1]", field="preference_rate")
+    out = np.abs(2.0 * p - 1.0)
+    return float(out) if out.ndim == 0 else out

@@ -1,0 +1,368 @@
+"""Analyse a study folder: every participant's log, analysed as in the paper of the design.
+
+=================== =======================================================================
+kind                analysis
+=================== =======================================================================
+nafc                proportion correct per condition (Wilson CI), exact binomial test against
+                    chance 1/n; per material pair; paired t test of the participants'
+                    proportions between two conditions (001 Sec. IV)
+realism             per material, the proportion choosing the first condition: mean over
+                    participants with a normal CI, z test against 0.5, Bonferroni over
+                    materials (003 Table II)
+identification      confusion matrix per condition; proportion correct per material (mean
+                    over participants, normal CI) and overall; binomial test against chance;
+                    two-proportion z test between conditions per material, Bonferroni (003
+                    Tables III-IV)
+ratings             real-vs-virtual mean rating per material and adjective, Pearson r;
+                    similarity per rendering method, repeated-measures ANOVA (000 Sec. 4)
+shape-choice        confusion of shape vs answer; proportion correct overall and per
+                    condition; one-sided t test of the participants' proportions against 0.25
+                    (002 Sec. 3.4.2)
+scene-recognition   proportion of objects right per task and light; four-way repeated-measures
+                    ANOVA task x light x profile x configuration (002 Table 2)
+sliding-pairs       discrimination score |2p - 1| per participant, comparison, visual and
+                    tactile condition; repeated-measures ANOVA on the scores (004 Sec. 5.3;
+                    the paper used an aligned-rank transform first, which statsmodels lacks)
+=================== =======================================================================
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from surfhap.errors import StudyFormatError
+from surfhap.lab import analysis as A
+from surfhap.lab.schema import Study, load_study
+from surfhap.lab.triallog import read_log
+
+__all__ = ["Section", "StudyAnalysis", "analyze_study", "load_trials"]
+
+
+@dataclass
+class Section:
+    """One part of the report: paragraphs, tables (header, rows) and figures (name, result
+    object with ``.plot()``, keyword arguments of the plot)."""
+
+    title: str
+    text: list[str] = field(default_factory=list)
+    tables: list[tuple[list[str], list[list]]] = field(default_factory=list)
+    figures: list[tuple[str, object, dict]] = field(default_factory=list)
+
+
+@dataclass
+class StudyAnalysis:
+    name: str
+    kind: str
+    participants: list[str]
+    n_trials: int
+    incomplete: list[str]
+    sections: list[Section]
+    warnings: list[str] = field(default_factory=list)
+
+    def summary_lines(self) -> list[str]:
+        out = [f"{self.name}: {len(self.participants)} participants, {self.n_trials} trials"
+               + (f" ({len(self.incomplete)} incomplete: {', '.join(self.incomplete)})" if self.incomplete else "")]
+        out += [f"  warning: {w}" for w in self.warnings]
+        for s in self.sections:
+            out += [f"  {s.title}: {s.text[0]}"] if s.text else []
+        return out
+
+
+def load_trials(study_dir: str | Path) -> tuple[Study, list[dict], list[str], list[str]]:
+    """(study, trial records with their participant, ids of incomplete participants, warnings:
+    logs written against another version of study.json)."""
+    import hashlib
+
+    study = load_study(study_dir)
+    folder = Path(study_dir) if Path(study_dir).is_dir() else Path(study_dir).parent
+    digest = hashlib.sha256((folder / "study.json").read_bytes()).hexdigest()
+    records, incomplete, warnings = [], [], []
+    for plan in study.participants:
+        log = read_log(folder / "logs" / f"{plan.id}.jsonl")
+        if not log.trials:
+            continue
+        if any(s.get("config", {}).get("study_sha256") not in (None, digest) for s in log.sessions):
+            warnings.append(f"{plan.id}: logged against a different study.json (edited after the session?)")
+        if len(log.trials) < len(plan.trials):
+            incomplete.append(plan.id)
+        for r in log.trials:
+            records.append({**r, "participant": plan.id, "group": plan.group})
+    if not records:
+        raise StudyFormatError("no trials logged yet", source=str(folder / "logs"), field="log")
+    return study, records, incomplete, warnings
+
+
+def _by(records, *keys):
+    out = defaultdict(list)
+    for r in records:
+        out[tuple(r["condition"][k] if k in r["condition"] else r[k] for k in keys)].append(r)
+    return out
+
+
+def _pp(records, value=lambda r: float(r["score"]), key="participant"):
+    """Per-participant mean of ``value``: {participant: mean}."""
+    acc = defaultdict(list)
+    for r in records:
+        acc[r[key]].append(value(r))
+    return {k: float(np.mean(v)) for k, v in acc.items()}
+
+
+def _fmt_test(t: A.TestResult, p_adj: float | None = None) -> str:
+    s = f"{t.name}: statistic {t.statistic:.3g}" + (f", df {t.df:g}" if t.df is not None else "") + f", p = {t.p:.3g}"
+    return s + (f" (Bonferroni {p_adj:.3g})" if p_adj is not None else "") + f" [{t.alternative}]"
+
+
+def _nafc(study, recs):
+    n_alt = len(study.participants[0].trials[0].choices)
+    sec = Section("Discrimination (n-AFC)")
+    conds = sorted({r["condition"]["condition"] for r in recs})
+    k = [sum(r["is_correct"] for r in recs if r["condition"]["condition"] == c) for c in conds]
+    n = [sum(1 for r in recs if r["condition"]["condition"] == c) for c in conds]
+    res = A.proportions(k, n, conds, title="proportion correct")
+    sec.text.append(", ".join(f"{c} {p:.2f}" for c, p in zip(conds, res.proportion)) + f" correct (chance {1 / n_alt:.2f})")
+    sec.tables.append((["condition", "correct/n", "proportion", "95 % CI (Wilson)"], res.rows()))
+    for c, kk, nn in zip(conds, k, n):
+        sec.text.append(f"{c} vs chance: " + _fmt_test(A.binomial_test(kk, nn, 1 / n_alt)))
+    sec.figures.append(("nafc_conditions", res, {"chance": 1 / n_alt}))
+    rows = []
+    for (c, pair), rs in sorted(_by(recs, "condition", "pair").items()):
+        rows.append([c, pair, f"{sum(r['is_correct'] for r in rs)}/{len(rs)}",
+                     f"{np.mean([r['is_correct'] for r in rs]):.2f}"])
+    sec.tables.append((["condition", "pair", "correct/n", "proportion"], rows))
+    if len(conds) == 2:
+        a = _pp([r for r in recs if r["condition"]["condition"] == conds[0]])
+        b = _pp([r for r in recs if r["condition"]["condition"] == conds[1]])
+        both = sorted(set(a) & set(b))
+        if len(both) >= 2:
+            sec.text.append(f"{conds[0]} vs {conds[1]} ({len(both)} participants): "
+                            + _fmt_test(A.t_test([a[p] for p in both], [b[p] for p in both], paired=True)))
+    return [sec]
+
+
+def _realism(study, recs):
+    first = list(study.params["conditions"])[0]
+    sec = Section(f"Realism: proportion choosing {first}")
+    mats = sorted({r["condition"]["material"] for r in recs})
+    per = [list(_pp([r for r in recs if r["condition"]["material"] == m],
+                    value=lambda r: float(r["answer"] == first)).values()) for m in mats]
+    if min(len(v) for v in per) < 2:
+        sec.text.append("needs two participants or more")
+        return [sec]
+    res = A.participant_means(per, mats, title=f"chose {first}")
+    tests = [A.z_test_one(sum(1 for r in recs if r["condition"]["material"] == m and r["answer"] == first),
+                          sum(1 for r in recs if r["condition"]["material"] == m), 0.5) for m in mats]
+    padj = A.bonferroni([t.p for t in tests])
+    sec.text.append(", ".join(f"{m} {p:.2f}" for m, p in zip(mats, res.proportion)))
+    sec.tables.append((["material", "proportion", "95 % CI (participants)", "z", "p (Bonferroni)"],
+                       [[m, f"{p:.2f}", f"[{lo:.2f}, {hi:.2f}]", f"{t.statistic:.2f}", f"{pa:.3g}"]
+                        for m, p, lo, hi, t, pa in zip(mats, res.proportion, res.ci_low, res.ci_high, tests, padj)]))
+    sec.figures.append(("realism", res, {"chance": 0.5}))
+    return [sec]
+
+
+def _identification(study, recs):
+    mats = list(study.params["materials"])
+    out = []
+    conds = sorted({r["condition"]["condition"] for r in recs})
+    counts = {}
+    for c in conds:
+        rs = [r for r in recs if r["condition"]["condition"] == c]
+        conf = A.confusion([r["correct"] for r in rs], [r["answer"] for r in rs], mats, title=c)
+        sec = Section(f"Identification: {c}")
+        k = int(np.trace(conf.counts))
+        n = int(conf.counts.sum())
+        sec.text.append(f"overall {conf.accuracy:.2f} correct (chance {1 / len(mats):.2f}); "
+                        + _fmt_test(A.binomial_test(k, n, 1 / len(mats))))
+        per = [list(_pp([r for r in rs if r["correct"] == m], value=lambda r: float(r["is_correct"])).values())
+               for m in mats]
+        if min(len(v) for v in per) >= 2:
+            pm = A.participant_means(per, mats, title=f"correct ({c})")
+            sec.tables.append((["material", "proportion", "95 % CI (participants)"],
+                               [[m, f"{p:.2f}", f"[{lo:.2f}, {hi:.2f}]"]
+                                for m, p, lo, hi in zip(mats, pm.proportion, pm.ci_low, pm.ci_high)]))
+            sec.figures.append((f"identification_{c}_bars", pm, {"chance": 1 / len(mats)}))
+        sec.tables.append((["presented \\ answered", *mats],
+                           [[m, *[f"{x:.2f}" for x in row]] for m, row in zip(mats, conf.proportions)]))
+        sec.figures.append((f"identification_{c}_confusion", conf, {}))
+        counts[c] = conf
+        out.append(sec)
+    if len(conds) == 2:
+        a, b = counts[conds[0]], counts[conds[1]]
+        tests = [A.z_test_two(a.counts[i, i], a.counts[i].sum(), b.counts[i, i], b.counts[i].sum())
+                 for i in range(len(mats)) if a.counts[i].sum() and b.counts[i].sum()]
+        if len(tests) == len(mats):
+            padj = A.bonferroni([t.p for t in tests])
+            sec = Section(f"Identification: {conds[0]} vs {conds[1]}")
+            sec.text.append("two-proportion z tests per material, Bonferroni-corrected")
+            sec.tables.append((["material", "z", "p", "p (Bonferroni)"],
+                               [[m, f"{t.statistic:.2f}", f"{t.p:.3g}", f"{pa:.3g}"]
+                                for m, t, pa in zip(mats, tests, padj)]))
+            out.append(sec)
+    return out
+
+
+def _ratings(study, recs):
+    out = []
+    mats = list(study.params["materials"])
+    adj = [r for r in recs if r["task"] == "rating"]
+    for a in study.params["adjectives"]:
+        real, virt, labs = [], [], []
+        for m in mats:
+            rr = [float(r["answer"]) for r in adj if r["condition"]["material"] == m and r["condition"]["adjective"] == a
+                  and r["condition"]["source"] == "real"]
+            rv = [float(r["answer"]) for r in adj if r["condition"]["material"] == m and r["condition"]["adjective"] == a
+                  and r["condition"]["source"] == "virtual"]
+            if rr and rv:
+                real.append(np.mean(rr))
+                virt.append(np.mean(rv))
+                labs.append(m)
+        sec = Section(f"Adjective ratings: {a}")
+        if len(labs) >= 3:
+            pr = A.pearson(real, virt, labs, x_name=f"{a} (real)", y_name=f"{a} (virtual)")
+            sec.text.append(f"real vs virtual: r = {pr.r:.3f}, p = {pr.p:.3g} (n = {pr.n} materials)")
+            sec.figures.append((f"ratings_{a}", pr, {}))
+        else:
+            sec.text.append("needs three materials or more rated real and virtual")
+        out.append(sec)
+    sim = [r for r in recs if r["task"] == "similarity"]
+    if sim:
+        sec = Section("Similarity ratings")
+        rows = []
+        for meth, rs in sorted(_by(sim, "method").items()):
+            v = [float(r["answer"]) for r in rs]
+            rows.append([meth[0], len(v), f"{np.mean(v):.2f}", f"{np.std(v, ddof=1) if len(v) > 1 else 0:.2f}"])
+        sec.tables.append((["method", "n", "mean", "SD"], rows))
+        sec.text.append("; ".join(f"{r[0]} {r[2]} (SD {r[3]})" for r in rows))
+        try:
+            an = A.rm_anova([{"p": r["participant"], "method": r["condition"]["method"],
+                              "material": r["condition"]["material"], "y": float(r["answer"])} for r in sim],
+                            "y", "p", ["method", "material"])
+            sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
+                                                             for e, f, d1, d2, p in an.rows]))
+        except Exception as exc:  # noqa: BLE001 - too few complete participants is a normal state
+            sec.text.append(f"no repeated-measures ANOVA: {exc}")
+        out.append(sec)
+    return out
+
+
+def _shape_choice(study, recs):
+    labels = ["bump", "hole", "flat", "none"]
+    conf = A.confusion([r["correct"] for r in recs], [r["answer"] for r in recs], labels, title="shape")
+    sec = Section("Closed choice: bump / hole / flat")
+    pp = _pp(recs, value=lambda r: float(r["is_correct"]))
+    sec.text.append(f"overall {conf.accuracy:.2f} correct (chance 0.25)")
+    if len(pp) >= 2:
+        sec.text.append("participants vs chance: " + _fmt_test(A.t_test(list(pp.values()), 0.25, alternative="greater")))
+    rows = []
+    for key, rs in sorted(_by(recs, "shape", "profile", "grain").items()):
+        rows.append(["-".join(key), f"{sum(r['is_correct'] for r in rs)}/{len(rs)}",
+                     f"{np.mean([r['is_correct'] for r in rs]):.2f}"])
+    sec.tables.append((["condition", "correct/n", "proportion"], rows))
+    sec.figures.append(("shape_confusion", conf, {}))
+    return [sec]
+
+
+def _scenes(study, recs):
+    sec = Section("Scene recognition: V vs V+H")
+    rows = []
+    for factor in ("task", "light", "profile", "configuration"):
+        for key, rs in sorted(_by(recs, factor).items()):
+            rows.append([factor, key[0], f"{np.mean([r['score'] for r in rs]):.2f}", len(rs)])
+    sec.tables.append((["factor", "level", "proportion of objects right", "trials"], rows))
+    tasks = sorted({r["condition"]["task"] for r in recs})
+    k = [sum(r["score"] * 4 for r in recs if r["condition"]["task"] == t) for t in tasks]
+    n = [4 * sum(1 for r in recs if r["condition"]["task"] == t) for t in tasks]
+    res = A.proportions(k, n, tasks, title="objects right")
+    sec.text.append(", ".join(f"{t} {p:.2f}" for t, p in zip(tasks, res.proportion)))
+    sec.figures.append(("scenes_task", res, {"chance": 0.5}))
+    try:
+        an = A.rm_anova([{"p": r["participant"], **{f: r["condition"][f] for f in
+                                                   ("task", "light", "profile", "configuration")},
+                          "y": r["score"]} for r in recs], "y", "p", ["task", "light", "profile", "configuration"])
+        sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
+                                                         for e, f, d1, d2, p in an.rows]))
+    except Exception as exc:  # noqa: BLE001
+        sec.text.append(f"no repeated-measures ANOVA: {exc}")
+    return [sec]
+
+
+def sliding_scores(recs) -> list[dict]:
+    """Discrimination score per participant x comparison x visual x tactile (004 Sec. 5.2):
+    +1 when the alphabetically first effect of the comparison is chosen, -1 otherwise; the
+    mean (the normalised preference, 2p - 1) in absolute value."""
+    acc = defaultdict(list)
+    for r in recs:
+        c = r["condition"]
+        a = c["comparison"].split(" vs ")[0]
+        acc[(r["participant"], c["comparison"], c["visual"], c["tactile"])].append(1.0 if r["answer"] == a else -1.0)
+    return [{"participant": p, "comparison": comp, "visual": v, "tactile": t,
+             "score": float(A.discrimination_score((np.mean(x) + 1) / 2)), "n": len(x)}
+            for (p, comp, v, t), x in sorted(acc.items())]
+
+
+def _sliding(study, recs):
+    scores = sliding_scores(recs)
+    sec = Section("Sliding: discrimination scores")
+    rows = []
+    for factor in ("visual", "tactile", "comparison"):
+        groups = defaultdict(list)
+        for s in scores:
+            groups[s[factor]].append(s["score"])
+        for lev, v in sorted(groups.items()):
+            rows.append([factor, lev, f"{np.mean(v):.2f}", f"{np.std(v, ddof=1) if len(v) > 1 else 0:.2f}", len(v)])
+    sec.tables.append((["factor", "level", "mean score", "SD", "n"], rows))
+    sec.text.append("mean discrimination score " + f"{np.mean([s['score'] for s in scores]):.2f}")
+    try:
+        an = A.rm_anova(scores, "score", "participant", ["visual", "tactile", "comparison"])
+        sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
+                                                         for e, f, d1, d2, p in an.rows]))
+    except Exception as exc:  # noqa: BLE001
+        sec.text.append(f"no repeated-measures ANOVA: {exc}")
+    return [sec]
+
+
+_ANALYSES = {"nafc": _nafc, "realism": _realism, "identification": _identification, "ratings": _ratings,
+             "shape-choice": _shape_choice, "scene-recognition": _scenes, "sliding-pairs": _sliding}
+
+
+def _comfort_section(folder: Path) -> Section | None:
+    """Comfort voltages measured with 'study comfort' (logs/<P>-comfort.json), if any."""
+    import json
+
+    rows = []
+    for p in sorted((folder / "logs").glob("*-comfort.json")):
+        try:
+            d = json.loads(p.read_text())
+            rows.append([d["participant"], "-" if d["comfort_voltage"] is None else f"{d['comfort_voltage']:.1f}",
+                         len(d["levels_V"]), d["stopped_by"]])
+        except (ValueError, KeyError, TypeError):
+            raise StudyFormatError("not a comfort result", source=str(p), field="comfort_voltage") from None
+    if not rows:
+        return None
+    volts = [float(r[1]) for r in rows if r[1] != "-"]
+    sec = Section("Comfort thresholds (staircase)")
+    sec.text.append(f"median {np.median(volts):.0f} V, range {min(volts):.0f}-{max(volts):.0f} V" if volts else
+                    "no threshold reached")
+    sec.tables.append((["participant", "comfort voltage (V)", "trials", "stopped by"], rows))
+    return sec
+
+
+def analyze_study(study_dir: str | Path) -> StudyAnalysis:
+    """Analyse every logged trial of the study in ``study_dir``."""
+    study, recs, incomplete, warnings = load_trials(study_dir)
+    sections = _ANALYSES[study.design.kind](study, recs)
+    rts = [r["rt_s"] for r in recs if r.get("rt_s") is not None]
+    if rts:
+        sections.append(Section("Response times", [f"median {np.median(rts):.2f} s, IQR "
+                                                   f"{np.percentile(rts, 25):.2f}-{np.percentile(rts, 75):.2f} s "
+                                                   f"({len(rts)} answers)"]))
+    folder = Path(study_dir) if Path(study_dir).is_dir() else Path(study_dir).parent
+    comfort = _comfort_section(folder)
+    if comfort is not None:
+        sections.append(comfort)
+    parts = sorted({r["participant"] for r in recs})
+    return StudyAnalysis(study.design.name, study.design.kind, parts, len(recs), incomplete, sections, warnings)

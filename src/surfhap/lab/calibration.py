@@ -1,0 +1,260 @@
+"""Display calibration from tribometer recordings (Kim et al. 2017 Sec. 2.2; Otake et al. 2022 eq. 5).
+
+Per recording (one drive level, drive switched on and off along the path, see
+:mod:`surfhap.exchange.tribometer`):
+
+* vibratory amplitude: 10-500 Hz band-pass, peak-to-peak swings, mean of the 50 largest
+  (Sec. 2.2, Fig. 2c); only swings inside "on" stretches, ``guard`` s away from a switch, count;
+* static friction: mean lateral and normal force with the drive off and on (same guard);
+  the panel's friction coefficient is ``mu = f_off / fn_off`` and the static friction increase
+  at the load of the on stretches is ``df = f_on - mu fn_on`` (Fig. 3b-c).
+
+Across recordings: quadratic fits ``df(level)`` and ``amplitude(level)`` with residuals
+(Fig. 2c, 3c), ``mu_panel`` = mean of the per-recording ``mu``. With a voltage input the
+electrostatic constant follows from ``f = mu (fn + k V^2)`` (Otake et al. 2022 eq. 5):
+``df = mu k V^2``, fitted by least squares through the origin. With an intensity input ``k``
+is known only if the amplifier gain (V per unit intensity) is given (Kim et al. assume it
+constant); otherwise it is left out (null).
+
+The device curve written to the display file is the static-increase fit by default (the
+friction the display adds, what the drive laws plan); ``curve="amplitude"`` writes the
+vibratory amplitude fit instead (the quantity of Kim et al. Fig. 2c).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from surfhap.errors import ConfigError
+from surfhap.exchange.tribometer import TribometerRecording
+from surfhap.signal.tribometer import QuadraticFit, fit_quadratic, tribometer_amplitude
+
+__all__ = ["LevelMeasure", "Calibration", "measure_recording", "calibrate", "calibrate_display", "invert_curve", "CURVES",
+           "DISPLAY_FORMAT", "DISPLAY_VERSION"]
+
+CURVES = ("static", "amplitude")
+DISPLAY_FORMAT = "surfhap-display"
+DISPLAY_VERSION = 1
+GUARD = 0.1  # s excluded after each on/off switch: the 10 Hz band-pass settles in ~2 time constants
+# of its 2nd-order high-pass run forward and backward (design choice; the paper is silent)
+
+
+@dataclass(frozen=True)
+class LevelMeasure:
+    """What one recording measures (SI).
+
+    level        : drive level (intensity, or V).
+    amplitude    : N, mean of the 50 largest peak-to-peak swings with the drive on.
+    friction_off, friction_on : N, mean lateral force with the drive off / on.
+    normal_off, normal_on     : N, mean normal force with the drive off / on.
+    mu           : friction coefficient without drive, friction_off / normal_off.
+    increase     : N, static friction increase at the on-load, friction_on - mu normal_on.
+    source       : file name.
+    """
+
+    level: float
+    amplitude: float
+    friction_off: float
+    friction_on: float
+    normal_off: float
+    normal_on: float
+    mu: float
+    increase: float
+    source: str
+
+
+def _guarded(on: np.ndarray, guard_samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """(on, off) masks without the ``guard_samples`` after each switch (and at the start)."""
+    n = on.size
+    switch = np.zeros(n, dtype=bool)
+    switch[0] = True
+    switch[1:] = on[1:] != on[:-1]
+    idx = np.nonzero(switch)[0]
+    near = np.zeros(n, dtype=bool)
+    for i in idx:
+        near[i:i + guard_samples] = True
+    return on & ~near, ~on & ~near
+
+
+def measure_recording(rec: TribometerRecording, guard: float = GUARD) -> LevelMeasure:
+    """Amplitude and static friction of one recording (see the module docstring)."""
+    if not (np.isfinite(guard) and guard >= 0):
+        raise ConfigError("must be >= 0 s", field="guard")
+    on, off = _guarded(rec.on, int(round(guard * rec.sample_rate)))
+    if on.sum() < 16 or off.sum() < 16:
+        raise ConfigError("too few samples with the drive on and off after the switching guard "
+                          f"({guard:g} s); record longer on/off stretches", source=rec.source, field="level")
+    f_off = float(rec.lateral_force[off].mean())
+    f_on = float(rec.lateral_force[on].mean())
+    n_off = float(rec.normal_force[off].mean())
+    n_on = float(rec.normal_force[on].mean())
+    if n_off <= 0:
+        raise ConfigError("mean normal force with the drive off must be > 0 N", source=rec.source, field="normal_force")
+    mu = f_off / n_off
+    amp = tribometer_amplitude(rec.lateral_force, rec.sample_rate, mask=on)
+    return LevelMeasure(rec.drive_level, amp, f_off, f_on, n_off, n_on, mu, f_on - mu * n_on, rec.source)
+
+
+def invert_curve(coefficients: Sequence[float], force: np.ndarray, level_max: float) -> np.ndarray:
+    """Inverse device map: the smallest level in [0, level_max] whose curve value reaches ``force``.
+
+    coefficients : [c0, c1, c2] of ``F = c0 + c1 L + c2 L^2``; force (m,) N. The curve is made
+    non-decreasing (running maximum) on a fine grid, so the inverse is monotone; forces at or
+    below ``F(0)`` give 0, above the largest value give ``level_max``.
+    """
+    c0, c1, c2 = (float(c) for c in coefficients)
+    grid = np.linspace(0.0, float(level_max), 4097)
+    curve = np.maximum.accumulate((c2 * grid + c1) * grid + c0)
+    f = np.asarray(force, dtype=float)
+    # np.interp needs increasing x: drop flat stretches (keep their first level)
+    keep = np.concatenate([[True], np.diff(curve) > 0])
+    return np.interp(f, curve[keep], grid[keep], left=0.0, right=float(level_max))
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A display calibration.
+
+    input         : "intensity" or "voltage".
+    levels        : (n,) the recorded levels, ascending.
+    measures      : per-recording :class:`LevelMeasure`, in level order.
+    static_fit, amplitude_fit : :class:`QuadraticFit` of increase and amplitude vs level.
+    mu_panel      : panel friction coefficient without drive (mean over recordings).
+    k             : N/V^2, electrostatic constant (None for an intensity input without gain).
+    k_residuals   : (n,) N, df - mu k V^2 of the physics fit (empty without k).
+    curve         : which fit is the device curve ("static" or "amplitude").
+    volts_per_unit: V per unit intensity used for k (None if not given / voltage input).
+    leakage       : :class:`~surfhap.lab.leakage.LeakageFit` from DC-drive recordings, or None.
+    """
+
+    input: str
+    levels: np.ndarray
+    measures: tuple[LevelMeasure, ...]
+    static_fit: QuadraticFit
+    amplitude_fit: QuadraticFit
+    mu_panel: float
+    k: float | None
+    k_residuals: np.ndarray
+    curve: str = "static"
+    volts_per_unit: float | None = None
+    sources: tuple[str, ...] = field(default=())
+    leakage: object | None = None  # LeakageFit from DC-drive recordings, or None
+
+    @property
+    def device_fit(self) -> QuadraticFit:
+        return self.static_fit if self.curve == "static" else self.amplitude_fit
+
+    @property
+    def level_max(self) -> float:
+        return 1.0 if self.input == "intensity" else float(self.levels.max())
+
+    def force(self, level: np.ndarray) -> np.ndarray:
+        """Device curve: force (N) at level (m,)."""
+        return self.device_fit(level)
+
+    def inverse(self, force: np.ndarray) -> np.ndarray:
+        """Level (m,) that makes the device curve give ``force`` (m,) N; see :func:`invert_curve`."""
+        return invert_curve(self.device_fit.coefficients, force, self.level_max)
+
+    def to_display_json(self, source: str, command: str) -> dict:
+        """The display file (``surfhap-display`` version 1) as a JSON-ready dict."""
+        doc = {
+            "format": DISPLAY_FORMAT,
+            "version": DISPLAY_VERSION,
+            "k": self.k,
+            "mu_panel": self.mu_panel,
+            "device_curve": {"input": self.input, "coefficients": list(self.device_fit.coefficients)},
+            "provenance": {"source": source, "command": command},
+            "calibration": {
+                "method": "Kim et al. 2017 Sec. 2.2 (10-500 Hz band-pass, mean of the 50 largest peak-to-peak "
+                          "amplitudes, static friction increase on/off, quadratic fits); k from "
+                          "f = mu (fn + k V^2), Otake et al. 2022 eq. 5",
+                "device_curve_quantity": "static friction increase (N)" if self.curve == "static"
+                else "peak-to-peak vibration amplitude (N)",
+                "coefficient_order": "ascending: F = c0 + c1 level + c2 level^2",
+                "levels": self.levels.tolist(),
+                "static_increase_N": [m.increase for m in self.measures],
+                "amplitude_N": [m.amplitude for m in self.measures],
+                "mu_per_recording": [m.mu for m in self.measures],
+                "static_fit": {"coefficients": list(self.static_fit.coefficients),
+                               "residuals_N": self.static_fit.residuals.tolist(), "rmse_N": self.static_fit.rmse,
+                               "r2": self.static_fit.r2},
+                "amplitude_fit": {"coefficients": list(self.amplitude_fit.coefficients),
+                                  "residuals_N": self.amplitude_fit.residuals.tolist(),
+                                  "rmse_N": self.amplitude_fit.rmse, "r2": self.amplitude_fit.r2},
+                "k_residuals_N": self.k_residuals.tolist(),
+                "volts_per_unit_intensity": self.volts_per_unit,
+                "recordings": list(self.sources),
+            },
+        }
+        if self.leakage is not None:
+            doc["leakage_time_constant"] = self.leakage.time_constant
+            doc["calibration"]["leakage_time_constant_per_recording_s"] = self.leakage.per_recording.tolist()
+            doc["calibration"]["leakage_method"] = ("DC-drive onsets: A exp(-2 t / tau) + c through the same "
+                                                    "80 Hz low-pass, least squares (surfhap.lab.leakage)")
+        return doc
+
+    def plot(self, fig=None):
+        from surfhap.report.lab_figures import plot_calibration
+
+        return plot_calibration(self, fig=fig)
+
+
+def calibrate(recordings: Sequence[TribometerRecording], curve: str = "static", guard: float = GUARD,
+              volts_per_unit: float | None = None,
+              leakage_recordings: Sequence[TribometerRecording] = ()) -> Calibration:
+    """Calibrate a display from tribometer recordings at three or more distinct levels;
+    ``leakage_recordings`` (DC drive, voltage input) add the leakage time constant."""
+    if curve not in CURVES:
+        raise ConfigError(f"must be one of {', '.join(CURVES)}", field="curve")
+    recs = list(recordings)
+    if not recs:
+        raise ConfigError("no recordings given", field="recordings")
+    kinds = {r.input for r in recs}
+    if len(kinds) != 1:
+        raise ConfigError("recordings mix intensity and voltage inputs", source=recs[0].source, field="input")
+    kind = kinds.pop()
+    if volts_per_unit is not None:
+        if kind != "intensity":
+            raise ConfigError("only for an intensity input", field="volts_per_unit")
+        if not (np.isfinite(volts_per_unit) and volts_per_unit > 0):
+            raise ConfigError("must be > 0 V", field="volts_per_unit")
+    measures = sorted((measure_recording(r, guard) for r in recs), key=lambda m: m.level)
+    levels = np.array([m.level for m in measures])
+    if np.unique(levels).size < 3:
+        raise ConfigError(f"need recordings at three distinct levels or more, got {np.unique(levels).size}",
+                          field="level")
+    inc = np.array([m.increase for m in measures])
+    amp = np.array([m.amplitude for m in measures])
+    mu = float(np.mean([m.mu for m in measures]))
+    static_fit = fit_quadratic(levels, inc)
+    amplitude_fit = fit_quadratic(levels, amp)
+    k = None
+    k_res = np.zeros(0)
+    volts = levels if kind == "voltage" else (levels * volts_per_unit if volts_per_unit else None)
+    if volts is not None:
+        v2 = volts ** 2
+        muk = float(np.sum(inc * v2) / np.sum(v2 * v2))  # least squares of df = (mu k) V^2
+        if not muk > 0:
+            raise ConfigError("the static friction does not increase with the voltage: no electrostatic constant",
+                              field="level")
+        k = muk / mu
+        k_res = inc - muk * v2
+    leak = None
+    if leakage_recordings:
+        from surfhap.lab.leakage import fit_leakage
+
+        for r in leakage_recordings:
+            if r.input != "voltage":
+                raise ConfigError("leakage recordings need a voltage input (a DC drive)", source=r.source,
+                                  field="input")
+        leak = fit_leakage(leakage_recordings)
+    return Calibration(kind, levels, tuple(measures), static_fit, amplitude_fit, mu, k, k_res, curve,
+                       volts_per_unit, tuple(m.source for m in measures), leak)
+
+
+#: the public name (``surfhap.calibrate`` is the shape calibration)
+calibrate_display = calibrate

@@ -1,0 +1,153 @@
+"""Comfort threshold of a participant with a staircase (Zhao et al. Sec. 2: the drive is kept
+under the user's threshold by a staircase), run on the study page before the study.
+
+The stimulus is Zhao et al.'s baseline: a constant-amplitude square wave (100 Hz, inside their
+30-300 Hz range) whose amplitude is the staircase level in volts, on the study's first
+material. The question is "Is this comfortable?"; "no" (uncomfortable) is the positive
+response that lowers the level. With the default 1-up/1-down rule the staircase settles at
+the voltage found uncomfortable half of the time; its estimate (mean of the last reversals) is
+then the participant's comfort voltage, never above the 250 V safety limit, and ``study run``
+uses it as the session's safety limit.
+
+The answers go to their own append-only log ``logs/<P>-comfort.jsonl``; a killed run resumes
+by replaying the logged answers into the staircase (it is deterministic). The result is written
+to ``logs/<P>-comfort.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from dataclasses import asdict
+from pathlib import Path
+
+from surfhap.errors import StudyFormatError
+from surfhap.lab.schema import load_study
+from surfhap.lab.session import SAFETY_V_MAX
+from surfhap.lab.staircase import Staircase, StaircaseParams
+from surfhap.lab.triallog import TrialLog, now_iso
+
+__all__ = ["ComfortRunner", "default_comfort_params", "comfort_voltage_of", "COMFORT_FREQUENCY"]
+
+COMFORT_FREQUENCY = 100.0  # Hz, inside Zhao et al.'s 30-300 Hz baseline range (design choice)
+
+
+def default_comfort_params(start: float = 60.0) -> StaircaseParams:
+    """1-up/1-down in dB steps (4 dB, then 2 dB after two reversals), from ``start`` V, 8
+    reversals or 40 trials, threshold = geometric mean of the last 6 reversals, levels within
+    5 V .. 250 V (design choices: the paper names the method only)."""
+    return StaircaseParams(start=start, steps=(4.0, 4.0, 2.0), up=1, down=1, step_type="db", max_trials=40,
+                           max_reversals=8, average_last=6, min_level=5.0, max_level=SAFETY_V_MAX)
+
+
+def comfort_voltage_of(study_dir: str | Path, participant: str) -> float | None:
+    """The participant's comfort voltage from ``logs/<P>-comfort.json``, if measured."""
+    p = Path(study_dir) / "logs" / f"{participant}-comfort.json"
+    if not p.is_file():
+        return None
+    try:
+        v = json.loads(p.read_text())["comfort_voltage"]
+    except (ValueError, KeyError, TypeError):
+        raise StudyFormatError("not a comfort result", source=str(p), field="comfort_voltage") from None
+    return None if v is None else float(v)
+
+
+class ComfortRunner:
+    """Page-compatible runner (``state`` / ``stimulus`` / ``answer`` / ``resume``) of the
+    comfort staircase of one participant."""
+
+    def __init__(self, study_dir: str | Path, participant: str, params: StaircaseParams | None = None,
+                 material: str | None = None):
+        self.dir = Path(study_dir)
+        study = load_study(self.dir)
+        self.plan = study.participant(participant)
+        self.params = params or default_comfort_params()
+        self.material = material or next((str(s.render["material"]) for t in self.plan.trials for s in t.stimuli
+                                          if "material" in s.render), "cork")
+        from surfhap import __version__
+
+        self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}-comfort.jsonl",
+                            config={"participant": self.plan.id, "procedure": "comfort staircase",
+                                    "staircase": {k: (list(v) if isinstance(v, tuple) else v)
+                                                  for k, v in asdict(self.params).items()},
+                                    "material": self.material, "square_frequency": COMFORT_FREQUENCY},
+                            software_version=__version__)
+        self.stair = Staircase(self.params)
+        for rec in self.log.contents.trials:  # replay a killed run
+            self.stair.update(rec["answer"] == "no")
+        self.gain = 1.0
+        self.last_record = None
+        self._lock = threading.Lock()
+        self.total = self.params.max_trials
+
+    @property
+    def n_done(self) -> int:
+        return len(self.stair.result().levels)
+
+    @property
+    def finished(self) -> bool:
+        return self.stair.finished
+
+    @property
+    def v_max(self) -> float:
+        return SAFETY_V_MAX
+
+    def _tid(self) -> str:
+        return f"{self.plan.id}-comfort-{self.n_done:03d}"
+
+    def render_spec(self) -> dict:
+        return {"material": self.material, "method": "square", "square_frequency": COMFORT_FREQUENCY,
+                "square_amplitude": round(self.stair.level, 3)}
+
+    def state(self) -> dict:
+        with self._lock:
+            base = {"done": self.n_done, "total": self.total, "participant": self.plan.id}
+            if self.finished:
+                return {**base, "status": "done"}
+            return {**base, "status": "trial", "block_label": "comfort",
+                    "trial": {"id": self._tid(), "prompt": "Touch and slide. Is this comfortable?",
+                              "response": "choice", "stimuli": ["touch"], "real": [None],
+                              "choices": [{"id": "yes", "label": "yes, comfortable"},
+                                          {"id": "no", "label": "no, uncomfortable"}], "toggles": []}}
+
+    def resume(self) -> None:
+        return None
+
+    def stimulus(self, trial_id: str, index: int):
+        from surfhap.lab.schema import Stimulus
+
+        with self._lock:
+            if self.finished or trial_id != self._tid() or index != 0:
+                return None
+            return Stimulus(label="touch", render=self.render_spec())
+
+    def answer(self, trial_id: str, answer: str, rt_client_s: float | None = None) -> dict:
+        with self._lock:
+            accepted = False
+            if not self.finished and trial_id == self._tid():
+                if answer not in ("yes", "no"):
+                    raise StudyFormatError(f"answer {answer!r} is not yes or no", field="answer")
+                rec = {"trial_id": trial_id, "index": self.n_done, "level_V": self.stair.level, "answer": answer,
+                       "rt_s": None if rt_client_s is None else round(float(rt_client_s), 4),
+                       "answered_at": now_iso()}
+                accepted = self.log.append_trial(rec)
+                self.last_record = {**rec, "is_correct": None}
+                self.stair.update(answer == "no")
+                if self.finished:
+                    self._finish()
+        return {**self.state(), "accepted": accepted}
+
+    def _finish(self) -> None:
+        res = self.stair.result()
+        self.log.event("end", threshold_V=res.threshold, stopped_by=res.stopped_by)
+        out = {"participant": self.plan.id, "comfort_voltage": res.threshold, "stopped_by": res.stopped_by,
+               "reversal_levels_V": res.reversal_levels.tolist(), "levels_V": res.levels.tolist(),
+               "method": "1-up/1-down staircase on a constant-amplitude square wave (Zhao et al. Sec. 2-3)",
+               "finished_at": now_iso()}
+        (self.dir / "logs" / f"{self.plan.id}-comfort.json").write_text(json.dumps(out, indent=1) + "\n")
+
+    def result(self):
+        return self.stair.result()
+
+    def close(self) -> None:
+        self.log.close()

@@ -1,0 +1,127 @@
+"""Compare material models before testing them on people: friction-law curves, texture spectra
+and drive-voltage histograms on the simulated display, side by side.
+
+For each material (built-in name, fitted material file, or HaTT model file):
+
+* friction law: the low-frequency coefficient mu(fn, v) over speed at a fixed load and the
+  friction force mu fn over load at a fixed speed (quasi-static law if present, else Coulomb);
+* texture spectrum: Welch PSD of the friction the simulated display adds while the material is
+  rendered on back-and-forth strokes (``speed``, ``load``) with its default drive law;
+* voltage histogram: the drive magnitude (after the safety stage) during that render.
+
+Computing and plotting are separate: :func:`compare_materials` returns a
+:class:`MaterialComparison`; ``.plot()`` draws the three panels, ``.rows()`` gives the table.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from surfhap.errors import ConfigError
+
+__all__ = ["MaterialProfile", "MaterialComparison", "compare_materials"]
+
+
+@dataclass(frozen=True)
+class MaterialProfile:
+    """One material's curves (SI).
+
+    speeds (s,) m/s and mu_speed (s,) at ``load``; loads (l,) N and force_load (l,) N at
+    ``speed``; freqs (f,) Hz and psd (f,) N^2/Hz of the added friction; v_edges (b+1,) V and
+    v_hist (b,) fraction of touching drive samples; summary: the render summary dict.
+    """
+
+    name: str
+    method: str
+    law: str
+    texture: str
+    speeds: np.ndarray
+    mu_speed: np.ndarray
+    loads: np.ndarray
+    force_load: np.ndarray
+    freqs: np.ndarray
+    psd: np.ndarray
+    v_edges: np.ndarray
+    v_hist: np.ndarray
+    v_mean: float
+    v_p95: float
+    v_max: float
+    summary: dict
+
+
+@dataclass(frozen=True)
+class MaterialComparison:
+    """Profiles of the compared materials plus the scan they were rendered on."""
+
+    profiles: tuple[MaterialProfile, ...]
+    speed: float
+    load: float
+    duration: float
+
+    def rows(self) -> list[list]:
+        return [[p.name, p.method, p.law, p.texture, f"{np.interp(self.speed, p.speeds, p.mu_speed):.3f}",
+                 f"{p.v_mean:.1f}", f"{p.v_p95:.1f}", f"{p.v_max:.1f}"] for p in self.profiles]
+
+    header = ["material", "drive law", "friction law", "texture", "mu at scan", "V mean", "V p95", "V max"]
+
+    def plot(self, fig=None):
+        from surfhap.report.lab_figures import plot_comparison
+
+        return plot_comparison(self, fig=fig)
+
+
+def _law_text(mat) -> str:
+    if mat.quasi_static is not None:
+        q = mat.quasi_static
+        return f"quasi-static a={q.a:.3g} b={q.b:.3g} c={q.c:.3g} d={q.d:.3g} q={q.q:.3g}"
+    return f"Coulomb mu0={mat.coulomb.mu0:.3g}"
+
+
+def _texture_text(mat) -> str:
+    t = mat.texture
+    if t is None:
+        return "none"
+    n = len(getattr(t, "models", ())) or len(getattr(t, "speeds", ()))
+    return f"{t.quantity}, {n} models @ {t.sample_rate:g} Hz"
+
+
+def compare_materials(refs: Sequence[str], *, speed: float = 0.1, load: float = 0.5, duration: float = 4.0,
+                      seed: int = 0, v_max: float = 250.0) -> MaterialComparison:
+    """Profile each material in ``refs`` (names or files) on the simulated display."""
+    from scipy.signal import welch
+
+    from surfhap.exchange.materials import load_material
+    from surfhap.render.chain import ChainConfig
+    from surfhap.render.offline import render
+    from surfhap.render.safety import SafetyLimits
+    from surfhap.sim.trajectory import strokes
+
+    if not refs:
+        raise ConfigError("give at least one material", field="materials")
+    traj = strokes(speed, load, duration)
+    speeds = np.linspace(0.005, 0.25, 60)
+    loads = np.linspace(0.05, 2.0, 60)
+    edges = np.linspace(0.0, v_max, 51)
+    out = []
+    for ref in refs:
+        mat = load_material(ref)
+        law = mat.low_frequency_law
+        mu_v = law.coefficient(np.full(speeds.size, load), speeds)
+        f_l = law.coefficient(loads, np.full(loads.size, speed)) * loads
+        res = render(mat, traj, ChainConfig(seed=seed, limits=SafetyLimits(v_max=v_max)))
+        added = res.added_friction
+        touching = res.load > 0
+        x = added[touching] - np.mean(added[touching])
+        nper = int(min(x.size, 2 ** int(np.log2(max(res.model_rate, 256)))))
+        freqs, psd = welch(x, fs=res.model_rate, nperseg=nper)
+        v = np.abs(res.drive)
+        v_on = v[v > 0] if np.any(v > 0) else v
+        hist, _ = np.histogram(v_on, bins=edges)
+        hist = hist / max(1, v_on.size)
+        out.append(MaterialProfile(mat.name, res.method, _law_text(mat), _texture_text(mat), speeds, mu_v, loads, f_l,
+                                   freqs, psd, edges, hist, float(np.mean(v_on)), float(np.percentile(v_on, 95)),
+                                   float(np.max(v)), res.summary()))
+    return MaterialComparison(tuple(out), speed, load, duration)

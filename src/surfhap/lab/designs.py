@@ -1,0 +1,354 @@
+"""The papers' study designs, generated per participant from a seed with their counterbalancing.
+
+================== ============================================================================ =======
+kind               trials per participant (defaults)                                            paper
+================== ============================================================================ =======
+nafc               per condition: C(4, 2) = 6 material pairs x 4 repetitions = 24 trials; one    001
+                   material shown twice, the other once; which one is the odd one alternates
+                   over the repetitions, its position is balanced over the 3 intervals;
+                   condition order alternates between participants (Latin square)
+realism            4 materials x 2 rounds (a break between them) = 8 two-alternative trials:    003
+                   friction+texture vs friction-only; each material gets both presentation
+                   orders over the two rounds
+identification     per condition: 4 materials x 2 = 8 trials, answer = one of the 4 materials;  003
+                   condition order alternates between participants
+ratings            block 1: 10 materials x (real, virtual) x (roughness, stickiness) on 7-point  000
+                   scales; block 2: similarity (7 points) of each real material with its
+                   data-driven rendering and with a constant-amplitude square wave (30-300 Hz)
+shape-choice       10 electrovibration conditions of Table 1 (bump/hole x IP0.5/IP0.7 x two     002
+                   grains, flat x two grains), once each, random order; answer bump / hole /
+                   flat / none of these; groups G1 / G2 alternate
+scene-recognition  20 scenes x 2 sessions (V, V+H): G1 does V+H first, G2 V first; scene order   002
+                   random per session; answer: bump or hole at each of the four positions
+sliding-pairs      4 blocks (V0F0, V0F1, V1F0, V1F1) in balanced-Latin-square order, 2 blocks    004
+                   per session; each block 6 ordered pairs of REVERSE / FOLLOW / STATIC x 10 = 60
+================== ============================================================================ =======
+
+Every generator reads its parameters from ``design.params`` through a strict pydantic model,
+so an unknown or out-of-range parameter is a :class:`~surfhap.errors.StudyFormatError` naming
+``params.<field>``. The random stream of participant ``i`` is ``default_rng([seed, i])``.
+"""
+
+from __future__ import annotations
+
+from itertools import combinations, permutations
+from typing import Callable
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from surfhap.errors import StudyFormatError
+from surfhap.lab.counterbalance import balanced_assignment, balanced_latin_square, participant_rng
+from surfhap.lab.schema import Choice, DesignSpec, ParticipantPlan, Stimulus, Study, Trial, validation_line
+
+__all__ = ["build_study", "TEMPLATES", "template", "study_template", "trial_counts", "ZHAO_MATERIALS", "square_frequencies"]
+
+OTAKE2021_MATERIALS = ["leather", "cork", "denim", "drawing-paper"]  # 001 Sec. III
+OTAKE2022_MATERIALS = ["leather", "cork", "denim", "wood"]  # 003 Sec. II
+# 000 Sec. 3: ten HaTT materials (names of the user's HaTT models; HaTT is not redistributed)
+ZHAO_MATERIALS = ["masking-tape", "playing-card", "sandpaper-220", "frosted-acrylic", "nylon-bag", "nylon-mesh",
+                  "scouring-pad", "aluminum", "whiteboard", "cork"]
+SLIDING_EFFECTS = ["reverse", "follow", "static"]  # 004 Sec. 5.2
+SLIDING_BLOCKS = ["V0F0", "V0F1", "V1F0", "V1F1"]  # 004 Sec. 5.2
+SCALE = [str(i) for i in range(1, 8)]  # 7-point scales of 000
+
+
+class _P(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class NafcParams(_P):
+    materials: list[str] = Field(default_factory=lambda: list(OTAKE2021_MATERIALS), min_length=2)
+    conditions: dict[str, str] = Field(default_factory=lambda: {"friction+texture": "otake2021",
+                                                                "friction-only": "friction-only"}, min_length=1)
+    repetitions: int = Field(4, ge=1, le=100)
+    alternatives: int = Field(3, ge=3, le=6)
+
+
+class RealismParams(_P):
+    materials: list[str] = Field(default_factory=lambda: list(OTAKE2022_MATERIALS), min_length=1)
+    conditions: dict[str, str] = Field(default_factory=lambda: {"friction+texture": "otake2022",
+                                                                "friction-only": "friction-only"})
+    rounds: int = Field(2, ge=1, le=20)
+
+
+class IdentificationParams(_P):
+    materials: list[str] = Field(default_factory=lambda: list(OTAKE2022_MATERIALS), min_length=2)
+    conditions: dict[str, str] = Field(default_factory=lambda: {"friction+texture": "otake2022",
+                                                                "friction-only": "friction-only"}, min_length=1)
+    repetitions: int = Field(2, ge=1, le=100)
+
+
+class RatingsParams(_P):
+    materials: list[str] = Field(default_factory=lambda: list(ZHAO_MATERIALS), min_length=2)
+    method: str = "zhao"
+    adjectives: dict[str, tuple[str, str]] = Field(default_factory=lambda: {"roughness": ("smooth", "rough"),
+                                                                            "stickiness": ("slippery", "sticky")})
+    square_frequencies: dict[str, float] | None = None
+
+
+class ShapeChoiceParams(_P):
+    repetitions: int = Field(1, ge=1, le=20)
+    grains: dict[str, str] = Field(default_factory=lambda: {"HG1": "edge-soft", "HG2": "area-grainy"})  # 002 Sec. 3.1.2
+
+
+class SceneParams(_P):
+    pass
+
+
+class SlidingParams(_P):
+    repetitions: int = Field(10, ge=1, le=100)
+    blocks_per_session: int = Field(2, ge=1, le=4)
+
+
+def _params(model: type[_P], design: DesignSpec) -> _P:
+    try:
+        return model.model_validate(design.params)
+    except ValidationError as exc:
+        field, msg = validation_line(exc)
+        raise StudyFormatError(msg, field=f"params.{field}") from None
+
+
+def square_frequencies(materials: list[str]) -> dict[str, float]:
+    """Default baseline square-wave frequency per material: log-spaced over 30-300 Hz in the
+    listed order. Zhao et al. give only the range (after Bau et al.), not the frequency of each
+    material; this spreads them evenly so that each material has its own baseline."""
+    f = np.geomspace(30.0, 300.0, len(materials))
+    return {m: float(round(x, 1)) for m, x in zip(materials, f)}
+
+
+def _trial(pid, trials, **kw) -> None:
+    trials.append(Trial(id=f"{pid}-{len(trials):04d}", index=len(trials), **kw))
+
+
+def _nafc(design: DesignSpec, p: NafcParams, i: int, pid: str) -> tuple[str, list[Trial]]:
+    rng = participant_rng(design.seed, i)
+    conds = list(p.conditions)
+    order = balanced_latin_square(len(conds))[i % len(conds)]
+    n = p.alternatives
+    trials: list[Trial] = []
+    for b, ci in enumerate(order):
+        cond = conds[ci]
+        items = []
+        for a, c in combinations(p.materials, 2):
+            first_odd = rng.integers(2)
+            for r in range(p.repetitions):
+                odd, twice = (a, c) if (r + first_odd) % 2 == 0 else (c, a)
+                items.append((a, c, odd, twice))
+        positions = balanced_assignment(len(items), n, rng)
+        for k in rng.permutation(len(items)):
+            a, c, odd, twice = items[k]
+            pos = int(positions[k])
+            stim = [Stimulus(label=str(j + 1), render={"material": odd if j == pos else twice,
+                                                        "method": p.conditions[cond]}) for j in range(n)]
+            _trial(pid, trials, block=b, block_label=cond, task="nafc",
+                   prompt=f"Which of the {n} surfaces is different from the others?", stimuli=stim,
+                   choices=[Choice(id=str(j + 1), label=str(j + 1)) for j in range(n)], correct=str(pos + 1),
+                   condition={"condition": cond, "pair": "|".join(sorted((a, c))), "odd": odd, "twice": twice,
+                              "odd_position": pos + 1})
+    return f"order-{''.join(str(int(x)) for x in order)}", trials
+
+
+def _realism(design: DesignSpec, p: RealismParams, i: int, pid: str) -> tuple[str, list[Trial]]:
+    rng = participant_rng(design.seed, i)
+    conds = list(p.conditions)
+    if len(conds) != 2:
+        raise StudyFormatError("a realism comparison needs exactly two conditions", field="params.conditions")
+    first = {m: int(rng.integers(2)) for m in p.materials}
+    trials: list[Trial] = []
+    for r in range(p.rounds):
+        for m in rng.permutation(p.materials):
+            m = str(m)
+            a = (first[m] + r) % 2  # the order alternates over rounds: both orders for every material
+            pair = [conds[a], conds[1 - a]]
+            _trial(pid, trials, block=r, block_label=f"round {r + 1}", task="realism",
+                   prompt=f"Touch the real {m}. Which of the two feels more like it?",
+                   stimuli=[Stimulus(label=lab, render={"material": m, "method": p.conditions[c]})
+                            for lab, c in zip("AB", pair)],
+                   choices=[Choice(id=c, label=lab) for lab, c in zip("AB", pair)],
+                   condition={"material": m, "first": pair[0], "round": r + 1})
+    return "", trials
+
+
+def _identification(design: DesignSpec, p: IdentificationParams, i: int, pid: str) -> tuple[str, list[Trial]]:
+    rng = participant_rng(design.seed, i)
+    conds = list(p.conditions)
+    order = balanced_latin_square(len(conds))[i % len(conds)]
+    trials: list[Trial] = []
+    for b, ci in enumerate(order):
+        cond = conds[ci]
+        seq = rng.permutation(np.repeat(np.arange(len(p.materials)), p.repetitions))
+        for k in seq:
+            m = p.materials[int(k)]
+            _trial(pid, trials, block=b, block_label=cond, task="identification",
+                   prompt="Which real material does this surface feel like?",
+                   stimuli=[Stimulus(label="touch", render={"material": m, "method": p.conditions[cond]})],
+                   choices=[Choice(id=x, label=x) for x in p.materials], correct=m,
+                   condition={"condition": cond, "material": m})
+    return f"order-{''.join(str(int(x)) for x in order)}", trials
+
+
+def _ratings(design: DesignSpec, p: RatingsParams, i: int, pid: str) -> tuple[str, list[Trial]]:
+    rng = participant_rng(design.seed, i)
+    freqs = p.square_frequencies or square_frequencies(p.materials)
+    for m in p.materials:
+        if m not in freqs:
+            raise StudyFormatError(f"no baseline frequency for {m!r}", field="params.square_frequencies")
+        if not 30.0 <= freqs[m] <= 300.0:
+            raise StudyFormatError(f"{m}: {freqs[m]} Hz is outside 30-300 Hz", field="params.square_frequencies")
+    trials: list[Trial] = []
+    items = [(m, src, adj) for m in p.materials for src in ("real", "virtual") for adj in p.adjectives]
+    for k in rng.permutation(len(items)):
+        m, src, adj = items[k]
+        lo, hi = p.adjectives[adj]
+        render = {"real": m} if src == "real" else {"material": m, "method": p.method}
+        _trial(pid, trials, block=0, block_label="adjective ratings", task="rating",
+               prompt=f"How {hi} is this surface? (1 = {lo}, 7 = {hi})",
+               stimuli=[Stimulus(label="touch", render=render)],
+               choices=[Choice(id=s, label=s) for s in SCALE],
+               condition={"material": m, "source": src, "adjective": adj})
+    methods = {"data-driven": {"method": p.method}, "square-wave": {"method": "square"}}
+    items2 = [(m, meth) for m in p.materials for meth in methods]
+    for k in rng.permutation(len(items2)):
+        m, meth = items2[k]
+        render = {"material": m, **methods[meth]}
+        if meth == "square-wave":
+            render["square_frequency"] = freqs[m]
+        _trial(pid, trials, block=1, block_label="similarity ratings", task="similarity",
+               prompt="How similar are the two surfaces? (1 = not at all, 7 = identical)",
+               stimuli=[Stimulus(label="real", render={"real": m}), Stimulus(label="virtual", render=render)],
+               choices=[Choice(id=s, label=s) for s in SCALE],
+               condition={"material": m, "method": meth})
+    return "", trials
+
+
+def _shape_choice(design: DesignSpec, p: ShapeChoiceParams, i: int, pid: str) -> tuple[str, list[Trial]]:
+    rng = participant_rng(design.seed, i)
+    conds = []  # Kim et al. Table 1, electrovibration conditions 1-10
+    for shape in ("bump", "hole"):
+        for grain in p.grains:
+            for prof in ("IP0.5", "IP0.7"):
+                conds.append((shape, prof, grain))
+    conds.sort(key=lambda c: (c[0] != "bump", c[2], c[1]))
+    conds += [("flat", "", g) for g in p.grains]
+    items = [c for c in conds for _ in range(p.repetitions)]
+    trials: list[Trial] = []
+    for k in rng.permutation(len(items)):
+        shape, prof, grain = items[k]
+        # the formative 1-D profiles (Sec. 3.1); the flat surface has no intensity profile in
+        # Table 1: it is played with IP0.5's offset (zero force -> intensity 0.5)
+        render = {"profile1d": shape, "mapping": prof or "IP0.5", "grain": p.grains[grain]}
+        _trial(pid, trials, block=0, block_label="closed choice", task="shape",
+               prompt="Which shape did you feel?", stimuli=[Stimulus(label="touch", render=render)],
+               choices=[Choice(id=x, label=lab) for x, lab in (("bump", "bump"), ("hole", "hole"),
+                                                                ("flat", "flat surface"), ("none", "none of these"))],
+               correct=shape, condition={"shape": shape, "profile": prof or "-", "grain": grain})
+    return ("G1" if i % 2 == 0 else "G2"), trials
+
+
+def _scenes(design: DesignSpec, p: SceneParams, i: int, pid: str) -> tuple[str, list[Trial]]:
+    from surfhap.shape.scenes import all_scenes
+
+    rng = participant_rng(design.seed, i)
+    group = "G1" if i % 2 == 0 else "G2"
+    tasks = ["V+H", "V"] if group == "G1" else ["V", "V+H"]  # 002 Sec. 5.1.3
+    scenes = all_scenes()
+    trials: list[Trial] = []
+    for b, task in enumerate(tasks):
+        for k in rng.permutation(len(scenes)):
+            s = scenes[int(k)]
+            layout = s.layout
+            _trial(pid, trials, block=b, block_label=task, task="scene",
+                   prompt="Is each object a bump or a hole?" + (" Touch them, then answer." if task == "V+H" else
+                                                                 " Look only; do not touch."),
+                   stimuli=[Stimulus(label="scene", render={"scene": s.name, "haptic": task == "V+H"})],
+                   response="toggles", toggles=["TL", "TR", "BL", "BR"],
+                   choices=[Choice(id="bump", label="bump"), Choice(id="hole", label="hole")],
+                   correct=",".join(f"{q}={layout[q]}" for q in ("TL", "TR", "BL", "BR")),
+                   condition={"task": task, "profile": s.profile, "light": s.light,
+                              "configuration": s.configuration, "scene": s.name})
+    return group, trials
+
+
+def _sliding(design: DesignSpec, p: SlidingParams, i: int, pid: str) -> tuple[str, list[Trial]]:
+    rng = participant_rng(design.seed, i)
+    order = balanced_latin_square(len(SLIDING_BLOCKS))[i % len(SLIDING_BLOCKS)]
+    pairs = list(permutations(SLIDING_EFFECTS, 2))  # 6 ordered pairs (the inverse comparisons too)
+    trials: list[Trial] = []
+    for b, bi in enumerate(order):
+        block = SLIDING_BLOCKS[int(bi)]
+        items = [pr for pr in pairs for _ in range(p.repetitions)]
+        for k in rng.permutation(len(items)):
+            a, c = items[k]
+            _trial(pid, trials, block=b, block_label=block, task="sliding",
+                   prompt="On which one did you feel more sliding?",
+                   stimuli=[Stimulus(label="1st", render={"effect": a}), Stimulus(label="2nd", render={"effect": c})],
+                   choices=[Choice(id=a, label="1st"), Choice(id=c, label="2nd")],
+                   condition={"block": block, "visual": block[:2], "tactile": block[2:],
+                              "comparison": " vs ".join(sorted((a, c))), "first": a, "second": c,
+                              "session": b // p.blocks_per_session + 1})
+    return "latin-row-" + "".join(str(int(x)) for x in order), trials
+
+
+_GENERATORS: dict[str, tuple[type[_P], Callable]] = {
+    "nafc": (NafcParams, _nafc),
+    "realism": (RealismParams, _realism),
+    "identification": (IdentificationParams, _identification),
+    "ratings": (RatingsParams, _ratings),
+    "shape-choice": (ShapeChoiceParams, _shape_choice),
+    "scene-recognition": (SceneParams, _scenes),
+    "sliding-pairs": (SlidingParams, _sliding),
+}
+
+
+def build_study(design: DesignSpec, software_version: str = "") -> Study:
+    """Generate every participant's trial list (participants P01, P02, ...)."""
+    model, gen = _GENERATORS[design.kind]
+    params = _params(model, design)
+    width = max(2, len(str(design.participants)))
+    plans = []
+    for i in range(design.participants):
+        pid = f"P{i + 1:0{width}d}"
+        group, trials = gen(design, params, i, pid)
+        plans.append(ParticipantPlan(id=pid, group=group, trials=trials))
+    if not software_version:
+        from surfhap import __version__ as software_version
+    return Study(design=design, params=params.model_dump(mode="json"), software_version=software_version,
+                 participants=plans)
+
+
+def trial_counts(study: Study) -> dict[str, int]:
+    """Trials per block label of the first participant."""
+    out: dict[str, int] = {}
+    for t in study.participants[0].trials:
+        out[t.block_label] = out.get(t.block_label, 0) + 1
+    return out
+
+
+#: built-in designs with the papers' defaults (participants as in each paper)
+TEMPLATES: dict[str, dict] = {
+    "otake2021-3afc": {"kind": "nafc", "name": "Otake et al. 2021: 3AFC discrimination", "participants": 6},
+    "otake2022-realism": {"kind": "realism", "name": "Otake et al. 2022 Task 1: realism", "participants": 14},
+    "otake2022-identification": {"kind": "identification", "name": "Otake et al. 2022 Task 2: identification",
+                                 "participants": 14},
+    "zhao-ratings": {"kind": "ratings", "name": "Zhao et al.: adjective and similarity ratings", "participants": 14},
+    "kim-shapes": {"kind": "shape-choice", "name": "Kim et al. 2017: bump / hole / flat closed choice",
+                   "participants": 12},
+    "kim-scenes": {"kind": "scene-recognition", "name": "Kim et al. 2017: 20 scenes, V vs V+H", "participants": 20},
+    "kinestouch-sliding": {"kind": "sliding-pairs", "name": "KinesTouch: sliding pairwise comparisons",
+                           "participants": 18},
+}
+
+
+def template(name: str, seed: int = 0, participants: int | None = None) -> DesignSpec:
+    """A built-in design by name (see :data:`TEMPLATES`)."""
+    if name not in TEMPLATES:
+        raise StudyFormatError(f"unknown design template {name!r} (built in: {', '.join(TEMPLATES)})", field="design")
+    d = dict(TEMPLATES[name], seed=seed)
+    if participants is not None:
+        d["participants"] = participants
+    return DesignSpec.model_validate(d)
+
+
+#: the public name of :func:`template`
+study_template = template

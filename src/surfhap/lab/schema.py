@@ -1,0 +1,158 @@
+"""Schemas (pydantic) of study designs, generated studies, and how they are read.
+
+* a *design* (``surfhap-study-design``): which paper's study, its parameters, the number of
+  participants and a seed; written by hand or taken from the built-in templates;
+* a *study* (``surfhap-study``): the design plus, for every participant, the complete trial
+  list generated from the seed with the paper's counterbalancing. ``surfhap study new`` writes
+  it to ``STUDY/study.json``; ``study run`` and ``study analyze`` read it.
+
+A malformed file raises :class:`~surfhap.errors.StudyFormatError` naming the file and the field
+(``design.json: params.repetitions: Input should be greater than or equal to 1``).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from surfhap.errors import StudyFormatError
+
+__all__ = ["DESIGN_FORMAT", "STUDY_FORMAT", "KINDS", "Choice", "Stimulus", "Trial", "ParticipantPlan", "DesignSpec",
+           "Session", "Study", "load_design", "load_study", "validation_line"]
+
+DESIGN_FORMAT = "surfhap-study-design"
+STUDY_FORMAT = "surfhap-study"
+KINDS = ("nafc", "realism", "identification", "ratings", "shape-choice", "scene-recognition", "sliding-pairs")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class Choice(_Strict):
+    """One answer button: ``id`` is logged, ``label`` is shown."""
+
+    id: str = Field(min_length=1, max_length=64)
+    label: str = Field(min_length=1, max_length=200)
+
+
+class Stimulus(_Strict):
+    """One stimulus of a trial. ``label`` is shown on its button; ``render`` says what to play:
+    ``{"material": name, "method": drive law}``, ``{"material": name, "method": "square",
+    "square_frequency": Hz}``, ``{"mesh": shape or scene name, "grain": ..., "profile": ...}``,
+    ``{"effect": "follow"|"reverse"|"static"}`` (force feedback) or ``{"real": name}`` (a real
+    sample handed over by the experimenter: nothing is rendered)."""
+
+    label: str = Field(min_length=1, max_length=64)
+    render: dict[str, Any]
+
+
+class Trial(_Strict):
+    """One trial: the stimuli, the question and its possible answers.
+
+    response "choice": one of ``choices``; "toggles": each of ``toggles`` (e.g. scene
+    positions) is set to one of ``choices`` and the answer is ``"TL=bump,TR=hole,..."``.
+    ``correct`` is the right answer when there is one (None for preferences and ratings).
+    """
+
+    id: str
+    index: int = Field(ge=0)
+    block: int = Field(ge=0)
+    block_label: str
+    task: str
+    prompt: str
+    stimuli: list[Stimulus]
+    response: Literal["choice", "toggles"] = "choice"
+    choices: list[Choice] = Field(min_length=2)
+    toggles: list[str] = []
+    correct: str | None = None
+    condition: dict[str, str | int | float] = {}
+
+
+class ParticipantPlan(_Strict):
+    id: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")
+    group: str = ""
+    trials: list[Trial]
+
+
+class Session(_Strict):
+    """How a session runs. ``rest_between_blocks``: show the rest screen between blocks;
+    ``gain``: default multiplier of the drive gain alpha (per participant, ``study run
+    --gain``); ``v_max``: V, the safety limit of the session (never above 250 V, Otake et al.
+    2022 Sec. IV-D; lowered per participant with ``--comfort-voltage``)."""
+
+    rest_between_blocks: bool = True
+    gain: float = Field(1.0, gt=0, le=4.0)
+    v_max: float = Field(250.0, gt=0, le=250.0)
+
+
+class DesignSpec(_Strict):
+    format: Literal["surfhap-study-design"] = DESIGN_FORMAT
+    version: Literal[1] = 1
+    kind: Literal["nafc", "realism", "identification", "ratings", "shape-choice", "scene-recognition",
+                  "sliding-pairs"]
+    name: str = Field(min_length=1, max_length=200)
+    seed: int = Field(0, ge=0)
+    participants: int = Field(ge=1, le=1000)
+    params: dict[str, Any] = {}
+    session: Session = Session()
+    note: str = ""
+
+
+class Study(_Strict):
+    format: Literal["surfhap-study"] = STUDY_FORMAT
+    version: Literal[1] = 1
+    design: DesignSpec
+    params: dict[str, Any]
+    software_version: str
+    participants: list[ParticipantPlan]
+
+    def participant(self, pid: str) -> ParticipantPlan:
+        for p in self.participants:
+            if p.id == pid:
+                return p
+        raise StudyFormatError(f"unknown participant {pid!r} (study has {', '.join(p.id for p in self.participants[:8])}"
+                               f"{' ...' if len(self.participants) > 8 else ''})", field="participant")
+
+
+def validation_line(exc: ValidationError) -> tuple[str, str]:
+    """(field, message) of the first pydantic error; field is the dotted location."""
+    err = exc.errors()[0]
+    loc = ".".join(str(x) for x in err.get("loc", ())) or "(top)"
+    return loc, err.get("msg", "invalid")
+
+
+def _read_json(path: Path) -> Any:
+    if not path.is_file():
+        raise StudyFormatError("not found", source=str(path), field="file")
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise StudyFormatError(f"not valid JSON ({exc})", source=str(path), field="file") from None
+
+
+def load_design(path: str | Path) -> DesignSpec:
+    """Read and validate a design file."""
+    p = Path(path)
+    data = _read_json(p)
+    try:
+        return DesignSpec.model_validate(data)
+    except ValidationError as exc:
+        field, msg = validation_line(exc)
+        raise StudyFormatError(msg, source=str(p), field=field) from None
+
+
+def load_study(folder: str | Path) -> Study:
+    """Read and validate ``STUDY/study.json`` (``folder`` may also be the file itself)."""
+    p = Path(folder)
+    if p.is_dir():
+        p = p / "study.json"
+    data = _read_json(p)
+    try:
+        return Study.model_validate(data)
+    except ValidationError as exc:
+        field, msg = validation_line(exc)
+        raise StudyFormatError(msg, source=str(p), field=field) from None

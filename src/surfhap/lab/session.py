@@ -1,0 +1,192 @@
+"""Running one participant's session: the trial sequence, answers, rests, resume.
+
+:class:`SessionRunner` is the state machine behind both the touch page and the simulated
+responder (``surfhap study run --simulate``). It is thread-safe (the page server calls it
+from worker threads). Completed trials come from the :class:`~surfhap.lab.triallog.TrialLog`,
+so a runner opened on a killed session continues with the first trial not yet logged.
+
+Gain: ``gain`` multiplies the drive laws' alpha for this participant (Otake et al. 2022 adjust
+it per participant near preset values) and ``v_max`` is the session's safety limit, the
+smaller of the design's (<= 250 V) and the participant's comfort voltage (e.g. a staircase
+threshold, Zhao et al.). Whatever the gain, the safety stage clamps every sample to v_max.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import platform
+import threading
+import time
+from pathlib import Path
+
+from surfhap.errors import ConfigError, StudyFormatError
+from surfhap.lab.schema import Study, Trial, load_study
+from surfhap.lab.triallog import TrialLog, now_iso
+
+__all__ = ["SessionRunner", "check_answer", "SAFETY_V_MAX", "MAX_GAIN"]
+
+SAFETY_V_MAX = 250.0  # V, Otake et al. 2022 Sec. IV-D
+MAX_GAIN = 4.0  # largest per-participant multiplier of alpha (design choice: beyond it the safety clamp dominates)
+
+
+def check_answer(trial: Trial, answer: str) -> tuple[str, float | None]:
+    """Normalise and validate ``answer``; returns (answer, score) where score is 1/0 for a
+    choice with a correct answer, the fraction of correct positions for toggles, None when the
+    trial has no correct answer. Raises ConfigError for an answer the trial does not offer."""
+    ids = [c.id for c in trial.choices]
+    if trial.response == "choice":
+        if answer not in ids:
+            raise ConfigError(f"answer {answer!r} is not one of {ids}", field="answer")
+        return answer, (None if trial.correct is None else float(answer == trial.correct))
+    parts = {}
+    for item in str(answer).split(","):
+        if "=" not in item:
+            raise ConfigError(f"toggle answer {item!r} is not position=value", field="answer")
+        k, v = (x.strip() for x in item.split("=", 1))
+        if k not in trial.toggles or v not in ids:
+            raise ConfigError(f"toggle answer {item!r}: position must be one of {trial.toggles}, value one of {ids}",
+                              field="answer")
+        parts[k] = v
+    if set(parts) != set(trial.toggles):
+        raise ConfigError(f"toggle answer needs every position {trial.toggles}", field="answer")
+    norm = ",".join(f"{k}={parts[k]}" for k in trial.toggles)
+    if trial.correct is None:
+        return norm, None
+    want = dict(item.split("=", 1) for item in trial.correct.split(","))
+    return norm, sum(parts[k] == want[k] for k in trial.toggles) / len(trial.toggles)
+
+
+class SessionRunner:
+    """One participant's session over ``study_dir`` (holding ``study.json``)."""
+
+    def __init__(self, study_dir: str | Path, participant: str, *, gain: float | None = None,
+                 comfort_voltage: float | None = None, mode: str = "page", extra_config: dict | None = None):
+        self.dir = Path(study_dir)
+        self.study: Study = load_study(self.dir)
+        self.plan = self.study.participant(participant)
+        sess = self.study.design.session
+        self.gain = float(sess.gain if gain is None else gain)
+        if not (0 < self.gain <= MAX_GAIN):
+            raise ConfigError(f"must be in (0, {MAX_GAIN:g}]", source="--gain", field="gain")
+        v_max = min(float(sess.v_max), SAFETY_V_MAX)
+        if comfort_voltage is not None:
+            if not (0 < comfort_voltage <= SAFETY_V_MAX):
+                raise ConfigError(f"must be in (0, {SAFETY_V_MAX:g}] V (the safety limit)", source="--comfort-voltage",
+                                  field="v_max")
+            v_max = min(v_max, float(comfort_voltage))
+        self.v_max = v_max
+        study_file = self.dir / "study.json" if self.dir.is_dir() else self.dir
+        from surfhap import __version__
+
+        config = {"study": str(study_file), "study_sha256": hashlib.sha256(study_file.read_bytes()).hexdigest(),
+                  "design": self.study.design.name, "kind": self.study.design.kind, "participant": self.plan.id,
+                  "group": self.plan.group, "gain": self.gain, "v_max": self.v_max, "mode": mode,
+                  "host": platform.node(), "python": platform.python_version(), **(extra_config or {})}
+        self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}.jsonl", config=config, software_version=__version__)
+        self._lock = threading.Lock()
+        self._by_id = {t.id: t for t in self.plan.trials}
+        self._shown_at: dict[str, float] = {}
+        self._stimulus_log: dict[str, list] = {}
+        done = self.log.completed
+        unknown = done - set(self._by_id)
+        if unknown:
+            self.log.close()
+            raise StudyFormatError(f"log holds trials that are not in the study ({sorted(unknown)[:3]})",
+                                   source=str(self.log.path), field="trial_id")
+        self._pending = [t for t in self.plan.trials if t.id not in done]
+        self._resting = False
+        self.last_record: dict | None = None
+        if done and self._pending:
+            self._resting = True  # resuming: start on the rest screen
+            self.log.event("resume", next_trial=self._pending[0].id, completed=len(done))
+
+    # -------------------------------------------------------------- state
+    @property
+    def total(self) -> int:
+        return len(self.plan.trials)
+
+    @property
+    def n_done(self) -> int:
+        return self.total - len(self._pending)
+
+    @property
+    def finished(self) -> bool:
+        return not self._pending
+
+    def current(self) -> Trial | None:
+        return self._pending[0] if self._pending else None
+
+    def state(self) -> dict:
+        """What the page shows now: {"status": "trial" | "rest" | "done", ...}."""
+        with self._lock:
+            base = {"done": self.n_done, "total": self.total, "participant": self.plan.id}
+            t = self.current()
+            if t is None:
+                return {**base, "status": "done"}
+            # block_label (the condition) is for the experimenter; the page shows only numbers (blinding)
+            blocks = sorted({x.block for x in self.plan.trials})
+            base["block_number"] = blocks.index(t.block) + 1
+            base["blocks"] = len(blocks)
+            if self._resting:
+                return {**base, "status": "rest", "next_block": t.block_label}
+            self._shown_at.setdefault(t.id, time.monotonic())
+            return {**base, "status": "trial", "block_label": t.block_label,
+                    "trial": {"id": t.id, "prompt": t.prompt, "response": t.response,
+                              "stimuli": [s.label for s in t.stimuli],
+                              "real": [s.render.get("real") for s in t.stimuli],
+                              "choices": [c.model_dump() for c in t.choices], "toggles": t.toggles,
+                              "image": any(s.render.get("scene") or s.render.get("mesh") not in (None, "flat")
+                                           for s in t.stimuli),
+                              "touch": any(s.render.get("haptic", True) and "real" not in s.render
+                                           and "effect" not in s.render for s in t.stimuli)}}
+
+    def resume(self) -> None:
+        """Leave the rest screen."""
+        with self._lock:
+            if self._resting:
+                self._resting = False
+                t = self.current()
+                self.log.event("rest-end", next_block=t.block_label if t else None)
+
+    def stimulus(self, trial_id: str, index: int):
+        """The participant selected stimulus ``index`` of the current trial; returns its
+        Stimulus (to render), or None if ``trial_id`` is not the current trial."""
+        with self._lock:
+            t = self.current()
+            if t is None or t.id != trial_id or self._resting or not 0 <= index < len(t.stimuli):
+                return None
+            self._stimulus_log.setdefault(trial_id, []).append(
+                [index, round(time.monotonic() - self._shown_at.get(trial_id, time.monotonic()), 4)])
+            return t.stimuli[index]
+
+    def answer(self, trial_id: str, answer: str, rt_client_s: float | None = None) -> dict:
+        """Record the answer to the current trial. Returns the new state plus ``"accepted"``:
+        False (nothing written) when ``trial_id`` is not the current trial, e.g. a repeated
+        click or a page left open from before a restart."""
+        with self._lock:
+            t = self.current()
+            if t is None or t.id != trial_id or self._resting:
+                accepted = False
+            else:
+                norm, score = check_answer(t, answer)
+                shown = self._shown_at.pop(t.id, None)
+                rec = {"trial_id": t.id, "index": t.index, "block": t.block, "block_label": t.block_label,
+                       "task": t.task, "answer": norm, "correct": t.correct,
+                       "is_correct": None if score is None else bool(score == 1.0), "score": score,
+                       "rt_s": None if rt_client_s is None else round(float(rt_client_s), 4),
+                       "rt_server_s": None if shown is None else round(time.monotonic() - shown, 4),
+                       "stimuli_touched": self._stimulus_log.pop(t.id, []), "condition": t.condition,
+                       "answered_at": now_iso()}
+                accepted = self.log.append_trial(rec)
+                self.last_record = rec
+                self._pending.pop(0)
+                nxt = self.current()
+                if nxt is None:
+                    self.log.event("end", completed=self.n_done)
+                elif nxt.block != t.block and self.study.design.session.rest_between_blocks:
+                    self._resting = True
+                    self.log.event("rest", after_block=t.block_label, next_block=nxt.block_label)
+        return {**self.state(), "accepted": accepted}
+
+    def close(self) -> None:
+        self.log.close()

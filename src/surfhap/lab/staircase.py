@@ -1,0 +1,184 @@
+"""Adaptive staircases (n-up / m-down), e.g. to keep the drive under a participant's comfort
+threshold (Zhao et al. Sec. 2: "the input voltage is modulated proportionally using the
+staircase method").
+
+Rule: the level goes *down* one step after ``down`` consecutive "positive" responses (correct,
+"I feel it", "too strong") and *up* one step after ``up`` consecutive negative ones. A
+reversal is a change of direction. The run stops after ``max_trials`` trials or
+``max_reversals`` reversals, whichever comes first; the threshold is the mean of the last
+``average_last`` reversal levels (geometric mean for a ``"db"`` staircase). An up/down
+staircase converges to the level where P(positive)^down = 0.5 for up = 1 (Levitt 1971):
+1-up/1-down 50 %, 1-up/2-down 70.7 %, 1-up/3-down 79.4 %.
+
+Steps: ``steps`` is a list; step ``steps[min(r, len-1)]`` is used after ``r`` reversals (a
+step rule such as (8, 4, 2) halves the step after the first reversals). ``step_type``
+"linear" adds/subtracts the step (level units), "db" multiplies by 10^(+-step/20).
+The level is clamped to [min_level, max_level]; for a drive voltage, max_level is the safety
+limit (250 V), so a staircase can never ask for more.
+
+QUEST+ is not included: the maintained Python implementation on PyPI (``questplus``) is
+GPL-3, which the BSD core may not depend on.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from surfhap.errors import ConfigError
+
+__all__ = ["StaircaseParams", "Staircase", "StaircaseResult", "target_probability", "run_simulated"]
+
+
+def target_probability(up: int, down: int) -> float:
+    """P(positive) at which an ``up``-up/``down``-down staircase is stationary: the chance that
+    ``down`` positives in a row come before ``up`` negatives in a row is 1/2. With q = 1 - p
+    that chance is p^(d-1) (1 - q^u) / (p^(d-1) + q^(u-1) - p^(d-1) q^(u-1)) (a run race,
+    Feller Ch. VIII); for up = 1 it is p^down, so p = 0.5^(1/down)."""
+    from scipy.optimize import brentq
+
+    def race(p: float) -> float:
+        q = 1.0 - p
+        a, b = p ** (down - 1), q ** (up - 1)
+        return a * (1.0 - q ** up) / (a + b - a * b) - 0.5
+
+    return float(brentq(race, 1e-12, 1.0 - 1e-12))
+
+
+@dataclass(frozen=True)
+class StaircaseParams:
+    """start: first level; steps: step sizes by reversal count (level units, or dB for
+    ``step_type="db"``); up/down: consecutive negatives/positives to step up/down;
+    max_trials / max_reversals: stop rules; average_last: reversals averaged for the
+    threshold; min_level / max_level: clamp (max_level <= safety limit for voltages)."""
+
+    start: float
+    steps: Sequence[float] = (1.0,)
+    up: int = 1
+    down: int = 2
+    step_type: str = "linear"
+    max_trials: int = 100
+    max_reversals: int = 12
+    average_last: int = 6
+    min_level: float = 0.0
+    max_level: float = np.inf
+
+    def __post_init__(self):
+        if self.step_type not in ("linear", "db"):
+            raise ConfigError("must be 'linear' or 'db'", field="step_type")
+        if not self.steps or not all(np.isfinite(s) and s > 0 for s in self.steps):
+            raise ConfigError("step sizes must be > 0", field="steps")
+        if not (isinstance(self.up, int) and isinstance(self.down, int) and self.up >= 1 and self.down >= 1):
+            raise ConfigError("up and down must be integers >= 1", field="up/down")
+        if self.max_trials < 1 or self.max_reversals < 1 or self.average_last < 1:
+            raise ConfigError("stop rules and average_last must be >= 1", field="max_trials")
+        if not (self.min_level <= self.start <= self.max_level) or not np.isfinite(self.start):
+            raise ConfigError(f"start must lie within [{self.min_level}, {self.max_level}]", field="start")
+        if self.step_type == "db" and not self.min_level > 0:
+            raise ConfigError("a dB staircase needs min_level > 0", field="min_level")
+
+
+@dataclass(frozen=True)
+class StaircaseResult:
+    """levels (n,), responses (n,) bool, reversal_trials (r,) indices of the trials whose
+    level is a reversal point, reversal_levels (r,), threshold (None if there are no
+    reversals), stopped_by: "trials" | "reversals" | "running"."""
+
+    levels: np.ndarray
+    responses: np.ndarray
+    reversal_trials: np.ndarray
+    reversal_levels: np.ndarray
+    threshold: float | None
+    stopped_by: str
+
+    def plot(self, fig=None):
+        from surfhap.report.lab_figures import plot_staircase
+
+        return plot_staircase(self, fig=fig)
+
+
+class Staircase:
+    """An up/down staircase: read :attr:`level`, present it, call :meth:`update` with the
+    response, until :attr:`finished`."""
+
+    def __init__(self, params: StaircaseParams):
+        self.params = params
+        self.reset()
+
+    def reset(self) -> None:
+        self.level = float(self.params.start)
+        self._levels: list[float] = []
+        self._responses: list[bool] = []
+        self._rev_trials: list[int] = []
+        self._run_pos = 0
+        self._run_neg = 0
+        self._direction = 0  # -1 down, +1 up, 0 none yet
+
+    @property
+    def n_reversals(self) -> int:
+        return len(self._rev_trials)
+
+    @property
+    def finished(self) -> bool:
+        p = self.params
+        return len(self._levels) >= p.max_trials or self.n_reversals >= p.max_reversals
+
+    def _step(self, sign: int) -> None:
+        p = self.params
+        s = p.steps[min(self.n_reversals, len(p.steps) - 1)]
+        if p.step_type == "db":
+            new = self.level * 10.0 ** (sign * s / 20.0)
+        else:
+            new = self.level + sign * s
+        self.level = float(min(max(new, p.min_level), p.max_level))
+
+    def update(self, positive: bool) -> None:
+        """Record the response to the current level and move to the next level."""
+        if self.finished:
+            raise ConfigError("the staircase has finished", field="staircase")
+        trial = len(self._levels)
+        self._levels.append(self.level)
+        self._responses.append(bool(positive))
+        if positive:
+            self._run_pos += 1
+            self._run_neg = 0
+            if self._run_pos >= self.params.down:
+                self._run_pos = 0
+                self._move(-1, trial)
+        else:
+            self._run_neg += 1
+            self._run_pos = 0
+            if self._run_neg >= self.params.up:
+                self._run_neg = 0
+                self._move(+1, trial)
+
+    def _move(self, sign: int, trial: int) -> None:
+        if self._direction != 0 and sign != self._direction:
+            self._rev_trials.append(trial)
+        self._direction = sign
+        self._step(sign)
+
+    def result(self) -> StaircaseResult:
+        p = self.params
+        lv = np.array(self._levels, dtype=float)
+        rt = np.array(self._rev_trials, dtype=int)
+        rl = lv[rt] if rt.size else np.zeros(0)
+        thr = None
+        if rl.size:
+            last = rl[-min(p.average_last, rl.size):]
+            thr = float(np.exp(np.mean(np.log(last)))) if p.step_type == "db" else float(np.mean(last))
+        stopped = ("reversals" if self.n_reversals >= p.max_reversals else
+                   "trials" if lv.size >= p.max_trials else "running")
+        return StaircaseResult(lv, np.array(self._responses, dtype=bool), rt, rl, thr, stopped)
+
+
+def run_simulated(params: StaircaseParams, p_positive: Callable[[float], float],
+                  rng: np.random.Generator) -> StaircaseResult:
+    """Run a staircase against a simulated observer whose probability of a positive response
+    at level x is ``p_positive(x)``."""
+    s = Staircase(params)
+    while not s.finished:
+        s.update(rng.random() < p_positive(s.level))
+    return s.result()

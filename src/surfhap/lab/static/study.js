@@ -1,0 +1,146 @@
+// surfhap study page: shows the current trial, sends answers with response times.
+"use strict";
+(function () {
+  const $ = (id) => document.getElementById(id);
+  const S = (window.study = { trialId: null, answered: 0, status: "loading", selected: null });
+  let shownAt = 0, busy = false, toggleValues = {}, ws = null, seq = 0;
+
+  function show(id) {
+    for (const s of ["loading", "trial", "rest", "done"]) $(s).hidden = s !== id;
+    S.status = id;
+  }
+  function error(msg) { $("error").textContent = msg; $("error").hidden = !msg; }
+
+  async function call(method, url, body) {
+    const r = await fetch(url, { method, headers: { "Content-Type": "application/json" },
+                                 body: body === undefined ? undefined : JSON.stringify(body) });
+    const data = await r.json();
+    if (!r.ok) throw new Error(data.error || r.statusText);
+    return data;
+  }
+
+  function render(st) {
+    $("progress").textContent = st.total ? `${st.done} / ${st.total}` : "";
+    // never the block's label: it names the condition, which the participant must not know
+    $("block").textContent = st.blocks > 1 && st.block_number ? `block ${st.block_number} of ${st.blocks}` : "";
+    if (st.status === "done") { show("done"); S.trialId = null; return; }
+    if (st.status === "rest") {
+      $("next-block").textContent = st.block_number ? `Next: block ${st.block_number} of ${st.blocks}` : "";
+      show("rest"); S.trialId = null; return;
+    }
+    const t = st.trial;
+    if (t.id === S.trialId && S.status === "trial") return;  // already shown
+    S.trialId = t.id; S.selected = null; toggleValues = {};
+    $("prompt").textContent = t.prompt;
+    const stim = $("stimuli"); stim.replaceChildren();
+    t.stimuli.forEach((label, i) => {
+      const b = document.createElement("button");
+      b.className = "stim"; b.textContent = t.real[i] ? `${label} (real sample)` : label;
+      b.dataset.index = i;
+      b.onclick = () => select(t.id, i, b);
+      stim.appendChild(b);
+    });
+    stim.hidden = t.touch === false;  // a look-only trial has nothing to play
+    $("stimuli-caption").hidden = stim.hidden;
+    const ch = $("choices"); ch.replaceChildren();
+    const tg = $("toggles"); tg.replaceChildren();
+    if (t.response === "toggles") {
+      ch.hidden = true; tg.hidden = false; $("submit").hidden = false; $("submit").disabled = true;
+      const values = t.choices.map((c) => c.id);
+      t.toggles.forEach((pos) => {
+        const b = document.createElement("button");
+        b.textContent = `${pos}: ?`; b.dataset.pos = pos;
+        b.onclick = () => {
+          const cur = values.indexOf(toggleValues[pos]);
+          toggleValues[pos] = values[(cur + 1) % values.length];
+          b.textContent = `${pos}: ${t.choices[values.indexOf(toggleValues[pos])].label}`;
+          b.classList.add("set");
+          $("submit").disabled = Object.keys(toggleValues).length !== t.toggles.length;
+        };
+        tg.appendChild(b);
+      });
+      $("submit").onclick = () => answer(t.id, t.toggles.map((p) => `${p}=${toggleValues[p]}`).join(","));
+    } else {
+      ch.hidden = false; tg.hidden = true; $("submit").hidden = true;
+      t.choices.forEach((c) => {
+        const b = document.createElement("button");
+        b.className = "answer"; b.textContent = c.label; b.dataset.choice = c.id;
+        b.onclick = () => answer(t.id, c.id);
+        ch.appendChild(b);
+      });
+    }
+    const pad = $("pad");
+    if (t.image) {  // the scene's picture; the pad spans the touch surface, so picture and shape line up
+      const img = new Image();
+      img.onload = () => { pad.style.aspectRatio = `${img.naturalWidth} / ${img.naturalHeight}`; pad.style.height = "auto"; };
+      img.src = `/api/image/${encodeURIComponent(t.id)}`;
+      pad.style.backgroundImage = `url("${img.src}")`;
+      pad.classList.add("picture");
+    } else {
+      pad.style.backgroundImage = ""; pad.style.aspectRatio = ""; pad.style.height = "";
+      pad.classList.remove("picture");
+    }
+    pad.firstElementChild.textContent = t.touch === false ? "look only" : "touch and slide here";
+    show("trial");
+    shownAt = performance.now();
+  }
+
+  async function refresh() {
+    try { render(await call("GET", "/api/state")); error(""); }
+    catch (e) { error(`server not reachable (${e.message}); retrying`); }
+  }
+
+  async function select(tid, i, button) {
+    for (const b of document.querySelectorAll("button.stim")) b.classList.toggle("active", b === button);
+    S.selected = i;
+    try { await call("POST", "/api/stimulus", { trial_id: tid, index: i }); } catch (e) { error(e.message); }
+  }
+
+  async function answer(tid, value) {
+    if (busy || tid !== S.trialId) return;
+    busy = true;
+    const rt = performance.now() - shownAt;
+    for (const b of document.querySelectorAll("button.answer")) b.disabled = true;
+    try {
+      const st = await call("POST", "/api/answer", { trial_id: tid, answer: value, rt_ms: rt });
+      if (st.accepted) S.answered += 1;
+      render(st);
+    } catch (e) { error(e.message); await refresh(); }
+    finally {
+      busy = false;
+      for (const b of document.querySelectorAll("button.answer")) if (b.id !== "submit") b.disabled = false;
+    }
+  }
+
+  $("continue").onclick = async () => { render(await call("POST", "/api/resume")); };
+
+  // touch pad -> live engine (ignored by the server when no live output is configured)
+  function openSocket() {
+    try {
+      ws = new WebSocket(`ws://${location.host}/ws`);
+      ws.onopen = () => { S.wsOpen = true; const r = $("pad").getBoundingClientRect(); ws.send(JSON.stringify({ type: "hello", w: r.width, h: r.height })); };
+      ws.onclose = () => { S.wsOpen = false; ws = null; setTimeout(openSocket, 2000); };
+    } catch (e) { ws = null; }
+  }
+  function send(msg) { if (ws && ws.readyState === 1) ws.send(JSON.stringify(msg)); }
+  // a resting finger sends no pointermove: re-send it every 20 ms so the watchdog keeps the drive on
+  const pad = $("pad");
+  let down = null, lastSend = 0;
+  function sendMove(t, x, y, p) { send({ type: "move", seq: seq++, t: t, x: x, y: y, p: p }); lastSend = performance.now(); }
+  function onMove(e) {
+    if (e.type === "pointermove" && e.buttons === 0) return;  // hovering: no contact
+    const r = pad.getBoundingClientRect();
+    down = { x: (e.clientX - r.left) / r.width, y: (e.clientY - r.top) / r.height, p: e.pressure > 0 ? e.pressure : 0.5 };
+    sendMove(e.timeStamp, down.x, down.y, down.p);
+    e.preventDefault();
+  }
+  function onUp(e) { down = null; send({ type: "up", seq: seq++, t: e.timeStamp }); }
+  setInterval(() => { const t = performance.now(); if (down && t - lastSend >= 20) sendMove(t, down.x, down.y, down.p); }, 10);
+  pad.addEventListener("pointerdown", (e) => { pad.setPointerCapture(e.pointerId); onMove(e); });
+  pad.addEventListener("pointermove", onMove);
+  for (const ev of ["pointerup", "pointercancel"]) pad.addEventListener(ev, onUp);
+
+  openSocket();
+  refresh();
+  setInterval(() => { if (!busy) refresh(); }, 1000);
+})();

@@ -1,0 +1,237 @@
+"""The live force-feedback loop: a 1 kHz haptic thread and a 60 Hz position-feedback thread.
+
+Real-time contract of the haptic thread (004 Sec. 4.2: "a haptic thread running at about
+1000 Hz" and "an additional 60 Hz thread ... to send the Falcon position to the tablet"):
+
+* every tick (period ``1/rate``): drain the touch ring (bounded), read the device position,
+  run :class:`surfhap.ff.engine.FFEngine` (kinematics, effects, control law, safety stage)
+  and write the force to the device backend. Nothing in a tick sleeps, logs, allocates
+  arrays or takes a lock that a producer holds for long;
+* ticks are scheduled on absolute deadlines (no drift); a tick that starts more than one
+  period late counts the periods it skipped as *missed* and re-anchors the schedule;
+* the period error (start time minus deadline) of every tick is kept in a preallocated
+  ring for the statistics (:meth:`FFLoop.stats`);
+* stop (Ctrl-C, SIGTERM, ``request_stop``): the safety stage ramps the force to zero at its
+  slew rate, the loop runs until the output is zero (at most ``stop_timeout``), then writes
+  one zero force and ends.
+
+The feedback thread sends, at ``feedback_rate``, the device position and the content offset
+(``-X_t``, so the tablet draws the content still in the world) to ``feedback(...)``,
+a callable (an OSC sender, see :class:`OscFeedback`).
+
+Touch samples reach the loop through :meth:`FFLoop.push_touch`, the same call the existing
+touch sources use (:class:`surfhap.live.sources.OscTouchSource`, ``ReplaySource``).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+
+import numpy as np
+
+from surfhap.live.clock import now, sleep_until
+from surfhap.live.queues import TouchRing
+
+__all__ = ["FFLoop", "OscFeedback", "FFLoopStats", "WorldTouchAdapter"]
+
+log = logging.getLogger("surfhap.live")
+
+
+class FFLoopStats(dict):
+    """Loop statistics (a dict, JSON-ready): ticks, missed, period error percentiles (ms), ..."""
+
+
+class FFLoop:
+    """Run ``engine`` against ``backend`` at ``rate`` Hz in a thread.
+
+    engine        : :class:`surfhap.ff.engine.FFEngine`.
+    backend       : device backend (:mod:`surfhap.live.ff_devices`).
+    feedback      : callable ``(t, px, py, pz, dx, dy, fx, fy, fz)`` at ``feedback_rate`` Hz, or None.
+    stop_timeout  : s, longest ramp-down on stop.
+    history       : ticks of period error kept for the statistics.
+    """
+
+    def __init__(self, engine, backend, *, feedback=None, feedback_rate: float = 60.0, stop_timeout: float = 0.5,
+                 history: int = 1 << 17, spin: float = 0.0003):
+        self.engine = engine
+        self.backend = backend
+        self.rate = engine.rate
+        self.period = 1.0 / self.rate
+        self.feedback = feedback
+        self.feedback_rate = float(feedback_rate)
+        self.stop_timeout = float(stop_timeout)
+        self.spin = float(spin)
+        self.touches = TouchRing(1024)
+        self._buf = np.zeros((64, 6))
+        self._err = np.zeros(int(history))
+        self.ticks = 0
+        self.missed = 0
+        self._stop = threading.Event()
+        self.done = threading.Event()
+        self._thread = None
+        self._fb_thread = None
+        self._last = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # px, py, pz, fx, fy, fz (tuple store: atomic)
+        self.error = None
+
+    # ------------------------------------------------------------- producers
+    def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan,
+                   t_arrival: float | None = None) -> bool:
+        """Hand one validated touch sample to the loop (any thread). x, y m; load N (0 = lifted)."""
+        return self.touches.push(source, t_event, now() if t_arrival is None else t_arrival, x, y, load)
+
+    # ------------------------------------------------------------- control
+    def start(self) -> None:
+        import sys
+
+        # the haptic thread competes for the GIL with the touch and feedback threads: a short
+        # switch interval (process-wide; restored on stop) bounds how long it waits
+        self._switch = sys.getswitchinterval()
+        sys.setswitchinterval(min(self._switch, 0.0002))
+        self.engine.reset()
+        self.backend.start()
+        self._thread = threading.Thread(target=self._run, name="surfhap-ff-haptic", daemon=True)
+        self._thread.start()
+        if self.feedback is not None:
+            self._fb_thread = threading.Thread(target=self._run_feedback, name="surfhap-ff-feedback", daemon=True)
+            self._fb_thread.start()
+
+    def request_stop(self) -> None:
+        """Ramp the force to zero and end the loop (returns at once)."""
+        self._stop.set()
+
+    def stop(self, timeout: float = 2.0) -> None:
+        """Request a stop and wait for the ramp-down and the threads."""
+        self.request_stop()
+        if self._thread is not None:
+            self._thread.join(timeout)
+        if self._fb_thread is not None:
+            self._fb_thread.join(timeout)
+        self.backend.stop()
+        if getattr(self, "_switch", None) is not None:
+            import sys
+
+            sys.setswitchinterval(self._switch)
+            self._switch = None
+
+    # ------------------------------------------------------------- threads
+    def _drain(self) -> None:
+        buf = self._buf
+        n = self.touches.pop_into(buf)
+        eng = self.engine
+        be = self.backend
+        for i in range(n):
+            r = buf[i]
+            eng.touch(float(r[2]), float(r[3]), float(r[4]), float(r[5]), t_event=float(r[1]))
+            if hasattr(be, "finger_load"):
+                be.finger_load = float(r[5])
+
+    def _run(self) -> None:
+        eng, be, period = self.engine, self.backend, self.period
+        err, n_err = self._err, self._err.shape[0]
+        stop_deadline = None
+        try:
+            deadline = now() + period
+            while True:
+                t = sleep_until(deadline, self.spin)
+                late = t - deadline
+                err[self.ticks % n_err] = late
+                self.ticks += 1
+                if late > period:
+                    skipped = int(late / period)
+                    self.missed += skipped
+                    deadline += skipped * period
+                self._drain()
+                px, py, pz, t_pos = be.read(t)
+                if self._stop.is_set() and stop_deadline is None:
+                    eng.stop()
+                    stop_deadline = t + self.stop_timeout
+                f = eng.tick(t, px, py, pz, t_pos)
+                be.write(f, t)
+                self._last = (px, py, pz, float(f[0]), float(f[1]), float(f[2]))
+                if stop_deadline is not None and ((f[0] == 0.0 and f[1] == 0.0 and f[2] == 0.0) or t > stop_deadline):
+                    break
+                deadline += period
+        except Exception as exc:  # noqa: BLE001 - report, then leave the device at zero force
+            self.error = exc
+            log.exception("ff haptic thread failed")
+        finally:
+            try:
+                be.write(np.zeros(3), now())
+            except Exception:  # noqa: BLE001
+                log.exception("ff: could not write the final zero force")
+            self.done.set()
+
+    def _run_feedback(self) -> None:
+        period = 1.0 / self.feedback_rate
+        deadline = now()
+        while not self.done.is_set():
+            deadline += period
+            t = sleep_until(deadline, 0.0)
+            px, py, pz, fx, fy, fz = self._last
+            try:
+                self.feedback(t, px, py, pz, -px, -py, fx, fy, fz)
+            except Exception:  # noqa: BLE001 - feedback is best effort
+                log.debug("ff feedback failed", exc_info=True)
+
+    # ------------------------------------------------------------- results
+    def stats(self) -> FFLoopStats:
+        """Period-error distribution (ms), missed ticks, engine and safety counters."""
+        n = min(self.ticks, self._err.shape[0])
+        e = self._err[:n] * 1e3
+        pct = (lambda q: float(np.percentile(e, q)) if n else 0.0)
+        c = self.engine.safety.counters
+        return FFLoopStats(
+            ticks=self.ticks, missed=self.missed, rate_hz=self.rate,
+            period_error_ms={"p50": pct(50), "p99": pct(99), "p999": pct(99.9), "max": float(e.max()) if n else 0.0},
+            touches_received=self.touches._write, touches_dropped=self.touches.dropped,
+            safety={"clamped": c.clamped, "slew_limited": c.slew_limited, "faults": c.faults,
+                    "device_lost": c.device_lost, "workspace": c.workspace, "stopped": c.stopped},
+            device=self.backend.info() if hasattr(self.backend, "info") else {},
+            error=None if self.error is None else repr(self.error),
+        )
+
+
+class OscFeedback:
+    """60 Hz feedback to the tablet over OSC (callable for :class:`FFLoop` ``feedback``).
+
+    Sends ``/surfhap/ff/screen x y z`` (m, device position), ``/surfhap/ff/offset dx dy``
+    (m, shift the content by this to keep it still in the world) and
+    ``/surfhap/ff/force fx fy fz`` (N, after the safety stage).
+    """
+
+    def __init__(self, host: str, port: int):
+        from pythonosc.udp_client import SimpleUDPClient
+
+        self.client = SimpleUDPClient(host, int(port))
+        self.sent = 0
+
+    def __call__(self, t, px, py, pz, dx, dy, fx, fy, fz) -> None:
+        c = self.client
+        try:
+            c.send_message("/surfhap/ff/screen", [px, py, pz])
+            c.send_message("/surfhap/ff/offset", [dx, dy])
+            c.send_message("/surfhap/ff/force", [fx, fy, fz])
+            self.sent += 1
+        except OSError:
+            pass
+
+
+class WorldTouchAdapter:
+    """A touch-source target that takes *world* (content) positions, for trajectory replay.
+
+    A trajectory file describes the finger in the world, as for ``ff simulate``; a tablet
+    reports it on the moving screen. This adapter subtracts the device's current position
+    (``backend.read``) before handing the sample to ``loop.push_touch``, so a replayed finger
+    behaves like a real one (it stays put in the world while the screen moves under it).
+    """
+
+    def __init__(self, loop: FFLoop, backend):
+        self.loop = loop
+        self.backend = backend
+
+    def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan,
+                   t_arrival: float | None = None) -> bool:
+        px, py, _, _ = self.backend.read(now())
+        return self.loop.push_touch(source, x - px, y - py, load, t_event=t_event, t_arrival=t_arrival)

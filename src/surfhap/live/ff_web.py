@@ -1,0 +1,106 @@
+"""The touch page as a touch source of the force-feedback loop (a minimal adapter).
+
+The page server (:mod:`surfhap.live.server`, :mod:`surfhap.live.webproc`) talks to an
+engine through ``push_touch``, ``warm_up``, ``status``, ``trace_since`` and a few rate
+attributes. :class:`FFWebEngine` offers those over an :class:`~surfhap.live.ff_loop.FFLoop`,
+so the page works unchanged: touches go into the haptic loop (page positions are mapped
+onto the whole scene, ``positions="surface"``), the scene's picture is the preview, and the
+trace shows the finger speed and, in the drive slot, the magnitude of the force sent to the
+device in N (the scale's maximum is the force limit), sampled by the 60 Hz feedback thread.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+
+__all__ = ["FFWebEngine", "FFWebBackend", "build_ff_session"]
+
+_TRACE_COLS = 8  # t, x, y, speed, load, |F| (in the page's drive slot), Fz, Fx
+
+
+class FFWebEngine:
+    """Engine-shaped view of an FFLoop for the page server."""
+
+    def __init__(self, loop, f_max: float):
+        self.loop = loop
+        self.drive_rate = loop.rate
+        self.model_rate = loop.rate
+        self.block_period = loop.period
+        self.v_max = float(f_max)
+        self.trace = np.zeros((1024, _TRACE_COLS))
+        self.trace_count = 0
+        self._lock = threading.Lock()
+
+    def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan,
+                   t_arrival: float | None = None) -> bool:
+        return self.loop.push_touch(source, x, y, load, t_event=t_event, t_arrival=t_arrival)
+
+    def warm_up(self) -> None:
+        """Nothing to compile: the force-feedback engine is plain Python."""
+
+    def record(self, t, px, py, pz, fx, fy, fz) -> None:
+        """One trace row (called by the feedback thread)."""
+        st = self.loop.engine.state
+        with self._lock:
+            row = self.trace[self.trace_count & (self.trace.shape[0] - 1)]
+            row[:] = (t, st.fx, st.fy, st.speed, st.load if st.touched else 0.0, math.sqrt(fx * fx + fy * fy + fz * fz),
+                      fz, fx)
+            self.trace_count += 1
+
+    def trace_since(self, index: int, limit: int | None = None):
+        with self._lock:
+            end = self.trace_count
+            cap = self.trace.shape[0]
+            start = max(index, end - cap + 1)
+            if limit is not None:
+                start = max(start, end - limit)
+            if start >= end:
+                return np.zeros((0, _TRACE_COLS)), end
+            idx = np.arange(start, end) & (cap - 1)
+            return self.trace[idx].copy(), end
+
+    def status(self) -> dict:
+        st = dict(self.loop.stats())
+        st["counters"] = {"ticks": st["ticks"], "missed": st["missed"], "touches_dropped": st["touches_dropped"]}
+        return st
+
+
+class FFWebBackend:
+    """Backend-shaped view: starting / stopping the session starts / stops the loop."""
+
+    name = "ff"
+
+    def __init__(self, loop):
+        self.loop = loop
+
+    def start(self, engine) -> None:
+        self.loop.start()
+
+    def stop(self) -> None:
+        self.loop.stop()
+
+    def info(self) -> dict:
+        be = self.loop.backend
+        return {"name": f"ff:{be.name}", **(be.info() if hasattr(be, "info") else {})}
+
+
+def build_ff_session(scene, loop, f_max: float):
+    """A :class:`surfhap.live.server.LiveSession` whose engine is ``loop`` (see module doc).
+
+    Chain the returned session's ``engine.record`` into the loop's feedback for the trace.
+    """
+    from surfhap.live.server import LiveSession
+    from surfhap.live.sources import TouchSpace
+
+    pic = scene.picture_array(256)
+    lo, hi = float(np.min(pic)), float(np.max(pic))
+    data = (pic - lo) / (hi - lo) if hi > lo else np.full(pic.shape, 0.5)
+    preview = {"w": int(pic.shape[1]), "h": int(pic.shape[0]),
+               "data": np.round(255 * data).astype(int).ravel().tolist()}
+    w, h = scene.size
+    eng = FFWebEngine(loop, f_max)
+    return LiveSession(eng, FFWebBackend(loop), title=f"ff: {scene.name}", preview=preview,
+                       space=TouchSpace(width=w, height=h), positions="surface")

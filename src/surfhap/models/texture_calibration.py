@@ -1,0 +1,92 @@
+"""Texture strength from a published friction:texture voltage ratio (Otake et al. 2022, Sec. IV-D).
+
+Otake et al. 2022 (003, Sec. IV-D) give the approximate ratios of the applied voltages,
+friction component : textural component, as 10:3 (leather), 10:6 (cork), 10:6 (denim) and
+10:4 (wood). Their textures were textural coefficients of friction; the built-in textures of
+surfhap are stick accelerations (HapMat IMU), another modality with no physical conversion to
+a CoF. Their strength is therefore calibrated to these ratios.
+
+Definition of the voltage ratio (used throughout surfhap)
+---------------------------------------------------------
+Under eq. 6, ``V = alpha sqrt((mu_p + beta mu_t) fn)``. The voltage of the friction component
+is ``V_f = alpha sqrt(mu_p fn)``; the voltage of the textural component is the voltage that a
+textural CoF of one standard deviation would need on its own, ``V_t = alpha sqrt(beta sd(mu_t) fn)``.
+The ratio is
+
+    r = V_t / V_f = sqrt(beta sd(mu_t) / mu_p)
+
+so 10:3 is r = 0.3. Measured on a render, ``beta sd(mu_t) / mu_p`` is the standard deviation of
+the high band (>= 3.5 Hz) of the added friction over the mean of its low band, because the
+added friction is ``G (mu_p + beta mu_t) fn`` for a rendering gain G
+(:func:`surfhap.render.fidelity.fidelity_metrics`). The paper does not define its ratio; this
+reading keeps the textural CoF below the friction one (the display cannot render a negative
+CoF, 003 Sec. IV-B), which the other reading (standard deviation of ``V - V_f`` over ``V_f``)
+would not for 10:6.
+
+Relative calibration
+--------------------
+A calibrated texture enters the Otake laws as ``mu_t = s mu_low(fn, v) x`` with ``x`` the
+texture in its own unit and ``s = r^2 / (beta sd(x))``, so ``beta sd(mu_t) / mu_low = r^2`` at
+every load and speed. ``sd(x)`` is the standard deviation of the model's output above the band
+split (3.5 Hz): the papers' mu_t is by definition the component above the split (003 Sec. II),
+and the measurement splits there too (:func:`texture_band_std`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import freqz, lfilter
+
+__all__ = ["PAPER_VOLTAGE_RATIOS", "RATIO_REFERENCE", "ar_stationary_std", "texture_band_std", "relative_scale",
+           "voltage_ratio"]
+
+RATIO_REFERENCE = ("Otake et al. 2022 (shared/papers/003_1a15d13042f9a763.txt), Sec. IV-D: approximate ratios "
+                   "(friction component : textural component) of the applied voltages")
+
+# 003 Sec. IV-D: (10:3), (10:6), (10:6), (10:4) for leather, cork, denim and wood.
+PAPER_VOLTAGE_RATIOS = {"leather": 0.3, "cork": 0.6, "denim": 0.6, "wood": 0.4}
+
+
+def ar_stationary_std(coefficients, variance: float, tol: float = 1e-12, max_len: int = 1_000_000) -> float:
+    """Stationary standard deviation of ``x[n] = sum phi_j x[n-j] + w[n]``, ``var(w) = variance``.
+
+    Computed as ``sqrt(variance * sum h_k^2)`` from the impulse response h of 1/A(z), extended
+    until its tail energy is below ``tol`` relative (stable models only).
+    """
+    phi = np.asarray(coefficients, dtype=float).reshape(-1)
+    a = np.concatenate(([1.0], -phi))
+    n = 4096
+    while True:
+        imp = np.zeros(n)
+        imp[0] = 1.0
+        h = lfilter([1.0], a, imp)
+        energy = float(np.sum(h * h))
+        tail = float(np.sum(h[n // 2:] ** 2))
+        if tail <= tol * energy or n >= max_len:
+            return float(np.sqrt(variance * energy))
+        n *= 4
+
+
+def texture_band_std(coefficients, variance: float, sample_rate: float, cutoff: float = 3.5, n: int = 1 << 18) -> float:
+    """Standard deviation of the AR model's output in the band ``[cutoff, sample_rate/2]`` Hz.
+
+    Integrates the one-sided PSD ``2 variance / (fs |A(e^{j 2 pi f/fs})|^2)`` over the band on a
+    grid of ``n`` points from 0 to fs/2 (trapezoid rule); with ``cutoff = 0`` it equals :func:`ar_stationary_std`.
+    """
+    phi = np.asarray(coefficients, dtype=float).reshape(-1)
+    f, h = freqz([1.0], np.concatenate(([1.0], -phi)), worN=n, fs=sample_rate, include_nyquist=True)
+    psd = 2.0 * variance * np.abs(h) ** 2 / sample_rate
+    band = f >= cutoff
+    return float(np.sqrt(np.trapezoid(psd[band], f[band])))
+
+
+def relative_scale(ratio: float, beta: float, reference_std: float) -> float:
+    """``s = ratio^2 / (beta reference_std)`` (per unit of the texture quantity)."""
+    if not (ratio > 0 and beta > 0 and reference_std > 0):
+        raise ValueError("ratio, beta and reference_std must be > 0")
+    return float(ratio ** 2 / (beta * reference_std))
+
+
+def voltage_ratio(beta_sd_mu_t_over_mu_low: float) -> float:
+    """``r = sqrt(beta sd(mu_t) / mu_low)`` from the relative textural strength."""
+    return float(np.sqrt(max(beta_sd_mu_t_over_mu_low, 0.0)))

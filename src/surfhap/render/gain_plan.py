@@ -1,0 +1,257 @@
+"""Gain planning: choose alpha so a material renders without saturating over an operating range.
+
+The papers set their gains per material (and per participant) so that the stimuli stayed under
+250 V for the loads people use (Otake et al. 2022, Sec. IV-D; Zhao et al. scale the voltage
+down, Sec. 2.2). :func:`plan_gains` does this explicitly: over a grid of loads and speeds (by
+default 0.1-1.0 N and 0.02-0.3 m/s, which holds the 0.26-0.96 N and 50-150 mm/s of 003
+Sec. II), it computes the target force of the drive law at the 99.9th percentile of the
+texture, ``F_999(fn, v) = F_low(fn, v) + z_999 * sd(F_tex(fn, v))`` (a Gaussian AR texture;
+z_999 = 3.09), and picks
+
+    alpha = min(alpha_calibrated, fill * v_max / sqrt(max F_999), alpha_rise)
+
+where ``alpha_calibrated = 1/sqrt(mu_panel k)`` renders the law at gain 1, ``fill`` (0.95) leaves
+5 % margin for the resampler's overshoot, and ``alpha_rise`` keeps the 99.9th percentile slope of
+the textured envelope (in the texture's troughs, 2 sd below the law) under the safety stage's
+rise limit. The friction then renders at the
+**rendering gain** ``G = (alpha / alpha_calibrated)^2``: the display adds ``G`` times the law's
+force, the same fraction at every load and speed, so the law's shape over load and speed is kept.
+Onsets (touch-down, the square baseline's edges) are always shaped by the rise limit; that is
+the safety stage's job, not saturation.
+
+The result is a :class:`GainPlan` with named fields and ``.plot()``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.signal import freqz
+from scipy.stats import norm
+
+from surfhap.errors import ConfigError
+from surfhap.models.material import Material
+from surfhap.render.safety import SafetyLimits
+from surfhap.sim.display import DisplayModel
+
+__all__ = ["OperatingRange", "GainPlan", "plan_gains", "texture_moments", "PLAN_PERCENTILE", "PLAN_FILL"]
+
+PLAN_PERCENTILE = 99.9
+PLAN_FILL = 0.95
+
+
+@dataclass(frozen=True)
+class OperatingRange:
+    """Loads (N) and speeds (m/s) a rendering must serve, as (low, high) pairs, and grid sizes."""
+
+    loads: tuple[float, float] = (0.1, 1.0)
+    speeds: tuple[float, float] = (0.02, 0.3)
+    n_loads: int = 19
+    n_speeds: int = 15
+
+    def __post_init__(self):
+        lo, hi = (float(x) for x in self.loads)
+        if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi <= 50.0):
+            raise ConfigError(f"needs 0 < low <= high <= 50 N, got {lo:g},{hi:g}", field="load_range")
+        slo, shi = (float(x) for x in self.speeds)
+        if not (np.isfinite(slo) and np.isfinite(shi) and 0 <= slo <= shi <= 10.0):
+            raise ConfigError(f"needs 0 <= low <= high <= 10 m/s, got {slo:g},{shi:g}", field="speed_range")
+        if self.n_loads < 2 or self.n_speeds < 2:
+            raise ConfigError("grids need at least 2 points", field="operating_range")
+
+    def grid(self) -> tuple[np.ndarray, np.ndarray]:
+        """(n_loads,) N and (n_speeds,) m/s, both including the ends."""
+        return np.linspace(*self.loads, self.n_loads), np.linspace(*self.speeds, self.n_speeds)
+
+
+@dataclass(frozen=True)
+class GainPlan:
+    """A gain plan (SI).
+
+    method, alpha (V/sqrt(N)), alpha_calibrated, rendering_gain = (alpha/alpha_calibrated)^2,
+    texture_gain (multiplier on the material's texture), beta, binding ("calibration", "v_max"
+    or "rise"), v_max (V), operating_range;
+    loads (L,) N; friction_low_n, friction_high_n (L,): smallest and largest added friction over
+    the speeds at each load, at the rendering gain (the renderable friction range);
+    peak_voltage (L,) V: largest 99.9th-percentile voltage over the speeds at each load;
+    display_max_n: the force the display adds at v_max (mu_panel k v_max^2);
+    headroom: v_max / max(peak_voltage) (>= 1 means no saturation over the range);
+    square_amplitude (V) and square_reference (load N, speed m/s) for the square baseline.
+    """
+
+    method: str
+    alpha: float
+    alpha_calibrated: float
+    rendering_gain: float
+    texture_gain: float
+    beta: float
+    binding: str
+    v_max: float
+    operating_range: OperatingRange
+    loads: np.ndarray = field(repr=False)
+    friction_low_n: np.ndarray = field(repr=False)
+    friction_high_n: np.ndarray = field(repr=False)
+    peak_voltage: np.ndarray = field(repr=False)
+    display_max_n: float = 0.0
+    headroom: float = float("inf")
+    percentile: float = PLAN_PERCENTILE
+    square_amplitude: float | None = None
+    square_reference: tuple[float, float] | None = None
+    material: str = ""
+
+    @property
+    def headroom_db(self) -> float:
+        """20 log10(headroom)."""
+        return float(20 * np.log10(self.headroom)) if np.isfinite(self.headroom) and self.headroom > 0 else float("inf")
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (used in summary.json and ``surfhap materials --show``)."""
+        d = {
+            "method": self.method, "alpha_v_per_sqrt_n": self.alpha, "alpha_calibrated_v_per_sqrt_n": self.alpha_calibrated,
+            "rendering_gain": self.rendering_gain, "texture_gain": self.texture_gain, "beta": self.beta,
+            "binding_constraint": self.binding, "v_max": self.v_max, "percentile": self.percentile,
+            "load_range_n": list(self.operating_range.loads), "speed_range_m_per_s": list(self.operating_range.speeds),
+            "renderable_friction_n": {"load_n": [float(x) for x in self.loads],
+                                      "low": [float(x) for x in self.friction_low_n],
+                                      "high": [float(x) for x in self.friction_high_n]},
+            "peak_voltage_v": [float(x) for x in self.peak_voltage],
+            "display_max_n": self.display_max_n,
+            "headroom": self.headroom if np.isfinite(self.headroom) else None,
+            "headroom_db": self.headroom_db if np.isfinite(self.headroom_db) else None,
+        }
+        if self.square_amplitude is not None:
+            d["square_amplitude_v"] = self.square_amplitude
+            d["square_reference"] = {"load_n": self.square_reference[0], "speed_m_per_s": self.square_reference[1]}
+        return d
+
+    def plot(self, fig=None):
+        """Renderable friction range over load (matplotlib Figure)."""
+        from surfhap.report.plan_figures import plot_gain_plan
+
+        return plot_gain_plan(self, fig=fig)
+
+
+def texture_moments(material: Material, speed: float, load: float) -> tuple[float, float]:
+    """Standard deviation of the texture (its own unit) and of its rate of change (unit/s)
+    at ``speed`` (m/s) and ``load`` (N), from the model the renderer would use there."""
+    bank = material.texture
+    if bank is None:
+        return 0.0, 0.0
+    rate = float(bank.sample_rate)
+    if hasattr(bank, "interpolate"):
+        f = np.linspace(0.0, rate / 2, 4097)
+        psd = bank.interpolate(speed, load).psd(rate, f)
+        var = float(np.trapezoid(psd, f))
+        slope_var = float(np.trapezoid(psd * (2 * np.pi * f) ** 2, f))
+        return float(np.sqrt(max(var, 0.0))), float(np.sqrt(max(slope_var, 0.0)))
+    model = bank.models[int(bank.select(np.array([speed]))[0])]
+    # the texture is resampled up as a band-limited signal: its slope is sqrt(int (2 pi f)^2 PSD df)
+    f, h = freqz([1.0], np.concatenate(([1.0], -model.coefficients)), worN=1 << 14, fs=rate, include_nyquist=True)
+    psd = 2.0 * model.variance * np.abs(h) ** 2 / rate
+    var = float(np.trapezoid(psd, f))
+    slope_var = float(np.trapezoid(psd * (2 * np.pi * f) ** 2, f))
+    return float(np.sqrt(max(var, 0.0))), float(np.sqrt(max(slope_var, 0.0)))
+
+
+def _texture_force_sd(material, method, sd_x, fn, mu_low, beta, texture_gain, effective_mass, fn_c):
+    """sd of the textural part of the target force (N) for a texture sd ``sd_x``."""
+    if sd_x == 0.0:
+        return 0.0
+    q = material.texture.quantity
+    if method == "zhao":
+        return texture_gain * (effective_mass * sd_x if q == "acceleration" else sd_x * fn_c)
+    if material.texture_relative_scale is not None:
+        sd_mu = material.texture_relative_scale * mu_low * sd_x
+    elif q == "cof":
+        sd_mu = sd_x
+    else:
+        sd_mu = effective_mass * sd_x / fn
+    return beta * texture_gain * sd_mu * fn
+
+
+def plan_gains(material: Material, method: str, display: DisplayModel | None = None,
+               operating_range: OperatingRange | None = None, limits: SafetyLimits | None = None, *,
+               beta: float = 1.8, texture_gain: float = 1.0, effective_mass: float = 0.05,
+               constant_load: float | None = 1.6,
+               square_reference: tuple[float, float] = (0.5, 0.1), fill: float = PLAN_FILL,
+               percentile: float = PLAN_PERCENTILE) -> GainPlan:
+    """Plan alpha for ``material`` rendered by ``method`` (a resolved method name, not "auto").
+
+    Pure function of its arguments; see the module docstring for the rule. The square baseline's
+    on-level is ``2 mu_low(fn_ref, v_ref) fn_ref`` at ``square_reference`` = (fn_ref N, v_ref m/s).
+    """
+    display = display or DisplayModel()
+    rng = operating_range or OperatingRange()
+    limits = limits or SafetyLimits()
+    if not 0 < fill <= 1:
+        raise ConfigError("must be in (0, 1]", field="fill")
+    law = material.quasi_static if method == "otake2022" else (
+        material.coulomb if method in ("otake2021", "zhao") else material.low_frequency_law)
+    uses_texture = method in ("otake2022", "otake2021", "zhao") and material.texture is not None
+    z = float(norm.ppf(percentile / 100.0))
+    loads, speeds = rng.grid()
+    alpha_cal = float(display.calibrated_alpha)
+    f_low = np.zeros((loads.size, speeds.size))
+    f_999 = np.zeros_like(f_low)
+    slope_999 = np.zeros_like(f_low)  # 99.9th percentile |dF/dt|, N/s
+    f_trough = np.zeros_like(f_low)  # N, a low force (2 sd below the law) where dV/dF is steep
+    sq_amp_force = None
+    if method == "square":
+        fr, vr = square_reference
+        sq_amp_force = 2.0 * float(law.coefficient(np.array([fr]), np.array([vr]))[0]) * fr
+    memo: dict = {}
+
+    def moments(v, fn):
+        bank = material.texture
+        key = (v, fn) if hasattr(bank, "interpolate") else int(bank.select(np.array([v]))[0])
+        if key not in memo:
+            memo[key] = texture_moments(material, v, fn)
+        return memo[key]
+
+    for i, fn in enumerate(loads):
+        for j, v in enumerate(speeds):
+            mu = float(law.coefficient(np.array([fn]), np.array([v]))[0])
+            if method == "zhao":
+                fn_c = fn if constant_load is None else constant_load
+                f = mu * fn_c
+            else:
+                fn_c = fn
+                f = mu * fn
+            if method == "square":
+                f_low[i, j] = 0.5 * sq_amp_force
+                f_999[i, j] = sq_amp_force
+                continue
+            f_low[i, j] = f
+            sd_tex = slope = 0.0
+            if uses_texture:
+                sd_x, sd_dx = moments(v, fn)
+                sd_tex = _texture_force_sd(material, method, sd_x, fn, mu, beta, texture_gain, effective_mass, fn_c)
+                slope = _texture_force_sd(material, method, sd_dx, fn, mu, beta, texture_gain, effective_mass, fn_c)
+            f_999[i, j] = f + z * sd_tex
+            slope_999[i, j] = z * slope
+            f_trough[i, j] = max(f - 2.0 * sd_tex, 0.25 * f)
+    peak_f = float(np.max(f_999))
+    candidates = {"calibration": alpha_cal}
+    if peak_f > 0:
+        candidates["v_max"] = fill * limits.v_max / np.sqrt(peak_f)
+    # dV/dt = alpha dF/dt / (2 sqrt(F)) is steepest in the texture's troughs: bound it at a force
+    # 2 sd below the law's (at least a quarter of it) by the rise rate
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k_slope = np.where(f_trough > 0, slope_999 / (2.0 * np.sqrt(f_trough)), 0.0)
+    if np.max(k_slope) > 0:
+        candidates["rise"] = fill * limits.rise_rate / float(np.max(k_slope))
+    binding = min(candidates, key=candidates.get)
+    alpha = float(candidates[binding])
+    gain = (alpha / alpha_cal) ** 2
+    peak_v = alpha * np.sqrt(np.max(f_999, axis=1))
+    return GainPlan(
+        method=method, alpha=alpha, alpha_calibrated=alpha_cal, rendering_gain=float(gain), texture_gain=float(texture_gain),
+        beta=float(beta), binding=binding, v_max=float(limits.v_max), operating_range=rng, loads=loads,
+        friction_low_n=gain * np.min(f_low, axis=1), friction_high_n=gain * np.max(f_low, axis=1), peak_voltage=peak_v,
+        display_max_n=float(display.mu_panel * display.k * limits.v_max ** 2),
+        headroom=float(limits.v_max / np.max(peak_v)) if np.max(peak_v) > 0 else float("inf"), percentile=percentile,
+        square_amplitude=None if sq_amp_force is None else float(alpha * np.sqrt(sq_amp_force)),
+        square_reference=None if sq_amp_force is None else (float(square_reference[0]), float(square_reference[1])),
+        material=material.name,
+    )

@@ -1,0 +1,130 @@
+"""Figures for the lab tools: calibration fits, confusion matrices, proportions with intervals,
+real-vs-virtual rating scatter (matplotlib object API, no pyplot state).
+
+Each function returns a ``matplotlib.figure.Figure``; saving is the caller's business.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+
+__all__ = ["plot_calibration", "plot_confusion", "plot_proportions", "plot_rating_scatter", "plot_staircase",
+           "plot_comparison"]
+
+
+def plot_calibration(cal, fig: Figure | None = None) -> Figure:
+    """Static increase and vibration amplitude vs level with their quadratic fits; residuals."""
+    fig = fig or Figure(figsize=(10, 4), layout="constrained")
+    ax_fit, ax_res = fig.subplots(1, 2)
+    x = np.linspace(0.0, cal.level_max, 200)
+    unit = "V" if cal.input == "voltage" else ""
+    for fit, label, colour in ((cal.static_fit, "static friction increase", "C0"),
+                               (cal.amplitude_fit, "p-p vibration amplitude", "C1")):
+        ax_fit.plot(fit.x, fit.y, "o", color=colour, label=label)
+        ax_fit.plot(x, fit(x), "-", color=colour, lw=1)
+        ax_res.plot(fit.x, fit.residuals * 1e3, "o-", color=colour, label=label)
+    if cal.k is not None:
+        volts = x if cal.input == "voltage" else x * cal.volts_per_unit
+        ax_fit.plot(x, cal.mu_panel * cal.k * volts ** 2, "--", color="k", lw=1,
+                    label=f"mu k V^2 (k = {cal.k:.3g} N/V^2)")
+    ax_fit.set(xlabel=f"{cal.input} {unit}".strip(), ylabel="force (N)",
+               title=f"device curve ({cal.curve}); mu_panel = {cal.mu_panel:.3f}")
+    ax_fit.legend(fontsize=8)
+    ax_res.axhline(0, color="0.5", lw=0.8)
+    ax_res.set(xlabel=f"{cal.input} {unit}".strip(), ylabel="residual (mN)", title="quadratic fit residuals")
+    return fig
+
+
+def plot_confusion(result, fig: Figure | None = None) -> Figure:
+    """Confusion matrix (row = presented, column = answered) as proportions per row."""
+    fig = fig or Figure(figsize=(5.5, 4.5), layout="constrained")
+    ax = fig.subplots()
+    p = result.proportions
+    im = ax.imshow(p, cmap="Blues", vmin=0, vmax=1)
+    labels = list(result.labels)
+    ax.set_xticks(range(len(labels)), labels, rotation=30, ha="right")
+    ax.set_yticks(range(len(labels)), labels)
+    for i in range(p.shape[0]):
+        for j in range(p.shape[1]):
+            ax.text(j, i, f"{p[i, j]:.2f}", ha="center", va="center", color="w" if p[i, j] > 0.6 else "k", fontsize=8)
+    ax.set(xlabel="answered", ylabel="presented", title=f"{result.title} (overall {result.accuracy:.2f})")
+    fig.colorbar(im, ax=ax, shrink=0.8, label="proportion")
+    return fig
+
+
+def plot_proportions(result, fig: Figure | None = None, chance: float | None = None) -> Figure:
+    """Bar chart of proportions with their confidence intervals."""
+    fig = fig or Figure(figsize=(6, 3.5), layout="constrained")
+    ax = fig.subplots()
+    p = np.asarray(result.proportion, dtype=float)
+    lo = np.asarray(result.ci_low, dtype=float)
+    hi = np.asarray(result.ci_high, dtype=float)
+    x = np.arange(p.size)
+    ax.bar(x, p, color="C0", alpha=0.8)
+    ax.errorbar(x, p, yerr=[p - lo, hi - p], fmt="none", ecolor="k", capsize=4)
+    if chance is not None:
+        ax.axhline(chance, color="C3", ls="--", lw=1, label=f"chance {chance:.2f}")
+        ax.legend(fontsize=8)
+    ax.set_xticks(x, list(result.labels), rotation=20, ha="right")
+    ax.set(ylim=(0, 1.05), ylabel="proportion", title=f"{result.title} ({result.method} {result.confidence:.0%} CI)")
+    return fig
+
+
+def plot_rating_scatter(result, fig: Figure | None = None) -> Figure:
+    """Mean rating of each material, real (x) vs virtual (y), with the correlation."""
+    fig = fig or Figure(figsize=(4.5, 4.5), layout="constrained")
+    ax = fig.subplots()
+    ax.plot(result.x, result.y, "o")
+    for xi, yi, lab in zip(result.x, result.y, result.labels):
+        ax.annotate(str(lab), (xi, yi), fontsize=7, xytext=(3, 3), textcoords="offset points")
+    lo = min(np.min(result.x), np.min(result.y))
+    hi = max(np.max(result.x), np.max(result.y))
+    ax.plot([lo, hi], [lo, hi], color="0.6", lw=0.8)
+    ax.set(xlabel=f"{result.x_name}", ylabel=f"{result.y_name}",
+           title=f"r = {result.r:.3f}, p = {result.p:.2g} (n = {result.n})")
+    return fig
+
+
+def plot_staircase(result, fig: Figure | None = None) -> Figure:
+    """Levels of a staircase run, reversals marked, threshold estimate as a line."""
+    fig = fig or Figure(figsize=(6, 3.5), layout="constrained")
+    ax = fig.subplots()
+    lv = np.asarray(result.levels)
+    resp = np.asarray(result.responses, dtype=bool)
+    x = np.arange(1, lv.size + 1)
+    ax.plot(x, lv, "-", color="0.6", lw=0.8)
+    ax.plot(x[resp], lv[resp], "o", color="C0", ms=4, label="yes / correct")
+    ax.plot(x[~resp], lv[~resp], "o", mfc="none", color="C3", ms=4, label="no / wrong")
+    rev = np.asarray(result.reversal_trials, dtype=int)
+    if rev.size:
+        ax.plot(rev + 1, lv[rev], "x", color="k", label="reversal")
+    if result.threshold is not None:
+        ax.axhline(result.threshold, color="C2", ls="--", label=f"threshold {result.threshold:.3g}")
+    ax.set(xlabel="trial", ylabel="level", title="staircase")
+    ax.legend(fontsize=8)
+    return fig
+
+
+def plot_comparison(comp, fig: Figure | None = None) -> Figure:
+    """Friction over speed and load, spectra of the added friction, voltage histograms."""
+    fig = fig or Figure(figsize=(13, 7.5), layout="constrained")
+    axs = fig.subplots(2, 2)
+    (a_v, a_l), (a_s, a_h) = axs
+    for i, p in enumerate(comp.profiles):
+        c = f"C{i}"
+        a_v.plot(p.speeds * 1e3, p.mu_speed, color=c, label=p.name)
+        a_l.plot(p.loads, p.force_load, color=c, label=p.name)
+        ok = p.freqs > 0
+        a_s.semilogy(p.freqs[ok], np.maximum(p.psd[ok], 1e-16), color=c, lw=0.9, label=p.name)
+        centres = 0.5 * (p.v_edges[1:] + p.v_edges[:-1])
+        a_h.step(centres, p.v_hist, where="mid", color=c, label=f"{p.name} (mean {p.v_mean:.0f} V)")
+    a_v.set(xlabel="speed (mm/s)", ylabel="friction coefficient", title=f"friction law at {comp.load:g} N")
+    a_l.set(xlabel="normal force (N)", ylabel="friction force (N)",
+            title=f"friction law at {comp.speed * 1e3:g} mm/s")
+    a_s.set(xlabel="frequency (Hz)", ylabel="PSD (N$^2$/Hz)", title="added friction on the simulated display")
+    a_h.set(xlabel="|drive| (V)", ylabel="fraction of samples", title="drive voltage (after the safety stage)")
+    for ax in axs.ravel():
+        ax.legend(fontsize=8)
+    fig.suptitle(f"strokes at {comp.speed * 1e3:g} mm/s, {comp.load:g} N, {comp.duration:g} s")
+    return fig

@@ -1,0 +1,215 @@
+"""The study page end to end in Debian's Chromium (Playwright): a short study is answered by
+clicking, with a rest screen between blocks and a stimulus played live on the simulated
+display; the log must hold every trial once with the clicked answers and response times."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+from surfhap.cli import main
+from surfhap.lab.triallog import read_log
+
+CHROMIUM = "/usr/bin/chromium"
+IN_CI = os.environ.get("CI", "").lower() == "true"
+FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+         "--disable-sync", "--no-first-run"]
+
+
+def _need(what: str, ok: bool):
+    if not ok:
+        if IN_CI:
+            pytest.fail(f"CI needs {what}")
+        pytest.skip(f"{what} not available")
+
+
+def _short_study(tmp_path) -> Path:
+    design = {"format": "surfhap-study-design", "version": 1, "kind": "identification", "name": "page test",
+              "participants": 1, "seed": 3, "params": {"materials": ["cork", "denim"], "repetitions": 1}}
+    p = tmp_path / "design.json"
+    p.write_text(json.dumps(design))
+    study = tmp_path / "study"
+    assert main(["study", "new", str(p), "--out", str(study)]) == 0
+    return study
+
+
+def test_short_study_answered_in_chromium(tmp_path):
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        sync_playwright = None
+    _need("the Python package playwright", sync_playwright is not None)
+    _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
+    from surfhap.lab.page import PageServer, StimulusPlayer
+    from surfhap.lab.session import SessionRunner
+    from surfhap.live.server import build_session
+
+    study = _short_study(tmp_path)
+    runner = SessionRunner(study, "P01", mode="page")
+    plan = runner.plan.trials
+    session = build_session("cork", "sim")
+    player = StimulusPlayer(session, gain=1.0, v_max=runner.v_max)
+    player.mute()
+    session.start()
+    server = PageServer(runner, port=0, player=player).start()
+    eng = session.engine
+    clicked = []
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+            try:
+                page = browser.new_page(viewport={"width": 900, "height": 800})
+                page.goto(server.url + "/", timeout=30000)
+                for k, trial in enumerate(plan):
+                    if k == len(plan) // 2:  # block change: the rest screen, then continue
+                        page.wait_for_selector("#rest:not([hidden])", timeout=20000)
+                        page.click("#continue")
+                    page.wait_for_function(f"window.study.trialId === {trial.id!r}", timeout=20000)
+                    assert page.inner_text("#prompt") == trial.prompt
+                    if k == 0:  # play the stimulus and stroke the pad: the engine gets touches and drives
+                        page.wait_for_function("window.study.wsOpen === true", timeout=20000)
+                        touches = eng.counters["touches"]
+                        page.click("button.stim")
+                        box = page.locator("#pad").bounding_box()
+                        y = box["y"] + box["height"] / 2
+                        page.mouse.move(box["x"] + 30, y)
+                        page.mouse.down()
+                        for i in range(40):
+                            page.mouse.move(box["x"] + 30 + i / 39 * (box["width"] - 60), y)
+                            page.wait_for_timeout(10)
+                        page.mouse.up()
+                        page.wait_for_timeout(200)
+                        assert eng.counters["touches"] > touches
+                        rows, _ = eng.trace_since(0)
+                        assert rows[:, 5].max() > 1.0  # volts were driven for the selected stimulus
+                        assert rows[:, 5].max() <= runner.v_max + 1e-9
+                    answer = trial.correct if k % 2 == 0 else [c.id for c in trial.choices if c.id != trial.correct][0]
+                    page.wait_for_timeout(150)  # a measurable response time
+                    page.click(f"#choices button[data-choice='{answer}']")
+                    clicked.append((trial.id, answer))
+                page.wait_for_selector("#done:not([hidden])", timeout=20000)
+                assert page.evaluate("window.study.answered") == len(plan)
+            finally:
+                browser.close()
+    finally:
+        server.stop()
+        session.stop()
+        runner.close()
+    log = read_log(study / "logs" / "P01.jsonl")
+    assert [(t["trial_id"], t["answer"]) for t in log.trials] == clicked
+    assert all(t["rt_s"] is not None and t["rt_s"] > 0.1 for t in log.trials)
+    assert [t["is_correct"] for t in log.trials] == [k % 2 == 0 for k in range(len(plan))]
+    assert log.trials[0]["stimuli_touched"] and log.trials[0]["stimuli_touched"][0][0] == 0
+    assert [e["event"] for e in log.events] == ["rest", "rest-end", "end"]
+
+
+def test_lsl_markers_of_stimulus_touch_and_answer(tmp_path):
+    """With pylsl (the 'lsl' extra): the page's events arrive at an LSL inlet."""
+    import pylsl
+
+    from surfhap.lab.markers import open_markers
+    import urllib.request
+
+    from websockets.sync.client import connect
+
+    from surfhap.lab.page import PageServer
+    from surfhap.lab.session import SessionRunner
+
+    def post(url, body):
+        req = urllib.request.Request(url, data=json.dumps(body).encode(), headers={"Content-Type": "application/json"})
+        with urllib.request.urlopen(req, timeout=30) as r:
+            return json.loads(r.read())
+
+    study = _short_study(tmp_path)
+    runner = SessionRunner(study, "P01", mode="page")
+    markers = open_markers(True, "P01", "page test")
+    server = PageServer(runner, port=0, markers=markers).start()
+    try:
+        streams = pylsl.resolve_byprop("name", "surfhap-P01", timeout=10)
+        if not streams:  # LSL's own discovery (UDP multicast/broadcast) is blocked on this host
+            pytest.skip("LSL stream discovery does not work on this host")
+        inlet = pylsl.StreamInlet(streams[0])
+        inlet.open_stream(timeout=10)
+        import time
+
+        time.sleep(0.5)
+        t = runner.current()
+        assert post(server.url + "/api/stimulus", {"trial_id": t.id, "index": 0})["ok"]
+        with connect(server.url.replace("http", "ws") + "/ws", origin=server.url) as ws:
+            ws.send(json.dumps({"type": "move", "seq": 0, "t": 1.0, "x": 0.5, "y": 0.5, "p": 0.5}))
+            ws.send(json.dumps({"type": "up", "seq": 1, "t": 2.0}))
+            time.sleep(0.5)
+        assert post(server.url + "/api/answer", {"trial_id": t.id, "answer": t.correct, "rt_ms": 900})["accepted"]
+        got = []
+        end = time.monotonic() + 10
+        while len(got) < 5 and time.monotonic() < end:
+            sample, _ = inlet.pull_sample(timeout=1.0)
+            if sample:
+                got.append(json.loads(sample[0]))
+        assert [g["event"] for g in got] == ["stimulus_on", "touch_down", "touch_up", "stimulus_off", "answer"]
+        assert got[-1]["trial"] == t.id and got[-1]["answer"] == t.correct and got[-1]["rt_s"] == 0.9
+    finally:
+        server.stop()
+        markers.close()
+        runner.close()
+
+
+def test_cli_study_run_serves_the_page_until_done(tmp_path):
+    """'surfhap study run' as a process: the page is answered over HTTP (as the browser does),
+    with a live simulated output; the command ends by itself when the last trial is logged."""
+    import re
+    import subprocess
+    import sys
+    import threading
+    import time
+    import urllib.request
+
+    study = _short_study(tmp_path)
+    src = str(Path(__file__).resolve().parents[1] / "src")
+    env = {**os.environ, "PYTHONPATH": src + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    proc = subprocess.Popen([sys.executable, "-c", "import sys; from surfhap.cli import main; sys.exit(main())",
+                             "study", "run", str(study), "-p", "P01", "--port", "0", "--output", "sim"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True)
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(iter(proc.stderr.readline, "")), daemon=True)
+    reader.start()
+    try:
+        url = None
+        end = time.monotonic() + 120
+        while url is None and time.monotonic() < end and proc.poll() is None:
+            m = re.search(r"(http://127\.0\.0\.1:\d+)", "".join(lines))
+            url = m.group(1) if m else None
+            time.sleep(0.1)
+        assert url, "".join(lines)
+
+        def call(path, body=None):
+            req = urllib.request.Request(url + path, data=None if body is None else json.dumps(body).encode(),
+                                         headers={"Content-Type": "application/json"})
+            with urllib.request.urlopen(req, timeout=30) as r:
+                return json.loads(r.read())
+
+        answered = 0
+        while time.monotonic() < end:
+            st = call("/api/state")
+            if st["status"] == "done":
+                break
+            if st["status"] == "rest":
+                call("/api/resume", {})
+                continue
+            t = st["trial"]
+            assert call("/api/stimulus", {"trial_id": t["id"], "index": 0})["playing"] != "muted"
+            st = call("/api/answer", {"trial_id": t["id"], "answer": t["choices"][0]["id"], "rt_ms": 500})
+            answered += st["accepted"]
+        assert answered == 4
+        assert proc.wait(timeout=60) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    log = read_log(study / "logs" / "P01.jsonl")
+    assert len(log.trials) == 4 and all(t["rt_s"] == 0.5 for t in log.trials)
+    assert log.sessions[0]["config"]["mode"] == "page"
