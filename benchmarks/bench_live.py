@@ -111,7 +111,8 @@ def bench_latency(seconds: float = 10.0) -> None:
 def bench_clients(seconds: float, n_clients: int = 50, rate: float = 120.0) -> None:
     import urllib.request
 
-    from surfhap.live.server import ServerConfig, build_session
+    from surfhap.live.config import ServerConfig
+    from surfhap.live.session import build_session
     from surfhap.live.webproc import WebProcess
 
     tmp = tempfile.mkdtemp(prefix="surfhap-bench-")

@@ -17,7 +17,9 @@ from surfhap.sim.ff_device import SimDevice
 
 
 def test_page_touches_press_the_button_under_them():
-    from surfhap.live.server import ServerConfig, ServerThread, create_app
+    from surfhap.live.app import create_app
+    from surfhap.live.config import ServerConfig
+    from surfhap.live.serverthread import ServerThread
 
     sc = load_scene("buttons")
     eng = FFEngine(sc.effects, FALCON, TouchPredictor(), touch_latency=0.0)

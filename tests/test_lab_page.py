@@ -46,7 +46,7 @@ def test_short_study_answered_in_chromium(tmp_path):
     _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
     from surfhap.lab.page import PageServer, StimulusPlayer
     from surfhap.lab.session import SessionRunner
-    from surfhap.live.server import build_session
+    from surfhap.live.session import build_session
 
     study = _short_study(tmp_path)
     runner = SessionRunner(study, "P01", mode="page")

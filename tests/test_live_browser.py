@@ -28,7 +28,10 @@ def _need(what: str, ok: bool):
 
 def test_drag_on_page_drives_engine_and_draws_trace():
     _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
-    from surfhap.live.server import ServerConfig, ServerThread, build_session, create_app
+    from surfhap.live.app import create_app
+    from surfhap.live.config import ServerConfig
+    from surfhap.live.serverthread import ServerThread
+    from surfhap.live.session import build_session
 
     session = build_session("denim", "sim")
     session.start()

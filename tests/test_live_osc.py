@@ -13,7 +13,7 @@ import pytest
 from pythonosc.dispatcher import Dispatcher
 from pythonosc.osc_server import ThreadingOSCUDPServer
 
-from surfhap.live.server import build_session
+from surfhap.live.session import build_session
 
 HERE = Path(__file__).parent
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from surfhap.live.server import build_session
+from surfhap.live.session import build_session
 
 
 @pytest.fixture

@@ -272,7 +272,7 @@ class _WebSource:
         loop.feedback = feedback
 
     def start(self) -> None:
-        from surfhap.live.server import ServerConfig
+        from surfhap.live.config import ServerConfig
         from surfhap.live.webproc import WebProcess
 
         self.server = WebProcess(self.session, ServerConfig(host=self.host, port=self.port)).start()

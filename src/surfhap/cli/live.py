@@ -140,7 +140,10 @@ def serve_cmd(
     Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
     (exit 0); exit 3 when the output backend failed."""
     require_modules("fastapi", "starlette", "uvicorn")  # the page; else: install surfhap[live]
-    from surfhap.live.server import ServerConfig, ServerThread, build_session, create_app
+    from surfhap.live.app import create_app
+    from surfhap.live.config import ServerConfig
+    from surfhap.live.serverthread import ServerThread
+    from surfhap.live.session import build_session
     from surfhap.live.webproc import WebProcess
 
     _setup_logging(verbose)
@@ -235,7 +238,7 @@ def play_cmd(
 
     Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
     (exit 0); exit 3 when the output backend failed."""
-    from surfhap.live.server import build_session
+    from surfhap.live.session import build_session
     from surfhap.sim.trajectory import constant_scan, strokes
 
     disp = None if display is None and config is None else resolve_display_and_range(display, None, None, config)[0]

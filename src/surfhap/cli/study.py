@@ -178,7 +178,7 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
         stderr.print(f"LSL markers: stream 'surfhap-{runner.plan.id}' (type Markers)")
     session = player = None
     if output is not None:
-        from surfhap.live.server import build_session
+        from surfhap.live.session import build_session
 
         session = build_session(_first_material(runner), output, amp_gain=amp_gain)
         player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max)

@@ -203,7 +203,7 @@ class PageServer:
 
     def __init__(self, runner, host: str = "127.0.0.1", port: int = 8780, player: StimulusPlayer | None = None,
                  markers=None):
-        from surfhap.live.server import ServerThread
+        from surfhap.live.serverthread import ServerThread
 
         hosts = LOOPBACK if host in ("127.0.0.1", "::1", "localhost") else ("*",)
         self.thread = ServerThread(create_page_app(runner, player, hosts, markers=markers), host=host, port=port,

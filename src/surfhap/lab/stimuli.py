@@ -63,7 +63,7 @@ def make_profile_renderer(shape: str, mapping: str, surface, calibration, config
 class StimulusPlayer:
     """Plays a trial's stimuli through a live session (engine + backend).
 
-    ``session``: a started :class:`surfhap.live.server.LiveSession`; ``gain``: multiplier of
+    ``session``: a started :class:`surfhap.live.session.LiveSession`; ``gain``: multiplier of
     the calibrated drive gain alpha; ``v_max``: the session's safety limit (V)."""
 
     def __init__(self, session, *, gain: float = 1.0, v_max: float = 250.0, seed: int = 0):

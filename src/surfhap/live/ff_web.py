@@ -1,6 +1,6 @@
 """The touch page as a touch source of the force-feedback loop (a minimal adapter).
 
-The page server (:mod:`surfhap.live.server`, :mod:`surfhap.live.webproc`) talks to an
+The page server (:mod:`surfhap.live.app`, :mod:`surfhap.live.webproc`) talks to an
 engine through ``push_touch``, ``warm_up``, ``status``, ``trace_since`` and a few rate
 attributes. :class:`FFWebEngine` offers those over an :class:`~surfhap.live.ff_loop.FFLoop`,
 so the page works unchanged: touches go into the haptic loop (page positions are mapped
@@ -88,11 +88,11 @@ class FFWebBackend:
 
 
 def build_ff_session(scene, loop, f_max: float):
-    """A :class:`surfhap.live.server.LiveSession` whose engine is ``loop`` (see module doc).
+    """A :class:`surfhap.live.session.LiveSession` whose engine is ``loop`` (see module doc).
 
     Chain the returned session's ``engine.record`` into the loop's feedback for the trace.
     """
-    from surfhap.live.server import LiveSession
+    from surfhap.live.session import LiveSession
     from surfhap.live.sources import TouchSpace
 
     pic = scene.picture_array(256)

@@ -16,7 +16,7 @@ server's configuration with a guarded protocol (:class:`ConnectionGuard`):
   request being served and an open WebSocket are never closed for it. Only when nothing
   is waiting is the new connection itself closed;
 * header size (``h11_max_incomplete_event_size``), keep-alive timeout, accept backlog and
-  uvicorn's ``limit_concurrency`` are set from :class:`~surfhap.live.server.ServerConfig`.
+  uvicorn's ``limit_concurrency`` are set from :class:`~surfhap.live.config.ServerConfig`.
 
 Every closed connection is counted (``evicted``, ``timed_out``, ``refused``) and logged
 through the ``surfhap.live`` logger; :mod:`surfhap.live.logfilter` keeps that log short.
@@ -167,7 +167,7 @@ def guarded_protocol(guard: ConnectionGuard) -> type:
 
 def uvicorn_config(app, cfg):
     """A ``uvicorn.Config`` for ``app`` with the limits of ``cfg``
-    (:class:`~surfhap.live.server.ServerConfig`) and a guarded h11 protocol.
+    (:class:`~surfhap.live.config.ServerConfig`) and a guarded h11 protocol.
 
     uvicorn's own logging configuration is not installed (``log_config=None``): its records
     propagate to the root logger's handlers, where :func:`surfhap.live.logfilter.install_rate_limit`

@@ -10,7 +10,10 @@ callback:
   arrival time on the shared monotonic clock, x, y, load) and pushes them into the touch
   ring; anything else is dropped and counted;
 * :class:`TracePublisher` sends the trace frames and the engine status back at
-  ``trace_hz`` as datagrams (``S`` + status JSON, ``F`` + frame JSON fragment).
+  ``trace_hz`` as datagrams (``S`` + status JSON, ``F`` + frame JSON, both objects).
+
+In the web process the app reaches the engine through :class:`RemoteLink`, the
+:class:`~surfhap.live.link.EngineLink` over this boundary.
 
 The web process does everything else (HTTP, WebSocket, origin/host checks, validation,
 rate limits, the connection guard of :mod:`surfhap.live.httpguard`, rate-limited logging)
@@ -20,6 +23,7 @@ on Linux, the same clock in both processes, so arrival stamps stay comparable.
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import multiprocessing as mp
@@ -30,7 +34,7 @@ import threading
 
 from surfhap.live.clock import now
 
-__all__ = ["TouchBridge", "TracePublisher", "WebProcess"]
+__all__ = ["TouchBridge", "TracePublisher", "WebProcess", "RemoteLink", "describe"]
 
 log = logging.getLogger("surfhap.live")
 
@@ -90,55 +94,81 @@ class TouchBridge:
         self.sock.close()
 
 
-class _RemoteEngine:
-    """Web side stand-in for the engine: ``push_touch`` sends a datagram to the bridge."""
+class RemoteLink:
+    """Web side :class:`~surfhap.live.link.EngineLink` to an engine in another process:
+    ``push_touch`` sends a datagram to its :class:`TouchBridge`, ``stream`` publishes the
+    frames and status its :class:`TracePublisher` sends to ``trace_sock``.
 
-    def __init__(self, port: int, token: bytes, info: dict):
-        self._addr = ("127.0.0.1", port)
+    ``about``: what :meth:`WebProcess.start` tells the web process (:func:`describe`)."""
+
+    def __init__(self, about: dict, bridge_port: int, token: bytes, trace_sock=None):
+        from surfhap.live.sources import TouchSpace
+
+        self._info = about["info"]
+        self.space = TouchSpace(*about["space"])
+        self.positions = about.get("positions", "physical")
+        self._addr = ("127.0.0.1", bridge_port)
         self._token = token
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._sock.setblocking(False)
-        self.drive_rate = info["drive_rate"]
-        self.model_rate = info["model_rate"]
-        self.block_period = info["block_period"]
-        self.v_max = info["v_max"]
-        self.dropped = 0
+        self._trace_sock = trace_sock
+        self.dropped = 0  # touch datagrams the socket refused (buffer full)
+        self.bad_datagrams = 0  # trace datagrams that were not a JSON object
 
-    def push_touch(self, source, x, y, load, t_event=math.nan, t_arrival=None) -> bool:
-        ta = now() if t_arrival is None else t_arrival
+    def info(self) -> dict:
+        return dict(self._info)
+
+    def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan) -> bool:
         try:
-            self._sock.sendto(_TOUCH.pack(self._token, int(source), t_event, ta, x, y, load), self._addr)
+            self._sock.sendto(_TOUCH.pack(self._token, int(source), t_event, now(), x, y, load), self._addr)
             return True
         except OSError:  # buffer full: drop, never wait
             self.dropped += 1
             return False
 
+    async def stream(self, publish) -> None:
+        import asyncio
 
-class _StaticBackend:
-    def __init__(self, info: dict):
-        self._info = info
+        link = self
 
-    def info(self) -> dict:
-        return dict(self._info)
+        class Datagrams(asyncio.DatagramProtocol):
+            pending_status = None
+
+            def datagram_received(self, data, addr):
+                try:
+                    body = json.loads(data[1:])
+                except ValueError:
+                    body = None
+                if not isinstance(body, dict):
+                    link.bad_datagrams += 1
+                elif data[:1] == b"S":
+                    self.pending_status = body
+                elif data[:1] == b"F":
+                    publish(body, self.pending_status)
+                    self.pending_status = None
+
+        transport, _ = await asyncio.get_running_loop().create_datagram_endpoint(Datagrams, sock=self._trace_sock)
+        try:
+            await asyncio.Event().wait()  # until cancelled
+        finally:
+            transport.close()
 
 
-class _RemoteSession:
-    def __init__(self, info: dict, engine):
-        self.engine = engine
-        self.backend = _StaticBackend(info["output"])
-        self.title = info["title"]
-        self.positions = info.get("positions", "physical")
-        self.preview = info["preview"]
-        from surfhap.live.sources import TouchSpace
+def describe(session) -> dict:
+    """What the web process needs to know about ``session`` (picklable): the page info,
+    the touch surface and how page positions map onto it."""
+    from surfhap.live.session import page_info
 
-        self.space = TouchSpace(*info["space"])
+    s = session.space
+    return {"info": page_info(session), "positions": getattr(session, "positions", "physical"),
+            "space": (s.width, s.height, s.max_load, s.default_load)}
 
 
 class TracePublisher:
     """Engine side: send trace frames and status to the web process at ``hz``."""
 
     def __init__(self, session, port: int, hz: float = 30.0, points: int = 64):
-        from surfhap.live.server import FrameBuilder
+        from surfhap.live.frames import FrameBuilder
 
         self.builder = FrameBuilder(session.engine, session.backend, points)
         self.addr = ("127.0.0.1", port)
@@ -156,8 +186,8 @@ class TracePublisher:
         while not self._stop.wait(1.0 / self.hz):
             try:
                 if n % 5 == 0:
-                    self.sock.sendto(b"S" + self.builder.status().encode(), self.addr)
-                self.sock.sendto(b"F" + self.builder.frame().encode(), self.addr)
+                    self.sock.sendto(b"S" + _dumps(self.builder.status()), self.addr)
+                self.sock.sendto(b"F" + _dumps(self.builder.frame()), self.addr)
             except OSError:
                 pass
             except Exception:  # noqa: BLE001 - monitoring must not die
@@ -171,14 +201,20 @@ class TracePublisher:
         self.sock.close()
 
 
-def _web_main(cfg, info: dict, bridge_port: int, token: bytes, conn, log_level: int) -> None:
+def _dumps(obj: dict) -> bytes:
+    from surfhap.live.protocol import json_default
+
+    return json.dumps(obj, default=json_default).encode()
+
+
+def _web_main(cfg, about: dict, bridge_port: int, token: bytes, conn, log_level: int) -> None:
     """Entry point of the web process."""
     logging.basicConfig(level=log_level, format="%(asctime)s %(levelname)s %(name)s[web]: %(message)s")
     import uvicorn
 
     from surfhap.live.httpguard import uvicorn_config
     from surfhap.live.logfilter import install_rate_limit
-    from surfhap.live.server import create_app
+    from surfhap.live.app import create_app
 
     install_rate_limit()  # one line per kind per second, whatever a client provokes
 
@@ -203,8 +239,7 @@ def _web_main(cfg, info: dict, bridge_port: int, token: bytes, conn, log_level: 
         os._exit(0)
 
     threading.Thread(target=watch_parent, name="surfhap-parent-watch", daemon=True).start()
-    session = _RemoteSession(info, _RemoteEngine(bridge_port, token, info))
-    app = create_app(session, cfg, frames="remote", trace_sock=trace_sock)
+    app = create_app(RemoteLink(about, bridge_port, token, trace_sock), cfg)
     server = uvicorn.Server(uvicorn_config(app, cfg)[0])
     conn.send(("ok", trace_sock.getsockname()[1], http_sock.getsockname()[1]))
     server.run(sockets=[http_sock])
@@ -228,20 +263,15 @@ class WebProcess:
 
     def start(self, timeout: float = 30.0) -> "WebProcess":
         from surfhap.errors import ConfigError
-        from surfhap.live.server import _safe_info
 
         s = self.session
-        eng = s.engine
-        info = {"drive_rate": eng.drive_rate, "model_rate": eng.model_rate, "block_period": eng.block_period,
-                "v_max": eng.v_max, "title": s.title, "preview": s.preview, "output": _safe_info(s.backend),
-                "positions": getattr(s, "positions", "physical"),
-                "space": (s.space.width, s.space.height, s.space.max_load, s.space.default_load)}
-        self.bridge = TouchBridge(eng)
+        about = describe(s)
+        self.bridge = TouchBridge(s.engine)
         self.bridge.start()
         ctx = mp.get_context("spawn")
         parent, child = ctx.Pipe()
         self.proc = ctx.Process(target=_web_main, name="surfhap-web", daemon=True,
-                                args=(self.cfg, info, self.bridge.port, self.bridge.token, child,
+                                args=(self.cfg, about, self.bridge.port, self.bridge.token, child,
                                       logging.getLogger("surfhap").getEffectiveLevel()))
         self.proc.start()
         if not parent.poll(timeout):

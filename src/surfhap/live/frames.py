@@ -1,0 +1,51 @@
+"""Engine side of the trace stream: what the page plots, packed at ``trace_hz``.
+
+:class:`FrameBuilder` turns the engine's trace rows since its last call into a *frame*
+(a dict of short lists, at most ``points`` long) and the engine status into a dict; both
+are plain JSON-able values, sent in-process (:class:`surfhap.live.link.LocalLink`) or as
+datagrams to the web process (:mod:`surfhap.live.webproc`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from surfhap.live.session import backend_info
+
+__all__ = ["FrameBuilder", "pack_rows"]
+
+# trace columns of the engine (LiveEngine.trace): t, x, y, speed, load, drive V, target, friction
+_COLUMNS = (("t", 0, 4), ("v", 5, 2), ("f", 7, 4), ("target", 6, 4), ("speed", 3, 4))  # key, column, decimals
+
+
+def pack_rows(rows: np.ndarray, points: int) -> dict:
+    """A frame of trace ``rows`` (``(n, 8) float``, see ``LiveEngine.trace``): binned to at
+    most ``points`` rows (each bin: its last row, with the bin's peak drive voltage), NaN as 0,
+    rounded; ``{"t": s, "v": V, "f": N, "target": N, "speed": m/s}``, lists of equal length."""
+    if rows.shape[0] > points:
+        edges = np.linspace(0, rows.shape[0], points + 1).astype(int)
+        keep = rows[edges[1:] - 1].copy()
+        keep[:, 5] = np.maximum.reduceat(rows[:, 5], edges[:-1])
+        rows = keep
+    r = np.nan_to_num(rows, nan=0.0, posinf=0.0, neginf=0.0)
+    return {key: np.round(r[:, col], dec).tolist() for key, col, dec in _COLUMNS}
+
+
+class FrameBuilder:
+    """The rows an engine wrote since the last :meth:`frame`, and its status."""
+
+    def __init__(self, engine, backend, points: int = 64):
+        self.engine, self.backend, self.points = engine, backend, int(points)
+        self._idx = 0
+
+    def frame(self) -> dict:
+        """The next frame (:func:`pack_rows`); at most half the trace ring per call."""
+        eng = self.engine
+        rows, self._idx = eng.trace_since(self._idx, limit=eng.trace.shape[0] // 2)
+        return pack_rows(rows, self.points)
+
+    def status(self) -> dict:
+        """``engine.status()`` with the output backend's info under ``"output"``."""
+        st = self.engine.status()
+        st["output"] = backend_info(self.backend)
+        return st

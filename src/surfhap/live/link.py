@@ -1,0 +1,87 @@
+"""How the page app reaches the engine: one interface, :class:`EngineLink`, and its
+in-process implementation :class:`LocalLink`.
+
+The app (:func:`surfhap.live.app.create_app`) needs four things from the engine: what to
+show (:meth:`EngineLink.info`), the touch surface (``space``, ``positions``), a way to push
+validated touch samples (:meth:`EngineLink.push_touch`) and the trace frames
+(:meth:`EngineLink.stream`). :class:`LocalLink` calls the engine directly; the link over
+the process boundary is :class:`surfhap.live.webproc.RemoteLink`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+from typing import Callable, Protocol, runtime_checkable
+
+from surfhap.live.frames import FrameBuilder
+from surfhap.live.session import page_info
+from surfhap.live.sources import TouchSpace
+
+__all__ = ["EngineLink", "LocalLink", "Publish", "as_link"]
+
+log = logging.getLogger("surfhap.live")
+
+Publish = Callable[[dict, "dict | None"], None]  # (frame, engine status or None)
+
+
+@runtime_checkable
+class EngineLink(Protocol):
+    """The engine as the page app sees it.
+
+    ``space``: the touch surface (m, N); ``positions``: "physical" (page positions through
+    CSS pixels) or "surface" (the page spans the whole surface)."""
+
+    space: TouchSpace
+    positions: str
+
+    def info(self) -> dict:
+        """The page's ``/api/info`` (:func:`surfhap.live.session.page_info`)."""
+
+    def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan) -> bool:
+        """One touch sample: position (m), load (N, 0 = lifted), the source's time stamp
+        (s). Never blocks; False when it was dropped."""
+
+    async def stream(self, publish: Publish) -> None:
+        """Call ``publish(frame, status)`` for every trace frame (:mod:`surfhap.live.frames`),
+        with the engine status every few frames (else None), until cancelled."""
+
+
+class LocalLink:
+    """The engine in this process: touches go straight into its touch ring and a ticker
+    builds a frame every ``1 / hz`` s (the engine status with every 5th)."""
+
+    def __init__(self, session, points: int = 64, hz: float = 30.0):
+        self.session = session
+        self.engine = session.engine
+        self.space = session.space
+        self.positions = getattr(session, "positions", "physical")
+        self.points, self.hz = int(points), float(hz)
+
+    def info(self) -> dict:
+        return page_info(self.session)
+
+    def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan) -> bool:
+        return self.engine.push_touch(source, x, y, load, t_event=t_event)
+
+    async def stream(self, publish: Publish) -> None:
+        builder = FrameBuilder(self.engine, self.session.backend, self.points)
+        period = 1.0 / self.hz
+        n = 0
+        while True:
+            try:
+                publish(builder.frame(), builder.status() if n % 5 == 0 else None)
+            except Exception:  # noqa: BLE001 - monitoring must not die
+                log.exception("trace tick failed")
+            n += 1
+            await asyncio.sleep(period)
+
+
+def as_link(obj, cfg) -> EngineLink:
+    """``obj`` when it is an :class:`EngineLink`, else a :class:`LocalLink` to the session
+    ``obj`` (anything with ``engine``, ``backend``, ``space``, ``title`` and ``preview``)
+    with the trace settings of ``cfg`` (:class:`surfhap.live.config.ServerConfig`)."""
+    if isinstance(obj, EngineLink):
+        return obj
+    return LocalLink(obj, cfg.trace_points, cfg.trace_hz)

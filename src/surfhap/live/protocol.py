@@ -1,0 +1,125 @@
+"""The page's WebSocket protocol: message models, their validation and the trace encoding.
+
+Page -> server messages (JSON text, one per pointer event)::
+
+    {"type": "hello", "w": css_px, "h": css_px}
+    {"type": "move", "seq": n, "t": ms, "x": 0..1, "y": 0..1, "p": 0..1}
+    {"type": "up", "seq": n, "t": ms}
+
+They are validated as one pydantic discriminated union on ``type`` (:func:`parse_message`),
+straight from the JSON text (parsed, never evaluated). Numbers must be JSON numbers (not
+strings or booleans) within their ranges; NaN, ±inf and numbers too large for a float
+(``1e400``, the integer ``10**400``) are invalid like any out-of-range value: the same
+rule as :func:`surfhap.live.sources.finite_in_range`. Unknown keys are ignored.
+
+Server -> page: ``{"type": "trace", "ack": seq, "ack_t": ms, "received": n, "rejected": n,
+"t": [...], "v": [...], "f": [...], "target": [...], "speed": [...], "status": {...}}`` at
+``trace_hz`` (:func:`trace_message`): the trace rows since the last frame, the newest
+acknowledged ``seq`` and its page time stamp (so the page can show the round trip) and,
+every few frames, the engine's counters and latency (``status``).
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Annotated, Literal, Union
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
+
+__all__ = ["Hello", "Move", "Up", "ClientMessage", "parse_message", "page_to_surface", "trace_message",
+           "json_default", "CSS_PX_M"]
+
+CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres (CSS reference pixel: 1/96 inch)
+
+
+def _number(lo: float, hi: float):
+    """A JSON number (int or float, not bool or str), finite, within [lo, hi]."""
+    return Annotated[float, Field(ge=lo, le=hi, strict=True, allow_inf_nan=False)]
+
+
+Seq = Annotated[int, Field(ge=0, lt=2**53, strict=True)]  # an exact integer in a JS number
+TimeMs = _number(0.0, 1e12)
+Fraction = _number(-0.05, 1.05)  # page position, a little beyond the edges
+CssPx = _number(10.0, 20000.0)
+
+
+class _Message(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="ignore")
+
+
+class Hello(_Message):
+    """The page's size in CSS pixels (sent on connect and on resize)."""
+
+    type: Literal["hello"]
+    w: CssPx
+    h: CssPx
+
+
+class Move(_Message):
+    """Finger (or pointer) at ``x``, ``y`` (fractions of the page) with pressure ``p`` 0-1
+    (0: unknown, taken as 0.5); ``t``: the page's time stamp (ms); ``seq``: event number."""
+
+    type: Literal["move"]
+    seq: Seq
+    t: TimeMs
+    x: Fraction
+    y: Fraction
+    p: _number(0.0, 1.0) = 0.5
+
+
+class Up(_Message):
+    """Finger lifted at page time ``t`` (ms)."""
+
+    type: Literal["up"]
+    seq: Seq
+    t: TimeMs
+
+
+ClientMessage = Annotated[Union[Hello, Move, Up], Field(discriminator="type")]
+_ADAPTER = TypeAdapter(ClientMessage)
+
+
+def parse_message(text: str | bytes) -> Hello | Move | Up | str:
+    """The validated message in ``text``, or a one-line reason why it is invalid (str).
+    Never raises for any input."""
+    try:
+        return _ADAPTER.validate_json(text)
+    except ValidationError as exc:
+        err = exc.errors(include_url=False, include_input=False)[0]
+        loc = ".".join(str(p) for p in err.get("loc", ()))[:40]
+        return f"{loc + ': ' if loc else ''}{err.get('msg', 'invalid')[:80]}"
+    except Exception as exc:  # noqa: BLE001 - whatever the input, a reason, never an exception
+        return f"malformed message ({type(exc).__name__})"
+
+
+def page_to_surface(msg: Move, width_px: float, height_px: float, space, surface: bool) -> tuple[float, float, float]:
+    """``(x, y, load)`` in metres and newtons for a move on a page of ``width_px`` x
+    ``height_px`` CSS pixels: positions clipped to the page, then mapped through CSS pixels
+    (``surface=False``: real finger speed) or onto the whole ``space`` (``surface=True``);
+    load = pressure x ``space.max_load`` (pressure 0 counts as 0.5)."""
+    x = min(max(msg.x, 0.0), 1.0)
+    y = min(max(msg.y, 0.0), 1.0)
+    load = (msg.p if msg.p > 0 else 0.5) * space.max_load
+    if surface:
+        return x * space.width, y * space.height, load
+    return x * width_px * CSS_PX_M, y * height_px * CSS_PX_M, load
+
+
+def json_default(o):
+    """JSON for numpy scalars (and ``str`` of anything else) in engine status dicts."""
+    if isinstance(o, np.integer):
+        return int(o)
+    if isinstance(o, np.floating):
+        return float(o)
+    return str(o)
+
+
+def trace_message(ack: int, ack_t: float, received: int, rejected: int, frame: dict, status: dict | None) -> str:
+    """One server -> page message (see module doc): the client's counters, the trace
+    ``frame`` (:meth:`surfhap.live.frames.FrameBuilder.frame`) and, when given, ``status``."""
+    msg = {"type": "trace", "ack": int(ack), "ack_t": float(ack_t), "received": int(received),
+           "rejected": int(rejected), **frame}
+    if status is not None:
+        msg["status"] = status
+    return json.dumps(msg, default=json_default)

@@ -1,0 +1,129 @@
+"""What ``surfhap serve`` runs: an engine with its backend and touch sources, plus what the
+page shows about it (:class:`LiveSession`, :func:`build_session`)."""
+
+from __future__ import annotations
+
+import logging
+import sys
+
+import numpy as np
+
+from surfhap.live.sources import TouchSpace
+
+__all__ = ["LiveSession", "build_session", "material_preview", "backend_info", "page_info"]
+
+log = logging.getLogger("surfhap.live")
+
+
+def material_preview(material, width: int = 256, height: int = 64, seed: int = 0) -> dict:
+    """A small grey image of a material for the page: its texture synthesized along x at
+    0.1 m/s (rows are successive strokes), or flat for a friction-only material.
+
+    Returns ``{"w": width, "h": height, "data": [height * width ints 0-255, row-major]}``."""
+    data = np.full((height, width), 0.5)
+    tex = getattr(material, "texture", None)
+    if tex is not None:
+        try:
+            syn = tex.synthesizer(seed=seed)
+            n = width * height
+            s = syn.process(np.full(n, 0.1), np.full(n, 0.5)).reshape(height, width)
+            s = (s - s.mean()) / (s.std() + 1e-12)
+            data = 0.5 + 0.15 * np.clip(s, -3, 3)
+        except Exception:  # noqa: BLE001 - a preview is cosmetic
+            log.debug("no texture preview", exc_info=True)
+    return {"w": width, "h": height, "data": np.round(255 * np.clip(data, 0, 1)).astype(int).ravel().tolist()}
+
+
+def backend_info(backend) -> dict:
+    """``backend.info()``, or just its name when that fails (the page only displays it)."""
+    try:
+        return backend.info()
+    except Exception:  # noqa: BLE001
+        return {"name": getattr(backend, "name", "?")}
+
+
+def page_info(session) -> dict:
+    """The page's ``/api/info`` for ``session``: title, preview, the engine's rates (Hz),
+    block period (s) and ``v_max`` (V), the touch surface size (m) and the output's info."""
+    eng = session.engine
+    return {"title": session.title, "preview": session.preview, "drive_rate": eng.drive_rate,
+            "model_rate": eng.model_rate, "block_period": eng.block_period, "v_max": eng.v_max,
+            "surface_m": [session.space.width, session.space.height], "output": backend_info(session.backend)}
+
+
+class LiveSession:
+    """An engine with its backend and touch sources, plus what the page shows."""
+
+    def __init__(self, engine, backend, *, title: str = "", preview: dict | None = None,
+                 space: TouchSpace | None = None, sources: list | None = None, positions: str = "physical"):
+        """``positions``: "physical" maps page positions to metres through CSS pixels (a
+        material: the finger speed is real); "surface" maps the page onto the whole touch
+        surface (a mesh: the shaded preview and the felt shape line up)."""
+        self.engine = engine
+        self.positions = positions
+        self.backend = backend
+        self.title = title
+        self.preview = preview or {"w": 1, "h": 1, "data": [128]}
+        self.space = space or TouchSpace()
+        self.sources = list(sources or [])
+        self.started = False
+
+    def start(self) -> None:
+        # The engine thread competes for the GIL with the web server: a short switch
+        # interval (process-wide; restored on stop) bounds how long it can wait.
+        self._switch = sys.getswitchinterval()
+        sys.setswitchinterval(min(self._switch, 0.0002))
+        self.engine.warm_up()
+        self.backend.start(self.engine)
+        for s in self.sources:
+            s.start()
+        self.started = True
+
+    def stop(self) -> None:
+        # the backend first: its stop ramp runs on the live signal (a source's final lift
+        # would cut it short), then the sources
+        if self.started:
+            self.backend.stop()
+            sys.setswitchinterval(self._switch)
+        for s in self.sources:
+            s.stop()
+        self.started = False
+
+
+def build_session(material: str = "cork", output: str = "sim", *, drive_rate: int | None = None,
+                  engine_config=None, amp_gain: float = 250.0, space: TouchSpace | None = None,
+                  osc_in: tuple[str, int] | None = None, replay=None, replay_loop: bool = False,
+                  seed: int = 0, backend_options: dict | None = None, mesh=None, display=None) -> LiveSession:
+    """Everything ``surfhap serve`` runs: material (or ``mesh`` file) -> renderer -> engine
+    -> backend, plus optional OSC touch input ``(host, port)`` and a replayed trajectory."""
+    from surfhap.exchange.materials import load_material
+    from surfhap.live.backends import open_backend, parse_output
+    from surfhap.live.engine import EngineConfig, LiveEngine
+    from surfhap.live.sources import OscTouchSource, ReplaySource
+    from surfhap.render.chain import ChainConfig, TextureChain
+    from surfhap.sim.display import SimulatedDisplay
+
+    kind, _ = parse_output(output)
+    rate = int(drive_rate or (48000 if kind == "sound" else 20000))
+    space = space or TouchSpace()
+    cfg = engine_config or EngineConfig()
+    if mesh is not None:
+        from surfhap.live.shape_live import load_live_shape, shape_preview
+
+        chain, title = load_live_shape(mesh, rate, (space.width, space.height), seed=seed)
+        preview = shape_preview(chain.surface, (space.width, space.height))
+        display_model = chain.config.display
+    else:
+        mat = load_material(material)
+        chain = TextureChain(mat, ChainConfig(drive_rate=rate, seed=seed, **({} if display is None else {"display": display})))
+        title, preview, display_model = f"{mat.name} ({chain.method})", material_preview(mat), chain.config.display
+    display = SimulatedDisplay(display_model, chain.drive_rate, chain.model_rate) if cfg.simulate_display else None
+    engine = LiveEngine(chain, cfg, display=display)
+    backend = open_backend(output, amp_gain=amp_gain, **(backend_options or {}))
+    sources = []
+    if osc_in is not None:
+        sources.append(OscTouchSource(engine, osc_in[0], osc_in[1], space=space))
+    if replay is not None:
+        sources.append(ReplaySource(engine, replay, loop=replay_loop))
+    return LiveSession(engine, backend, title=title, preview=preview, space=space, sources=sources,
+                       positions="surface" if mesh is not None else "physical")
