@@ -66,7 +66,7 @@ class Hub:
             if self.guard is not None:
                 srv["connections"] = self.guard.counters()
             self.status = {**self.engine_status, "server": srv}
-            self.status_json = json.dumps(self.status, default=json_default)
+            self.status_json = json.dumps(self.status, default=json_default, separators=(",", ":"))
             self.status_no += 1
         ev, self._event = self._event, asyncio.Event()
         if ev is not None:

@@ -25,8 +25,8 @@ import numpy as np
 
 __all__ = ["run_clients"]
 
-_ACK = re.compile(r'"ack":(-?\d+)')
-_REJ = re.compile(r'"rejected":(\d+)')
+_ACK = re.compile(r'"ack":\s*(-?\d+)')
+_REJ = re.compile(r'"rejected":\s*(\d+)')
 
 
 async def _client(url: str, origin: str, k: int, rate: float, seconds: float) -> dict:

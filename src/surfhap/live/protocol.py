@@ -122,4 +122,4 @@ def trace_message(ack: int, ack_t: float, received: int, rejected: int, frame: d
            "rejected": int(rejected), **frame}
     if status is not None:
         msg["status"] = status
-    return json.dumps(msg, default=json_default)
+    return json.dumps(msg, default=json_default, separators=(",", ":"))

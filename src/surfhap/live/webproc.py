@@ -204,7 +204,7 @@ class TracePublisher:
 def _dumps(obj: dict) -> bytes:
     from surfhap.live.protocol import json_default
 
-    return json.dumps(obj, default=json_default).encode()
+    return json.dumps(obj, default=json_default, separators=(",", ":")).encode()
 
 
 def _web_main(cfg, about: dict, bridge_port: int, token: bytes, conn, log_level: int) -> None:
