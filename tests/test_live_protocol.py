@@ -9,7 +9,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from surfhap.live.protocol import CSS_PX_M, Hello, Move, Up, page_to_surface, parse_message, trace_message
+from surfhap.live.protocol import (CSS_PX_M, Hello, Move, Up, encode, join_objects, page_to_surface, parse_message,
+                                   trace_message)
 from surfhap.live.sources import TouchSpace, finite_in_range
 
 HUGE = "1" + "0" * 400
@@ -94,7 +95,12 @@ def test_trace_message_is_json_with_the_client_counters_frame_and_status():
     import numpy as np
 
     frame = {"t": [0.1, 0.2], "v": [1.0, 2.0], "f": [0.0, 0.1], "target": [0.0, 0.1], "speed": [0.0, 0.01]}
-    m = json.loads(trace_message(5, 123.5, 6, 1, frame, {"counters": {"blocks": np.int64(3)}, "lat": np.float32(0.5)}))
+    status = {"counters": {"blocks": np.int64(3)}, "lat": np.float32(0.5), "note": 'a "quoted" } name'}
+    m = json.loads(trace_message(5, 123.5, 6, 1, encode(frame), encode({"status": status})))
     assert m == {"type": "trace", "ack": 5, "ack_t": 123.5, "received": 6, "rejected": 1, **frame,
-                 "status": {"counters": {"blocks": 3}, "lat": 0.5}}
-    assert "status" not in json.loads(trace_message(5, 0.0, 6, 1, frame, None))
+                 "status": {"counters": {"blocks": 3}, "lat": 0.5, "note": 'a "quoted" } name'}}
+    assert json.loads(trace_message(5, 0.0, 6, 1, encode(frame))) == {
+        "type": "trace", "ack": 5, "ack_t": 0.0, "received": 6, "rejected": 1, **frame}
+    assert json.loads(join_objects("{}", encode({"a": [1]}), "{}")) == {"a": [1]}
+    with pytest.raises(ValueError):
+        join_objects('"not an object"')

@@ -148,11 +148,11 @@ def create_app(session, cfg: ServerConfig | None = None):
             new = min(hub.frame_no - sent_frame, len(hub.frames))
             sent_frame = hub.frame_no
             for frame in hub.frames[len(hub.frames) - new:]:
-                status = None
+                parts = [frame]
                 if hub.status_no != sent_status:
                     sent_status = hub.status_no
-                    status = hub.status
-                text = trace_message(client.last_seq, client.last_t, client.received, client.rejected, frame, status)
+                    parts.append(hub.status_member)
+                text = trace_message(client.last_seq, client.last_t, client.received, client.rejected, *parts)
                 try:
                     await asyncio.wait_for(ws.send_text(text), cfg.send_timeout)
                     client.slow = 0

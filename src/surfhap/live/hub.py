@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import asyncio
-import json
 from dataclasses import dataclass
 
-from surfhap.live.protocol import json_default
+from surfhap.live.protocol import encode
 from surfhap.live.sources import RateLimiter, RejectLog
 
 __all__ = ["Client", "Hub"]
@@ -42,20 +41,21 @@ class Hub:
         self.next_id = 1000
         self.rejects = RejectLog()
         self.refused = 0
-        self.frames: list[dict] = []  # recent frames, newest last (bounded)
+        self.frames: list[str] = []  # recent frames (encoded JSON objects), newest last (bounded)
         self.frame_no = 0
         self.engine_status: dict = {}
-        self.status: dict = {}
-        self.status_json = "{}"
+        self.status_json = "{}"  # the served status (/api/status)
+        self.status_member = '{"status":{}}'  # the same as the member of a trace message
         self.status_no = 0
         self.guard = None  # the HTTP connection guard, when served by uvicorn_config
         self._event: asyncio.Event | None = None
 
     def publish(self, frame: dict, engine_status: dict | None = None) -> None:
-        """Store ``frame`` (and, when given, a new engine status) and wake the senders.
+        """Store ``frame`` (encoded once here for every client) and, when given, a new
+        engine status, and wake the senders.
         The served status (``/api/status``, ``status`` in trace messages) is the engine's
         with the server's counters under ``"server"``, refreshed at least every 10 frames."""
-        self.frames.append(frame)
+        self.frames.append(encode(frame))
         if len(self.frames) > self.KEEP:
             del self.frames[0]
         self.frame_no += 1
@@ -65,8 +65,9 @@ class Hub:
             srv = {"clients": len(self.clients), "rejected": self.rejects.count, "refused": self.refused}
             if self.guard is not None:
                 srv["connections"] = self.guard.counters()
-            self.status = {**self.engine_status, "server": srv}
-            self.status_json = json.dumps(self.status, default=json_default, separators=(",", ":"))
+            status = {**self.engine_status, "server": srv}
+            self.status_json = encode(status)
+            self.status_member = encode({"status": status})
             self.status_no += 1
         ev, self._event = self._event, asyncio.Event()
         if ev is not None:

@@ -28,7 +28,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
 __all__ = ["Hello", "Move", "Up", "ClientMessage", "parse_message", "page_to_surface", "trace_message",
-           "json_default", "CSS_PX_M"]
+           "encode", "join_objects", "json_default", "CSS_PX_M"]
 
 CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres (CSS reference pixel: 1/96 inch)
 
@@ -115,11 +115,29 @@ def json_default(o):
     return str(o)
 
 
-def trace_message(ack: int, ack_t: float, received: int, rejected: int, frame: dict, status: dict | None) -> str:
-    """One server -> page message (see module doc): the client's counters, the trace
-    ``frame`` (:meth:`surfhap.live.frames.FrameBuilder.frame`) and, when given, ``status``."""
-    msg = {"type": "trace", "ack": int(ack), "ack_t": float(ack_t), "received": int(received),
-           "rejected": int(rejected), **frame}
-    if status is not None:
-        msg["status"] = status
-    return json.dumps(msg, default=json_default, separators=(",", ":"))
+def encode(obj) -> str:
+    """Compact JSON of ``obj`` (numpy scalars as numbers, see :func:`json_default`)."""
+    return json.dumps(obj, default=json_default, separators=(",", ":"))
+
+
+def join_objects(*encoded: str) -> str:
+    """One JSON object with the members of several objects each encoded by :func:`encode`
+    (the same key must not appear twice). A frame is encoded once and shared by every
+    client's trace message; only the client's few counters are encoded per client, which
+    keeps the per-client cost independent of the frame's size."""
+    members = []
+    for e in encoded:
+        if not (e.startswith("{") and e.endswith("}")):
+            raise ValueError("join_objects takes encoded JSON objects")
+        if len(e) > 2:
+            members.append(e[1:-1])
+    return "{" + ",".join(members) + "}"
+
+
+def trace_message(ack: int, ack_t: float, received: int, rejected: int, *parts: str) -> str:
+    """One server -> page message (see module doc): the client's counters joined with
+    ``parts``, objects encoded by :func:`encode`: the trace frame (of
+    :meth:`surfhap.live.frames.FrameBuilder.frame`) and, when due, ``{"status": ...}``."""
+    head = encode({"type": "trace", "ack": int(ack), "ack_t": float(ack_t), "received": int(received),
+                   "rejected": int(rejected)})
+    return join_objects(head, *parts)

@@ -202,9 +202,9 @@ class TracePublisher:
 
 
 def _dumps(obj: dict) -> bytes:
-    from surfhap.live.protocol import json_default
+    from surfhap.live.protocol import encode
 
-    return json.dumps(obj, default=json_default, separators=(",", ":")).encode()
+    return encode(obj).encode()
 
 
 def _web_main(cfg, about: dict, bridge_port: int, token: bytes, conn, log_level: int) -> None:
