@@ -38,7 +38,7 @@ from surfhap.live.link import as_link
 from surfhap.live.protocol import Hello, Move, page_to_surface, parse_message, trace_message
 from surfhap.live.sources import RateLimiter
 
-__all__ = ["create_app", "ServerConfig"]
+__all__ = ["create_app"]
 
 log = logging.getLogger("surfhap.live")
 
