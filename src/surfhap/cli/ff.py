@@ -124,13 +124,14 @@ def simulate_cmd(
         tr = _default_strokes(sc.size)
     pred = _predictor(predict, touch_latency_ms, k_pred, alpha, velocity_alpha)
     lat = touch_latency_ms * 1e-3
-    eng = FFEngine(sc.effects, dev, pred, touch_latency=lat)
+    eng = FFEngine(sc.effects, dev, pred, touch_latency=lat, buttons=sc.buttons)
     res = simulate_ff(eng, SimFinger(tr, touch_rate=touch_rate, latency=lat, mu=mu), SimDevice(gain=dev.gain),
                       name=f"{sc.name} / {tr.name}")
     out.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(out / "ff_simulation.npz", t=res.t, force=res.force, screen=res.screen, screen_v=res.screen_v,
                         finger=res.finger, finger_v=res.finger_v, sliding=res.sliding, finger_est=res.finger_est,
-                        touched=res.touched, mask=res.mask, load=res.load, effects=np.array(res.effects))
+                        touched=res.touched, mask=res.mask, load=res.load, effects=np.array(res.effects),
+                        button=res.button, buttons=np.array(res.buttons, dtype=str))
     summary = res.summary()
     summary.update(scene=sc.source, trajectory=str(trajectory) if trajectory else tr.name, device=dev.name,
                    gain=dev.gain, touch_latency_ms=touch_latency_ms, predict=predict,
@@ -143,7 +144,8 @@ def simulate_cmd(
         plot_ff_top_view(res, sc.picture_array(), sc.size).savefig(out / "ff_top_view.png", dpi=110)
     stdout.print(f"{sc.name}: {summary['ticks']} ticks, max |F| {summary['force_abs_max_N']} N, "
                  f"sliding rms {summary['sliding_speed_rms_m_s'] * 1e3:.1f} mm/s "
-                 f"(finger {summary['finger_speed_rms_m_s'] * 1e3:.1f} mm/s) -> {out}")
+                 f"(finger {summary['finger_speed_rms_m_s'] * 1e3:.1f} mm/s)"
+                 + (f", {len(summary['button_presses'])} button presses" if res.buttons else "") + f" -> {out}")
 
 
 def run_cmd(
@@ -192,7 +194,9 @@ def run_cmd(
     if feedback is not None:
         fb = OscFeedback(*parse_osc_url(feedback, "--feedback"))
     pred = _predictor(predict, touch_latency_ms, k_pred, alpha, velocity_alpha)
-    eng = FFEngine(sc.effects, dev, pred, touch_latency=touch_latency_ms * 1e-3)
+    eng = FFEngine(sc.effects, dev, pred, touch_latency=touch_latency_ms * 1e-3, buttons=sc.buttons)
+    if fb is not None:
+        fb.engine = eng  # button press / release events
     loop = FFLoop(eng, backend, feedback=fb)
     if touch.startswith("trajectory:"):
         from surfhap.exchange.trajectory_csv import read_trajectory_csv

@@ -28,7 +28,9 @@ Page -> server messages (JSON text, one per pointer event)::
 
 Server -> page: ``{"type": "trace", ...}`` at ``trace_hz`` with the trace rows since the last
 frame, the newest acknowledged ``seq`` and its page time stamp (so the page can show the
-round trip) and, every few frames, the engine's counters and latency.
+round trip) and, every few frames, the engine's counters and latency; a force-feedback
+session adds the device position and force per trace point (``"ff"``, see
+:mod:`surfhap.live.ff_web`).
 """
 
 
@@ -121,10 +123,14 @@ class LiveSession:
     """An engine with its backend and touch sources, plus what the page shows."""
 
     def __init__(self, engine, backend, *, title: str = "", preview: dict | None = None,
-                 space: TouchSpace | None = None, sources: list | None = None, positions: str = "physical"):
+                 space: TouchSpace | None = None, sources: list | None = None, positions: str = "physical",
+                 ff: dict | None = None):
         """``positions``: "physical" maps page positions to metres through CSS pixels (a
         material: the finger speed is real); "surface" maps the page onto the whole touch
-        surface (a mesh: the shaded preview and the felt shape line up)."""
+        surface (a mesh: the shaded preview and the felt shape line up). ``ff``: the
+        force-feedback panel's description (:func:`surfhap.live.ff_web.ff_page_info`),
+        None for a texture or shape session."""
+        self.ff = ff
         self.engine = engine
         self.positions = positions
         self.backend = backend
@@ -178,7 +184,8 @@ class FrameBuilder:
             keep[:, 5] = np.maximum.reduceat(rows[:, 5], edges[:-1])
             rows = keep
         r = np.nan_to_num(rows, nan=0.0)
-        return ('"t":' + json.dumps(np.round(r[:, 0], 4).tolist()) + ',"v":' + json.dumps(np.round(r[:, 5], 2).tolist())
+        extra = getattr(eng, "frame_extra", None)  # the force-feedback panel's data, if any
+        return ('' if extra is None else extra(r) + ',') + ('"t":' + json.dumps(np.round(r[:, 0], 4).tolist()) + ',"v":' + json.dumps(np.round(r[:, 5], 2).tolist())
                 + ',"f":' + json.dumps(np.round(r[:, 7], 4).tolist()) + ',"target":' + json.dumps(np.round(r[:, 6], 4).tolist())
                 + ',"speed":' + json.dumps(np.round(r[:, 3], 4).tolist()))
 
@@ -384,7 +391,7 @@ def create_app(session, cfg: ServerConfig | None = None, *, frames: str = "local
         return JSONResponse({"title": session.title, "preview": session.preview, "drive_rate": eng.drive_rate,
                              "model_rate": eng.model_rate, "block_period": eng.block_period, "v_max": eng.v_max,
                              "surface_m": [session.space.width, session.space.height],
-                             "output": _safe_info(session.backend)})
+                             "output": _safe_info(session.backend), "ff": getattr(session, "ff", None)})
 
     @app.get("/api/status")
     async def status():

@@ -129,6 +129,7 @@ class _RemoteSession:
         self.title = info["title"]
         self.positions = info.get("positions", "physical")
         self.preview = info["preview"]
+        self.ff = info.get("ff")
         from surfhap.live.sources import TouchSpace
 
         self.space = TouchSpace(*info["space"])
@@ -234,7 +235,7 @@ class WebProcess:
         eng = s.engine
         info = {"drive_rate": eng.drive_rate, "model_rate": eng.model_rate, "block_period": eng.block_period,
                 "v_max": eng.v_max, "title": s.title, "preview": s.preview, "output": _safe_info(s.backend),
-                "positions": getattr(s, "positions", "physical"),
+                "positions": getattr(s, "positions", "physical"), "ff": getattr(s, "ff", None),
                 "space": (s.space.width, s.space.height, s.space.max_load, s.space.default_load)}
         self.bridge = TouchBridge(eng)
         self.bridge.start()
