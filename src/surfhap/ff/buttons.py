@@ -13,9 +13,11 @@ hysteresis, tick by tick, without allocating:
 * it is *released* when ``d < release_depth`` (release_depth < click_depth: the
   hysteresis band keeps a press from chattering on sensor noise or the roughness
   vibration), when the finger lifts or when it slides off the button (a cancelled press);
-* a button is armed by a touch that lands on it, or by ``d < release_depth`` while the
-  finger is on it, and disarmed by its press: a finger that slides onto a button with the
-  screen already pushed down does not click it, and one push gives one press.
+* a button is armed by a touch that lands on it, by a finger sliding onto it with
+  ``d < click_depth`` (the screen then sinks past the click depth: a press), or by
+  ``d < release_depth`` while the finger is on it, and disarmed by its press: a finger
+  that slides onto a button with the screen already past its click depth does not click
+  it, and one push gives one press.
 """
 
 from __future__ import annotations
@@ -90,8 +92,8 @@ class ButtonPresses:
                 self.events += 1
             self._cur = i
             # a fresh touch arms the button (the screen may already move under the landing
-            # finger); sliding onto it arms it only with the screen up
-            self.armed = i >= 0 and (landed or depth < self.buttons[i].release_depth)
+            # finger); sliding onto it arms it only while the screen is above its click depth
+            self.armed = i >= 0 and (landed or depth < self.buttons[i].click_depth)
             if not (self.armed and depth >= self.buttons[i].click_depth):
                 return -1
         if i < 0:
