@@ -118,3 +118,16 @@ def test_osc_feedback_sends_press_and_release():
     finally:
         rx.close()
     assert got == [[2, 1, "firm"], [2, 0, "firm"]]
+
+
+def test_ff_simulate_of_the_buttons_scene_shows_one_press_per_button(tmp_path, capsys):
+    from surfhap.cli import main
+
+    code = main(["ff", "simulate", "buttons", "--out", str(tmp_path), "--no-figures"])
+    out = capsys.readouterr().out
+    assert code == 0 and "4 button presses" in " ".join(out.split())
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert [p["button"] for p in summary["button_presses"]] == ["easy", "soft", "firm", "hard"]
+    z = np.load(tmp_path / "ff_simulation.npz")
+    assert z["button"].shape == z["t"].shape and list(z["buttons"]) == ["easy", "soft", "firm", "hard"]
+    assert set(np.unique(z["button"])) == {-1, 0, 1, 2, 3}

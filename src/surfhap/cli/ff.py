@@ -66,6 +66,21 @@ def _default_strokes(size):
                       name="strokes 0.5 Hz +-3 cm, 1 N")
 
 
+def _default_pushes(buttons):
+    """One push on the centre of each GUI button in turn: 0.8 s each, the load ramped
+    0 -> 1 N -> 0 (enough to click a button pushed 0.8 mm at up to ~1200 N/m), then lifted."""
+    import numpy as np
+
+    from surfhap.sim.trajectory import Trajectory
+
+    t = np.arange(0.0, 0.8 * len(buttons), 1e-3)
+    k = np.minimum((t // 0.8).astype(int), len(buttons) - 1)
+    load = np.interp(t % 0.8, [0.0, 0.05, 0.35, 0.65, 0.7, 0.8], [0.0, 0.05, 1.0, 0.05, 0.0, 0.0])
+    cx = np.array([(b.x0 + b.x1) / 2 for b in buttons])[k]
+    cy = np.array([(b.y0 + b.y1) / 2 for b in buttons])[k]
+    return Trajectory(t, cx, cy, load, name="one 1 N push per button")
+
+
 # Options shared by simulate and run
 _LAT = typer.Option(None, "--touch-latency-ms", help="Touch latency of the touch path, ms (default 40, the KinesTouch tablet's 'few dozens of ms'; 0 for a trajectory replay).")
 _PRED = typer.Option(True, "--predict/--no-predict", help="Compensate the touch latency by prediction (004 eq. 6-7).")
@@ -88,7 +103,7 @@ def scenes_cmd() -> None:
 
 def simulate_cmd(
     scene: str = typer.Argument(..., help="Built-in scene name (see 'surfhap ff scenes') or scene JSON file."),
-    trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Finger trajectory CSV (time s, x m, y m, load N) in content coordinates; default: 0.5 Hz strokes through the centre."),
+    trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Finger trajectory CSV (time s, x m, y m, load N) in content coordinates; default: 0.5 Hz strokes through the centre (a scene with GUI buttons: one push per button)."),
     out: Path = typer.Option(Path("ff-sim"), "--out", help="Output directory (NPZ, summary.json, figures)."),
     touch_rate: float = typer.Option(60.0, "--touch-rate", help="Touch report rate of the simulated tablet, Hz (paper: 60)."),
     mu: float = typer.Option(0.0, "--mu", help="Finger-screen Coulomb friction coefficient of the simulated finger (0 = none)."),
@@ -121,7 +136,7 @@ def simulate_cmd(
         if tr.duration > 600:
             raise ConfigError("longer than 600 s", source=str(trajectory), field="time")
     else:
-        tr = _default_strokes(sc.size)
+        tr = _default_pushes(sc.buttons) if sc.buttons else _default_strokes(sc.size)
     pred = _predictor(predict, touch_latency_ms, k_pred, alpha, velocity_alpha)
     lat = touch_latency_ms * 1e-3
     eng = FFEngine(sc.effects, dev, pred, touch_latency=lat, buttons=sc.buttons)
