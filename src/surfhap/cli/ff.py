@@ -171,7 +171,7 @@ def run_cmd(
     host: str = typer.Option("127.0.0.1", "--host", help="Address of the touch page (--touch web)."),
     port: int = typer.Option(8766, "--port", help="TCP port of the touch page (--touch web)."),
     trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Replay this trajectory CSV as the touch source (same as --touch trajectory:FILE)."),
-    feedback: Optional[str] = typer.Option(None, "--feedback", help="osc://HOST:PORT of the tablet: 60 Hz /surfhap/ff/screen, /offset, /force."),
+    feedback: Optional[str] = typer.Option(None, "--feedback", help="osc://HOST:PORT of the tablet: 60 Hz /surfhap/ff/screen, /offset, /force, and /button on GUI button presses."),
     duration: float = typer.Option(0.0, "--duration", help="Stop after this many seconds (0 = until Ctrl-C / SIGTERM)."),
     touch_latency_ms: Optional[float] = _LAT, predict: bool = _PRED, k_pred: Optional[float] = _KPRED,
     alpha: float = _ALPHA, velocity_alpha: float = _VALPHA, gain: Optional[float] = _GAIN,
@@ -269,7 +269,9 @@ def run_cmd(
 
 
 class _WebSource:
-    """The touch page (its own process) feeding the loop; the page's trace shows |F|."""
+    """The touch page (its own process) feeding the loop; the page's trace shows |F| and its
+    force-feedback panel the device position, the force vector, the active effects and the
+    pressed button."""
 
     def __init__(self, scene, loop, dev, host: str, port: int):
         from surfhap.live.ff_web import build_ff_session
