@@ -133,6 +133,7 @@ def test_ff_page_panel_shows_device_position_force_and_button_press():
     loop.start()
     w, h = sc.size
     easy = sc.buttons[0]
+    weight = FALCON.moving_mass * 9.81  # N
     samples = []
 
     def panel(page):
@@ -151,6 +152,8 @@ def test_ff_page_panel_shows_device_position_force_and_button_press():
                 page = browser.new_page(viewport={"width": 900, "height": 800})
                 page.goto(srv.url + "/", timeout=PATIENCE_MS)
                 _poll(page, "window.surfhap && window.surfhap.open && window.surfhap.ff && window.surfhap.ff.frames > 5")
+                # untouched, once the start-up transient has settled: the weight compensation alone
+                _poll(page, f"Math.abs(Number(document.getElementById('ff-fz').dataset.n) - {weight}) < 0.2")
                 idle = panel(page)
                 box = page.locator("#surface").bounding_box()
                 y = box["y"] + box["height"] * (easy.y0 + easy.y1) / 2 / h
@@ -181,7 +184,6 @@ def test_ff_page_panel_shows_device_position_force_and_button_press():
     assert loop.error is None and not idle["hidden"]
     pos = np.array([json.loads(s["pos"]) for s in samples])
     fz = np.array([float(s["fz"]) for s in samples])
-    weight = FALCON.moving_mass * 9.81
     assert pos.shape == (60, 3)
     assert abs(float(idle["fz"]) - weight) < 0.2  # untouched: the weight compensation alone, N
     assert np.ptp(pos[:, 2]) > 0.5e-3, "the device position did not move under the finger"

@@ -185,7 +185,8 @@ class FrameBuilder:
             rows = keep
         r = np.nan_to_num(rows, nan=0.0)
         extra = getattr(eng, "frame_extra", None)  # the force-feedback panel's data, if any
-        return ('' if extra is None else extra(r) + ',') + ('"t":' + json.dumps(np.round(r[:, 0], 4).tolist()) + ',"v":' + json.dumps(np.round(r[:, 5], 2).tolist())
+        return (("" if extra is None else extra(r) + ",")
+                + '"t":' + json.dumps(np.round(r[:, 0], 4).tolist()) + ',"v":' + json.dumps(np.round(r[:, 5], 2).tolist())
                 + ',"f":' + json.dumps(np.round(r[:, 7], 4).tolist()) + ',"target":' + json.dumps(np.round(r[:, 6], 4).tolist())
                 + ',"speed":' + json.dumps(np.round(r[:, 3], 4).tolist()))
 
