@@ -160,13 +160,15 @@ def test_ff_page_panel_shows_device_position_force_and_button_press():
                 x_easy = box["x"] + box["width"] * (easy.x0 + easy.x1) / 2 / w
                 page.mouse.move(box["x"] + 0.02 * box["width"], y)
                 page.mouse.down()
-                for i in range(60):  # drag along the row of buttons and back onto the easy one
+                for i in range(60):  # drag along the row of buttons and back
                     f = i / 59
                     x = box["x"] + box["width"] * (0.02 + 0.9 * (1 - abs(2 * f - 1)))
                     page.mouse.move(x, y)
                     page.wait_for_timeout(25)
                     samples.append(panel(page))
+                page.mouse.up()  # lift, then push on the easy button (a landing touch arms it)
                 page.mouse.move(x_easy, y)
+                page.mouse.down()
                 _poll(page, "document.getElementById('ff-button').dataset.index === '0'")
                 pressed = panel(page)
                 _poll(page, "JSON.parse(document.getElementById('ff-pos').dataset.m)[2] < -3e-3")
