@@ -25,10 +25,10 @@ def _ff_session(scene="buttons"):
     eng = FFEngine(sc.effects, FALCON, TouchPredictor(), touch_latency=0.0, buttons=sc.buttons)
     loop = FFLoop(eng, SimDeviceBackend(SimDevice(gain=FALCON.gain), FALCON.gain))
     session = build_ff_session(sc, loop, max(FALCON.f_max))
-    log = {}  # the loop's own feedback samples: rounded t -> (p (3,) m, F (3,) N)
+    log = []  # the loop's own feedback samples: (t s, p (3,) m, F (3,) N)
 
     def feedback(t, px, py, pz, dx, dy, fx, fy, fz):
-        log[round(t, 4)] = (np.array([px, py, pz]), np.array([fx, fy, fz]))
+        log.append((t, np.array([px, py, pz]), np.array([fx, fy, fz])))
         session.engine.record(t, px, py, pz, fx, fy, fz)
 
     loop.feedback = feedback
@@ -94,6 +94,7 @@ def test_ff_stream_carries_the_loops_position_and_force():
     assert ff["workspace_m"] == list(FALCON.workspace) and ff["f_max_n"] == list(FALCON.f_max)
     assert ff["effects"] == ["stiffness"] and ff["buttons"] == ["easy", "soft", "firm", "hard"]
 
+    log_t = np.array([q[0] for q in log])  # the page's t is rounded to 0.1 ms
     matched = 0
     pts = []  # (touching, p, F, mask, button) per trace point
     for touching, m in frames:
@@ -103,9 +104,10 @@ def test_ff_stream_carries_the_loops_position_and_force():
         for i in range(n):
             p, F = np.array(d["p"][i]), np.array(d["F"][i])
             assert p.shape == (3,) and F.shape == (3,)
-            ref = log.get(round(m["t"][i], 4))
-            assert ref is not None, "a trace point the loop never produced"
-            assert np.allclose(p, ref[0], atol=1e-6, rtol=0) and np.allclose(F, ref[1], atol=1e-4, rtol=0)
+            near = np.nonzero(np.abs(log_t - m["t"][i]) <= 1e-4)[0]  # more than one if the thread ran late
+            assert near.size, "a trace point the loop never produced"
+            assert any(np.allclose(p, log[j][1], atol=1e-6, rtol=0) and np.allclose(F, log[j][2], atol=1e-4, rtol=0)
+                       for j in near), (p, F, [log[j] for j in near])
             matched += 1
             pts.append((touching, p, F, d["mask"][i], d["button"][i]))
     assert matched >= 60
