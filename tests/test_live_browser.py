@@ -8,6 +8,7 @@ import os
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from playwright.sync_api import sync_playwright
 
@@ -97,3 +98,107 @@ def test_drag_on_page_drives_engine_and_draws_trace():
     assert lit > 50, "the trace canvas shows no drive curve"
     assert "ms" in latency_text
     assert (ARTIFACTS / "live_page.png").stat().st_size > 1000
+
+
+def _poll(page, expr: str) -> None:
+    """Wait (bounded by PATIENCE_MS) until the JS expression is true, evaluated through the
+    DevTools protocol: the page's Content-Security-Policy forbids the eval that
+    ``wait_for_function`` uses once its first check fails."""
+    for _ in range(PATIENCE_MS // 50):
+        if page.evaluate(f"() => !!({expr})"):
+            return
+        page.wait_for_timeout(50)
+    raise AssertionError(f"timed out waiting for {expr}")
+
+
+def test_ff_page_panel_shows_device_position_force_and_button_press():
+    """`ff run SCENE --touch web`: the page's force-feedback panel (values read from the DOM)
+    shows the force of the loop and a device position that moves under the dragging finger,
+    and the GUI button pressed under it."""
+    _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
+    import json
+
+    from surfhap.ff import FALCON, FFEngine
+    from surfhap.ff.scene import load_scene
+    from surfhap.live.ff_devices import SimDeviceBackend
+    from surfhap.live.ff_loop import FFLoop
+    from surfhap.live.ff_web import build_ff_session
+    from surfhap.live.prediction import TouchPredictor
+    from surfhap.live.app import create_app
+    from surfhap.live.config import ServerConfig
+    from surfhap.live.serverthread import ServerThread
+    from surfhap.sim.ff_device import SimDevice
+
+    sc = load_scene("buttons")
+    eng = FFEngine(sc.effects, FALCON, TouchPredictor(), touch_latency=0.0, buttons=sc.buttons)
+    loop = FFLoop(eng, SimDeviceBackend(SimDevice(gain=FALCON.gain), FALCON.gain))
+    session = build_ff_session(sc, loop, max(FALCON.f_max))
+    loop.feedback = lambda t, px, py, pz, dx, dy, fx, fy, fz: session.engine.record(t, px, py, pz, fx, fy, fz)
+    srv = ServerThread(create_app(session, ServerConfig(port=0)), port=0).start()
+    loop.start()
+    w, h = sc.size
+    easy = sc.buttons[0]
+    weight = FALCON.moving_mass * 9.81  # N
+    samples = []
+
+    def panel(page):
+        return page.evaluate("""() => ({pos: document.getElementById('ff-pos').dataset.m,
+            flat: document.getElementById('ff-flat').dataset.n, fz: document.getElementById('ff-fz').dataset.n,
+            posText: document.getElementById('ff-pos').textContent, fzText: document.getElementById('ff-fz').textContent,
+            effects: document.getElementById('ff-effects').textContent,
+            button: document.getElementById('ff-button').dataset.index,
+            buttonText: document.getElementById('ff-button').textContent,
+            hidden: document.getElementById('ffpanel').hidden})""")
+
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+            try:
+                page = browser.new_page(viewport={"width": 900, "height": 800})
+                page.goto(srv.url + "/", timeout=PATIENCE_MS)
+                _poll(page, "window.surfhap && window.surfhap.open && window.surfhap.ff && window.surfhap.ff.frames > 5")
+                # untouched, once the start-up transient has settled: the weight compensation alone
+                _poll(page, f"Math.abs(Number(document.getElementById('ff-fz').dataset.n) - {weight}) < 0.2")
+                idle = panel(page)
+                box = page.locator("#surface").bounding_box()
+                y = box["y"] + box["height"] * (easy.y0 + easy.y1) / 2 / h
+                x_easy = box["x"] + box["width"] * (easy.x0 + easy.x1) / 2 / w
+                page.mouse.move(box["x"] + 0.02 * box["width"], y)
+                page.mouse.down()
+                for i in range(60):  # drag along the row of buttons and back
+                    f = i / 59
+                    x = box["x"] + box["width"] * (0.02 + 0.9 * (1 - abs(2 * f - 1)))
+                    page.mouse.move(x, y)
+                    page.wait_for_timeout(25)
+                    samples.append(panel(page))
+                page.mouse.up()  # lift, then push on the easy button (a landing touch arms it)
+                page.mouse.move(x_easy, y)
+                page.mouse.down()
+                _poll(page, "document.getElementById('ff-button').dataset.index === '0'")
+                pressed = panel(page)
+                _poll(page, "JSON.parse(document.getElementById('ff-pos').dataset.m)[2] < -3e-3")
+                settled = panel(page)
+                ARTIFACTS.mkdir(exist_ok=True)
+                page.screenshot(path=str(ARTIFACTS / "ff_page.png"))
+                page.mouse.up()
+                _poll(page, "document.getElementById('ff-button').dataset.index === '-1'")
+                released = panel(page)
+            finally:
+                browser.close()
+    finally:
+        srv.stop()
+        loop.stop()
+    assert loop.error is None and not idle["hidden"]
+    pos = np.array([json.loads(s["pos"]) for s in samples])
+    fz = np.array([float(s["fz"]) for s in samples])
+    assert pos.shape == (60, 3)
+    assert abs(float(idle["fz"]) - weight) < 0.2  # untouched: the weight compensation alone, N
+    assert np.ptp(pos[:, 2]) > 0.5e-3, "the device position did not move under the finger"
+    assert np.min(pos[:, 2]) < -1e-3 and fz.max() > weight + 0.3, "no push on the screen shown"
+    assert np.all(np.abs(pos) <= np.array(FALCON.workspace) + 1e-3)
+    assert "mm" in pressed["posText"] and pressed["fzText"].endswith(" N")
+    assert pressed["effects"] == "stiffness" and pressed["buttonText"] == "easy PRESSED"
+    assert json.loads(pressed["pos"])[2] < -easy.click_depth + 1e-4  # pressed once pushed past the click depth
+    # 0.5 N on the 100 N/m button: about -5 mm, still pressed
+    assert json.loads(settled["pos"])[2] < -3e-3 and settled["buttonText"] == "easy PRESSED"
+    assert released["buttonText"] == "–"

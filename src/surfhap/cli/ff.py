@@ -66,6 +66,21 @@ def _default_strokes(size):
                       name="strokes 0.5 Hz +-3 cm, 1 N")
 
 
+def _default_pushes(buttons):
+    """One push on the centre of each GUI button in turn: 0.8 s each, the load ramped
+    0 -> 1 N -> 0 (enough to click a button pushed 0.8 mm at up to ~1200 N/m), then lifted."""
+    import numpy as np
+
+    from surfhap.sim.trajectory import Trajectory
+
+    t = np.arange(0.0, 0.8 * len(buttons), 1e-3)
+    k = np.minimum((t // 0.8).astype(int), len(buttons) - 1)
+    load = np.interp(t % 0.8, [0.0, 0.05, 0.35, 0.65, 0.7, 0.8], [0.0, 0.05, 1.0, 0.05, 0.0, 0.0])
+    cx = np.array([(b.x0 + b.x1) / 2 for b in buttons])[k]
+    cy = np.array([(b.y0 + b.y1) / 2 for b in buttons])[k]
+    return Trajectory(t, cx, cy, load, name="one 1 N push per button")
+
+
 # Options shared by simulate and run
 _LAT = typer.Option(None, "--touch-latency-ms", help="Touch latency of the touch path, ms (default 40, the KinesTouch tablet's 'few dozens of ms'; 0 for a trajectory replay).")
 _PRED = typer.Option(True, "--predict/--no-predict", help="Compensate the touch latency by prediction (004 eq. 6-7).")
@@ -88,7 +103,7 @@ def scenes_cmd() -> None:
 
 def simulate_cmd(
     scene: str = typer.Argument(..., help="Built-in scene name (see 'surfhap ff scenes') or scene JSON file."),
-    trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Finger trajectory CSV (time s, x m, y m, load N) in content coordinates; default: 0.5 Hz strokes through the centre."),
+    trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Finger trajectory CSV (time s, x m, y m, load N) in content coordinates; default: 0.5 Hz strokes through the centre (a scene with GUI buttons: one push per button)."),
     out: Path = typer.Option(Path("ff-sim"), "--out", help="Output directory (NPZ, summary.json, figures)."),
     touch_rate: float = typer.Option(60.0, "--touch-rate", help="Touch report rate of the simulated tablet, Hz (paper: 60)."),
     mu: float = typer.Option(0.0, "--mu", help="Finger-screen Coulomb friction coefficient of the simulated finger (0 = none)."),
@@ -121,16 +136,17 @@ def simulate_cmd(
         if tr.duration > 600:
             raise ConfigError("longer than 600 s", source=str(trajectory), field="time")
     else:
-        tr = _default_strokes(sc.size)
+        tr = _default_pushes(sc.buttons) if sc.buttons else _default_strokes(sc.size)
     pred = _predictor(predict, touch_latency_ms, k_pred, alpha, velocity_alpha)
     lat = touch_latency_ms * 1e-3
-    eng = FFEngine(sc.effects, dev, pred, touch_latency=lat)
+    eng = FFEngine(sc.effects, dev, pred, touch_latency=lat, buttons=sc.buttons)
     res = simulate_ff(eng, SimFinger(tr, touch_rate=touch_rate, latency=lat, mu=mu), SimDevice(gain=dev.gain),
                       name=f"{sc.name} / {tr.name}")
     out.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(out / "ff_simulation.npz", t=res.t, force=res.force, screen=res.screen, screen_v=res.screen_v,
                         finger=res.finger, finger_v=res.finger_v, sliding=res.sliding, finger_est=res.finger_est,
-                        touched=res.touched, mask=res.mask, load=res.load, effects=np.array(res.effects))
+                        touched=res.touched, mask=res.mask, load=res.load, effects=np.array(res.effects),
+                        button=res.button, buttons=np.array(res.buttons, dtype=str))
     summary = res.summary()
     summary.update(scene=sc.source, trajectory=str(trajectory) if trajectory else tr.name, device=dev.name,
                    gain=dev.gain, touch_latency_ms=touch_latency_ms, predict=predict,
@@ -143,7 +159,8 @@ def simulate_cmd(
         plot_ff_top_view(res, sc.picture_array(), sc.size).savefig(out / "ff_top_view.png", dpi=110)
     stdout.print(f"{sc.name}: {summary['ticks']} ticks, max |F| {summary['force_abs_max_N']} N, "
                  f"sliding rms {summary['sliding_speed_rms_m_s'] * 1e3:.1f} mm/s "
-                 f"(finger {summary['finger_speed_rms_m_s'] * 1e3:.1f} mm/s) -> {out}")
+                 f"(finger {summary['finger_speed_rms_m_s'] * 1e3:.1f} mm/s)"
+                 + (f", {len(summary['button_presses'])} button presses" if res.buttons else "") + f" -> {out}")
 
 
 def run_cmd(
@@ -154,7 +171,7 @@ def run_cmd(
     host: str = typer.Option("127.0.0.1", "--host", help="Address of the touch page (--touch web)."),
     port: int = typer.Option(8766, "--port", help="TCP port of the touch page (--touch web)."),
     trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Replay this trajectory CSV as the touch source (same as --touch trajectory:FILE)."),
-    feedback: Optional[str] = typer.Option(None, "--feedback", help="osc://HOST:PORT of the tablet: 60 Hz /surfhap/ff/screen, /offset, /force."),
+    feedback: Optional[str] = typer.Option(None, "--feedback", help="osc://HOST:PORT of the tablet: 60 Hz /surfhap/ff/screen, /offset, /force, and /button on GUI button presses."),
     duration: float = typer.Option(0.0, "--duration", help="Stop after this many seconds (0 = until Ctrl-C / SIGTERM)."),
     touch_latency_ms: Optional[float] = _LAT, predict: bool = _PRED, k_pred: Optional[float] = _KPRED,
     alpha: float = _ALPHA, velocity_alpha: float = _VALPHA, gain: Optional[float] = _GAIN,
@@ -192,7 +209,9 @@ def run_cmd(
     if feedback is not None:
         fb = OscFeedback(*parse_osc_url(feedback, "--feedback"))
     pred = _predictor(predict, touch_latency_ms, k_pred, alpha, velocity_alpha)
-    eng = FFEngine(sc.effects, dev, pred, touch_latency=touch_latency_ms * 1e-3)
+    eng = FFEngine(sc.effects, dev, pred, touch_latency=touch_latency_ms * 1e-3, buttons=sc.buttons)
+    if fb is not None:
+        fb.engine = eng  # button press / release events
     loop = FFLoop(eng, backend, feedback=fb)
     if touch.startswith("trajectory:"):
         from surfhap.exchange.trajectory_csv import read_trajectory_csv
@@ -250,7 +269,9 @@ def run_cmd(
 
 
 class _WebSource:
-    """The touch page (its own process) feeding the loop; the page's trace shows |F|."""
+    """The touch page (its own process) feeding the loop; the page's trace shows |F| and its
+    force-feedback panel the device position, the force vector, the active effects and the
+    pressed button."""
 
     def __init__(self, scene, loop, dev, host: str, port: int):
         from surfhap.live.ff_web import build_ff_session

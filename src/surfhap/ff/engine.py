@@ -25,6 +25,9 @@ attributes); it is passed in because this layer does not import the live package
 
 Watchdogs: no touch sample for ``touch_timeout`` (100 ms) -> untouched (Idle); no device
 position for ``device_timeout`` (10 ms) -> zero force (in the safety stage).
+
+Buttons: with a scene's GUI buttons the engine also reports, each tick, the button being
+pressed (``button``: index, -1 = none; :mod:`surfhap.ff.buttons`).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ import math
 
 import numpy as np
 
+from surfhap.ff.buttons import ButtonPresses
 from surfhap.ff.control import ControlLaw
 from surfhap.ff.effects import Effect, TickState
 from surfhap.ff.params import DeviceParams
@@ -56,11 +60,13 @@ class FFEngine:
                       predicted velocity per touch sample). CHOICE: 5 Hz, ten times the
                       0.5 Hz strokes of the paper's study (Sec. 5.2).
     max_extrapolate : s, longest extrapolation of the touch position between samples.
+    buttons         : GUI buttons (:class:`surfhap.ff.buttons.Button`) whose press events
+                      the engine tracks each tick (``button``, ``button_presses``).
     """
 
     def __init__(self, effects: list[Effect], device: DeviceParams, predictor, rate: float = 1000.0,
                  touch_latency: float = 0.0, velocity_cutoff: float = 100.0, accel_cutoff: float = 5.0,
-                 max_extrapolate: float = 0.05):
+                 max_extrapolate: float = 0.05, buttons=()):
         if not (math.isfinite(touch_latency) and 0.0 <= touch_latency <= 0.4):
             raise ValueError("touch_latency must be within 0-0.4 s")
         self.touch_latency = float(touch_latency)
@@ -80,10 +86,14 @@ class FFEngine:
         self._atau = 1.0 / (2.0 * math.pi * accel_cutoff)
         self.state = TickState()
         self.state.dt = self.dt
+        self.button_presses = ButtonPresses(buttons)
+        self.button = -1
         self.reset()
 
     def reset(self) -> None:
         self.law.reset()
+        self.button_presses.reset()
+        self.button = -1
         self.safety.reset()
         self.predictor.reset()
         s = self.state
@@ -184,6 +194,8 @@ class FFEngine:
             s.fvx = s.fvy = s.speed = 0.0
         s.touched = touched
         f0, f1, f2 = self.law.compute_xyz(s)
+        if self.button_presses.buttons:
+            self.button = self.button_presses.update(touched, s.fx, s.fy, s.pz)
         return self.safety.process_xyz(f0, f1, f2, t, t_pos, px, py, pz, self.stopping)
 
     # ----------------------------------------------------------------- outputs

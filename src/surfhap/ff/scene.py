@@ -10,7 +10,12 @@ A scene file is JSON (``"format": "surfhap-ff-scene", "schema_version": 1``)::
         {"type": "shape", "mesh": {"path": "suzanne", "size_m": 0.08, "height_m": 0.03}},
         {"type": "roughness", "depth": 2e-4, "period_m": 1.5e-3},
         {"type": "sliding", "alpha": 1.0, "nu": 20},
-        {"type": "attraction", "points": [{"x": 0.1, "y": 0.05, "radius": 0.02, "strength": 1.0}]}]}
+        {"type": "attraction", "points": [{"x": 0.1, "y": 0.05, "radius": 0.02, "strength": 1.0}]}],
+     "buttons": [{"name": "OK", "x0": 0.01, "y0": 0.05, "x1": 0.05, "y1": 0.09,
+                  "click_depth_m": 0.0015, "release_depth_m": 0.0008}]}
+
+``buttons`` (optional) are GUI buttons that emit press events when the screen is pushed
+past their click depth (:mod:`surfhap.ff.buttons`); their feel comes from the effects.
 
 A *map* (a number or an object) is a scalar field over the content rectangle
 ``[0, width] x [0, height]`` (touch coordinates, m; y grows downwards like the image rows):
@@ -36,6 +41,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field as PField, ValidationError, model_validator
 
 from surfhap.errors import SceneFormatError
+from surfhap.ff.buttons import Button
 from surfhap.ff.effects import Attraction, Effect, Roughness, Shape, Sliding, Stiffness
 from surfhap.ff.fields import ConstantField, Field, GridField, MeshHeightField, RectsField
 from surfhap.ff.params import DeviceParams
@@ -151,6 +157,28 @@ EffectSpec = Annotated[Union[StiffnessSpec, ShapeSpec, RoughnessSpec, SlidingSpe
                        PField(discriminator="type")]
 
 
+class ButtonSpec(BaseModel):
+    """A GUI button (press events, :mod:`surfhap.ff.buttons`): rectangle in m, click and
+    release depths of the screen's normal displacement in m."""
+
+    model_config = _STRICT
+    name: str = PField(min_length=1, max_length=64)
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    click_depth_m: float = PField(gt=0.0, le=0.05)
+    release_depth_m: float = PField(ge=0.0, le=0.05)
+
+    @model_validator(mode="after")
+    def _check(self):
+        if not (self.x1 > self.x0 and self.y1 > self.y0):
+            raise ValueError("a button needs x1 > x0 and y1 > y0")
+        if not self.release_depth_m < self.click_depth_m:
+            raise ValueError("release_depth_m must be below click_depth_m (hysteresis)")
+        return self
+
+
 class SceneSpec(BaseModel):
     """The JSON schema of a scene file (see the module docstring)."""
 
@@ -162,6 +190,7 @@ class SceneSpec(BaseModel):
     size_m: tuple[float, float]
     picture: MapSpec | None = None
     effects: list[EffectSpec] = PField(min_length=1, max_length=30)
+    buttons: list[ButtonSpec] = PField(default_factory=list, max_length=64)
     provenance: dict[str, str] = PField(default_factory=dict)
 
     @model_validator(mode="after")
@@ -187,6 +216,11 @@ class FFScene:
     @property
     def size(self) -> tuple[float, float]:
         return tuple(self.spec.size_m)
+
+    @property
+    def buttons(self) -> list[Button]:
+        """The scene's GUI buttons (press events), [] for none."""
+        return [Button(b.name, b.x0, b.y0, b.x1, b.y1, b.click_depth_m, b.release_depth_m) for b in self.spec.buttons]
 
     def picture_array(self, n: int = 200) -> np.ndarray:
         """(ny, nx) picture sampled for display (zeros if the scene has none)."""

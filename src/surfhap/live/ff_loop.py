@@ -198,14 +198,18 @@ class OscFeedback:
 
     Sends ``/surfhap/ff/screen x y z`` (m, device position), ``/surfhap/ff/offset dx dy``
     (m, shift the content by this to keep it still in the world) and
-    ``/surfhap/ff/force fx fy fz`` (N, after the safety stage).
+    ``/surfhap/ff/force fx fy fz`` (N, after the safety stage); with ``engine`` set (an
+    :class:`surfhap.ff.engine.FFEngine` with GUI buttons) also ``/surfhap/ff/button index
+    pressed name`` (int, 1 = pressed / 0 = released, str) once per press and per release.
     """
 
-    def __init__(self, host: str, port: int):
+    def __init__(self, host: str, port: int, engine=None):
         from pythonosc.udp_client import SimpleUDPClient
 
         self.client = SimpleUDPClient(host, int(port))
         self.sent = 0
+        self.engine = engine
+        self._button = -1
 
     def __call__(self, t, px, py, pz, dx, dy, fx, fy, fz) -> None:
         c = self.client
@@ -213,6 +217,15 @@ class OscFeedback:
             c.send_message("/surfhap/ff/screen", [px, py, pz])
             c.send_message("/surfhap/ff/offset", [dx, dy])
             c.send_message("/surfhap/ff/force", [fx, fy, fz])
+            eng = self.engine
+            b = -1 if eng is None else eng.button
+            if b != self._button:  # one message per transition (a release, then a press)
+                names = eng.button_presses.names
+                if self._button >= 0:
+                    c.send_message("/surfhap/ff/button", [self._button, 0, names[self._button]])
+                if b >= 0:
+                    c.send_message("/surfhap/ff/button", [b, 1, names[b]])
+                self._button = b
             self.sent += 1
         except OSError:
             pass

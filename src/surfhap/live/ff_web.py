@@ -7,6 +7,15 @@ so the page works unchanged: touches go into the haptic loop (page positions are
 onto the whole scene, ``positions="surface"``), the scene's picture is the preview, and the
 trace shows the finger speed and, in the drive slot, the magnitude of the force sent to the
 device in N (the scale's maximum is the force limit), sampled by the 60 Hz feedback thread.
+
+Force-feedback panel: every trace row also keeps the device (screen) position ``p`` (m,
+relative to the workspace centre X0), the force ``F`` sent to the device after the safety
+stage (N, device frame: x along the display's width, y along its height, z normal to it,
+positive towards the user), the active-effect mask and the pressed button. They travel to
+the page in each trace frame as ``"ff": {"p": [[x, y, z], ...], "F": [[fx, fy, fz], ...],
+"mask": [...], "button": [...]}`` (one entry per trace point, :meth:`FFWebEngine.frame_extra`);
+``/api/info`` carries the device's limits and the effect and button names under ``"ff"``
+(:func:`ff_page_info`). A texture or shape session has neither, and its page is unchanged.
 """
 
 from __future__ import annotations
@@ -16,9 +25,12 @@ import threading
 
 import numpy as np
 
-__all__ = ["FFWebEngine", "FFWebBackend", "build_ff_session"]
+__all__ = ["FFWebEngine", "FFWebBackend", "build_ff_session", "ff_page_info"]
 
-_TRACE_COLS = 8  # t, x, y, speed, load, |F| (in the page's drive slot), Fz, Fx
+# t, x, y, speed, load, |F| (in the page's drive slot), Fz, Fx, then for the ff panel:
+# px, py, pz (m), Fx, Fy, Fz (N), active-effect mask, pressed button (index, -1 = none)
+_TRACE_COLS = 16
+_P, _F, _MASK, _BUTTON = slice(8, 11), slice(11, 14), 14, 15
 
 
 class FFWebEngine:
@@ -41,14 +53,27 @@ class FFWebEngine:
     def warm_up(self) -> None:
         """Nothing to compile: the force-feedback engine is plain Python."""
 
-    def record(self, t, px, py, pz, fx, fy, fz) -> None:
-        """One trace row (called by the feedback thread)."""
-        st = self.loop.engine.state
+    def record(self, t, px, py, pz, fx, fy, fz, mask: int | None = None, button: int | None = None) -> None:
+        """One trace row (called by the feedback thread): device position px, py, pz (m) and
+        safe force fx, fy, fz (N) of one haptic tick; ``mask`` / ``button`` default to the
+        engine's last tick."""
+        eng = self.loop.engine
+        st = eng.state
+        if mask is None:
+            mask = eng.mask
+        if button is None:
+            button = getattr(eng, "button", -1)
         with self._lock:
             row = self.trace[self.trace_count & (self.trace.shape[0] - 1)]
             row[:] = (t, st.fx, st.fy, st.speed, st.load if st.touched else 0.0, math.sqrt(fx * fx + fy * fy + fz * fz),
-                      fz, fx)
+                      fz, fx, px, py, pz, fx, fy, fz, mask, button)
             self.trace_count += 1
+
+    def frame_extra(self, rows: np.ndarray) -> dict:
+        """The ff panel's part of a trace frame for these binned (n, 16) trace rows:
+        ``{"p": (n, 3) m, "F": (n, 3) N, "mask": (n,) int, "button": (n,) int}`` as lists."""
+        return {"p": np.round(rows[:, _P], 6).tolist(), "F": np.round(rows[:, _F], 4).tolist(),
+                "mask": rows[:, _MASK].astype(int).tolist(), "button": rows[:, _BUTTON].astype(int).tolist()}
 
     def trace_since(self, index: int, limit: int | None = None):
         with self._lock:
@@ -103,4 +128,14 @@ def build_ff_session(scene, loop, f_max: float):
     w, h = scene.size
     eng = FFWebEngine(loop, f_max)
     return LiveSession(eng, FFWebBackend(loop), title=f"ff: {scene.name}", preview=preview,
-                       space=TouchSpace(width=w, height=h), positions="surface")
+                       space=TouchSpace(width=w, height=h), positions="surface", ff=ff_page_info(scene, loop))
+
+
+def ff_page_info(scene, loop) -> dict:
+    """What the page's force-feedback panel needs once (JSON-ready): the device's workspace
+    half-sizes (m) and force limits (N) per axis, the effect names by mask bit and the
+    button names by index."""
+    dev = loop.engine.device
+    return {"device": dev.name, "workspace_m": list(dev.workspace), "f_max_n": list(dev.f_max),
+            "effects": [e.name for e in loop.engine.law.effects],
+            "buttons": [b.name for b in getattr(scene, "buttons", ())]}

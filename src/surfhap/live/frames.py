@@ -12,22 +12,28 @@ import numpy as np
 
 from surfhap.live.session import backend_info
 
-__all__ = ["FrameBuilder", "pack_rows"]
+__all__ = ["FrameBuilder", "bin_rows", "pack_rows"]
 
 # trace columns of the engine (LiveEngine.trace): t, x, y, speed, load, drive V, target, friction
 _COLUMNS = (("t", 0, 4), ("v", 5, 2), ("f", 7, 4), ("target", 6, 4), ("speed", 3, 4))  # key, column, decimals
 
 
-def pack_rows(rows: np.ndarray, points: int) -> dict:
-    """A frame of trace ``rows`` (``(n, 8) float``, see ``LiveEngine.trace``): binned to at
-    most ``points`` rows (each bin: its last row, with the bin's peak drive voltage), NaN as 0,
-    rounded; ``{"t": s, "v": V, "f": N, "target": N, "speed": m/s}``, lists of equal length."""
+def bin_rows(rows: np.ndarray, points: int) -> np.ndarray:
+    """Trace ``rows`` (``(n, c) float``, c >= 8, see ``LiveEngine.trace``) binned to at most
+    ``points`` rows (each bin: its last row, with the bin's peak drive voltage), NaN and
+    infinities as 0: ``(m, c) float``, m <= points."""
     if rows.shape[0] > points:
         edges = np.linspace(0, rows.shape[0], points + 1).astype(int)
         keep = rows[edges[1:] - 1].copy()
         keep[:, 5] = np.maximum.reduceat(rows[:, 5], edges[:-1])
         rows = keep
-    r = np.nan_to_num(rows, nan=0.0, posinf=0.0, neginf=0.0)
+    return np.nan_to_num(rows, nan=0.0, posinf=0.0, neginf=0.0)
+
+
+def pack_rows(rows: np.ndarray, points: int) -> dict:
+    """A frame of trace ``rows`` (:func:`bin_rows`), rounded:
+    ``{"t": s, "v": V, "f": N, "target": N, "speed": m/s}``, lists of equal length."""
+    r = bin_rows(rows, points)
     return {key: np.round(r[:, col], dec).tolist() for key, col, dec in _COLUMNS}
 
 
@@ -39,10 +45,16 @@ class FrameBuilder:
         self._idx = 0
 
     def frame(self) -> dict:
-        """The next frame (:func:`pack_rows`); at most half the trace ring per call."""
+        """The next frame (:func:`pack_rows`); at most half the trace ring per call. An engine
+        with a ``frame_extra(rows)`` method (the force-feedback view,
+        :class:`surfhap.live.ff_web.FFWebEngine`) adds its part under ``"ff"``."""
         eng = self.engine
         rows, self._idx = eng.trace_since(self._idx, limit=eng.trace.shape[0] // 2)
-        return pack_rows(rows, self.points)
+        frame = pack_rows(rows, self.points)
+        extra = getattr(eng, "frame_extra", None)
+        if extra is not None:
+            frame["ff"] = extra(bin_rows(rows, self.points))
+        return frame
 
     def status(self) -> dict:
         """``engine.status()`` with the output backend's info under ``"output"``."""

@@ -48,17 +48,22 @@ def page_info(session) -> dict:
     eng = session.engine
     return {"title": session.title, "preview": session.preview, "drive_rate": eng.drive_rate,
             "model_rate": eng.model_rate, "block_period": eng.block_period, "v_max": eng.v_max,
-            "surface_m": [session.space.width, session.space.height], "output": backend_info(session.backend)}
+            "surface_m": [session.space.width, session.space.height], "output": backend_info(session.backend),
+            "ff": getattr(session, "ff", None)}
 
 
 class LiveSession:
     """An engine with its backend and touch sources, plus what the page shows."""
 
     def __init__(self, engine, backend, *, title: str = "", preview: dict | None = None,
-                 space: TouchSpace | None = None, sources: list | None = None, positions: str = "physical"):
+                 space: TouchSpace | None = None, sources: list | None = None, positions: str = "physical",
+                 ff: dict | None = None):
         """``positions``: "physical" maps page positions to metres through CSS pixels (a
         material: the finger speed is real); "surface" maps the page onto the whole touch
-        surface (a mesh: the shaded preview and the felt shape line up)."""
+        surface (a mesh: the shaded preview and the felt shape line up). ``ff``: the
+        force-feedback panel's description (:func:`surfhap.live.ff_web.ff_page_info`),
+        None for a texture or shape session."""
+        self.ff = ff
         self.engine = engine
         self.positions = positions
         self.backend = backend

@@ -36,6 +36,16 @@ def plot_ff_result(result, fig: Figure | None = None) -> Figure:
     axs[3].fill_between(t, -0.9, -0.9 + 0.8 * (result.mask == 0), step="post", color="0.6", lw=0)
     axs[3].set_yticks(np.arange(-1, len(names)) + 0.5, ["idle", *names])
     axs[3].set(xlabel="time (s)", title="active effects", ylim=(-1, max(1, len(names))))
+    bt = getattr(result, "button", None)
+    if bt is not None and getattr(result, "buttons", None):  # GUI button presses: shaded spans, named
+        down = bt >= 0
+        axs[3].set_title("active effects; GUI button presses shaded")
+        for ax in axs[:2]:
+            ax.fill_between(t, 0, 1, where=down, step="post", color="C2", alpha=0.15, lw=0,
+                            transform=ax.get_xaxis_transform())
+        for ts, name in result.presses():
+            axs[1].annotate(f"press {name}", (ts - result.t[0], 1.0), xycoords=("data", "axes fraction"),
+                            fontsize=8, color="C2", va="top", rotation=90)
     for ax in axs[:3]:
         ax.legend(loc="upper right", fontsize=8)
         ax.grid(alpha=0.3)

@@ -25,7 +25,8 @@ class FFSimResult:
     m/s (X_t relative to X0); finger (n, 2) m and finger_v (n, 2) m/s in the world;
     sliding (n, 2) m/s finger velocity relative to the screen; finger_est (n, 2) m the
     engine's estimate of the finger's world position; touched (n,) bool; mask (n,) int
-    (bit i = effect i active); load (n,) N; effects: effect names by bit.
+    (bit i = effect i active); load (n,) N; effects: effect names by bit; button (n,) int
+    the GUI button being pressed (-1 = none) and buttons: button names by index.
     """
 
     t: np.ndarray
@@ -41,6 +42,15 @@ class FFSimResult:
     load: np.ndarray
     effects: list[str] = field(default_factory=list)
     name: str = "ff simulation"
+    button: np.ndarray | None = None
+    buttons: list[str] = field(default_factory=list)
+
+    def presses(self) -> list[tuple[float, str]]:
+        """(time s, button name) of every press event."""
+        if self.button is None or not self.buttons:
+            return []
+        idx = np.nonzero((self.button >= 0) & (np.diff(self.button, prepend=-1) != 0))[0]
+        return [(float(self.t[i]), self.buttons[int(self.button[i])]) for i in idx]
 
     def switches(self) -> list[tuple[float, list[str]]]:
         """(time s, active effect names) at every change of the active set ([] = idle)."""
@@ -63,6 +73,8 @@ class FFSimResult:
             "sliding_speed_rms_m_s": rms(slide[touch]),
             "switches": len(self.switches()),
             "effects": list(self.effects),
+            **({"button_presses": [{"t_s": round(t, 4), "button": b} for t, b in self.presses()]}
+               if self.buttons else {}),
         }
 
     def plot(self, fig=None):
@@ -91,6 +103,7 @@ def simulate_ff(engine, finger: SimFinger, device: SimDevice, settle: float = 0.
         rec[k] = np.zeros((n, 2))
     touched = np.zeros(n, dtype=bool)
     mask = np.zeros(n, dtype=np.int64)
+    button = np.full(n, -1, dtype=np.int64)
     load = np.zeros(n)
     gain = engine.device.gain
     cmd = np.zeros(3)
@@ -115,7 +128,9 @@ def simulate_ff(engine, finger: SimFinger, device: SimDevice, settle: float = 0.
         rec["finger_est"][k] = (st.fx, st.fy)
         touched[k] = st.touched
         mask[k] = engine.mask
+        button[k] = engine.button
         load[k] = finger.load(tk)
         device.step(cmd, finger.force_on_screen(tk, device.v))
     return FFSimResult(t, rec["force"], rec["screen"], rec["screen_v"], rec["finger"], rec["finger_v"], rec["sliding"],
-                       rec["finger_est"], touched, mask, load, [e.name for e in engine.law.effects], name)
+                       rec["finger_est"], touched, mask, load, [e.name for e in engine.law.effects], name,
+                       button, engine.button_presses.names)

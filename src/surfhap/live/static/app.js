@@ -99,6 +99,84 @@
     stats.tracePointsDrawn += n;
   }
 
+  // ---- force-feedback panel (surfhap ff run SCENE --touch web) ----------------------------
+  // info.ff: device workspace half-sizes (m) and force limits (N) per axis, effect names by
+  // mask bit, button names; each trace frame's m.ff: p (n, 3) m, F (n, 3) N, mask, button.
+  const ffview = $("ffview");
+  let ff = null;
+  function ffSetup(desc) {
+    ff = desc;
+    stats.ff = { frames: 0, p: null, F: null, mask: 0, button: -1, presses: 0 };
+    $("ffpanel").hidden = false;
+    $("leg-v").textContent = "■ |F| sent to the device (N)"; $("leg-f").textContent = "■ Fx (N)";
+    $("lat-h").textContent = "haptic tick error (p50 / p99)"; $("blocks-h").textContent = "ticks (missed)";
+    $("runs-h").textContent = "touches dropped"; $("safety-h").textContent = "safety (clamped / slew / device lost / workspace)";
+    ffDraw();
+  }
+  const mm = (v) => (1e3 * v).toFixed(2);
+  function ffStatus(s) {
+    const pe = s.period_error_ms || {}, sf = s.safety || {};
+    $("lat").textContent = `${(pe.p50 || 0).toFixed(3)} / ${(pe.p99 || 0).toFixed(3)} ms`;
+    $("blocks").textContent = `${s.ticks} (${s.missed})`;
+    $("runs").textContent = String(s.touches_dropped);
+    $("safety").textContent = `${sf.clamped} / ${sf.slew_limited} / ${sf.device_lost} / ${sf.workspace}`;
+    $("sat").textContent = "–";
+    $("output").textContent = s.error ? `FAILED: ${s.error}` : (s.output ? s.output.name : "–");
+  }
+  function onFF(d) {
+    const n = d.p.length; if (!n || !ff) return;
+    const p = d.p[n - 1], F = d.F[n - 1], mask = d.mask[n - 1], b = d.button[n - 1], st = stats.ff;
+    for (let i = 0; i < n; i++) if (d.button[i] >= 0 && (i ? d.button[i - 1] : st.button) !== d.button[i]) st.presses++;
+    Object.assign(st, { p: p, F: F, mask: mask, button: b }); st.frames++;
+    const pos = $("ff-pos"), flat = $("ff-flat"), fz = $("ff-fz"), fabs = $("ff-fabs");
+    pos.textContent = `${mm(p[0])}, ${mm(p[1])}, ${mm(p[2])} mm`; pos.dataset.m = JSON.stringify(p);
+    flat.textContent = `${F[0].toFixed(3)}, ${F[1].toFixed(3)} N`; flat.dataset.n = JSON.stringify([F[0], F[1]]);
+    fz.textContent = `${F[2].toFixed(3)} N`; fz.dataset.n = String(F[2]);
+    fabs.textContent = `${Math.hypot(F[0], F[1], F[2]).toFixed(3)} N`;
+    const names = ff.effects.filter((_, i) => (mask >> i) & 1);
+    $("ff-effects").textContent = names.length ? names.join(", ") : "idle"; $("ff-effects").dataset.mask = String(mask);
+    const bt = $("ff-button");
+    bt.textContent = b >= 0 ? `${ff.buttons[b] || b} PRESSED` : (ff.buttons.length ? "–" : "no buttons in this scene");
+    bt.className = b >= 0 ? "pressed" : ""; bt.dataset.index = String(b); bt.dataset.presses = String(st.presses);
+    ffDraw();
+  }
+  function ffDraw() {
+    if (!ff) return;
+    fit(ffview);
+    const g = ffview.getContext("2d"), W = ffview.width, H = ffview.height, d = window.devicePixelRatio || 1;
+    const st = stats.ff, p = st.p || [0, 0, 0], F = st.F || [0, 0, 0];
+    const [wx, wy, wz] = ff.workspace_m, [fxm, fym, fzm] = ff.f_max_n;
+    g.fillStyle = "#0d0e10"; g.fillRect(0, 0, W, H);
+    g.font = `${10 * d}px system-ui`; g.lineWidth = 1.5 * d;
+    // top view: the workspace box (x right, y down as on the screen), the device and F lateral
+    const m = 14 * d, side = H - 2 * m, sx = side / (2 * wx), sy = side / (2 * wy), cx = m + side / 2, cy = m + side / 2;
+    g.strokeStyle = "#3a3f47"; g.strokeRect(m, m, side, side);
+    g.beginPath(); g.moveTo(cx, m); g.lineTo(cx, m + side); g.moveTo(m, cy); g.lineTo(m + side, cy); g.stroke();
+    const dx = cx + Math.max(-wx, Math.min(wx, p[0])) * sx, dy = cy + Math.max(-wy, Math.min(wy, p[1])) * sy;
+    g.fillStyle = "#f0c040"; g.beginPath(); g.arc(dx, dy, 4 * d, 0, 2 * Math.PI); g.fill();
+    const ax = dx + (F[0] / fxm) * side / 2, ay = dy + (F[1] / fym) * side / 2;
+    g.strokeStyle = "#60b0f0"; g.beginPath(); g.moveTo(dx, dy); g.lineTo(ax, ay); g.stroke();
+    const ang = Math.atan2(ay - dy, ax - dx), hl = 6 * d;
+    if (Math.hypot(ax - dx, ay - dy) > 2 * d) {
+      g.beginPath(); g.moveTo(ax, ay); g.lineTo(ax - hl * Math.cos(ang - 0.4), ay - hl * Math.sin(ang - 0.4));
+      g.lineTo(ax - hl * Math.cos(ang + 0.4), ay - hl * Math.sin(ang + 0.4)); g.closePath(); g.fillStyle = "#60b0f0"; g.fill();
+    }
+    g.fillStyle = "#9aa0a8";
+    g.fillText(`top view ±${mm(wx)} × ±${mm(wy)} mm, arrow: F lateral (±${fxm} N)`, m, m - 3 * d);
+    // z bar (device height, up = towards the user) and Fz bar (normal force)
+    const bar = (x, v, vmax, color, label) => {
+      const h = side, y0 = m + h / 2, v1 = Math.max(-vmax, Math.min(vmax, v));
+      g.strokeStyle = "#3a3f47"; g.strokeRect(x, m, 14 * d, h);
+      g.fillStyle = color; const hh = -(v1 / vmax) * h / 2;
+      g.fillRect(x, Math.min(y0, y0 + hh), 14 * d, Math.max(1, Math.abs(hh)));
+      g.fillStyle = "#9aa0a8"; g.fillText(label, x - 2 * d, m + h + 11 * d);
+    };
+    const bx = m + side + 18 * d;
+    bar(bx, p[2], wz, "#f0c040", "z"); bar(bx + 34 * d, F[2], fzm, "#60b0f0", "Fz");
+    g.fillStyle = "#9aa0a8";
+    g.fillText(`z ±${mm(wz)} mm`, bx + 70 * d, m + 10 * d); g.fillText(`Fz ±${fzm} N`, bx + 70 * d, m + 24 * d);
+  }
+
   const ms = (s) => (s == null ? "–" : (1e3 * s).toFixed(2) + " ms");
   function onTrace(m) {
     stats.traceFrames++;
@@ -116,7 +194,9 @@
     $("sent").textContent = `${stats.sent} / ${m.received}`;
     $("rej").textContent = String(m.rejected);
     $("rtt").textContent = ms(stats.lastRtt);
-    if (m.status) {
+    if (m.ff) onFF(m.ff);
+    if (m.status && m.status.period_error_ms) ffStatus(m.status);
+    else if (m.status) {
       const s = m.status, c = s.counters, sf = s.safety;
       $("lat").textContent = `p50 ${ms(s.latency.p50)}, p99 ${ms(s.latency.p99)}`;
       $("blocks").textContent = `${c.blocks} × ${(s.block_period * 1e3).toFixed(2)} ms`;
@@ -152,9 +232,10 @@
 
   fetch("/api/info").then((r) => r.json()).then((j) => {
     info = j; $("title").textContent = `surfhap live — ${j.title}`;
+    if (j.ff) ffSetup(j.ff);
     preview = makePreview(j.preview); drawSurface();
   });
-  window.addEventListener("resize", () => { drawSurface(); hello(); });
+  window.addEventListener("resize", () => { drawSurface(); ffDraw(); hello(); });
   drawSurface();
   connect();
 })();
