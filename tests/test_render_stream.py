@@ -197,3 +197,13 @@ def test_interrupt_leaves_a_valid_file_and_says_so(tmp_path, sig):
 
     wav, rate = soundfile.read(out / "drive.wav", dtype="float32")
     assert rate == 20000 and wav.size == data["drive"].size
+
+
+def test_drive_beyond_the_amplifier_gain_stops_with_one_line_and_no_partial_files(tmp_path, capsys):
+    out = tmp_path / "o"
+    code = main(["render", "cork", "--scan", "speed=0.1,load=0.3,duration=3", "--amp-gain", "20", "--format", "h5",
+                 "--out", str(out)])
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.strip().splitlines() if ln.strip()]
+    assert code == 2 and len(lines) == 1 and "amp_gain" in lines[0], err
+    assert not (out / "render.h5").exists() and not (out / "drive.wav").exists() and not (out / "summary.json").exists()

@@ -64,7 +64,7 @@ def render_to_dir(material, trajectory, config, out: Path, *, fmt: str = "auto",
     out = Path(out)
     probe = TextureChain(material, config)  # validates the settings before any file is created
     out.mkdir(parents=True, exist_ok=True)
-    gain = float(amp_gain) if amp_gain is not None else float(config.limits.v_max)
+    gain = float(amp_gain) if amp_gain is not None else float(probe.config.limits.v_max)
     wav = DriveWavWriter(out / "drive.wav", probe.drive_rate, gain)
     quantity = material.texture.quantity if probe.law.uses_texture else None
     writer = open_render_writer(out, fmt, render_file_spec(probe.model_rate, probe.drive_rate, quantity))
