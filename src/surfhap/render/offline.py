@@ -3,7 +3,9 @@
 ``render(material, trajectory)`` is the one-call convenience; it runs exactly the processors
 that live rendering runs (:class:`~surfhap.render.chain.TextureChain`), in blocks, on a
 simulated clock, and returns a :class:`RenderResult` with named arrays, a summary and
-``.plot()``. Writing files is :func:`surfhap.exchange.render_files.write_render`.
+``.plot()``. Writing files is :func:`surfhap.exchange.render_files.write_render`. For renders
+too long to hold in memory, :func:`surfhap.render.stream.stream_render` runs the same blocks
+into a sink (what ``surfhap render`` does).
 """
 
 from __future__ import annotations
