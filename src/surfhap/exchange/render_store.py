@@ -131,6 +131,8 @@ class H5Writer(_Writer):
             ds[n0:n0 + k] = self._buf[channel][:k]
             self._size[channel] = n0 + k
             self._fill[channel] = 0
+            if channel == "drive":  # every ~3 s at 20 kHz: metadata on disk, so even a hard kill
+                self._f.flush()     # leaves a file readable up to here ("complete" stays false)
 
     def close(self, attrs):
         for name in self._sets:
