@@ -7,6 +7,7 @@ import pytest
 from scipy.io import wavfile
 
 from surfhap.cli import main
+from surfhap.exchange.render_store import read_render
 
 
 def run(capsys, *args):
@@ -19,7 +20,7 @@ def test_render_writes_the_promised_files(tmp_path, capsys):
     out = tmp_path / "r"
     code, stdout, err = run(capsys, "render", "leather", "--scan", "speed=0.1,load=0.3,duration=1.5", "--out", str(out), "--seed", "4")
     assert code == 0, err
-    data = np.load(out / "render.npz")
+    data = read_render(out / "render.npz")
     for key in ("t", "speed", "load", "mu_low", "mu_tex", "voltage", "t_drive", "drive", "friction_sim", "acc"):
         assert key in data, key
     summary = json.loads((out / "summary.json").read_text())

@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+import signal
+import threading
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Optional
 
 import typer
 
-from surfhap.cli._common import parse_key_values, progress_bar, stderr, stdout
+from surfhap.cli._common import error_line, parse_key_values, progress_bar, stderr, stdout
 from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, LOAD_RANGE_HELP, SPEED_RANGE_HELP, resolve_display_and_range
 from surfhap.errors import ConfigError
 
-__all__ = ["register", "trajectory_from_options"]
+__all__ = ["register", "trajectory_from_options", "render_to_dir", "choose_format", "NPZ_MAX_SECONDS"]
 
 SCAN_KEYS = {"speed": None, "load": None, "duration": None, "length": 0.0, "rate": 125.0}
 
@@ -31,9 +34,80 @@ def trajectory_from_options(scan: str | None, trajectory: Path | None):
     return constant_scan(kv["speed"], kv["load"], kv["duration"], sensor_rate=kv["rate"])
 
 
+NPZ_MAX_SECONDS = 60.0  # --format auto: render.npz up to this duration, render.h5 above
+
+
+def choose_format(fmt: str, duration: float) -> str:
+    """"npz" or "h5" for ``--format`` ``fmt`` ("auto", "npz" or "h5") and a duration in s."""
+    if fmt not in ("auto", "npz", "h5"):
+        raise ConfigError(f"must be auto, npz or h5, got {fmt!r}", source="--format")
+    if fmt == "auto":
+        return "npz" if duration <= NPZ_MAX_SECONDS else "h5"
+    return fmt
+
+
+def render_to_dir(material, trajectory, config, out: Path, *, fmt: str = "auto", amp_gain: float | None = None,
+                  figure: bool = True, progress=None, stop=None, block_seconds: float = 1.0):
+    """One render job into one folder, streamed: drive.wav, render.npz or render.h5, summary.json
+    and figure.png, in memory independent of the duration (except render.npz, kept until the end).
+
+    ``material`` a Material, ``trajectory`` a Trajectory, ``config`` a ChainConfig; ``stop()``
+    polled between blocks ends the render early with valid files and ``"interrupted": true`` in
+    the summary. Returns (StreamedRender, paths dict with keys wav, render, summary[, figure]).
+    """
+    from surfhap.exchange.render_files import render_file_attrs, render_file_spec, write_summary
+    from surfhap.exchange.render_store import DriveWavWriter, open_render_writer
+    from surfhap.render.chain import TextureChain
+    from surfhap.render.stream import stream_render
+
+    fmt = choose_format(fmt, trajectory.duration)
+    out = Path(out)
+    probe = TextureChain(material, config)  # validates the settings before any file is created
+    out.mkdir(parents=True, exist_ok=True)
+    gain = float(amp_gain) if amp_gain is not None else float(probe.config.limits.v_max)
+    wav = DriveWavWriter(out / "drive.wav", probe.drive_rate, gain)
+    quantity = material.texture.quantity if probe.law.uses_texture else None
+    writer = open_render_writer(out, fmt, render_file_spec(probe.model_rate, probe.drive_rate, quantity))
+
+    def sink(channel, block):
+        writer(channel, block)
+        if channel == "drive":
+            wav(block)
+
+    try:
+        result = stream_render(material, trajectory, config, sink, block_seconds=block_seconds, progress=progress, stop=stop)
+    except BaseException:
+        writer.abort()
+        wav.abort()
+        raise
+    wav.close()
+    writer.close(render_file_attrs(result, interrupted=result.interrupted))
+    paths = {"wav": wav.path, "render": writer.path, "summary": write_summary(out / "summary.json", result.summary(), gain)}
+    if figure and result.n_model:
+        paths["figure"] = out / "figure.png"
+        result.plot().savefig(paths["figure"], dpi=110)
+    return result, paths
+
+
+@contextmanager
+def _stop_on_signals():
+    """Yields ``stop()``: True once SIGINT or SIGTERM arrived (handled between blocks)."""
+    caught: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield lambda: False
+        return
+    previous = {sig: signal.signal(sig, lambda signum, frame: caught.append(signum)) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield lambda: bool(caught)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
 def render_cmd(
     material: str = typer.Argument(..., help="Built-in material name (see 'surfhap materials') or a material file."),
-    out: Path = typer.Option(..., "--out", help="Output folder: drive.wav, render.npz, summary.json, figure.png."),
+    out: Path = typer.Option(..., "--out", help="Output folder: drive.wav, render.npz or render.h5, summary.json, figure.png."),
+    fmt: str = typer.Option("auto", "--format", help=f"Render file: npz | h5 | auto (render.npz up to {NPZ_MAX_SECONDS:g} s, render.h5 above; see docs/outputs.md)."),
     scan: Optional[str] = typer.Option(None, "--scan", help="Virtual finger: 'speed=M/S,load=N,duration=S[,length=M for back-and-forth strokes][,rate=HZ sensor rate]'."),
     trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Recorded trajectory CSV with columns time (s), x, y (m), load (N)."),
     method: str = typer.Option("auto", "--method", help="otake2022 | otake2021 | zhao | friction-only | square (auto: otake2022 when the material has the quasi-static law)."),
@@ -53,35 +127,33 @@ def render_cmd(
     figure: bool = typer.Option(True, "--figure/--no-figure", help="Write figure.png."),
 ) -> None:
     """Render MATERIAL along a virtual or recorded finger trajectory on the simulated display."""
-    from surfhap.exchange.materials import load_material
-    from surfhap.exchange.render_files import write_render
-    from surfhap.render.chain import ChainConfig
-    from surfhap.render.offline import render
     from surfhap.cli._display_options import parse_range
+    from surfhap.exchange.materials import load_material
+    from surfhap.render.chain import ChainConfig
     from surfhap.render.safety import SafetyLimits
 
     disp, rng = resolve_display_and_range(display, load_range, speed_range, config)
     sq_load, sq_speed = parse_range(square_reference, "--square-reference")
     mat = load_material(material)
     traj = trajectory_from_options(scan, trajectory)
+    choose_format(fmt, traj.duration)
     if not (v_max > 0 and v_max <= 1000):
         raise ConfigError("must be within (0, 1000] V", source="--v-max")
     cfg = ChainConfig(method=method, drive_rate=drive_rate, carrier=carrier, seed=seed, alpha=alpha, beta=beta,
                       square_frequency=square_frequency, square_reference_load=sq_load, square_reference_speed=sq_speed,
                       operating_range=rng, display=disp, limits=SafetyLimits(v_max=v_max, rise_rate=v_max * 1e4))
-    with progress_bar(f"rendering {mat.name}", enabled=traj.duration > 2.0) as update:
-        result = render(mat, traj, cfg, progress=update)
-    paths = write_render(result, out, amp_gain=amp_gain)
-    if figure:
-        fig = result.plot()
-        fig.savefig(Path(out) / "figure.png", dpi=110)
+    with _stop_on_signals() as stop, progress_bar(f"rendering {mat.name}", enabled=traj.duration > 2.0) as update:
+        result, paths = render_to_dir(mat, traj, cfg, out, fmt=fmt, amp_gain=amp_gain, figure=figure, progress=update, stop=stop)
     s = result.summary()
     stdout.print(f"{mat.name} ({s['method']}): alpha {s['alpha_v_per_sqrt_n']:.1f} V/sqrt(N) ({s['alpha_source']}, "
                  f"rendering gain {s['rendering_gain']:.3f}), max |V| {s['max_abs_voltage']:.1f} V, clipped {s['clipped_fraction']:.1%}, "
-                 f"saturated {s['saturated_fraction']:.1%} -> {paths['npz'].parent}")
+                 f"saturated {s['saturated_fraction']:.1%} -> {paths['render']}")
     warning = result.saturation_warning()
     if warning is not None:
         stderr.print(f"[bold yellow]warning:[/] {warning}", markup=True, soft_wrap=True)
+    if result.interrupted:
+        error_line(f"interrupted: wrote the first {s['rendered_s']:g} s of {s['requested_s']:g} s to {paths['render']}")
+        raise typer.Exit(130)
 
 
 def register(app: typer.Typer) -> None:

@@ -1,7 +1,10 @@
-"""Write a render to a folder: drive.wav, render.npz, summary.json.
+"""Write a render to a folder: drive.wav, render.npz or render.h5, summary.json.
 
 ``drive.wav`` is float32 at the drive rate in DAC units: volts divided by the amplifier gain
-(V per DAC full-scale unit; default: the safety limit v_max, so +-1.0 is +-v_max).
+(V per DAC full-scale unit; default: the safety limit v_max, so +-1.0 is +-v_max). The render
+file's layout is :mod:`surfhap.exchange.render_store`'s; :func:`write_render` writes an
+in-memory :class:`RenderResult`, :func:`render_file_spec` and :func:`render_file_attrs` give the
+channels and attributes a streamed render writes too (``surfhap render``).
 """
 
 from __future__ import annotations
@@ -13,22 +16,40 @@ import numpy as np
 from scipy.io import wavfile
 
 from surfhap.errors import ConfigError
+from surfhap.exchange.render_store import SUFFIXES, open_render_writer
 from surfhap.render.offline import RenderResult
+from surfhap.render.stream import CHANNELS
 
-__all__ = ["write_render", "write_drive_wav", "render_arrays"]
+__all__ = ["write_render", "write_drive_wav", "render_arrays", "render_file_spec", "render_file_attrs", "write_summary"]
 
 
 def render_arrays(result: RenderResult) -> dict[str, np.ndarray]:
-    """The named arrays stored in render.npz."""
-    arrays = {
-        "t": result.t, "speed": result.speed, "load": result.load, "mu_low": result.mu_low,
-        "mu_tex": result.mu_tex, "target": result.target, "voltage": result.voltage,
-        "t_drive": result.t_drive, "drive": result.drive, "friction_sim": result.friction_sim,
-        "texture": result.texture, "latency": np.array(result.latency),
+    """The named channel arrays of a render file (float64 here; see render_store for dtypes)."""
+    return {name: getattr(result, name) for name in CHANNELS}
+
+
+def render_file_spec(model_rate: float, drive_rate: float, texture_quantity: str | None) -> dict[str, tuple[float, str]]:
+    """channel -> (rate Hz, unit) of a render file; ``texture_quantity`` "cof", "acceleration" or None."""
+    units = {"texture": {"cof": "1", "acceleration": "m/s^2"}.get(texture_quantity or "", "1")}
+    return {name: (float(drive_rate if rate == "drive" else model_rate), units.get(name, unit))
+            for name, (rate, unit) in CHANNELS.items()}
+
+
+def render_file_attrs(r, *, interrupted: bool = False) -> dict:
+    """File attributes of render ``r``: what a reader needs besides the arrays."""
+    return {
+        "material": r.material, "method": r.method, "seed": r.seed, "trajectory": r.trajectory_name,
+        "model_rate_hz": r.model_rate, "drive_rate_hz": r.drive_rate, "carrier_hz": r.carrier,
+        "latency_s": r.latency, "v_max": r.v_max, "mu_panel": r.mu_panel,
+        "texture_quantity": r.texture_quantity, "interrupted": interrupted,
     }
-    if result.acc is not None:
-        arrays["acc"] = result.acc
-    return arrays
+
+
+def write_summary(path: str | Path, summary: dict, amp_gain: float) -> Path:
+    """summary.json: the render's summary plus the amplifier gain (V per DAC unit)."""
+    path = Path(path)
+    path.write_text(json.dumps(summary | {"amp_gain_v_per_unit": amp_gain}, indent=2, default=float) + "\n", encoding="utf-8")
+    return path
 
 
 def write_drive_wav(path: str | Path, drive: np.ndarray, drive_rate: int, amp_gain: float) -> Path:
@@ -44,18 +65,17 @@ def write_drive_wav(path: str | Path, drive: np.ndarray, drive_rate: int, amp_ga
     return path
 
 
-def write_render(result: RenderResult, out_dir: str | Path, amp_gain: float | None = None) -> dict[str, Path]:
-    """Write drive.wav, render.npz and summary.json into ``out_dir`` (created); returns the paths."""
+def write_render(result: RenderResult, out_dir: str | Path, amp_gain: float | None = None,
+                 format: str = "npz") -> dict[str, Path]:
+    """Write drive.wav, render.npz (or render.h5 with ``format="h5"``) and summary.json into
+    ``out_dir`` (created); returns the paths (keys wav, render, summary)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     gain = float(amp_gain) if amp_gain is not None else float(result.v_max)
-    paths = {
-        "wav": write_drive_wav(out / "drive.wav", result.drive, result.drive_rate, gain),
-        "npz": out / "render.npz",
-        "summary": out / "summary.json",
-    }
-    np.savez_compressed(paths["npz"], **render_arrays(result))
-    summary = result.summary()
-    summary["amp_gain_v_per_unit"] = gain
-    paths["summary"].write_text(json.dumps(summary, indent=2, default=float) + "\n", encoding="utf-8")
-    return paths
+    wav = write_drive_wav(out / "drive.wav", result.drive, result.drive_rate, gain)
+    writer = open_render_writer(out, format, render_file_spec(result.model_rate, result.drive_rate, result.texture_quantity))
+    for name, arr in render_arrays(result).items():
+        writer(name, arr)
+    writer.close(render_file_attrs(result))
+    return {"wav": wav, "render": out / f"render{SUFFIXES[format]}",
+            "summary": write_summary(out / "summary.json", result.summary(), gain)}

@@ -3,7 +3,9 @@
 ``render(material, trajectory)`` is the one-call convenience; it runs exactly the processors
 that live rendering runs (:class:`~surfhap.render.chain.TextureChain`), in blocks, on a
 simulated clock, and returns a :class:`RenderResult` with named arrays, a summary and
-``.plot()``. Writing files is :func:`surfhap.exchange.render_files.write_render`.
+``.plot()``. Writing files is :func:`surfhap.exchange.render_files.write_render`. For renders
+too long to hold in memory, :func:`surfhap.render.stream.stream_render` runs the same blocks
+into a sink (what ``surfhap render`` does).
 """
 
 from __future__ import annotations
@@ -21,7 +23,8 @@ from surfhap.signal.ar import ar_psd
 from surfhap.sim.display import SimulatedDisplay
 from surfhap.sim.trajectory import Trajectory
 
-__all__ = ["RenderResult", "render", "sample_trajectory"]
+__all__ = ["RenderResult", "RenderStats", "render", "sample_trajectory", "summary_dict", "saturation_warning",
+           "expected_texture_psd", "render_settings"]
 
 
 @dataclass
@@ -100,19 +103,7 @@ class RenderResult:
     def saturation_warning(self, threshold: float = 0.01) -> str | None:
         """One line saying where saturation starts and what to change, when more than
         ``threshold`` of the drive samples saturated; else None."""
-        frac = self.saturated_fraction
-        if frac <= threshold:
-            return None
-        onset = self.saturation_onset_load
-        where = f"from {onset:.2f} N load on" if onset is not None else "at onsets"
-        if self.alpha_source == "plan" and self.plan is not None:
-            rng = self.plan.operating_range
-            fix = (f"widen --load-range/--speed-range to cover this scan (the gain plan covers {rng.loads[0]:g}-{rng.loads[1]:g} N, "
-                   f"{rng.speeds[0]:g}-{rng.speeds[1]:g} m/s)")
-        else:
-            fix = "lower --alpha, or drop --alpha to use the gain plan"
-        return (f"{frac:.1%} of drive samples saturated at {self.v_max:g} V ({where}); "
-                f"the friction no longer follows the model there: {fix}")
+        return saturation_warning(self, self.saturated_fraction, self.saturation_onset_load, threshold)
 
     @property
     def texture_quantity(self) -> str | None:
@@ -132,75 +123,140 @@ class RenderResult:
     def expected_texture_psd(self, freqs: np.ndarray) -> np.ndarray | None:
         """PSD (N^2/Hz) the added friction's textural part should have, from the AR model at the
         median speed and load, or None for a method without texture."""
-        bank = self.texture_model
-        if bank is None or self.method in ("friction-only", "square"):
-            return None
         touching = self.load > 0
         if not np.any(touching):
             return None
-        v = float(np.median(self.speed[touching]))
-        fn = float(np.median(self.load[touching]))
-        rate = self.texture_rate or self.model_rate
-        f = np.asarray(freqs, dtype=float)
-        if hasattr(bank, "interpolate"):  # a bank interpolated over (speed, force), e.g. HaTT
-            psd = bank.interpolate(v, fn).psd(rate, f)
-        else:
-            model = bank.models[int(bank.select(np.array([v]))[0])]
-            psd = ar_psd(model.coefficients, model.variance, rate, f)
-        psd = np.where(f < rate / 2, psd, 0.0)
-        if self.method == "zhao":
-            load = fn if self.constant_load is None else self.constant_load
-            scale = self.effective_mass if self.texture_quantity == "acceleration" else load
-        else:
-            per_load = 1.0 if self.texture_quantity == "cof" else self.effective_mass / fn
-            scale = self.beta * per_load * fn
-        return psd * (scale * self.rendering_gain) ** 2
+        return expected_texture_psd(self, freqs, float(np.median(self.speed[touching])), float(np.median(self.load[touching])))
 
     def summary(self) -> dict:
         """The JSON-ready summary of this render."""
-        s = self.safety
-        return {
-            "material": self.material,
-            "method": self.method,
-            "seed": self.seed,
-            "trajectory": self.trajectory_name,
-            "duration_s": float(self.t[-1] + 1.0 / self.model_rate) if self.t.size else 0.0,
-            "model_rate_hz": self.model_rate,
-            "texture_rate_hz": self.texture_rate,
-            "drive_rate_hz": self.drive_rate,
-            "carrier_hz": self.carrier,
-            "alpha_v_per_sqrt_n": float(self.alpha),
-            "beta": self.beta,
-            "rendering_gain": self.rendering_gain,
-            "max_abs_voltage": float(np.max(np.abs(self.drive))) if self.drive.size else 0.0,
-            "alpha_source": self.alpha_source,
-            "clipped_fraction": self.clipped_fraction,
-            "saturated_fraction": self.saturated_fraction,
-            "saturation_onset_load_n": self.saturation_onset_load,
-            "safety": {
-                "samples": s.samples, "clamped": s.clamped, "rise_limited": s.rise_limited,
-                "faults": s.faults, "lifted": s.lifted, "watchdog": s.watchdog,
-            },
-            "latency_s": self.latency,
-            "mean_friction_sim_n": float(np.mean(self.friction_sim)) if self.friction_sim.size else 0.0,
-            "v_max": self.v_max,
-            "mu_panel": self.mu_panel,
-            "k_n_per_v2": self.k,
-            "carrier_choice": self.carrier_choice,
-            "display": self.display_info,
-            "gain_plan": self.plan.to_dict() if self.plan is not None else None,
-        } | ({} if self.square_amplitude is None else {
-            "square_baseline": {
-                "amplitude_v": self.square_amplitude,
-                "reference_load_n": self.square_reference[0], "reference_speed_m_per_s": self.square_reference[1],
-                "rule": "constant amplitude; mean added friction equals the friction-only mean at the reference load and speed",
-            }})
+        return summary_dict(self, RenderStats.of(self))
 
     def plot(self, fig=None):
         """Time course and spectrum of the rendered friction against the model (matplotlib Figure)."""
         from surfhap.report.figures import plot_render
 
         return plot_render(self, fig=fig)
+
+
+@dataclass
+class RenderStats:
+    """What the summary needs from the arrays of a render, accumulable block by block.
+
+    n_model: model samples; max_abs_drive: V; friction_sum: N summed over model samples
+    (for the mean); onset_load: N, smallest load whose envelope reached v_max, or None.
+    """
+
+    n_model: int = 0
+    max_abs_drive: float = 0.0
+    friction_sum: float = 0.0
+    onset_load: float | None = None
+
+    @classmethod
+    def of(cls, r: "RenderResult") -> "RenderStats":
+        n = int(r.t.size)
+        return cls(n, float(np.max(np.abs(r.drive))) if r.drive.size else 0.0,
+                   float(np.sum(r.friction_sim)) if n else 0.0, r.saturation_onset_load)
+
+    def add_model(self, load: np.ndarray, voltage: np.ndarray, v_max: float) -> None:
+        """Account one block of model-rate load (n,) N and envelope (n,) V."""
+        self.n_model += int(load.shape[0])
+        sat = (load > 0) & (voltage >= v_max)
+        if np.any(sat):
+            low = float(np.min(load[sat]))
+            self.onset_load = low if self.onset_load is None else min(self.onset_load, low)
+
+    def add_drive(self, drive: np.ndarray) -> None:
+        if drive.size:
+            self.max_abs_drive = max(self.max_abs_drive, float(np.max(np.abs(drive))))
+
+    def add_friction(self, friction: np.ndarray) -> None:
+        self.friction_sum += float(np.sum(friction))
+
+
+def summary_dict(r, stats: RenderStats) -> dict:
+    """The JSON-ready summary of a render ``r`` (a RenderResult, or a streamed render with the
+    same settings attributes) from its accumulated ``stats``."""
+    s = r.safety
+    clipped = r.clipped / r.touching if r.touching else 0.0
+    saturated = s.clamped / s.samples if s.samples else 0.0
+    gain = float((r.alpha / r.alpha_calibrated) ** 2)
+    return {
+        "material": r.material,
+        "method": r.method,
+        "seed": r.seed,
+        "trajectory": r.trajectory_name,
+        "duration_s": float((stats.n_model - 1) / r.model_rate + 1.0 / r.model_rate) if stats.n_model else 0.0,
+        "model_rate_hz": r.model_rate,
+        "texture_rate_hz": r.texture_rate,
+        "drive_rate_hz": r.drive_rate,
+        "carrier_hz": r.carrier,
+        "alpha_v_per_sqrt_n": float(r.alpha),
+        "beta": r.beta,
+        "rendering_gain": gain,
+        "max_abs_voltage": stats.max_abs_drive,
+        "alpha_source": r.alpha_source,
+        "clipped_fraction": clipped,
+        "saturated_fraction": saturated,
+        "saturation_onset_load_n": stats.onset_load,
+        "safety": {
+            "samples": s.samples, "clamped": s.clamped, "rise_limited": s.rise_limited,
+            "faults": s.faults, "lifted": s.lifted, "watchdog": s.watchdog,
+        },
+        "latency_s": r.latency,
+        "mean_friction_sim_n": stats.friction_sum / stats.n_model if stats.n_model else 0.0,
+        "v_max": r.v_max,
+        "mu_panel": r.mu_panel,
+        "k_n_per_v2": r.k,
+        "carrier_choice": r.carrier_choice,
+        "display": r.display_info,
+        "gain_plan": r.plan.to_dict() if r.plan is not None else None,
+    } | ({} if r.square_amplitude is None else {
+        "square_baseline": {
+            "amplitude_v": r.square_amplitude,
+            "reference_load_n": r.square_reference[0], "reference_speed_m_per_s": r.square_reference[1],
+            "rule": "constant amplitude; mean added friction equals the friction-only mean at the reference load and speed",
+        }})
+
+
+def saturation_warning(r, fraction: float, onset: float | None, threshold: float = 0.01) -> str | None:
+    """One line saying where saturation starts (``onset`` N) and what to change when more than
+    ``threshold`` of the drive samples saturated (``fraction``); else None."""
+    if fraction <= threshold:
+        return None
+    where = f"from {onset:.2f} N load on" if onset is not None else "at onsets"
+    if r.alpha_source == "plan" and r.plan is not None:
+        rng = r.plan.operating_range
+        fix = (f"widen --load-range/--speed-range to cover this scan (the gain plan covers {rng.loads[0]:g}-{rng.loads[1]:g} N, "
+               f"{rng.speeds[0]:g}-{rng.speeds[1]:g} m/s)")
+    else:
+        fix = "lower --alpha, or drop --alpha to use the gain plan"
+    return (f"{fraction:.1%} of drive samples saturated at {r.v_max:g} V ({where}); "
+            f"the friction no longer follows the model there: {fix}")
+
+
+def expected_texture_psd(r, freqs: np.ndarray, v: float, fn: float) -> np.ndarray | None:
+    """PSD (N^2/Hz) of the added friction's textural part of render ``r`` at speed ``v`` (m/s)
+    and load ``fn`` (N), from its texture model; None for a method without texture."""
+    bank = r.texture_model
+    if bank is None or r.method in ("friction-only", "square"):
+        return None
+    rate = r.texture_rate or r.model_rate
+    f = np.asarray(freqs, dtype=float)
+    if hasattr(bank, "interpolate"):  # a bank interpolated over (speed, force), e.g. HaTT
+        psd = bank.interpolate(v, fn).psd(rate, f)
+    else:
+        model = bank.models[int(bank.select(np.array([v]))[0])]
+        psd = ar_psd(model.coefficients, model.variance, rate, f)
+    psd = np.where(f < rate / 2, psd, 0.0)
+    gain = float((r.alpha / r.alpha_calibrated) ** 2)
+    if r.method == "zhao":
+        load = fn if r.constant_load is None else r.constant_load
+        scale = r.effective_mass if bank.quantity == "acceleration" else load
+    else:
+        per_load = 1.0 if bank.quantity == "cof" else r.effective_mass / fn
+        scale = r.beta * per_load * fn
+    return psd * (scale * gain) ** 2
 
 
 def sample_trajectory(trajectory: Trajectory, model_rate: float, kinematics: Kinematics | None = None):
@@ -251,16 +307,23 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
     drive = drive[:n_drive]
     arr = model_out
     uses_acc = chain.law.uses_texture and material.texture.quantity == "acceleration"
-    bank = material.texture if chain.law.uses_texture else None
     return RenderResult(
-        material=material.name, method=chain.method, seed=cfg.seed, model_rate=fm, drive_rate=chain.drive_rate,
-        carrier=chain.carrier_hz, alpha=chain.params.alpha, beta=chain.params.beta, alpha_calibrated=chain.alpha_calibrated, t=t, speed=speed, load=load,
-        texture=arr["texture"], mu_low=arr["mu_low"], mu_tex=arr["mu_tex"], target=arr["target"],
-        voltage=arr["voltage"], drive=drive,
-        friction_sim=friction, acc=arr["texture"] if uses_acc else None, latency=chain.latency,
-        display_latency=display.delay, mu_panel=cfg.display.mu_panel, k=cfg.display.k,
+        t=t, speed=speed, load=load, texture=arr["texture"], mu_low=arr["mu_low"], mu_tex=arr["mu_tex"], target=arr["target"],
+        voltage=arr["voltage"], drive=drive, friction_sim=friction, acc=arr["texture"] if uses_acc else None,
+        **render_settings(material, trajectory, cfg, chain, display),
+    )
+
+
+def render_settings(material: Material, trajectory: Trajectory, cfg: ChainConfig, chain: TextureChain,
+                    display: SimulatedDisplay) -> dict:
+    """The non-array fields of a :class:`RenderResult` (settings, counters, models) of a chain
+    that has run; shared by :func:`render` and the streaming render."""
+    return dict(
+        material=material.name, method=chain.method, seed=cfg.seed, model_rate=chain.model_rate, drive_rate=chain.drive_rate,
+        carrier=chain.carrier_hz, alpha=chain.params.alpha, beta=chain.params.beta, alpha_calibrated=chain.alpha_calibrated,
+        latency=chain.latency, display_latency=display.delay, mu_panel=cfg.display.mu_panel, k=cfg.display.k,
         clipped=chain.law.clipped, touching=chain.law.touching, safety=chain.safety.counters,
-        texture_model=bank, trajectory_name=trajectory.name,
+        texture_model=material.texture if chain.law.uses_texture else None, trajectory_name=trajectory.name,
         effective_mass=cfg.effective_mass, constant_load=cfg.constant_load, v_max=cfg.limits.v_max, texture_rate=chain.texture_rate,
         plan=chain.plan, alpha_source=chain.alpha_source, carrier_choice=chain.carrier_choice,
         display_info=cfg.display.describe(), square_amplitude=chain.law.square_amplitude,

@@ -13,9 +13,23 @@ from scipy.signal import welch
 from surfhap.signal.bands import band_split_high_gain
 from surfhap.signal.filters import band_split
 
-__all__ = ["plot_render", "plot_order_selection", "plot_imu_fit", "render_spectrum"]
+__all__ = ["plot_render", "plot_order_selection", "plot_imu_fit", "render_spectrum", "spectrum_of"]
 
 _CUTOFF = 3.5  # Hz, band split of Otake et al. 2022
+
+
+def spectrum_of(added: np.ndarray, fs: float, expected_psd) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Welch PSD of the high band of ``added`` (n,) N at ``fs`` Hz and the model's expectation
+    ``expected_psd(freqs)`` (or None) through the same band split: freqs, measured, expected."""
+    if added.size < 64 or _CUTOFF >= fs / 2:
+        return np.zeros(0), np.zeros(0), None
+    _, high = band_split(added, fs, _CUTOFF)
+    nper = int(min(2048, 2 ** np.floor(np.log2(added.size // 4 or 1)) if added.size >= 256 else added.size))
+    f, p = welch(high, fs=fs, nperseg=max(16, nper))
+    expected = expected_psd(f)
+    if expected is not None:
+        expected = expected * band_split_high_gain(f, fs, _CUTOFF)
+    return f, p, expected
 
 
 def render_spectrum(result, settle: float = 0.5):
@@ -26,49 +40,38 @@ def render_spectrum(result, settle: float = 0.5):
     """
     fs = result.model_rate
     start = min(int(settle * fs), max(0, result.t.size - 64))
-    added = result.added_friction[start:]
-    if added.size < 64 or _CUTOFF >= fs / 2:
-        return np.zeros(0), np.zeros(0), None
-    _, high = band_split(added, fs, _CUTOFF)
-    nper = int(min(2048, 2 ** np.floor(np.log2(added.size // 4 or 1)) if added.size >= 256 else added.size))
-    f, p = welch(high, fs=fs, nperseg=max(16, nper))
-    expected = result.expected_texture_psd(f)
-    if expected is not None:
-        expected = expected * band_split_high_gain(f, fs, _CUTOFF)
-    return f, p, expected
+    return spectrum_of(result.added_friction[start:], fs, result.expected_texture_psd)
 
 
 def plot_render(result, fig: Figure | None = None) -> Figure:
-    """Four panels: friction over time, drive voltage, spectrum vs model, speed and load."""
+    """Four panels: friction over time, drive voltage, spectrum vs model, speed and load.
+
+    ``result``: a RenderResult, or a :class:`~surfhap.render.preview.RenderPreview` (what a
+    streamed render keeps); either way the figure is drawn from the bounded preview."""
+    from surfhap.render.preview import RenderPreview, preview_of
+
+    pv = result if isinstance(result, RenderPreview) else preview_of(result)
     fig = fig or Figure(figsize=(11, 7.5), layout="constrained")
     axs = fig.subplots(2, 2)
-    t = result.t
-    touching = result.load > 0
     ax = axs[0, 0]
-    span = min(1.0, float(t[-1])) if t.size else 1.0
-    start = max(0.0, float(t[-1]) / 2 - span / 2) if t.size else 0.0
-    w = (t >= start) & (t <= start + span)
-    ax.plot(t[w], result.friction_sim[w], lw=0.8, color="C0", label="simulated friction")
-    g = result.rendering_gain
+    t = pv.win_t
+    ax.plot(t, pv.win_friction, lw=0.8, color="C0", label="simulated friction")
+    g = pv.rendering_gain
     scaled = "" if abs(g - 1) < 1e-9 else f" × {g:.3g}"
-    ax.plot(t[w], (result.mu_panel * result.load + g * result.target)[w], lw=0.8, color="C1", alpha=0.8, label=f"panel + target{scaled}")
-    ax.plot(t[w], (result.mu_panel * result.load + g * result.mu_low * result.load * touching)[w], lw=1.2, color="k", ls="--",
+    ax.plot(t, pv.mu_panel * pv.win_load + g * pv.win_target, lw=0.8, color="C1", alpha=0.8, label=f"panel + target{scaled}")
+    ax.plot(t, pv.mu_panel * pv.win_load + g * pv.win_mu_low * pv.win_load * (pv.win_load > 0), lw=1.2, color="k", ls="--",
             label=f"panel + low band{scaled}")
-    ax.set(xlabel="time (s)", ylabel="lateral force (N)", title=f"{result.material} — {result.method}, {span:g} s window")
+    ax.set(xlabel="time (s)", ylabel="lateral force (N)", title=f"{pv.material} — {pv.method}, {pv.span:g} s window")
     ax.legend(loc="upper right", fontsize=8)
     ax = axs[0, 1]
-    window = min(0.05, result.t_drive[-1] if result.t_drive.size else 0.05)
-    mid = result.t_drive[-1] / 2 if result.t_drive.size else 0.0
-    sel = (result.t_drive >= mid) & (result.t_drive <= mid + window)
-    ax.plot(result.t_drive[sel] * 1e3, result.drive[sel], lw=0.6, label="drive (after safety)")
-    tsel = (t >= mid) & (t <= mid + window)
-    ax.plot(t[tsel] * 1e3, result.voltage[tsel], lw=1.2, color="C3", label="envelope")
-    ax.set(xlabel="time (ms)", ylabel="voltage (V)", title=f"drive, {result.carrier:g} Hz carrier, {window * 1e3:g} ms")
+    ax.plot(pv.drv_t * 1e3, pv.drv, lw=0.6, label="drive (after safety)")
+    ax.plot(pv.env_t * 1e3, pv.env, lw=1.2, color="C3", label="envelope")
+    ax.set(xlabel="time (ms)", ylabel="voltage (V)", title=f"drive, {pv.carrier:g} Hz carrier, {pv.window * 1e3:g} ms")
     ax.legend(loc="upper right", fontsize=8)
     ax = axs[1, 0]
-    f, p, e = render_spectrum(result)
+    f, p, e = spectrum_of(pv.spec_added, pv.model_rate, pv.expected_psd)
     if f.size:
-        top = 0.4 * (result.texture_rate or result.model_rate)  # the resamplers roll off above 0.45 fs
+        top = 0.4 * (pv.texture_rate or pv.model_rate)  # the resamplers roll off above 0.45 fs
         band = (f >= _CUTOFF) & (f <= top)
         ax.loglog(f[band], p[band], lw=0.8, label="simulated (high band, Welch)")
         if e is not None:
@@ -76,10 +79,10 @@ def plot_render(result, fig: Figure | None = None) -> Figure:
         ax.legend(fontsize=8)
     ax.set(xlabel="frequency (Hz)", ylabel="PSD (N²/Hz)", title="added friction above 3.5 Hz")
     ax = axs[1, 1]
-    ax.plot(t, result.speed * 1e3, color="C2", lw=1)
-    ax.set(xlabel="time (s)", ylabel="speed (mm/s)", title="finger")
+    ax.fill_between(pv.col_t, pv.speed_min * 1e3, pv.speed_max * 1e3, color="C2", lw=1, step="post")
+    ax.set(xlabel="time (s)", ylabel="speed (mm/s)", title="finger (min/max per column)")
     ax2 = ax.twinx()
-    ax2.plot(t, result.load, color="C4", lw=1)
+    ax2.fill_between(pv.col_t, pv.load_min, pv.load_max, color="C4", lw=1, alpha=0.6, step="post")
     ax2.set_ylabel("load (N)", color="C4")
     return fig
 
