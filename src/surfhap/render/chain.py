@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import numba
 import numpy as np
 
 from surfhap.errors import ConfigError
@@ -131,6 +132,16 @@ class ChainBlock(RenderBlock):
 _MAX_SPEED = 10.0  # m/s: no finger slides faster; larger inputs are sensor faults
 
 
+@numba.njit(cache=True, nogil=True)
+def _clean_inputs(speed, load, max_load, max_speed, out_speed, out_load):
+    # loads outside (0, max_load] and non-finite values become 0; speeds become |v| <= max_speed
+    for i in range(load.shape[0]):
+        ld = load[i]
+        out_load[i] = ld if (np.isfinite(ld) and ld > 0.0 and ld <= max_load) else 0.0
+        v = speed[i]
+        out_speed[i] = min(abs(v), max_speed) if np.isfinite(v) else 0.0
+
+
 class TextureChain:
     """Stateful processor chain, a :class:`~surfhap.render.block.Renderer`; see the module
     docstring for the block contract."""
@@ -201,8 +212,9 @@ class TextureChain:
         if not (load.shape == touch_time.shape == (n,)):
             raise ValueError("speed, load and touch_time must be (n,) arrays of one length")
         # the models see a physical finger state (absurd values are the safety stage's business)
-        clean_load = np.where(np.isfinite(load) & (load > 0) & (load <= self._max_load), load, 0.0)
-        clean_speed = np.where(np.isfinite(speed), np.clip(np.abs(speed), 0.0, _MAX_SPEED), 0.0)
+        clean_load = np.empty(n)
+        clean_speed = np.empty(n)
+        _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean_speed, clean_load)
         texture = self.synth.process(clean_speed, clean_load) if self.synth is not None else np.zeros(n)
         law = self.law.process(clean_speed, clean_load, texture)
         envelope = self.upsampler.process(law.voltage)
