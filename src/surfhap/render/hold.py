@@ -15,7 +15,6 @@ the rounding of the two time bases.
 from __future__ import annotations
 
 import numba
-import numpy as np
 
 __all__ = ["hold_latest", "model_times"]
 

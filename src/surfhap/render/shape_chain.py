@@ -25,7 +25,7 @@ import numpy as np
 from surfhap.render.block import RenderBlock
 from surfhap.render.hold import hold_latest, model_times
 from surfhap.render.shape_renderer import ShapeConfig, ShapeDrive, ShapeRenderer
-from surfhap.shape.touch import new_state, touch_step
+from surfhap.shape.touch import touch_step
 
 __all__ = ["ShapeChain"]
 
