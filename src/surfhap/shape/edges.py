@@ -193,12 +193,11 @@ def walk_spacing(surface) -> float:
 
 
 @numba.njit(cache=True, nogil=True)
-def _walk_kernel(x, y, face, px0, py0, pf0, spacing, max_sub, normals, theta_min, threshold, flat_deg,
+def _walk_kernel(x, y, face, px0, py0, pf0, spacing, max_sub, normals, theta_min, threshold,
                  verts, faces, esign, zmax, gx0, gy0, inv_cw, inv_ch, nx, ny, start, items, tick, theta_out):
     px = px0
     py = py0
     pf = pf0
-    span = 180.0 - theta_min
     for i in range(x.shape[0]):
         cx = x[i]
         cy = y[i]
@@ -230,21 +229,12 @@ def _walk_kernel(x, y, face, px0, py0, pf0, spacing, max_sub, normals, theta_min
                     if not np.isfinite(lz):
                         # height of the previous sub-sample on its face is needed for the bend test
                         lz, _ = hit_one(lx, ly, verts, faces, esign, zmax, gx0, gy0, inv_cw, inv_ch, nx, ny, start, items)
-                    c = normals[lf, 0] * normals[f, 0] + normals[lf, 1] * normals[f, 1] + normals[lf, 2] * normals[f, 2]
-                    c = min(1.0, max(-1.0, c))
-                    phi = np.degrees(np.arccos(c))
-                    bend = ((normals[lf, 0] - normals[f, 0]) * (sx - lx) + (normals[lf, 1] - normals[f, 1]) * (sy - ly)
-                            + (normals[lf, 2] - normals[f, 2]) * (z - lz))
-                    if phi > flat_deg:
-                        th = 180.0 - phi if bend < 0.0 else 180.0 + phi
+                    ie, th = edge_tick_one(normals, lf, f, lx, ly, lz, sx, sy, z, theta_min, threshold)
+                    if th != 180.0:  # 180 exactly: coplanar faces, no edge
                         if not (best_theta <= th):
                             best_theta = th
-                        if bend < 0.0 and th <= threshold:
-                            s = (180.0 - th) / span
-                            s = min(1.0, max(0.0, s))
-                            ie = 0.7 * s + 0.3
-                            if ie > tick[i]:
-                                tick[i] = ie
+                        if ie > tick[i]:
+                            tick[i] = ie
                 lf = f
                 lx = sx
                 ly = sy
@@ -277,5 +267,5 @@ def edge_ticks_walk(surface, x: np.ndarray, y: np.ndarray, face: np.ndarray, the
     px, py, pf = (np.nan, np.nan, -1) if prev is None else (float(prev[0]), float(prev[1]), int(prev[2]))
     sp = float(spacing) if spacing is not None else walk_spacing(surface)
     _walk_kernel(x, y, face, px, py, pf, sp, int(max_sub), surface.up_normals, float(theta_min), float(threshold_deg),
-                 FLAT_TOLERANCE_DEG, *surface._args, tick, theta)
+                 *surface._args, tick, theta)
     return tick, theta
