@@ -1,22 +1,19 @@
 """Live engine targets, measured in one run (one JSON line per figure; ratio >= 1 passes).
 
-1. live_engine_overhead: ``LiveEngine.render`` per 1 ms block (20 kHz drive) with a
-   material active and touches at 125 Hz, p99 CPU time <= 10 % of the block period
-   (ratio = 0.10 / share). Run for cork (2 kHz friction model) and leather (texture),
-   with the simulated display off (what the sound-card callback runs) and on (``sim``),
-   and for a mesh (Blender's Suzanne from ../shared/data, when present) through the shape
-   renderer.
-2. live_touch_to_drive: the sim backend paced in real time, a producer thread pushing
+The engine overhead per block (every built-in material and a mesh) is
+``bench_live_overhead.py``.
+
+1. live_touch_to_drive: the sim backend paced in real time, a producer thread pushing
    touches at 125 Hz at random phases; arrival -> first drive sample computed from it,
    p99 <= 2 blocks (ratio = 2 / p99_blocks).
-3. live_50_clients: the engine in this process, the page server in its own process (as
+2. live_50_clients: the engine in this process, the page server in its own process (as
    ``surfhap serve`` runs them), 50 WebSocket clients in a third process streaming pointer events at 120 Hz for 60 s over loopback, plus one
    client that floods garbage and never reads. Passes when every client's events were all
    acknowledged with p99 ack lag < 0.25 s (no client stalls another), the RSS grows by
    < 10 % between 10 s and the end (memory flat) and the emitted drive has zero safety
    violations (|V| <= v_max, rise <= rise_rate). Engine underruns are reported beside.
 
-``--quick`` shortens run 3 to 10 s (as in the tests).
+``--quick`` shortens run 2 to 10 s (as in the tests).
 """
 
 import json
@@ -47,40 +44,10 @@ def rss_bytes(pid: str = "self") -> int:
     return 0
 
 
-SUZANNE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data", "blender-suzanne",
-                       "suzanne.obj")
-
-
 def engine_for(material: str, display: bool) -> LiveEngine:
-    if material.startswith("mesh:"):
-        from surfhap.live.shape_live import load_live_shape
-
-        chain, _ = load_live_shape(material[5:], 20000, (0.217, 0.136))
-        disp = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.model_rate) if display else None
-        return LiveEngine(chain, EngineConfig(block_seconds=0.001), display=disp)
     chain = TextureChain(load_material(material), ChainConfig(drive_rate=20000))
     disp = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.model_rate) if display else None
     return LiveEngine(chain, EngineConfig(block_seconds=0.001), display=disp)
-
-
-def bench_overhead(material: str, display: bool, n_blocks: int = 20000) -> None:
-    eng = engine_for(material, display)
-    eng.warm_up(200)
-    cpu = np.empty(n_blocks)
-    for b in range(n_blocks):
-        t = b * eng.block_period
-        if b % 8 == 0:  # strokes across the middle of the surface
-            x = 0.06 + 0.1 * abs(((t * 1.0) % 2.0) - 1.0)
-            eng.push_touch(1, x, 0.068, 0.5, t_event=t, t_arrival=t)
-        c0 = time.thread_time_ns()
-        eng.render(eng.block_frames, t + 2e-4)
-        cpu[b] = (time.thread_time_ns() - c0) * 1e-9
-    p99 = float(np.percentile(cpu, 99))
-    share = p99 / eng.block_period
-    report("live_engine_overhead", {"material": os.path.basename(material), "model_rate_hz": eng.model_rate, "simulated_display": display,
-                                    "blocks": n_blocks, "median_us": round(float(np.median(cpu)) * 1e6, 1),
-                                    "p99_us": round(p99 * 1e6, 1), "p99_share_of_block": round(share, 4)},
-           0.10 / share, "p99 CPU per 1 ms block <= 10 % (ratio = 0.10 / share)", share <= 0.10)
 
 
 def bench_latency(seconds: float = 10.0) -> None:
@@ -170,10 +137,6 @@ def bench_clients(seconds: float, n_clients: int = 50, rate: float = 120.0) -> N
 
 def main():
     quick = "--quick" in sys.argv
-    renderers = ["cork", "leather"] + (["mesh:" + SUZANNE] if os.path.exists(SUZANNE) else [])
-    for material in renderers:
-        for display in (False, True):
-            bench_overhead(material, display)
     bench_latency(5.0 if quick else 10.0)
     bench_clients(10.0 if quick else 60.0)
 

@@ -48,6 +48,7 @@ from surfhap.errors import ConfigError
 from surfhap.live.clock import now as clock_now
 from surfhap.live.prediction import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing
+from surfhap.render.block import Renderer
 from surfhap.render.safety import OutputSafety
 
 __all__ = ["EngineConfig", "LiveEngine", "TRACE_FIELDS", "audit_drive"]
@@ -107,16 +108,16 @@ def _pow2_at_least(n: int) -> int:
 
 
 class LiveEngine:
-    """Real-time engine around one renderer (normally a :class:`~surfhap.render.chain.TextureChain`).
+    """Real-time engine around one :class:`~surfhap.render.block.Renderer` (a
+    :class:`~surfhap.render.chain.TextureChain` or a
+    :class:`~surfhap.render.shape_chain.ShapeChain`).
 
-    ``renderer`` must provide ``model_rate``, ``drive_rate``, ``reset()``, ``safety`` and
-    ``process(speed, load, touch_time)`` returning an object with ``drive`` (volts at the
-    drive rate, already through the safety stage), ``load_drive`` and ``drive_law.target``.
-    A renderer that also needs the finger position sets ``uses_position = True`` and takes
-    ``process(speed, load, touch_time, x, y)``.
+    Each chunk calls ``renderer.process(speed, load, touch_time, x, y)`` and reads the
+    :class:`~surfhap.render.block.RenderBlock` it returns: ``drive`` (volts at the drive
+    rate, already through the renderer's safety stage), ``load_drive`` and ``target``.
     """
 
-    def __init__(self, renderer, config: EngineConfig | None = None, display=None):
+    def __init__(self, renderer: Renderer, config: EngineConfig | None = None, display=None):
         self.config = cfg = config or EngineConfig()
         self.renderer = renderer
         self.drive_rate = int(renderer.drive_rate)
@@ -363,14 +364,11 @@ class LiveEngine:
             sp.fill(pred.speed if self._load_now > 0.0 else 0.0)
             ld.fill(self._load_now)
             ti.fill(tt)
-            if getattr(self.renderer, "uses_position", False):
-                xs = self._xs[:n]
-                ys = self._ys[:n]
-                xs.fill(pred.x)
-                ys.fill(pred.y)
-                blk = self.renderer.process(sp, ld, ti, xs, ys)
-            else:
-                blk = self.renderer.process(sp, ld, ti)
+            xs = self._xs[:n]
+            ys = self._ys[:n]
+            xs.fill(pred.x)
+            ys.fill(pred.y)
+            blk = self.renderer.process(sp, ld, ti, xs, ys)
             drive = blk.drive
             m = drive.shape[0]
             offset = self._fifo_w - self._fifo_r
@@ -401,7 +399,7 @@ class LiveEngine:
             row[3] = sp[0]
             row[4] = self._load_now
             row[5] = max(drive.max(), -drive.min()) if m else 0.0
-            row[6] = blk.drive_law.target[0] if n else 0.0
+            row[6] = blk.target[0] if n else 0.0
             row[7] = friction
             self.trace_count += 1
 

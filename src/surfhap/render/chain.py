@@ -22,16 +22,18 @@ import numba
 import numpy as np
 
 from surfhap.errors import ConfigError
+from surfhap.render.block import RenderBlock
 from surfhap.models.material import Material
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
 from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
+from surfhap.render.hold import hold_latest, model_times
 from surfhap.render.resample import RationalResampler
 from surfhap.render.safety import SafetyLimits, SafetyStage
 from surfhap.render.texture_source import TextureSource
 from surfhap.sim.display import DisplayModel
 
-__all__ = ["ChainConfig", "ChainBlock", "TextureChain", "PAPER_CARRIERS", "resolve_carrier"]
+__all__ = ["ChainConfig", "ChainBlock", "TextureDetail", "TextureChain", "PAPER_CARRIERS", "resolve_carrier"]
 
 # polarity carrier of each method's paper: 001 Sec. II (20 kHz), 003 Sec. IV-D (2 kHz)
 PAPER_CARRIERS = {"otake2021": 20000.0, "otake2022": 2000.0}
@@ -101,43 +103,50 @@ class ChainConfig:
             raise ConfigError("must be > 0", field="alpha")
 
 
-class ChainBlock(NamedTuple):
-    """Output of one block.
-
-    texture : (n,) texture samples (material quantity), zeros if none.
-    drive_law : DriveBlock at the model rate (voltage envelope, target, mu_low, mu_tex).
-    drive   : (m,) V at the drive rate, after carrier and safety.
-    load_drive : (m,) N, load held at the drive rate (what the safety stage saw).
-    """
+class TextureDetail(NamedTuple):
+    """The texture chain's extras of a block: texture (n,) samples (material quantity, zeros
+    if none) and drive_law, the :class:`~surfhap.render.drive.DriveBlock` at the model rate
+    (voltage envelope, target, mu_low, mu_tex)."""
 
     texture: np.ndarray
     drive_law: DriveBlock
-    drive: np.ndarray
-    load_drive: np.ndarray
 
 
-@numba.njit(cache=True, nogil=True)
-def _hold_touch(n_drive0, drive_rate, n_model0, model_rate, load, touch_time, last_load, last_touch, out_load, out_age):
-    # for each drive sample: the load and touch time of the model sample in force at its time
-    n = load.shape[0]
-    for j in range(out_load.shape[0]):
-        t = (n_drive0 + j) / drive_rate
-        k = int(np.floor(t * model_rate + 1e-9)) - n_model0
-        if k < 0:
-            ld, tt = last_load, last_touch
-        else:
-            if k > n - 1:
-                k = n - 1
-            ld, tt = load[k], touch_time[k]
-        out_load[j] = ld
-        out_age[j] = t - tt
+class ChainBlock(RenderBlock):
+    """A :class:`~surfhap.render.block.RenderBlock` of the texture chain: drive (m,) V at the
+    drive rate after carrier and safety, load_drive (m,) N held at the drive rate (what the
+    safety stage saw), target (n,) N at the model rate, detail a :class:`TextureDetail`;
+    ``texture`` and ``drive_law`` read the detail."""
+
+    __slots__ = ()
+
+    @property
+    def texture(self) -> np.ndarray:
+        return self.detail.texture
+
+    @property
+    def drive_law(self) -> DriveBlock:
+        return self.detail.drive_law
 
 
 _MAX_SPEED = 10.0  # m/s: no finger slides faster; larger inputs are sensor faults
 
 
+@numba.njit(cache=True, nogil=True)
+def _clean_inputs(speed, load, max_load, max_speed, out_speed, out_load):
+    # loads outside (0, max_load] and non-finite values become 0; speeds become |v| <= max_speed
+    for i in range(load.shape[0]):
+        ld = load[i]
+        out_load[i] = ld if (np.isfinite(ld) and ld > 0.0 and ld <= max_load) else 0.0
+        v = speed[i]
+        out_speed[i] = min(abs(v), max_speed) if np.isfinite(v) else 0.0
+
+
 class TextureChain:
-    """Stateful processor chain; see the module docstring for the block contract."""
+    """Stateful processor chain, a :class:`~surfhap.render.block.Renderer`; see the module
+    docstring for the block contract."""
+
+    uses_position = False
 
     def __init__(self, material: Material, config: ChainConfig | None = None):
         cfg = config or ChainConfig()
@@ -181,6 +190,7 @@ class TextureChain:
         self.drive_rate = int(cfg.drive_rate)
         self._max_load = cfg.limits.max_load
         self.latency = self.upsampler.delay
+        self._hold_tol = 1e-9 / self.model_rate  # s: a model sample holds from its start time on
         self.reset()
 
     def reset(self) -> None:
@@ -192,7 +202,9 @@ class TextureChain:
         self._last_load = 0.0
         self._last_touch = -np.inf
 
-    def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray) -> ChainBlock:
+    def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray, x=None, y=None) -> ChainBlock:
+        """One block (see the module docstring); ``x``, ``y`` (the finger position) are not
+        used by a texture (:class:`~surfhap.render.block.Renderer` protocol)."""
         speed = np.asarray(speed, dtype=float)
         load = np.asarray(load, dtype=float)
         touch_time = np.asarray(touch_time, dtype=float)
@@ -200,21 +212,24 @@ class TextureChain:
         if not (load.shape == touch_time.shape == (n,)):
             raise ValueError("speed, load and touch_time must be (n,) arrays of one length")
         # the models see a physical finger state (absurd values are the safety stage's business)
-        clean_load = np.where(np.isfinite(load) & (load > 0) & (load <= self._max_load), load, 0.0)
-        clean_speed = np.where(np.isfinite(speed), np.clip(np.abs(speed), 0.0, _MAX_SPEED), 0.0)
+        clean_load = np.empty(n)
+        clean_speed = np.empty(n)
+        _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean_speed, clean_load)
         texture = self.synth.process(clean_speed, clean_load) if self.synth is not None else np.zeros(n)
         law = self.law.process(clean_speed, clean_load, texture)
         envelope = self.upsampler.process(law.voltage)
         m = envelope.shape[0]
         load_drive = np.empty(m)
         age = np.empty(m)
-        _hold_touch(self._n_drive, float(self.drive_rate), self._n_model, float(self.model_rate),
-                    np.ascontiguousarray(load), np.ascontiguousarray(touch_time), self._last_load, self._last_touch,
-                    load_drive, age)
+        src_time = np.empty(n)
+        model_times(self._n_model, float(self.model_rate), src_time)
+        hold_latest(self._n_drive, float(self.drive_rate), src_time, self._hold_tol, np.ascontiguousarray(load),
+                    np.ascontiguousarray(touch_time), self._last_load, self._last_touch, load_drive, age,
+                    np.empty(m, dtype=np.int64))
         drive = self.safety.process(self.carrier.process(envelope), load_drive, age)
         self._n_model += n
         self._n_drive += m
         if n:
             self._last_load = float(load[-1])
             self._last_touch = float(touch_time[-1])
-        return ChainBlock(texture, law, drive, load_drive)
+        return ChainBlock(drive, load_drive, law.target, TextureDetail(texture, law))

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from surfhap.errors import ConfigError
@@ -199,29 +200,63 @@ class GrainPlayer:
         return np.minimum(full[:m], 1.0)
 
     def process(self, intensity: np.ndarray, tick: np.ndarray) -> np.ndarray:
-        inten = np.asarray(intensity, dtype=float)
-        inten = np.where(np.isfinite(inten), inten, 0.0)
-        tick = np.asarray(tick, dtype=float)
-        tick = np.where(np.isfinite(tick), tick, 0.0)
+        inten = np.ascontiguousarray(intensity, dtype=np.float64)
+        tick = np.ascontiguousarray(tick, dtype=np.float64)
         m = inten.shape[0]
         if tick.shape != (m,):
             raise ValueError("intensity and tick must be (m,) arrays of one length")
-        env = self._area_envelope(m)
-        out = np.where(inten > 0, self.device.force(inten) * env, 0.0)
-        # ticks: continue the running one, then start new ones (a new tick restarts the pulse)
-        kp = self._tick_pulse.size
-        starts = np.nonzero(tick > 0)[0]
-        if self._tick_left > 0:
-            end = m if starts.size == 0 else min(m, int(starts[0]))
-            n = min(self._tick_left, end)
-            off = kp - self._tick_left
-            out[:n] = self._tick_amp * self._tick_pulse[off:off + n]
-            self._tick_left -= n
-        for j, s in enumerate(starts):
-            amp = float(self.device.force(tick[s]))
-            nxt = m if j + 1 == starts.size else int(starts[j + 1])
-            n = min(kp, nxt - s)
-            out[s:s + n] = amp * self._tick_pulse[:n]
-            self._tick_amp = amp
-            self._tick_left = kp - n if nxt == m else 0
+        even = self.grain == "area-even"
+        env = inten if even else self._area_envelope(m)  # not read when even
+        out = np.empty(m)
+        d = self.device
+        self._tick_left, self._tick_amp = _grain_kernel(inten, tick, env, even, float(d.a), float(d.b), float(d.c),
+                                                        self._tick_pulse, int(self._tick_left), float(self._tick_amp), out)
         return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _device_force(i, a, b, c):
+    i = min(max(i, 0.0), 1.0)
+    return (a * i + b) * i + c
+
+
+@numba.njit(cache=True, nogil=True)
+def _grain_kernel(inten, tick, env, even, a, b, c, pulse, tick_left, tick_amp, out):
+    # area grain: device force of the held intensity (times the grainy envelope), 0 where silent
+    m = inten.shape[0]
+    for i in range(m):
+        v = inten[i]
+        if v > 0.0 and np.isfinite(v):
+            f = _device_force(v, a, b, c)
+            out[i] = f if even else f * env[i]
+        else:
+            out[i] = 0.0
+    # ticks: continue the running one, then start new ones (a new tick restarts the pulse)
+    kp = pulse.shape[0]
+    first = -1
+    for i in range(m):
+        if tick[i] > 0.0 and np.isfinite(tick[i]):
+            first = i
+            break
+    if tick_left > 0:
+        end = m if first < 0 else first
+        n = min(tick_left, end)
+        off = kp - tick_left
+        for q in range(n):
+            out[q] = tick_amp * pulse[off + q]
+        tick_left -= n
+    s = first
+    while s >= 0:
+        amp = _device_force(tick[s], a, b, c)
+        nxt = m
+        for i in range(s + 1, m):
+            if tick[i] > 0.0 and np.isfinite(tick[i]):
+                nxt = i
+                break
+        n = min(kp, nxt - s)
+        for q in range(n):
+            out[s + q] = amp * pulse[q]
+        tick_amp = amp
+        tick_left = kp - n if nxt == m else 0
+        s = nxt if nxt < m else -1
+    return tick_left, tick_amp

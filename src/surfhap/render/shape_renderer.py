@@ -24,12 +24,14 @@ import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.render.carrier import PolarityCarrier, check_carrier
+from surfhap.render.hold import hold_latest
 from surfhap.render.grains import DeviceCurve, GrainParams, GrainPlayer, grain_name
 from surfhap.render.safety import SafetyCounters, SafetyLimits, SafetyStage
 from surfhap.shape.calibration import ShapeCalibration, calibrate
-from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks, edge_ticks_walk, walk_spacing
-from surfhap.shape.gradient import FZ_DEFAULT, intensity_from_fsq, lateral_force, signed_sqrt
+from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks_walk, walk_spacing
+from surfhap.shape.gradient import FZ_DEFAULT
 from surfhap.shape.topsurface import TopSurface
+from surfhap.shape.touch import new_state, touch_block
 from surfhap.sim.display import DisplayModel, SimulatedDisplay
 from surfhap.sim.trajectory import Trajectory
 
@@ -126,9 +128,7 @@ class ShapeRenderer:
         self.reset()
 
     def reset(self) -> None:
-        self._prev = None  # (x, y, z, force)
-        self._prev_face = -1
-        self._prev_point = np.full(3, np.nan)
+        self.state = new_state()  # (x, y, z, force, face) of the previous touch sample
 
     def process(self, x: np.ndarray, y: np.ndarray, touching: np.ndarray | None = None) -> ShapeBlock:
         x = np.asarray(x, dtype=float)
@@ -139,27 +139,16 @@ class ShapeRenderer:
             touching = np.asarray(touching, dtype=bool)
             x = np.where(touching, x, np.nan)
             y = np.where(touching, y, np.nan)
-        n = x.shape[0]
-        z, face = self.surface.query(np.column_stack([x, y]))
-        force, _ = lateral_force(x, y, z, fz=self.config.fz, prev=self._prev)
-        fsq = signed_sqrt(force)
+        cfg = self.config
         cal = self.calibration
-        inten = intensity_from_fsq(fsq, cal.fmin, cal.fmax)
-        pts = np.column_stack([x, y, z])
-        if self.config.edges and n and self.config.edge_walk:
-            edge, theta = edge_ticks_walk(self.surface, x, y, face, self.theta_min,
-                                          threshold_deg=self.config.edge_threshold_deg, spacing=self._spacing,
-                                          prev=(self._prev_point[0], self._prev_point[1], self._prev_face))
-        elif self.config.edges and n:
-            edge, theta = edge_ticks(face, pts, self._normals, self.theta_min,
-                                     threshold_deg=self.config.edge_threshold_deg,
-                                     prev=(self._prev_face, self._prev_point))
-        else:
-            edge, theta = np.zeros(n), np.full(n, np.nan)
-        if n:
-            self._prev = (x[-1], y[-1], z[-1], force[-1])
-            self._prev_face = int(face[-1])
-            self._prev_point = pts[-1].copy()
+        walk = cfg.edges and cfg.edge_walk
+        prev = (float(self.state[0]), float(self.state[1]), int(self.state[4]))
+        z, face, force, fsq, inten, edge, theta = touch_block(
+            self.surface, x, y, self.state, fz=cfg.fz, fmin=float(cal.fmin), fmax=float(cal.fmax),
+            edges=cfg.edges and not walk, theta_min=self.theta_min, threshold_deg=cfg.edge_threshold_deg)
+        if walk and x.shape[0]:
+            edge, theta = edge_ticks_walk(self.surface, x, y, face, self.theta_min, threshold_deg=cfg.edge_threshold_deg,
+                                          spacing=self._spacing, prev=prev)
         return ShapeBlock(z, face, force, fsq, inten, edge, theta)
 
 
@@ -299,12 +288,15 @@ def render_shape(surface: TopSurface, trajectory: Trajectory, calibration: Shape
     fs = cfg.drive_rate
     m = int(np.floor(t[-1] * fs + 1e-9)) + int(round(0.05 * fs))  # 50 ms tail for the last grain
     t_drive = np.arange(m) / fs
-    k = np.searchsorted(t, t_drive + 1e-12, side="right") - 1  # latest touch sample, -1 before the first
+    t = np.ascontiguousarray(t, dtype=np.float64)
+    load_d = np.empty(m)
+    age_d = np.empty(m)
+    k = np.empty(m, dtype=np.int64)  # latest touch sample, -1 before the first
+    hold_latest(0, float(fs), t, 1e-12, np.ascontiguousarray(trajectory.load, dtype=np.float64), t, 0.0, -np.inf,
+                load_d, age_d, k)
     kk = np.clip(k, 0, None)
-    valid = k >= 0
-    inten_d = np.where(valid & touching[kk], out.intensity[kk], 0.0)
-    load_d = np.where(valid, trajectory.load[kk], 0.0)
-    age_d = np.where(valid, t_drive - t[kk], np.inf)
+    # silent before the first touch, while lifted and off the mesh (nothing to touch there)
+    inten_d = np.where((k >= 0) & touching[kk] & (out.face[kk] >= 0), out.intensity[kk], 0.0)
     tick_d = np.zeros(m)
     onset = np.ceil(t * fs - 1e-9).astype(np.int64)
     sel = (out.edge > 0) & (onset < m)

@@ -24,8 +24,9 @@ import numba
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.shape.gradient import FZ_DEFAULT
-from surfhap.shape.topsurface import TopSurface, _hit_one
+from surfhap.shape.gradient import FZ_DEFAULT, gradient_step
+from surfhap.shape.raycast import hit_one
+from surfhap.shape.topsurface import TopSurface
 
 __all__ = ["ScanPlan", "ShapeCalibration", "calibrate", "scan_lines", "METHODS"]
 
@@ -130,24 +131,31 @@ class ShapeCalibration:
 @numba.njit(cache=True, nogil=True)
 def _scan_kernel(starts, dirs, steps, counts, fz, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny,
                  start, items, out):
+    # every on-mesh pair of consecutive samples of every line, through the one eq. 3-9 kernel
     m = 0
     for li in range(starts.shape[0]):
         sx = starts[li, 0]
         sy = starts[li, 1]
         dx = dirs[li, 0] * steps[li]
         dy = dirs[li, 1] * steps[li]
-        dr = steps[li]
+        px = np.nan
+        py = np.nan
         pz = np.nan
-        pf = -1
+        pf = 0.0
         for k in range(counts[li]):
-            z, f = _hit_one(sx + k * dx, sy + k * dy, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny,
-                            start, items)
-            if f >= 0 and pf >= 0:
-                force = -fz * (z - pz) / dr
-                out[m] = np.sqrt(force) if force >= 0 else -np.sqrt(-force)
+            x = sx + k * dx
+            y = sy + k * dy
+            z, f = hit_one(x, y, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items)
+            if f < 0:
+                z = np.nan
+            force, fsq, _, moved = gradient_step(x, y, z, px, py, pz, pf, fz, -1.0, 1.0)
+            if moved:
+                out[m] = fsq
                 m += 1
+            px = x
+            py = y
             pz = z
-            pf = f
+            pf = force
     return m
 
 

@@ -35,7 +35,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from surfhap.shape.topsurface import _hit_one
+from surfhap.shape.raycast import hit_one
 
 __all__ = [
     "edge_ticks_walk",
@@ -46,6 +46,7 @@ __all__ = [
     "sharpness",
     "tick_intensity",
     "edge_ticks",
+    "edge_tick_one",
     "smallest_convex_dihedral",
 ]
 
@@ -85,9 +86,53 @@ def tick_intensity(s: np.ndarray) -> np.ndarray:
     return 0.7 * np.clip(np.asarray(s, dtype=float), 0.0, 1.0) + 0.3
 
 
+@numba.njit(cache=True, nogil=True)
+def edge_tick_one(normals, f1, f2, x1, y1, z1, x2, y2, z2, theta_min, threshold_deg):
+    """Eq. 10-11 for one step from hit (x1, y1, z1) on face f1 to (x2, y2, z2) on face f2
+    (compiled, scalar; shared by :func:`edge_ticks` and the live touch step).
+
+    normals (nf, 3) float up normals; theta_min, threshold_deg in degrees. Returns
+    ``(tick, theta)``: the tick intensity Ie (0 unless a convex edge with theta <=
+    threshold_deg was crossed) and the dihedral angle (deg; NaN unless the face changed with
+    both hits on the mesh).
+    """
+    if f1 < 0 or f2 < 0 or f1 == f2:
+        return 0.0, np.nan
+    c = normals[f1, 0] * normals[f2, 0] + normals[f1, 1] * normals[f2, 1] + normals[f1, 2] * normals[f2, 2]
+    c = min(1.0, max(-1.0, c))
+    phi = np.degrees(np.arccos(c))
+    bend = ((normals[f1, 0] - normals[f2, 0]) * (x2 - x1) + (normals[f1, 1] - normals[f2, 1]) * (y2 - y1)
+            + (normals[f1, 2] - normals[f2, 2]) * (z2 - z1))
+    if not phi > FLAT_TOLERANCE_DEG:
+        return 0.0, 180.0
+    if not bend < 0.0:
+        return 0.0, 180.0 + phi
+    theta = 180.0 - phi
+    if not theta <= threshold_deg:
+        return 0.0, theta
+    s = -(theta - 180.0) / (180.0 - theta_min)
+    s = min(max(s, 0.0), 1.0)
+    return 0.7 * s + 0.3, theta
+
+
+@numba.njit(cache=True, nogil=True)
+def _ticks_loop(face, pts, f0, p0, normals, theta_min, threshold, tick, theta):
+    pf = f0
+    px = p0[0]
+    py = p0[1]
+    pz = p0[2]
+    for i in range(face.shape[0]):
+        tick[i], theta[i] = edge_tick_one(normals, pf, face[i], px, py, pz, pts[i, 0], pts[i, 1], pts[i, 2],
+                                          theta_min, threshold)
+        pf = face[i]
+        px = pts[i, 0]
+        py = pts[i, 1]
+        pz = pts[i, 2]
+
+
 def edge_ticks(face: np.ndarray, points: np.ndarray, up_normals: np.ndarray, theta_min: float, *,
                threshold_deg: float = EDGE_THRESHOLD_DEG, prev: tuple[int, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Edge ticks along a sequence of hits.
+    """Edge ticks along a sequence of hits (a loop over :func:`edge_tick_one`).
 
     face       : (n,) int hit faces (-1 off the mesh).
     points     : (n, 3) float hit points.
@@ -98,26 +143,17 @@ def edge_ticks(face: np.ndarray, points: np.ndarray, up_normals: np.ndarray, the
     edge with theta <= threshold_deg was crossed since the previous sample (0 elsewhere), and
     the dihedral angle of every face change (NaN where the face did not change).
     """
-    face = np.asarray(face, dtype=np.int64)
-    pts = np.asarray(points, dtype=float)
+    if not 180.0 - float(theta_min) > 0:
+        raise ValueError(f"theta_min must be below 180 deg, got {theta_min}")
+    face = np.ascontiguousarray(face, dtype=np.int64)
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     n = face.shape[0]
-    if prev is None:
-        f_prev = np.concatenate(([-1], face[:-1])) if n else face
-        p_prev = np.concatenate((np.full((1, 3), np.nan), pts[:-1])) if n else pts
-    else:
-        f_prev = np.concatenate(([int(prev[0])], face[:-1])) if n else face
-        p_prev = np.concatenate((np.asarray(prev[1], dtype=float).reshape(1, 3), pts[:-1])) if n else pts
-    change = (face >= 0) & (f_prev >= 0) & (face != f_prev)
+    f0, p0 = (-1, np.full(3, np.nan)) if prev is None else (int(prev[0]), np.asarray(prev[1], dtype=np.float64).reshape(3))
     tick = np.zeros(n)
-    theta_all = np.full(n, np.nan)
-    if not np.any(change):
-        return tick, theta_all
-    k = np.nonzero(change)[0]
-    theta, convex = dihedral_angles(up_normals[f_prev[k]], up_normals[face[k]], p_prev[k], pts[k])
-    theta_all[k] = theta
-    sel = convex & (theta <= threshold_deg)
-    tick[k[sel]] = tick_intensity(sharpness(theta[sel], theta_min))
-    return tick, theta_all
+    theta = np.full(n, np.nan)
+    _ticks_loop(face, pts, f0, np.ascontiguousarray(p0), np.ascontiguousarray(up_normals, dtype=np.float64),
+                float(theta_min), float(threshold_deg), tick, theta)
+    return tick, theta
 
 
 def smallest_convex_dihedral(surface) -> float:
@@ -157,12 +193,11 @@ def walk_spacing(surface) -> float:
 
 
 @numba.njit(cache=True, nogil=True)
-def _walk_kernel(x, y, face, px0, py0, pf0, spacing, max_sub, normals, theta_min, threshold, flat_deg,
+def _walk_kernel(x, y, face, px0, py0, pf0, spacing, max_sub, normals, theta_min, threshold,
                  verts, faces, esign, zmax, gx0, gy0, inv_cw, inv_ch, nx, ny, start, items, tick, theta_out):
     px = px0
     py = py0
     pf = pf0
-    span = 180.0 - theta_min
     for i in range(x.shape[0]):
         cx = x[i]
         cy = y[i]
@@ -186,29 +221,20 @@ def _walk_kernel(x, y, face, px0, py0, pf0, spacing, max_sub, normals, theta_min
             for k in range(1, m + 1):
                 sx = px + dx * k / m
                 sy = py + dy * k / m
-                z, f = _hit_one(sx, sy, verts, faces, esign, zmax, gx0, gy0, inv_cw, inv_ch, nx, ny, start, items)
+                z, f = hit_one(sx, sy, verts, faces, esign, zmax, gx0, gy0, inv_cw, inv_ch, nx, ny, start, items)
                 if f < 0:
                     lf = -1
                     continue
                 if lf >= 0 and f != lf:
                     if not np.isfinite(lz):
                         # height of the previous sub-sample on its face is needed for the bend test
-                        lz, _ = _hit_one(lx, ly, verts, faces, esign, zmax, gx0, gy0, inv_cw, inv_ch, nx, ny, start, items)
-                    c = normals[lf, 0] * normals[f, 0] + normals[lf, 1] * normals[f, 1] + normals[lf, 2] * normals[f, 2]
-                    c = min(1.0, max(-1.0, c))
-                    phi = np.degrees(np.arccos(c))
-                    bend = ((normals[lf, 0] - normals[f, 0]) * (sx - lx) + (normals[lf, 1] - normals[f, 1]) * (sy - ly)
-                            + (normals[lf, 2] - normals[f, 2]) * (z - lz))
-                    if phi > flat_deg:
-                        th = 180.0 - phi if bend < 0.0 else 180.0 + phi
+                        lz, _ = hit_one(lx, ly, verts, faces, esign, zmax, gx0, gy0, inv_cw, inv_ch, nx, ny, start, items)
+                    ie, th = edge_tick_one(normals, lf, f, lx, ly, lz, sx, sy, z, theta_min, threshold)
+                    if th != 180.0:  # 180 exactly: coplanar faces, no edge
                         if not (best_theta <= th):
                             best_theta = th
-                        if bend < 0.0 and th <= threshold:
-                            s = (180.0 - th) / span
-                            s = min(1.0, max(0.0, s))
-                            ie = 0.7 * s + 0.3
-                            if ie > tick[i]:
-                                tick[i] = ie
+                        if ie > tick[i]:
+                            tick[i] = ie
                 lf = f
                 lx = sx
                 ly = sy
@@ -241,5 +267,5 @@ def edge_ticks_walk(surface, x: np.ndarray, y: np.ndarray, face: np.ndarray, the
     px, py, pf = (np.nan, np.nan, -1) if prev is None else (float(prev[0]), float(prev[1]), int(prev[2]))
     sp = float(spacing) if spacing is not None else walk_spacing(surface)
     _walk_kernel(x, y, face, px, py, pf, sp, int(max_sub), surface.up_normals, float(theta_min), float(threshold_deg),
-                 FLAT_TOLERANCE_DEG, *surface._args, tick, theta)
+                 *surface._args, tick, theta)
     return tick, theta

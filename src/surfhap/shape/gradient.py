@@ -15,16 +15,27 @@ From consecutive hit points P1 = (x1, y1, z1) and P2 = (x2, y2, z2):
 
 A finger at rest (dr = 0) keeps the previous force instead of dividing by zero. Where either
 hit point is off the mesh (z NaN) there is no surface to climb: the force is 0 (flat).
+
+One implementation: :func:`gradient_step` is the compiled scalar kernel of eq. 3-9 for one
+touch sample. The offline renderer (through :func:`gradient_block`), the calibration scans
+(:mod:`surfhap.shape.calibration`) and the live touch step (:mod:`surfhap.shape.touch`) all
+call it; the array functions below are loops over its parts. Kernels compile on first call
+(``cache=True``), never at import.
 """
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 
 __all__ = [
     "FZ_DEFAULT",
     "I_MIN",
     "I_MAX",
+    "gradient_step",
+    "gradient_block",
     "lateral_force",
     "signed_sqrt",
     "intensity_from_fsq",
@@ -34,6 +45,100 @@ __all__ = [
 FZ_DEFAULT = 1.0  # N, assumed normal force (Kim et al. Sec. 3.1.1 and eq. 7)
 I_MAX = 1.0  # intensity for Fsq <= Fsq_min (eq. 9)
 I_MIN = 0.3  # weakest clearly perceptible intensity (Sec. 4.1, eq. 9)
+
+
+@numba.njit(cache=True, nogil=True)
+def _signed_sqrt_one(force):
+    # eq. 8
+    if force > 0.0:
+        return math.sqrt(force)
+    if force < 0.0:
+        return -math.sqrt(-force)
+    return force  # 0, -0 or NaN
+
+
+@numba.njit(cache=True, nogil=True)
+def _intensity_one(fsq, fmin, fmax):
+    # eq. 9, saturating outside [fmin, fmax]; NaN counts as Fsq = 0
+    f = 0.0 if fsq != fsq else fsq
+    if f <= fmin:
+        return I_MAX
+    if f >= fmax:
+        return I_MIN
+    i = ((I_MAX - I_MIN) * f + I_MIN * fmin - I_MAX * fmax) / (fmin - fmax)
+    return min(max(i, I_MIN), I_MAX)
+
+
+@numba.njit(cache=True, nogil=True)
+def gradient_step(x, y, z, px, py, pz, pforce, fz, fmin, fmax):
+    """Eq. 3-9 for one touch sample (the one kernel of every shape path).
+
+    x, y  : m, touch position; z: m, its hit height (NaN off the mesh).
+    px, py, pz, pforce : the previous sample's position, height and force (N); NaN
+            position at the start of a chain (after a lift), with ``pforce`` 0.
+    fz    : N, assumed normal force; fmin < fmax: sqrt(N), the calibrated Fsq range.
+    Returns ``(force N, fsq sqrt(N), intensity in [0.3, 1], moved)``: ``moved`` is True when
+    the force came from a real step (dr > 0 with both hits on the mesh); at rest (dr = 0,
+    both positions finite) the previous force is held; otherwise the force is 0.
+    """
+    dr = math.hypot(x - px, y - py)
+    moved = False
+    if dr > 0.0:
+        if math.isfinite(z) and math.isfinite(pz):
+            force = -fz * (z - pz) / dr
+            moved = True
+        else:
+            force = 0.0
+    elif math.isfinite(x) and math.isfinite(px):
+        force = pforce  # at rest: hold
+    else:
+        force = 0.0
+    fsq = _signed_sqrt_one(force)
+    return force, fsq, _intensity_one(fsq, fmin, fmax), moved
+
+
+@numba.njit(cache=True, nogil=True)
+def _gradient_loop(x, y, z, px, py, pz, pf, fz, fmin, fmax, force, fsq, inten, moved):
+    for i in range(x.shape[0]):
+        f, s, it, mv = gradient_step(x[i], y[i], z[i], px, py, pz, pf, fz, fmin, fmax)
+        force[i] = f
+        fsq[i] = s
+        inten[i] = it
+        moved[i] = mv
+        px = x[i]
+        py = y[i]
+        pz = z[i]
+        pf = f
+
+
+def _check_range(fmin: float, fmax: float) -> tuple[float, float]:
+    fmin = float(fmin)
+    fmax = float(fmax)
+    if not (np.isfinite(fmin) and np.isfinite(fmax) and fmin < fmax):
+        raise ValueError(f"need finite fmin < fmax, got ({fmin}, {fmax})")
+    return fmin, fmax
+
+
+def gradient_block(x: np.ndarray, y: np.ndarray, z: np.ndarray, fmin: float, fmax: float, *, fz: float = FZ_DEFAULT,
+                   prev: tuple[float, float, float, float] | None = None):
+    """Eq. 3-9 along a sequence of touch samples (a loop over :func:`gradient_step`).
+
+    x, y, z : (n,) float positions (m) and hit heights (m, NaN off the mesh).
+    fmin < fmax : sqrt(N), Fsq range of eq. 9; fz: N.
+    prev    : (x, y, z, force) of the sample before the block, or None at the start of a
+              trajectory (the first sample then gets force 0).
+    Returns ``(force (n,) N, fsq (n,) sqrt(N), intensity (n,) in [0.3, 1], moved (n,) bool)``.
+    """
+    fmin, fmax = _check_range(fmin, fmax)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    z = np.ascontiguousarray(z, dtype=np.float64)
+    n = x.shape[0]
+    px, py, pz, pf = (np.nan, np.nan, np.nan, 0.0) if prev is None else (float(v) for v in prev)
+    force, fsq, inten = np.empty(n), np.empty(n), np.empty(n)
+    moved = np.empty(n, dtype=np.bool_)
+    _gradient_loop(x, y, z, px, py, pz, pf, float(fz), fmin, fmax, force, fsq, inten, moved)
+    return force, fsq, inten, moved
 
 
 def lateral_force(x: np.ndarray, y: np.ndarray, z: np.ndarray, *, fz: float = FZ_DEFAULT,
@@ -47,37 +152,28 @@ def lateral_force(x: np.ndarray, y: np.ndarray, z: np.ndarray, *, fz: float = FZ
     Returns ``(force (n,) float N, moved (n,) bool)``: ``moved`` marks samples whose force
     was computed from a real step (dr > 0 on the mesh) rather than held or set to 0.
     """
-    x = np.asarray(x, dtype=float)
-    y = np.asarray(y, dtype=float)
-    z = np.asarray(z, dtype=float)
-    n = x.shape[0]
-    if prev is None:
-        px, py, pz, pf = np.nan, np.nan, np.nan, 0.0
-    else:
-        px, py, pz, pf = (float(v) for v in prev)
-    xp = np.concatenate(([px], x[:-1])) if n else x
-    yp = np.concatenate(([py], y[:-1])) if n else y
-    zp = np.concatenate(([pz], z[:-1])) if n else z
-    dr = np.hypot(x - xp, y - yp)
-    dz = z - zp
-    on_both = np.isfinite(z) & np.isfinite(zp)
-    moved = on_both & (dr > 0)
-    at_rest = ~(dr > 0) & np.isfinite(x) & np.isfinite(xp)  # dr == 0: hold
-    if prev is None and n:
-        at_rest[0] = False
-    with np.errstate(divide="ignore", invalid="ignore"):
-        raw = np.where(moved, -fz * dz / np.where(moved, dr, 1.0), 0.0)
-    # hold the previous value while at rest: forward-fill from the last non-rest sample
-    idx = np.where(at_rest, -1, np.arange(n))
-    np.maximum.accumulate(idx, out=idx)
-    held = np.where(idx >= 0, raw[np.clip(idx, 0, None)], pf)
-    return held, moved
+    force, _, _, moved = gradient_block(x, y, z, -1.0, 1.0, fz=fz, prev=prev)
+    return force, moved
+
+
+@numba.njit(cache=True, nogil=True)
+def _sqrt_loop(f, out):
+    for i in range(f.shape[0]):
+        out[i] = _signed_sqrt_one(f[i])
+
+
+@numba.njit(cache=True, nogil=True)
+def _intensity_loop(f, fmin, fmax, out):
+    for i in range(f.shape[0]):
+        out[i] = _intensity_one(f[i], fmin, fmax)
 
 
 def signed_sqrt(force: np.ndarray) -> np.ndarray:
-    """``sgn(F) sqrt(|F|)`` (eq. 8), elementwise."""
-    f = np.asarray(force, dtype=float)
-    return np.sign(f) * np.sqrt(np.abs(f))
+    """``sgn(F) sqrt(|F|)`` (eq. 8), elementwise over an (n,) float array."""
+    f = np.ascontiguousarray(force, dtype=np.float64).ravel()
+    out = np.empty_like(f)
+    _sqrt_loop(f, out)
+    return out.reshape(np.shape(force))
 
 
 def intensity_from_fsq(fsq: np.ndarray, fmin: float, fmax: float) -> np.ndarray:
@@ -86,15 +182,11 @@ def intensity_from_fsq(fsq: np.ndarray, fmin: float, fmax: float) -> np.ndarray:
     fsq (n,) float; fmin < fmax. NaN inputs give the intensity of Fsq = 0. The result is
     always within [0.3, 1.0].
     """
-    fmin = float(fmin)
-    fmax = float(fmax)
-    if not (np.isfinite(fmin) and np.isfinite(fmax) and fmin < fmax):
-        raise ValueError(f"need finite fmin < fmax, got ({fmin}, {fmax})")
-    f = np.nan_to_num(np.asarray(fsq, dtype=float), nan=0.0)
-    with np.errstate(over="ignore", invalid="ignore"):
-        i = ((I_MAX - I_MIN) * f + I_MIN * fmin - I_MAX * fmax) / (fmin - fmax)
-    i = np.where(f <= fmin, I_MAX, np.where(f >= fmax, I_MIN, i))
-    return np.clip(i, I_MIN, I_MAX)
+    fmin, fmax = _check_range(fmin, fmax)
+    f = np.ascontiguousarray(fsq, dtype=np.float64).ravel()
+    out = np.empty_like(f)
+    _intensity_loop(f, fmin, fmax, out)
+    return out.reshape(np.shape(fsq))
 
 
 def neutral_intensity(fmin: float, fmax: float) -> float:

@@ -29,6 +29,7 @@ import numba
 import numpy as np
 
 from surfhap.errors import MeshFormatError
+from surfhap.shape.raycast import hit_one
 
 __all__ = ["TopSurface", "TopHits", "build_grid", "query_grid"]
 
@@ -88,68 +89,10 @@ def _fill_cells(order, bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, f
                 fill[c] += 1
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _hit_one(px, py, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items):
-    best_z = -np.inf
-    best_f = -1
-    fx = (px - x0) * inv_cw
-    fy = (py - y0) * inv_ch
-    if not (fx >= 0.0 and fx <= nx and fy >= 0.0 and fy <= ny):  # also rejects NaN and inf
-        return best_z, best_f
-    i = int(fx)
-    j = int(fy)
-    # points exactly on the far border belong to the last cell
-    if i == nx:
-        i = nx - 1
-    if j == ny:
-        j = ny - 1
-    c = j * nx + i
-    for k in range(start[c], start[c + 1]):
-        f = items[k]
-        if zmax[f] < best_z:
-            break
-        a = faces[f, 0]
-        b = faces[f, 1]
-        d = faces[f, 2]
-        ax = verts[a, 0]
-        ay = verts[a, 1]
-        bx = verts[b, 0]
-        by = verts[b, 1]
-        dx = verts[d, 0]
-        dy = verts[d, 1]
-        # edge functions with canonical vertex order; esign restores the face's orientation
-        if a < b:
-            e2 = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
-        else:
-            e2 = -((ax - bx) * (py - by) - (ay - by) * (px - bx))
-        if b < d:
-            e0 = (dx - bx) * (py - by) - (dy - by) * (px - bx)
-        else:
-            e0 = -((bx - dx) * (py - dy) - (by - dy) * (px - dx))
-        if d < a:
-            e1 = (ax - dx) * (py - dy) - (ay - dy) * (px - dx)
-        else:
-            e1 = -((dx - ax) * (py - ay) - (dy - ay) * (px - ax))
-        s = esign[f]
-        e0 *= s
-        e1 *= s
-        e2 *= s
-        if e0 < 0.0 or e1 < 0.0 or e2 < 0.0:
-            continue
-        tot = e0 + e1 + e2
-        if tot <= 0.0:
-            continue
-        z = (e0 * verts[a, 2] + e1 * verts[b, 2] + e2 * verts[d, 2]) / tot
-        if z > best_z:
-            best_z = z
-            best_f = f
-    return best_z, best_f
-
-
 @numba.njit(cache=True, nogil=True)
 def _query_kernel(xy, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items, z_out, f_out):
     for n in range(xy.shape[0]):
-        z, f = _hit_one(xy[n, 0], xy[n, 1], verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items)
+        z, f = hit_one(xy[n, 0], xy[n, 1], verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items)
         if f < 0:
             z_out[n] = np.nan
         else:
@@ -159,7 +102,7 @@ def _query_kernel(xy, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny,
 
 @numba.njit(cache=True, nogil=True)
 def _query_point(px, py, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items):
-    z, f = _hit_one(px, py, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items)
+    z, f = hit_one(px, py, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items)
     if f < 0:
         return np.nan, f
     return z, f
