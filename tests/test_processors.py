@@ -5,7 +5,7 @@ import pytest
 from scipy.signal import freqz, upfirdn
 
 from surfhap.models.texture import ARModel, TextureBank
-from surfhap.render.resample import RationalResampler
+from surfhap.signal.resample import RationalResampler
 from surfhap.models.synth import ARSynthesizer
 from surfhap.sim.display import DisplayModel, SimulatedDisplay
 from surfhap.sim.electrostatics import EPSILON_0, ElectrostaticStack, electrostatic_constant

@@ -26,7 +26,7 @@ from surfhap.models.material import Material
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
 from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
-from surfhap.render.resample import RationalResampler
+from surfhap.signal.resample import RationalResampler
 from surfhap.render.safety import SafetyLimits, SafetyStage
 from surfhap.render.texture_source import TextureSource
 from surfhap.sim.display import DisplayModel

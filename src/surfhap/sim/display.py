@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from surfhap.render.resample import RationalResampler
+from surfhap.signal.resample import RationalResampler
 from surfhap.sim.electrostatics import ElectrostaticStack
 
 __all__ = ["DisplayModel", "SimulatedDisplay"]
