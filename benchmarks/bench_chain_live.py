@@ -17,7 +17,7 @@ from bench_render import bank
 
 from surfhap import ChainConfig, TextureChain, load_material
 from surfhap.render.kinematics import Kinematics
-from surfhap.sim.display import SimulatedDisplay
+from surfhap.models.panel import SimulatedDisplay
 
 
 def main():

@@ -13,7 +13,7 @@ from surfhap.render.shape_renderer import ShapeConfig, display_device_curve, ren
 from surfhap.shape.calibration import ShapeCalibration
 from surfhap.shape.scan import straight_scan
 from surfhap.shape.scenes import builtin_shape
-from surfhap.sim.trajectory import Trajectory
+from surfhap.models.trajectory import Trajectory
 
 
 def test_frustum_render_end_to_end():

@@ -59,7 +59,7 @@ def _default_strokes(size):
     """0.5 Hz strokes of +-3 cm through the content centre, 1 N, 6 s (the study's pace, 004 Sec. 5.2)."""
     import numpy as np
 
-    from surfhap.sim.trajectory import Trajectory
+    from surfhap.models.trajectory import Trajectory
 
     t = np.arange(0.0, 6.0, 1e-3)
     return Trajectory(t, size[0] / 2 + 0.03 * np.sin(np.pi * t), np.full(t.size, size[1] / 2), np.ones(t.size),

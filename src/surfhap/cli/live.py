@@ -236,7 +236,7 @@ def play_cmd(
     Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
     (exit 0); exit 3 when the output backend failed."""
     from surfhap.live.server import build_session
-    from surfhap.sim.trajectory import constant_scan, strokes
+    from surfhap.models.trajectory import constant_scan, strokes
 
     disp = None if display is None and config is None else resolve_display_and_range(display, None, None, config)[0]
     kv = parse_key_values(scan, "--scan", {"speed": None, "load": None, "duration": None, "length": 0.0, "rate": 125.0})

@@ -19,7 +19,7 @@ SCAN_KEYS = {"speed": None, "load": None, "duration": None, "length": 0.0, "rate
 def trajectory_from_options(scan: str | None, trajectory: Path | None):
     """Build the trajectory from ``--scan key=value,...`` or ``--trajectory FILE``."""
     from surfhap.exchange.trajectory_csv import read_trajectory_csv
-    from surfhap.sim.trajectory import constant_scan, strokes
+    from surfhap.models.trajectory import constant_scan, strokes
 
     if (scan is None) == (trajectory is None):
         raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")

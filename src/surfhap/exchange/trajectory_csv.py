@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import TrajectoryFormatError
-from surfhap.sim.trajectory import Trajectory
+from surfhap.models.trajectory import Trajectory
 
 __all__ = ["read_trajectory_csv", "write_trajectory_csv", "TRAJECTORY_COLUMNS"]
 

@@ -114,7 +114,7 @@ class StimulusPlayer:
         from surfhap.shape.calibration import calibrate
         from surfhap.shape.scenes import builtin_shape
         from surfhap.shape.topsurface import TopSurface
-        from surfhap.sim.display import DisplayModel
+        from surfhap.models.panel import DisplayModel
 
         sp = self.session.space
         surface = builtin_shape(name)
@@ -128,7 +128,7 @@ class StimulusPlayer:
         from surfhap.render.shape_renderer import ShapeConfig
         from surfhap.shape.calibration import calibrate
         from surfhap.shape.scenes import builtin_shape
-        from surfhap.sim.display import DisplayModel
+        from surfhap.models.panel import DisplayModel
 
         sp = self.session.space
         surface = builtin_shape("gaussian-bump")  # carries the renderer's geometry; the profile sets the intensity

@@ -29,7 +29,7 @@ from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
 from surfhap.signal.resample import RationalResampler
 from surfhap.render.safety import SafetyLimits, SafetyStage
 from surfhap.render.texture_source import TextureSource
-from surfhap.sim.display import DisplayModel
+from surfhap.models.panel import DisplayModel
 
 __all__ = ["ChainConfig", "ChainBlock", "TextureChain", "PAPER_CARRIERS", "resolve_carrier"]
 

@@ -18,8 +18,8 @@ from surfhap.render.chain import ChainConfig, TextureChain
 from surfhap.render.kinematics import Kinematics
 from surfhap.render.safety import SafetyCounters
 from surfhap.signal.ar import ar_psd
-from surfhap.sim.display import SimulatedDisplay
-from surfhap.sim.trajectory import Trajectory
+from surfhap.models.panel import SimulatedDisplay
+from surfhap.models.trajectory import Trajectory
 
 __all__ = ["RenderResult", "render", "sample_trajectory"]
 

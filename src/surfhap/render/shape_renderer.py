@@ -30,8 +30,8 @@ from surfhap.shape.calibration import ShapeCalibration, calibrate
 from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks, edge_ticks_walk, walk_spacing
 from surfhap.shape.gradient import FZ_DEFAULT, intensity_from_fsq, lateral_force, signed_sqrt
 from surfhap.shape.topsurface import TopSurface
-from surfhap.sim.display import DisplayModel, SimulatedDisplay
-from surfhap.sim.trajectory import Trajectory
+from surfhap.models.panel import DisplayModel, SimulatedDisplay
+from surfhap.models.trajectory import Trajectory
 
 __all__ = ["display_device_curve", "ShapeConfig", "ShapeBlock", "ShapeRenderer", "ShapeDrive", "ShapeResult", "render_shape"]
 

@@ -52,8 +52,8 @@ def run_demo(settings: DemoSettings = DemoSettings(), progress: Callable[[float]
     from surfhap.render.chain import ChainConfig
     from surfhap.render.fidelity import fidelity_metrics
     from surfhap.render.offline import render
-    from surfhap.sim.display import DisplayModel
-    from surfhap.sim.trajectory import constant_scan
+    from surfhap.models.panel import DisplayModel
+    from surfhap.models.trajectory import constant_scan
 
     names = builtin_names()
     loads = tuple(dict.fromkeys((*settings.loads, settings.load)))
