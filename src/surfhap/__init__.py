@@ -36,7 +36,8 @@ from surfhap.errors import (
 _LAZY_MODULES = {
     "surfhap.exchange.display_file": ("load_display", "read_display_json"),
     "surfhap.exchange.hatt": ("import_hatt_folder", "read_hatt_xml", "write_hatt_xml"),
-    "surfhap.exchange.materials": ("builtin_names", "load_material", "read_material_json", "write_material_json"),
+    "surfhap.exchange.material_json": ("read_material_json", "write_material_json"),
+    "surfhap.exchange.materials": ("builtin_names", "load_material"),
     "surfhap.exchange.mesh": ("read_mesh",),
     "surfhap.exchange.recordings": ("read_recording", "read_recordings", "Recording"),
     "surfhap.exchange.render_files": ("write_render",),

@@ -61,7 +61,7 @@ def fit_friction_cmd(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there."),
 ) -> None:
     """Fit Coulomb mu0, the quasi-static law and AR textures per reference velocity (Otake et al.)."""
-    from surfhap.exchange.materials import write_material_json
+    from surfhap.exchange.material_json import write_material_json
     from surfhap.exchange.recordings import parse_column_map, read_recordings
     from surfhap.fit.material_fit import fit_friction, parallel_context
     from surfhap.fit.texture import ESTIMATORS
@@ -111,7 +111,7 @@ def fit_accel_cmd(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there."),
 ) -> None:
     """Segment, fit AR per segment and interpolate over (speed, force) (HaTT / Zhao et al.)."""
-    from surfhap.exchange.materials import write_material_json
+    from surfhap.exchange.material_json import write_material_json
     from surfhap.exchange.recordings import parse_column_map, read_recordings
     from surfhap.fit.accel import fit_accel
     from surfhap.fit.material_fit import parallel_context

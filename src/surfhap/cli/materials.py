@@ -123,7 +123,7 @@ def calibrate_texture(
     standard deviation of the AR model's output above the band split. The command and numbers
     go into the provenance.
     """
-    from surfhap.exchange.materials import read_material_json, write_material_json
+    from surfhap.exchange.material_json import read_material_json, write_material_json
     from surfhap.models.material import Provenance, TextureCalibrationSpec, TextureSpec
     from surfhap.models.texture_calibration import relative_scale, texture_band_std
 
