@@ -20,14 +20,15 @@ def demo(out: Path = typer.Option(Path("demo"), "--out", help="Folder for report
          config: Optional[Path] = typer.Option(None, "--config", help=CONFIG_HELP)) -> None:
     """Render every built-in material at 0.26/0.5/0.96 N and 50/100/150 mm/s; write an HTML report
     with the gain plans and the fidelity table."""
-    from surfhap.report.demo_report import DemoSettings, run_demo, write_demo_report
+    from surfhap.report.demo_report import write_demo_report
+    from surfhap.sim.demo import DemoSettings, run_demo
 
     disp, _ = resolve_display_and_range(display, None, None, config)
     settings = DemoSettings(duration=duration, seed=seed, display=disp)
     with progress_bar("rendering built-in materials") as update:
         results = run_demo(settings, progress=update)
     with progress_bar("writing figures") as _:
-        path = write_demo_report(results, out, settings)
+        path = write_demo_report(results, out)
     stdout.print(f"demo report: {path.resolve()}")
 
 
