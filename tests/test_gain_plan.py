@@ -12,12 +12,12 @@ from surfhap import ChainConfig, constant_scan, load_material, render
 from surfhap.cli import main
 from surfhap.errors import ConfigError
 from surfhap.exchange.display_file import load_display, read_display_json
+from surfhap.models.electrostatics import ElectrostaticStack
+from surfhap.models.panel import DisplayModel
 from surfhap.models.texture_calibration import ar_stationary_std, relative_scale, texture_band_std
 from surfhap.render.chain import TextureChain
 from surfhap.render.gain_plan import OperatingRange, plan_gains
 from surfhap.render.safety import SafetyLimits
-from surfhap.models.panel import DisplayModel
-from surfhap.models.electrostatics import ElectrostaticStack
 
 
 def run(capsys, *args):

@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.io import wavfile
 
 from surfhap.errors import ConfigError
-from surfhap.render.offline import RenderResult
+
+if TYPE_CHECKING:  # exchange/ sits below render/: it writes the result's arrays, it does not compute
+    from surfhap.render.offline import RenderResult
 
 __all__ = ["write_render", "write_drive_wav", "render_arrays"]
 

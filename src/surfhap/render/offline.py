@@ -14,12 +14,12 @@ from typing import Callable
 import numpy as np
 
 from surfhap.models.material import Material
+from surfhap.models.panel import SimulatedDisplay
+from surfhap.models.trajectory import Trajectory
 from surfhap.render.chain import ChainConfig, TextureChain
 from surfhap.render.kinematics import Kinematics
 from surfhap.render.safety import SafetyCounters
 from surfhap.signal.ar import ar_psd
-from surfhap.models.panel import SimulatedDisplay
-from surfhap.models.trajectory import Trajectory
 
 __all__ = ["RenderResult", "render", "sample_trajectory"]
 

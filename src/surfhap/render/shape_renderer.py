@@ -23,6 +23,8 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from surfhap.errors import ConfigError
+from surfhap.models.panel import DisplayModel, SimulatedDisplay
+from surfhap.models.trajectory import Trajectory
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.grains import DeviceCurve, GrainParams, GrainPlayer, grain_name
 from surfhap.render.safety import SafetyCounters, SafetyLimits, SafetyStage
@@ -30,8 +32,6 @@ from surfhap.shape.calibration import ShapeCalibration, calibrate
 from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks, edge_ticks_walk, walk_spacing
 from surfhap.shape.gradient import FZ_DEFAULT, intensity_from_fsq, lateral_force, signed_sqrt
 from surfhap.shape.topsurface import TopSurface
-from surfhap.models.panel import DisplayModel, SimulatedDisplay
-from surfhap.models.trajectory import Trajectory
 
 __all__ = ["display_device_curve", "ShapeConfig", "ShapeBlock", "ShapeRenderer", "ShapeDrive", "ShapeResult", "render_shape"]
 
