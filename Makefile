@@ -1,6 +1,6 @@
 # surfhap: two commands set everything up on a fresh machine with python3 (3.11+) and make.
 #   make demo   render every built-in material on the simulated display, write demo/report.html
-#   make test   install and run the whole test suite
+#   make test   install, check the import layers (lint-imports), run the whole test suite
 #   make bench  run the performance benchmarks (one JSON line each)
 #   make soak   nightly-style: the whole-engine safety property test with SOAK_EXAMPLES
 #               (default 300000) random sequences instead of the 10^4 fixed ones of `make test`
@@ -36,7 +36,10 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/surfhap demo --out demo
 
+# the layer contracts of pyproject.toml ([tool.importlinter], drawn in docs/architecture.md)
+# fail the build before any test runs
 test: system-deps $(STAMP)
+	$(VENV)/bin/lint-imports --no-cache
 	$(PY) -m pytest
 
 # the reference test of the safety promise with many more, freshly random, sequences
@@ -73,4 +76,4 @@ calibrate-builtins: $(STAMP)
 	$(VENV)/bin/surfhap calibrate-texture $(BUILTIN)/drawing-paper.json --ratio 0.4 --reference "$(RATIO_REF); drawing paper: none published, wood's 10:4 used" --note "003 Sec. II replaced the drawing paper (highly smooth, minimal texture) by wood as its smooth material; 001 gives no ratio"
 
 clean:
-	rm -rf $(VENV) demo build *.egg-info src/*.egg-info .pytest_cache
+	rm -rf $(VENV) demo build *.egg-info src/*.egg-info .pytest_cache .import_linter_cache

@@ -16,8 +16,8 @@ from _common import report, run
 from bench_render import bank
 
 from surfhap import ChainConfig, TextureChain, load_material
+from surfhap.models.panel import SimulatedDisplay
 from surfhap.render.kinematics import Kinematics
-from surfhap.sim.display import SimulatedDisplay
 
 
 def main():

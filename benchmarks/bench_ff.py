@@ -68,8 +68,8 @@ def bench_loop(seconds: float) -> bool:
     from surfhap.live.ff_devices import SimDeviceBackend
     from surfhap.live.ff_loop import FFLoop, WorldTouchAdapter
     from surfhap.live.sources import ReplaySource
+    from surfhap.models.trajectory import Trajectory
     from surfhap.sim.ff_device import SimDevice
-    from surfhap.sim.trajectory import Trajectory
 
     eng = all_active_engine()
     be = SimDeviceBackend(SimDevice(gain=FALCON.gain), FALCON.gain)

@@ -29,8 +29,8 @@ from _common import report, run
 
 from surfhap.exchange.materials import load_material
 from surfhap.live.engine import EngineConfig, LiveEngine, audit_drive
+from surfhap.models.panel import SimulatedDisplay
 from surfhap.render.chain import ChainConfig, TextureChain
-from surfhap.sim.display import SimulatedDisplay
 
 
 def rss_bytes(pid: str = "self") -> int:

@@ -29,7 +29,7 @@ SURFACE = (0.217, 0.136)  # m, touch surface of the page
 
 def engine_for(name: str, display: bool):
     from surfhap.live.engine import EngineConfig, LiveEngine
-    from surfhap.sim.display import SimulatedDisplay
+    from surfhap.models.panel import SimulatedDisplay
 
     if name == "suzanne":
         from surfhap.live.shape_live import load_live_shape

@@ -7,7 +7,7 @@ import pytest
 
 from surfhap.exchange.imu_csv import read_imu_csv
 from surfhap.exchange.materials import builtin_names, load_material
-from surfhap.models.from_imu import fit_imu_texture
+from surfhap.fit.imu import fit_imu_texture
 
 
 @pytest.mark.parametrize("name", [n for n in builtin_names() if load_material(n).texture is not None])

@@ -14,7 +14,7 @@ from surfhap.ff.scene import load_scene
 from surfhap.live.prediction import TouchPredictor
 from surfhap.sim.ff_device import SimDevice
 from surfhap.sim.ff_sim import SimFinger, simulate_ff
-from surfhap.sim.trajectory import Trajectory
+from surfhap.models.trajectory import Trajectory
 
 B = [Button("a", 0.0, 0.0, 0.01, 0.01, 1e-3, 5e-4), Button("b", 0.02, 0.0, 0.03, 0.01, 1e-3, 5e-4)]
 

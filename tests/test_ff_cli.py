@@ -14,7 +14,7 @@ import pytest
 from surfhap.cli import main
 from surfhap.exchange.trajectory_csv import write_trajectory_csv
 from surfhap.ff.scene import builtin_scene_names, load_scene
-from surfhap.sim.trajectory import Trajectory
+from surfhap.models.trajectory import Trajectory
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 

@@ -9,9 +9,9 @@ from surfhap.ff import FALCON, FFEngine, GridField, Idle, RectsField, Roughness,
 from surfhap.ff.control import ControlLaw
 from surfhap.ff.effects import TickState
 from surfhap.live.prediction import TouchPredictor
+from surfhap.models.trajectory import Trajectory, constant_scan
 from surfhap.sim.ff_device import SimDevice, SimFinger
 from surfhap.sim.ff_sim import simulate_ff
-from surfhap.sim.trajectory import Trajectory, constant_scan
 
 LAT = 0.040  # s, touch latency of the simulated tablet (004: "a few dozens of ms")
 

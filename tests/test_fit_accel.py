@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from surfhap.errors import RecordingFormatError
-from surfhap.exchange.materials import read_material_json, write_material_json
+from surfhap.exchange.material_json import read_material_json, write_material_json
 from surfhap.fit.accel import fit_accel
 from surfhap.fit.synthetic import piecewise_ar, synthetic_accel_recording
 from surfhap.render.chain import ChainConfig, TextureChain

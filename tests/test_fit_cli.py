@@ -69,7 +69,7 @@ def test_fit_accel_and_import_hatt(tmp_path, capsys):
     assert (tmp_path / "rep" / "models.png").exists()
     # export to HaTT, import back through the CLI, render the XML directly
     from surfhap.exchange.hatt import bank_to_hatt, write_hatt_xml
-    from surfhap.exchange.materials import read_material_json
+    from surfhap.exchange.material_json import read_material_json
 
     bank = read_material_json(out).texture
     hatt = tmp_path / "hatt" / "Models_Tool.xml"

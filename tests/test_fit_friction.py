@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from surfhap.exchange.materials import read_material_json, write_material_json
+from surfhap.exchange.material_json import read_material_json, write_material_json
 from surfhap.fit.friction import PARAMETERS, fit_quasi_static, quasi_static_model
 from surfhap.fit.material_fit import fit_friction
 from surfhap.fit.preprocess import prepare_friction_recording

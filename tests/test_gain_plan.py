@@ -12,12 +12,12 @@ from surfhap import ChainConfig, constant_scan, load_material, render
 from surfhap.cli import main
 from surfhap.errors import ConfigError
 from surfhap.exchange.display_file import load_display, read_display_json
+from surfhap.models.electrostatics import ElectrostaticStack
+from surfhap.models.panel import DisplayModel
 from surfhap.models.texture_calibration import ar_stationary_std, relative_scale, texture_band_std
 from surfhap.render.chain import TextureChain
 from surfhap.render.gain_plan import OperatingRange, plan_gains
 from surfhap.render.safety import SafetyLimits
-from surfhap.sim.display import DisplayModel
-from surfhap.sim.electrostatics import ElectrostaticStack
 
 
 def run(capsys, *args):
@@ -117,7 +117,7 @@ def test_square_mean_equals_friction_only_mean_at_the_reference():
 
 
 def test_square_is_zero_when_lifted():
-    from surfhap.sim.trajectory import Trajectory
+    from surfhap.models.trajectory import Trajectory
 
     t = np.arange(0, 1.0, 0.008)
     traj = Trajectory(t, 0.1 * t, 0 * t, np.where((t > 0.4) & (t < 0.6), 0.0, 0.5))

@@ -7,7 +7,8 @@ from scipy.spatial import Delaunay
 
 from surfhap.errors import MaterialFormatError
 from surfhap.exchange.hatt import bank_to_hatt, hatt_to_bank, import_hatt_folder, read_hatt_material, read_hatt_xml, write_hatt_xml
-from surfhap.exchange.materials import load_material, read_material_json
+from surfhap.exchange.material_json import read_material_json
+from surfhap.exchange.materials import load_material
 from surfhap.models.interpolated import InterpolatedARMABank
 from surfhap.signal.lsf import poly_to_lsf
 

@@ -171,7 +171,7 @@ def test_calibration_file_is_what_the_renderers_read(tmp_path):
 
 def test_intensity_calibration_without_k_loads_with_the_assumed_k(tmp_path):
     from surfhap.exchange.display_file import load_display
-    from surfhap.sim.display import DisplayModel
+    from surfhap.models.panel import DisplayModel
 
     paths = [str(write_tribometer_npz(rec, tmp_path / f"i{j}.npz")) for j, rec in enumerate(_intensity_set(duration=3.0))]
     out = tmp_path / "cal.json"

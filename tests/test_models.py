@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from surfhap.errors import MaterialFormatError, UnknownMaterialError
-from surfhap.exchange.materials import builtin_names, load_material, read_material_json
+from surfhap.exchange.material_json import read_material_json
+from surfhap.exchange.materials import builtin_names, load_material
 from surfhap.models.friction import QuasiStaticLaw
 from surfhap.models.texture import ARModel, TextureBank
 

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from scipy.signal import freqz, upfirdn
 
+from surfhap.models.electrostatics import EPSILON_0, ElectrostaticStack, electrostatic_constant
+from surfhap.models.panel import DisplayModel, SimulatedDisplay
+from surfhap.models.synth import ARSynthesizer
 from surfhap.models.texture import ARModel, TextureBank
-from surfhap.render.resample import RationalResampler
-from surfhap.render.synth import ARSynthesizer
-from surfhap.sim.display import DisplayModel, SimulatedDisplay
-from surfhap.sim.electrostatics import EPSILON_0, ElectrostaticStack, electrostatic_constant
+from surfhap.signal.resample import RationalResampler
 
 BANK = TextureBank("cof", 2000.0, (ARModel([1.5, -0.7], 1e-4, 0.05), ARModel([0.3], 4e-4, 0.1), ARModel([0.9, -0.2], 2e-4, 0.15)))
 

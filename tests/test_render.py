@@ -87,7 +87,7 @@ def test_same_seed_same_drive(cork_with_known_texture):
 
 
 def test_lift_and_sensor_dropout_give_zero():
-    from surfhap.sim.trajectory import Trajectory
+    from surfhap.models.trajectory import Trajectory
 
     t = np.arange(0, 1.0, 0.008)
     t = t[(t < 0.6) | (t > 0.8)]  # the touch sensor falls silent for 200 ms while the finger presses

@@ -19,7 +19,7 @@ from surfhap.exchange.render_files import write_render
 from surfhap.exchange.render_store import read_render, store_dtype
 from surfhap.render.preview import preview_of
 from surfhap.render.stream import CHANNELS, stream_render
-from surfhap.sim.trajectory import Trajectory
+from surfhap.models.trajectory import Trajectory
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -20,7 +20,7 @@ from surfhap.shape.calibration import ScanPlan, ShapeCalibration, scan_fsq, scan
 from surfhap.shape.gradient import gradient_block
 from surfhap.shape.scenes import builtin_shape
 from surfhap.shape.topsurface import TopSurface
-from surfhap.sim.trajectory import Trajectory
+from surfhap.models.trajectory import Trajectory
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "surfhap"
 

@@ -8,12 +8,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from surfhap.errors import ConfigError
+from surfhap.models.trajectory import Trajectory
 from surfhap.render.grains import TICK_WIDTH, DeviceCurve, GrainPlayer, grain_name
 from surfhap.render.shape_renderer import ShapeConfig, display_device_curve, render_shape
 from surfhap.shape.calibration import ShapeCalibration
 from surfhap.shape.scan import straight_scan
 from surfhap.shape.scenes import builtin_shape
-from surfhap.sim.trajectory import Trajectory
 
 
 def test_frustum_render_end_to_end():

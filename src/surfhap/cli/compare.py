@@ -10,6 +10,7 @@ from typing import Optional
 import typer
 
 from surfhap.cli._common import stdout
+from surfhap.cli._options import SeedOption
 
 __all__ = ["register"]
 
@@ -22,7 +23,7 @@ def compare(
     speed_mm_s: float = typer.Option(100.0, "--speed-mm-s", help="Stroke speed of the comparison render (mm/s)."),
     load: float = typer.Option(0.5, "--load", help="Finger load of the comparison render (N)."),
     duration: float = typer.Option(4.0, "--duration", help="Seconds rendered per material."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the texture noise."),
+    seed: SeedOption = 0,
 ) -> None:
     """Overlay friction-law curves, texture spectra and voltage histograms of MATERIALS."""
     from rich.table import Table

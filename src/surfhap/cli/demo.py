@@ -3,31 +3,32 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
 
 import typer
 
 from surfhap.cli._common import progress_bar, stdout
-from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, resolve_display_and_range
+from surfhap.cli._display_options import resolve_display_and_range
+from surfhap.cli._options import ConfigOption, DisplayOption, SeedOption
 
 __all__ = ["register"]
 
 
 def demo(out: Path = typer.Option(Path("demo"), "--out", help="Folder for report.html and figures."),
          duration: float = typer.Option(10.0, "--duration", min=1.0, max=60.0, help="Seconds per render."),
-         seed: int = typer.Option(0, "--seed", help="Seed of the texture noise."),
-         display: Optional[str] = typer.Option(None, "--display", help=DISPLAY_HELP),
-         config: Optional[Path] = typer.Option(None, "--config", help=CONFIG_HELP)) -> None:
+         seed: SeedOption = 0,
+         display: DisplayOption = None,
+         config: ConfigOption = None) -> None:
     """Render every built-in material at 0.26/0.5/0.96 N and 50/100/150 mm/s; write an HTML report
     with the gain plans and the fidelity table."""
-    from surfhap.report.demo_report import DemoSettings, run_demo, write_demo_report
+    from surfhap.report.demo_report import write_demo_report
+    from surfhap.sim.demo import DemoSettings, run_demo
 
     disp, _ = resolve_display_and_range(display, None, None, config)
     settings = DemoSettings(duration=duration, seed=seed, display=disp)
     with progress_bar("rendering built-in materials") as update:
         results = run_demo(settings, progress=update)
     with progress_bar("writing figures") as _:
-        path = write_demo_report(results, out, settings)
+        path = write_demo_report(results, out)
     stdout.print(f"demo report: {path.resolve()}")
 
 

@@ -59,7 +59,7 @@ def _default_strokes(size):
     """0.5 Hz strokes of +-3 cm through the content centre, 1 N, 6 s (the study's pace, 004 Sec. 5.2)."""
     import numpy as np
 
-    from surfhap.sim.trajectory import Trajectory
+    from surfhap.models.trajectory import Trajectory
 
     t = np.arange(0.0, 6.0, 1e-3)
     return Trajectory(t, size[0] / 2 + 0.03 * np.sin(np.pi * t), np.full(t.size, size[1] / 2), np.ones(t.size),
@@ -71,7 +71,7 @@ def _default_pushes(buttons):
     0 -> 1 N -> 0 (enough to click a button pushed 0.8 mm at up to ~1200 N/m), then lifted."""
     import numpy as np
 
-    from surfhap.sim.trajectory import Trajectory
+    from surfhap.models.trajectory import Trajectory
 
     t = np.arange(0.0, 0.8 * len(buttons), 1e-3)
     k = np.minimum((t // 0.8).astype(int), len(buttons) - 1)

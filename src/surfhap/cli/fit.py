@@ -33,8 +33,8 @@ def fit_imu(
 ) -> None:
     """Fit an acceleration texture (DFT321, high band, AR by AIC) from an IMU recording."""
     from surfhap.exchange.imu_csv import read_imu_csv
-    from surfhap.exchange.materials import read_material_json, write_material_json
-    from surfhap.models.from_imu import fit_imu_texture
+    from surfhap.exchange.material_json import read_material_json, write_material_json
+    from surfhap.fit.imu import fit_imu_texture
     from surfhap.models.material import ARModelSpec, Provenance, TextureSpec
 
     if into is None:

@@ -13,6 +13,7 @@ from typing import List, Optional
 import typer
 
 from surfhap.cli._common import stdout
+from surfhap.cli._options import JobsOption, SchedulerOption
 from surfhap.cli.fit import fit_app
 from surfhap.errors import ConfigError
 
@@ -57,11 +58,11 @@ def fit_friction_cmd(
                                                    "(default: one cut-off period, where the band split is an extrapolation)."),
     columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'speed=v_x\\[mm/s],normal_force=Fz'."),
     report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
-    jobs: int = typer.Option(1, "--jobs", help="Parallel workers (joblib); -1 = all cores."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there."),
+    jobs: JobsOption = 1,
+    scheduler: SchedulerOption = None,
 ) -> None:
     """Fit Coulomb mu0, the quasi-static law and AR textures per reference velocity (Otake et al.)."""
-    from surfhap.exchange.materials import write_material_json
+    from surfhap.exchange.material_json import write_material_json
     from surfhap.exchange.recordings import parse_column_map, read_recordings
     from surfhap.fit.material_fit import fit_friction, parallel_context
     from surfhap.fit.texture import ESTIMATORS
@@ -107,11 +108,11 @@ def fit_accel_cmd(
     mu0: Optional[float] = typer.Option(None, "--mu0", help="Coulomb coefficient when the recordings have no shear force."),
     columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'acceleration=az\\[g],speed=v\\[mm/s]'."),
     report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
-    jobs: int = typer.Option(1, "--jobs", help="Parallel workers (joblib); -1 = all cores."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there."),
+    jobs: JobsOption = 1,
+    scheduler: SchedulerOption = None,
 ) -> None:
     """Segment, fit AR per segment and interpolate over (speed, force) (HaTT / Zhao et al.)."""
-    from surfhap.exchange.materials import write_material_json
+    from surfhap.exchange.material_json import write_material_json
     from surfhap.exchange.recordings import parse_column_map, read_recordings
     from surfhap.fit.accel import fit_accel
     from surfhap.fit.material_fit import parallel_context

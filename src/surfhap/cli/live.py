@@ -21,7 +21,8 @@ from typing import List, Optional
 import typer
 
 from surfhap.cli._common import parse_key_values, require_modules, stderr, stdout
-from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, resolve_display_and_range
+from surfhap.cli._display_options import resolve_display_and_range
+from surfhap.cli._options import ConfigOption, DisplayOption, LiveAmpGainOption, SeedOption
 from surfhap.errors import ConfigError
 
 __all__ = ["register"]
@@ -122,18 +123,18 @@ def serve_cmd(
     osc_in: Optional[str] = typer.Option(None, "--osc-in", help="Also accept OSC touch messages on HOST:PORT (UDP), e.g. 127.0.0.1:9000."),
     replay: Optional[Path] = typer.Option(None, "--replay", help="Also replay a trajectory CSV (time, x, y, load) as a touch source."),
     drive_rate: Optional[int] = typer.Option(None, "--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000)."),
-    amp_gain: float = typer.Option(250.0, "--amp-gain", help="Amplifier gain, V per DAC full scale (sound/file outputs)."),
+    amp_gain: LiveAmpGainOption = 250.0,
     channels: Optional[str] = typer.Option(None, "--channels", help="Sound output: 0-based channels that carry the drive, e.g. '0' or '0,2' (default: all)."),
     block_ms: float = typer.Option(1.0, "--block-ms", help="Block period, ms."),
     touch_latency_ms: float = typer.Option(0.0, "--touch-latency-ms", help="Touch latency to compensate by prediction, ms (0 = off)."),
     smoothing: float = typer.Option(1.0, "--smoothing", help="Exponential smoothing of predicted positions, (0, 1] (1 = off; KinesTouch: 0.15)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the texture noise."),
+    seed: SeedOption = 0,
     duration: float = typer.Option(0.0, "--duration", help="Stop after this many seconds (0 = until Ctrl-C)."),
     web_process: bool = typer.Option(True, "--web-process/--no-web-process",
                                      help="Run the page server in its own process, so web traffic cannot delay the engine."),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Log connections and rejected messages at INFO."),
-    display: Optional[str] = typer.Option(None, "--display", help=DISPLAY_HELP),
-    config: Optional[Path] = typer.Option(None, "--config", help=CONFIG_HELP),
+    display: DisplayOption = None,
+    config: ConfigOption = None,
 ) -> None:
     """Serve the touch page: drag on it and the drive is rendered live to the chosen output.
 
@@ -227,19 +228,19 @@ def play_cmd(
     scan: str = typer.Option("speed=0.1,load=0.5,duration=3,length=0.08", "--scan",
                              help="Scripted strokes: 'speed=M/S,load=N,duration=S[,length=M][,rate=HZ]'."),
     drive_rate: Optional[int] = typer.Option(None, "--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000)."),
-    amp_gain: float = typer.Option(250.0, "--amp-gain", help="Amplifier gain, V per DAC full scale."),
+    amp_gain: LiveAmpGainOption = 250.0,
     channels: Optional[str] = typer.Option(None, "--channels", help="Sound output: 0-based channels that carry the drive (default: all)."),
     block_ms: float = typer.Option(1.0, "--block-ms", help="Block period, ms."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the texture noise."),
-    display: Optional[str] = typer.Option(None, "--display", help=DISPLAY_HELP),
-    config: Optional[Path] = typer.Option(None, "--config", help=CONFIG_HELP),
+    seed: SeedOption = 0,
+    display: DisplayOption = None,
+    config: ConfigOption = None,
 ) -> None:
     """Play a scripted scan of MATERIAL live, to check the sound card and amplifier chain.
 
     Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
     (exit 0); exit 3 when the output backend failed."""
     from surfhap.live.session import build_session
-    from surfhap.sim.trajectory import constant_scan, strokes
+    from surfhap.models.trajectory import constant_scan, strokes
 
     disp = None if display is None and config is None else resolve_display_and_range(display, None, None, config)[0]
     kv = parse_key_values(scan, "--scan", {"speed": None, "load": None, "duration": None, "length": 0.0, "rate": 125.0})

@@ -11,7 +11,8 @@ import typer
 from rich.table import Table
 
 from surfhap.cli._common import stdout
-from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, LOAD_RANGE_HELP, SPEED_RANGE_HELP, resolve_display_and_range
+from surfhap.cli._display_options import resolve_display_and_range
+from surfhap.cli._options import ConfigOption, DisplayOption, LoadRangeOption, SpeedRangeOption
 from surfhap.errors import ConfigError
 
 __all__ = ["register"]
@@ -73,10 +74,10 @@ def _show(name: str, display, rng) -> None:
 
 def materials(
     show: Optional[str] = typer.Option(None, "--show", help="Show one material: parameters, provenance and its gain plan."),
-    display: Optional[str] = typer.Option(None, "--display", help=DISPLAY_HELP),
-    load_range: Optional[str] = typer.Option(None, "--load-range", help=LOAD_RANGE_HELP),
-    speed_range: Optional[str] = typer.Option(None, "--speed-range", help=SPEED_RANGE_HELP),
-    config: Optional[Path] = typer.Option(None, "--config", help=CONFIG_HELP),
+    display: DisplayOption = None,
+    load_range: LoadRangeOption = None,
+    speed_range: SpeedRangeOption = None,
+    config: ConfigOption = None,
 ) -> None:
     """List the built-in materials, their friction laws, texture models and sources."""
     from surfhap.exchange.materials import builtin_names, load_material
@@ -123,7 +124,7 @@ def calibrate_texture(
     standard deviation of the AR model's output above the band split. The command and numbers
     go into the provenance.
     """
-    from surfhap.exchange.materials import read_material_json, write_material_json
+    from surfhap.exchange.material_json import read_material_json, write_material_json
     from surfhap.models.material import Provenance, TextureCalibrationSpec, TextureSpec
     from surfhap.models.texture_calibration import relative_scale, texture_band_std
 

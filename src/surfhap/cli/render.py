@@ -11,7 +11,8 @@ from typing import Optional
 import typer
 
 from surfhap.cli._common import error_line, parse_key_values, progress_bar, stderr, stdout
-from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, LOAD_RANGE_HELP, SPEED_RANGE_HELP, resolve_display_and_range
+from surfhap.cli._display_options import resolve_display_and_range
+from surfhap.cli._options import ConfigOption, DisplayOption, FigureOption, LoadRangeOption, SeedOption, SpeedRangeOption, TrajectoryOption
 from surfhap.errors import ConfigError
 
 __all__ = ["register", "trajectory_from_options", "render_to_dir", "choose_format", "NPZ_MAX_SECONDS"]
@@ -22,7 +23,7 @@ SCAN_KEYS = {"speed": None, "load": None, "duration": None, "length": 0.0, "rate
 def trajectory_from_options(scan: str | None, trajectory: Path | None):
     """Build the trajectory from ``--scan key=value,...`` or ``--trajectory FILE``."""
     from surfhap.exchange.trajectory_csv import read_trajectory_csv
-    from surfhap.sim.trajectory import constant_scan, strokes
+    from surfhap.models.trajectory import constant_scan, strokes
 
     if (scan is None) == (trajectory is None):
         raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")
@@ -109,22 +110,22 @@ def render_cmd(
     out: Path = typer.Option(..., "--out", help="Output folder: drive.wav, render.npz or render.h5, summary.json, figure.png."),
     fmt: str = typer.Option("auto", "--format", help=f"Render file: npz | h5 | auto (render.npz up to {NPZ_MAX_SECONDS:g} s, render.h5 above; see docs/outputs.md)."),
     scan: Optional[str] = typer.Option(None, "--scan", help="Virtual finger: 'speed=M/S,load=N,duration=S[,length=M for back-and-forth strokes][,rate=HZ sensor rate]'."),
-    trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Recorded trajectory CSV with columns time (s), x, y (m), load (N)."),
+    trajectory: TrajectoryOption = None,
     method: str = typer.Option("auto", "--method", help="otake2022 | otake2021 | zhao | friction-only | square (auto: otake2022 when the material has the quasi-static law)."),
     drive_rate: int = typer.Option(20000, "--drive-rate", help="DAC rate, Hz (2000-48000)."),
     carrier: Optional[float] = typer.Option(None, "--carrier", help="Polarity carrier, Hz (2000-20000; 0 = off). Default: the method's paper (otake2021: 20 kHz, capped at half the drive rate; else 2 kHz)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the texture noise (same seed, same output)."),
+    seed: SeedOption = 0,
     alpha: Optional[float] = typer.Option(None, "--alpha", help="Gain V/sqrt(N), overriding the gain plan (default: planned so the operating range does not saturate)."),
     beta: float = typer.Option(1.8, "--beta", help="Gain of the textural component (Otake et al. 2021: 1.8; used for 2022 too, see docs/texture.md)."),
     square_frequency: float = typer.Option(100.0, "--square-frequency", help="Baseline square wave, Hz (30-300)."),
     square_reference: str = typer.Option("0.5,0.1", "--square-reference", help="Square baseline: 'LOAD,SPEED' (N, m/s) at which its mean equals the friction-only mean."),
-    display: Optional[str] = typer.Option(None, "--display", help=DISPLAY_HELP),
-    load_range: Optional[str] = typer.Option(None, "--load-range", help=LOAD_RANGE_HELP),
-    speed_range: Optional[str] = typer.Option(None, "--speed-range", help=SPEED_RANGE_HELP),
-    config: Optional[Path] = typer.Option(None, "--config", help=CONFIG_HELP),
+    display: DisplayOption = None,
+    load_range: LoadRangeOption = None,
+    speed_range: SpeedRangeOption = None,
+    config: ConfigOption = None,
     v_max: float = typer.Option(250.0, "--v-max", help="Safety limit on |V| (V)."),
     amp_gain: Optional[float] = typer.Option(None, "--amp-gain", help="Amplifier gain, V per DAC full scale, for drive.wav (default: --v-max)."),
-    figure: bool = typer.Option(True, "--figure/--no-figure", help="Write figure.png."),
+    figure: FigureOption = True,
 ) -> None:
     """Render MATERIAL along a virtual or recorded finger trajectory on the simulated display."""
     from surfhap.cli._display_options import parse_range

@@ -20,6 +20,7 @@ import typer
 from typer.core import TyperGroup
 
 from surfhap.cli._common import progress_bar, stdout
+from surfhap.cli._options import FigureOption, TrajectoryOption
 from surfhap.errors import ConfigError, MeshFormatError
 
 __all__ = ["register", "load_surface"]
@@ -98,7 +99,7 @@ def render_cmd(
     mesh: str = typer.Argument(..., help=_MESH_HELP),
     out: Path = typer.Option(..., "--out", help="Output folder: shape.npz, summary.json, figure.png."),
     scan: Optional[str] = typer.Option(None, "--scan", help="Straight scan 'x0,y0,x1,y1,speed' in m and m/s (mesh coordinates)."),
-    trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Trajectory CSV: time (s), x, y (m), load (N)."),
+    trajectory: TrajectoryOption = None,
     calibration: Optional[Path] = typer.Option(None, "--calibration", help="Calibration JSON from 'surfhap shape calibrate' (default: MESH.calibration.json next to the mesh if present, else calibrate now)."),
     rate: float = typer.Option(60.0, "--rate", help="Touch sampling rate of --scan, Hz (Kim et al.: 60)."),
     load: float = typer.Option(1.0, "--load", help="Finger load of --scan, N."),
@@ -116,7 +117,7 @@ def render_cmd(
     drive_rate: int = typer.Option(20000, "--drive-rate", help="DAC rate, Hz (2000-48000)."),
     carrier: float = typer.Option(2000.0, "--carrier", help="Polarity carrier, Hz (2000-20000; 0 = off)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the grainy grain."),
-    figure: bool = typer.Option(True, "--figure/--no-figure", help="Write figure.png."),
+    figure: FigureOption = True,
 ) -> None:
     """Render a scan over MESH on the simulated display (also: surfhap shape MESH ...)."""
     from surfhap.exchange.shape_files import default_calibration_path, read_calibration, write_shape

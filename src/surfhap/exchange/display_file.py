@@ -3,7 +3,7 @@
 ``load_display(text)`` accepts either a path to a ``surfhap-display`` file
 (:mod:`surfhap.models.display`) or inline ``key=value`` pairs (keys ``k`` in N/V^2,
 ``mu_panel``, ``area`` in m^2, ``leakage`` in s) and returns a
-:class:`~surfhap.sim.display.DisplayModel`. Missing values keep the documented assumptions.
+:class:`~surfhap.models.panel.DisplayModel`. Missing values keep the documented assumptions.
 ``k`` overrides the one computed from the stack; ``area`` alone rescales the stack's contact
 area (k of eq. 1 is proportional to it). Any problem raises
 :class:`~surfhap.errors.ConfigError` naming the file (or option) and the field.
@@ -19,7 +19,7 @@ from pydantic import ValidationError
 
 from surfhap.errors import ConfigError
 from surfhap.models.display import DisplayFile
-from surfhap.sim.display import DisplayModel
+from surfhap.models.panel import DisplayModel
 
 __all__ = ["read_display_json", "parse_display_option", "load_display", "display_from_values"]
 

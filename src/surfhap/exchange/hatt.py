@@ -12,8 +12,8 @@ the same schema. The schema (every tag of the 100 HaTT files) is described in
 Reading gives a :class:`HattModelSet` (file units) and, through :func:`hatt_to_material`,
 a :class:`~surfhap.models.material.Material` whose texture is an
 :class:`~surfhap.models.interpolated.InterpolatedARMABank` (SI: speeds in m/s) and whose
-friction is Coulomb with HaTT's ``mu``. Importing this module registers the reader for
-``.xml`` with :func:`surfhap.exchange.materials.register_reader`.
+friction is Coulomb with HaTT's ``mu``. :func:`surfhap.exchange.materials.load_material`
+reads ``.xml`` files through :func:`read_hatt_material`.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import MaterialFormatError
-from surfhap.exchange.materials import register_reader, write_material_json
+from surfhap.exchange.material_json import write_material_json
 from surfhap.signal.lsf import lsf_is_valid, lsf_to_poly
 
 __all__ = [
@@ -329,5 +329,3 @@ def import_hatt_folder(folder: str | Path, out_dir: str | Path) -> list[Path]:
         written.append(write_material_json(mat, out_dir / f"{mat.name}.json"))
     return written
 
-
-register_reader(".xml", read_hatt_material)

@@ -10,8 +10,8 @@ Channels (SI inside)::
     position      m       (instead of speed: speed = d position / dt)
     acceleration  m/s^2
 
-A CSV header names each column ``name`` (SI), ``name[unit]`` or ``name (unit)``; units are
-converted at this edge (e.g. ``speed[mm/s]``, ``normal_force[mN]``, ``acceleration[g]``).
+A CSV header names each column ``name`` (SI), ``name[unit]`` or ``name (unit)``
+(parsed by :func:`surfhap.exchange.table.read_csv_table`); units are converted at this edge (e.g. ``speed[mm/s]``, ``normal_force[mN]``, ``acceleration[g]``).
 Other column names are mapped with ``columns={"speed": "v_x[mm/s]", ...}`` (CLI
 ``--columns speed=v_x[mm/s],normal_force=Fz``). Lines starting with ``#`` may carry
 metadata ``# participant: P3``, ``# trial: 2``. An NPZ file holds one 1-D array per channel
@@ -24,10 +24,8 @@ column: missing columns, unknown units, non-monotonic time, NaN runs, too few sa
 
 from __future__ import annotations
 
-import csv
 import hashlib
 import io
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import RecordingFormatError
+from surfhap.exchange.table import UNITS, read_csv_table, read_source_bytes, resolve_columns
 
 __all__ = [
     "CHANNELS",
@@ -57,35 +56,7 @@ CHANNELS: dict[str, str] = {
     "acceleration": "m/s^2",
 }
 
-_UNITS: dict[str, dict[str, float]] = {
-    "s": {"s": 1.0, "ms": 1e-3, "us": 1e-6},
-    "N": {"n": 1.0, "mn": 1e-3},
-    "1": {"1": 1.0, "": 1.0, "-": 1.0},
-    "m/s": {"m/s": 1.0, "mm/s": 1e-3, "cm/s": 1e-2},
-    "m": {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "um": 1e-6},
-    "m/s^2": {"m/s^2": 1.0, "m/s2": 1.0, "m/s**2": 1.0, "mm/s^2": 1e-3, "g": 9.80665},
-}
-
-_NAME_UNIT = re.compile(r"^\s*([^\[\(]+?)\s*(?:[\[\(]\s*([^\]\)]*)\s*[\]\)])?\s*$")
-
-
-def _split_name(header: str) -> tuple[str, str | None]:
-    m = _NAME_UNIT.match(header)
-    if not m:
-        return header.strip(), None
-    return m.group(1).strip(), (None if m.group(2) is None else m.group(2).strip())
-
-
-def _factor(channel: str, unit: str | None, source: str, column: str) -> float:
-    si = CHANNELS[channel]
-    if unit is None:
-        return 1.0
-    table = _UNITS[si]
-    key = unit.replace(" ", "").lower() if si != "N" else unit.replace(" ", "").lower()
-    if key not in table:
-        known = ", ".join(k for k in table if k) or "1"
-        raise RecordingFormatError(f"unit {unit!r} is not a unit of {channel} (use one of: {known})", source=source, field=column)
-    return table[key]
+_CHANNEL_UNITS = {channel: UNITS[si] for channel, si in CHANNELS.items()}
 
 
 def parse_column_map(text: str | None, option: str = "--columns") -> dict[str, str]:
@@ -216,88 +187,14 @@ def _finish(source, time, sample_rate, data, participant, trial, digest, meta) -
     return Recording(source, time, data, str(participant), str(trial), digest, dict(meta))
 
 
-def _resolve(headers: list[str], columns: Mapping[str, str], source: str) -> dict[str, tuple[int, float]]:
-    """canonical channel -> (column index, factor to SI)."""
-    parsed = [_split_name(h) for h in headers]
-    by_full = {h.strip(): i for i, h in enumerate(headers)}
-    by_name: dict[str, int] = {}
-    for i, (name, _) in enumerate(parsed):
-        by_name.setdefault(name, i)
-    out: dict[str, tuple[int, float]] = {}
-    for channel, spec in columns.items():
-        col_name, unit = _split_name(spec)
-        if spec.strip() in by_full:
-            i = by_full[spec.strip()]
-            unit = unit if unit is not None else parsed[i][1]
-        elif col_name in by_name:
-            i = by_name[col_name]
-            unit = unit if unit is not None else parsed[i][1]
-        else:
-            raise RecordingFormatError(f"--columns maps it to {spec!r}, which is not a column (have: {', '.join(headers)})",
-                                       source=source, field=channel)
-        out[channel] = (i, _factor(channel, unit, source, headers[i]))
-    for i, (name, unit) in enumerate(parsed):
-        if name in CHANNELS and name not in out and i not in {v[0] for v in out.values()}:
-            out[name] = (i, _factor(name, unit, source, headers[i]))
-    return out
-
-
-def _read_csv(path: Path, raw: bytes, columns: Mapping[str, str]):
-    source = str(path)
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise RecordingFormatError("not a UTF-8 text file", source=source) from None
-    meta: dict[str, str] = {}
-    lines = text.splitlines()
-    body_start = 0
-    for k, line in enumerate(lines):
-        if line.startswith("#"):
-            if ":" in line:
-                key, value = line[1:].split(":", 1)
-                meta[key.strip().lower()] = value.strip()
-            body_start = k + 1
-        elif line.strip():
-            break
-        else:
-            body_start = k + 1
-    body = "\n".join(lines[body_start:])
-    reader = csv.reader(io.StringIO(body))
-    try:
-        headers = next(reader)
-    except StopIteration:
-        raise RecordingFormatError("empty file (no header line)", source=source) from None
-    headers = [h.strip() for h in headers]
-    mapping = _resolve(headers, columns, source)
-    data: dict[str, np.ndarray] = {}
-    try:  # fast path: a clean numeric table
-        table = np.loadtxt(io.StringIO(body), delimiter=",", skiprows=1, ndmin=2, dtype=float)
-    except ValueError:
-        table = None
-    if table is not None and table.shape[0] > 0 and table.shape[1] == len(headers):
-        for channel, (i, factor) in mapping.items():
-            data[channel] = table[:, i] * factor
-        time = data.pop("time", None)
-        sample_rate = float(meta["sample_rate"]) if "sample_rate" in meta else None
-        return time, sample_rate, data, meta
-    rows = [r for r in reader if r and any(c.strip() for c in r)]
-    if not rows:
-        raise RecordingFormatError("no data rows", source=source)
-    for channel, (i, factor) in mapping.items():
-        vals = np.empty(len(rows))
-        for r, row in enumerate(rows):
-            cell = row[i].strip() if i < len(row) else ""
-            if cell == "" or cell.lower() in ("nan", "na"):
-                vals[r] = np.nan
-                continue
-            try:
-                vals[r] = float(cell)
-            except ValueError:
-                raise RecordingFormatError(f"row {r + 1}: {cell!r} is not a number", source=source, field=headers[i]) from None
-        data[channel] = vals * factor
+def _read_csv(path: Path, columns: Mapping[str, str]):
+    table = read_csv_table(path, _CHANNEL_UNITS, rename=columns, allow_nan=True, error=RecordingFormatError)
+    if table.n == 0:
+        raise RecordingFormatError("no data rows", source=str(path))
+    data = dict(table.columns)
     time = data.pop("time", None)
-    sample_rate = float(meta["sample_rate"]) if "sample_rate" in meta else None
-    return time, sample_rate, data, meta
+    sample_rate = float(table.meta["sample_rate"]) if "sample_rate" in table.meta else None
+    return time, sample_rate, data, table.meta
 
 
 def _read_npz(path: Path, columns: Mapping[str, str]):
@@ -313,7 +210,7 @@ def _read_npz(path: Path, columns: Mapping[str, str]):
             meta[key] = str(arrays.pop(key))
     sample_rate = float(arrays.pop("sample_rate")) if "sample_rate" in arrays else None
     headers = list(arrays)
-    mapping = _resolve(headers, columns, source)
+    mapping = resolve_columns(headers, _CHANNEL_UNITS, columns, source, RecordingFormatError)
     data = {ch: np.asarray(arrays[headers[i]], dtype=float).reshape(-1) * f for ch, (i, f) in mapping.items()}
     time = data.pop("time", None)
     return time, sample_rate, data, meta
@@ -323,16 +220,13 @@ def read_recording(path: str | Path, columns: Mapping[str, str] | None = None, p
     """Read one CSV or NPZ recording into SI channels (see the module docstring)."""
     path = Path(path)
     source = str(path)
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise RecordingFormatError(f"cannot read file ({exc.strerror})", source=source) from None
+    raw = read_source_bytes(path, RecordingFormatError)
     columns = dict(columns or {})
     suffix = path.suffix.lower()
     if suffix == ".npz":
         time, sr, data, meta = _read_npz(path, columns)
     elif suffix in (".csv", ".txt", ".tsv"):
-        time, sr, data, meta = _read_csv(path, raw, columns)
+        time, sr, data, meta = _read_csv(path, columns)
     else:
         raise RecordingFormatError(f"unknown recording type {path.suffix!r} (use .csv or .npz)", source=source)
     label = participant or meta.get("participant") or path.stem

@@ -11,14 +11,17 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.io import wavfile
 
 from surfhap.errors import ConfigError
+from surfhap.exchange.render_store import RENDER_CHANNELS as CHANNELS
 from surfhap.exchange.render_store import SUFFIXES, open_render_writer
-from surfhap.render.offline import RenderResult
-from surfhap.render.stream import CHANNELS
+
+if TYPE_CHECKING:  # exchange/ sits below render/: it writes the result's arrays, it does not compute
+    from surfhap.render.offline import RenderResult
 
 __all__ = ["write_render", "write_drive_wav", "render_arrays", "render_file_spec", "render_file_attrs", "write_summary"]
 

@@ -1,7 +1,7 @@
 """Render time series on disk: HDF5 (``render.h5``) or NumPy (``render.npz``), written as a
 render streams and read back through one function, :func:`read_render`.
 
-Both formats hold one array per channel (see :data:`surfhap.render.stream.CHANNELS`) with its
+Both formats hold one array per channel (see :data:`RENDER_CHANNELS`) with its
 rate (Hz) and unit, and the render's attributes (material, method, rates, latency, ...):
 
 - ``render.h5``: one chunked, resizable, uncompressed dataset per channel at the root, with
@@ -29,7 +29,14 @@ import numpy as np
 
 from surfhap.errors import ConfigError
 
-__all__ = ["RenderData", "read_render", "open_render_writer", "READERS", "WRITERS", "store_dtype", "DriveWavWriter"]
+RENDER_CHANNELS = {  # channel -> (rate: "model" or "drive", unit)
+    "speed": ("model", "m/s"), "load": ("model", "N"), "texture": ("model", "texture"),
+    "mu_low": ("model", "1"), "mu_tex": ("model", "1"), "target": ("model", "N"),
+    "voltage": ("model", "V"), "friction_sim": ("model", "N"), "drive": ("drive", "V"),
+}
+
+
+__all__ = ["RENDER_CHANNELS", "RenderData", "read_render", "open_render_writer", "READERS", "WRITERS", "store_dtype", "DriveWavWriter"]
 
 FORMAT = "surfhap-render"
 VERSION = 1

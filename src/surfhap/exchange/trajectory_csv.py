@@ -1,58 +1,32 @@
 """Finger trajectories as CSV: columns ``time`` (s), ``x`` (m), ``y`` (m), ``load`` (N).
 
-Extra columns are ignored. Errors name the file, the column and the first bad row
-(1-based data row, header excluded).
+Read through :func:`surfhap.exchange.table.read_csv_table`: a header may give units
+(``time[ms]``, ``x[mm]``, ``load[mN]``); extra columns are ignored. Errors name the file, the
+column and the first bad row (1-based data row, header excluded).
 """
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
 
 from surfhap.errors import TrajectoryFormatError
-from surfhap.sim.trajectory import Trajectory
+from surfhap.exchange.table import UNITS, read_csv_table
+from surfhap.models.trajectory import Trajectory
 
 __all__ = ["read_trajectory_csv", "write_trajectory_csv", "TRAJECTORY_COLUMNS"]
 
 TRAJECTORY_COLUMNS = ("time", "x", "y", "load")
+_CHANNELS = {"time": UNITS["s"], "x": UNITS["m"], "y": UNITS["m"], "load": UNITS["N"]}
 
 
 def read_trajectory_csv(path: str | Path) -> Trajectory:
     """Read and validate a trajectory CSV; raises TrajectoryFormatError on any problem."""
     path = Path(path)
     src = str(path)
-    try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            rows = list(csv.reader(fh))
-    except OSError as exc:
-        raise TrajectoryFormatError(f"cannot read file ({exc.strerror})", source=src) from None
-    except UnicodeDecodeError:
-        raise TrajectoryFormatError("not a UTF-8 text file", source=src) from None
-    rows = [r for r in rows if any(c.strip() for c in r)]
-    if not rows:
-        raise TrajectoryFormatError("empty file", source=src)
-    header = [h.strip() for h in rows[0]]
-    missing = [c for c in TRAJECTORY_COLUMNS if c not in header]
-    if missing:
-        raise TrajectoryFormatError(f"missing column (need {', '.join(TRAJECTORY_COLUMNS)})", source=src, field=missing[0])
-    body = rows[1:]
-    if len(body) < 2:
-        raise TrajectoryFormatError("needs at least two data rows", source=src)
-    cols = {}
-    for name in TRAJECTORY_COLUMNS:
-        j = header.index(name)
-        vals = np.empty(len(body))
-        for i, row in enumerate(body):
-            try:
-                vals[i] = float(row[j])
-            except (ValueError, IndexError):
-                raise TrajectoryFormatError(f"row {i + 1}: not a number ({row[j] if j < len(row) else 'missing'!r})", source=src, field=name) from None
-        bad = np.nonzero(~np.isfinite(vals))[0]
-        if bad.size:
-            raise TrajectoryFormatError(f"row {bad[0] + 1}: NaN or infinite value", source=src, field=name)
-        cols[name] = vals
+    table = read_csv_table(path, _CHANNELS, required=TRAJECTORY_COLUMNS, min_rows=2, error=TrajectoryFormatError)
+    cols = table.columns
     dt = np.diff(cols["time"])
     if np.any(dt <= 0):
         i = int(np.nonzero(dt <= 0)[0][0]) + 2

@@ -17,32 +17,27 @@ The kind of level is given once per file: a CSV metadata line ``# input: intensi
 intensity in (0, 1], e.g. a Senseg Feelscreen grain) or ``# input: voltage`` (the drive
 envelope in volts with a polarity carrier, so that V^2 is constant while on; the level may be
 written ``level[kV]``). An NPZ file holds the arrays under the same keys and a string
-``input``. Every problem raises :class:`~surfhap.errors.RecordingFormatError` naming the file
-and the field.
+``input``. CSV files are parsed by :func:`surfhap.exchange.table.read_csv_table`. Every
+problem raises :class:`~surfhap.errors.RecordingFormatError` naming the file and the field.
 """
 
 from __future__ import annotations
 
-import csv
-import io
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from surfhap.errors import RecordingFormatError
+from surfhap.exchange.table import UNITS, read_csv_table
 
 __all__ = ["TRIBOMETER_CHANNELS", "INPUT_KINDS", "TribometerRecording", "read_tribometer", "write_tribometer_csv",
            "write_tribometer_npz"]
 
 TRIBOMETER_CHANNELS = ("time", "lateral_force", "normal_force", "level")
 INPUT_KINDS = ("intensity", "voltage")
-_UNITS = {
-    "time": {"s": 1.0, "ms": 1e-3},
-    "lateral_force": {"N": 1.0, "mN": 1e-3},
-    "normal_force": {"N": 1.0, "mN": 1e-3},
-    "level": {"1": 1.0, "V": 1.0, "kV": 1e3},
-}
+_UNITS = {"time": UNITS["s"], "lateral_force": UNITS["N"], "normal_force": UNITS["N"],
+          "level": {"1": 1.0, **UNITS["V"]}}
 MIN_SAMPLES = 256
 
 
@@ -123,50 +118,13 @@ def _finish(source: str, kind: str, time, data: dict) -> TribometerRecording:
     return TribometerRecording(source, kind, 1.0 / step, t, arrays["lateral_force"], arrays["normal_force"], lev)
 
 
-def _split(header: str) -> tuple[str, str | None]:
-    h = header.strip()
-    for o, c in (("[", "]"), ("(", ")")):
-        if h.endswith(c) and o in h:
-            i = h.rindex(o)
-            return h[:i].strip(), h[i + 1:-1].strip()
-    return h, None
-
-
 def _read_csv(path: Path) -> TribometerRecording:
     src = str(path)
-    text = path.read_text(encoding="utf-8", errors="replace")
-    meta: dict[str, str] = {}
-    body = []
-    for line in text.splitlines():
-        if line.startswith("#"):
-            if ":" in line:
-                k, v = line[1:].split(":", 1)
-                meta[k.strip().lower()] = v.strip()
-        elif line.strip():
-            body.append(line)
-    if not body:
-        raise _err(src, "header", "no header line")
-    rows = list(csv.reader(io.StringIO("\n".join(body))))
-    header = [_split(h) for h in rows[0]]
-    index = {name: (i, unit) for i, (name, unit) in enumerate(header)}
-    if "input" not in meta:
+    table = read_csv_table(path, _UNITS, required=TRIBOMETER_CHANNELS, error=RecordingFormatError)
+    if "input" not in table.meta:
         raise _err(src, "input", "missing metadata line '# input: intensity' or '# input: voltage'")
-    cols = {}
-    for name in TRIBOMETER_CHANNELS:
-        if name not in index:
-            raise _err(src, name, f"missing column (columns: {', '.join(h for h, _ in header)})")
-        i, unit = index[name]
-        if unit is None:
-            factor = 1.0
-        elif unit in _UNITS[name]:
-            factor = _UNITS[name][unit]
-        else:
-            raise _err(src, name, f"unknown unit {unit!r} (known: {', '.join(_UNITS[name])})")
-        try:
-            cols[name] = np.array([float(r[i]) for r in rows[1:]]) * factor
-        except (ValueError, IndexError):
-            raise _err(src, name, "has a missing or non-numeric value") from None
-    return _finish(src, meta["input"], cols.pop("time"), cols)
+    cols = dict(table.columns)
+    return _finish(src, table.meta["input"], cols.pop("time"), cols)
 
 
 def _read_npz(path: Path) -> TribometerRecording:

@@ -4,6 +4,8 @@
   route): Coulomb mu0, the quasi-static law and AR textures per reference velocity.
 * :func:`surfhap.fit.accel.fit_accel` — acceleration recordings of a tool (HaTT / Zhao
   route): segmentation, AR per segment, LSF-interpolated bank over (speed, force).
+* :func:`surfhap.fit.imu.fit_imu_texture` — one IMU recording of a tool (DFT321, band
+  split, AR by Yule-Walker): a single-model acceleration texture.
 
 Submodules are imported on demand, so ``import surfhap.fit`` does no work.
 """

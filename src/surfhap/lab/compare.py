@@ -94,10 +94,10 @@ def compare_materials(refs: Sequence[str], *, speed: float = 0.1, load: float = 
     from scipy.signal import welch
 
     from surfhap.exchange.materials import load_material
+    from surfhap.models.trajectory import strokes
     from surfhap.render.chain import ChainConfig
     from surfhap.render.offline import render
     from surfhap.render.safety import SafetyLimits
-    from surfhap.sim.trajectory import strokes
 
     if not refs:
         raise ConfigError("give at least one material", field="materials")

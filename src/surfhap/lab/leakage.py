@@ -3,7 +3,7 @@
 Charge leaks through the skin, so a constant (DC) drive attracts the finger less and less: the
 finger/insulator stack acts as a first-order high-pass with time constant tau (the
 residual-charge effect that makes Otake et al. switch the polarity; the model of
-:mod:`surfhap.sim.display`). After a DC step to V the effective voltage is ``V exp(-t/tau)`` and
+:mod:`surfhap.models.panel`). After a DC step to V the effective voltage is ``V exp(-t/tau)`` and
 the friction increase ``mu k V^2 exp(-2 t / tau)``.
 
 Method (surfhap's; the papers do not measure it): the lateral force minus ``mu fn`` (mu from

@@ -110,11 +110,11 @@ class StimulusPlayer:
         """A built-in shape or scene (in its physical size, centred on the touch surface) or a
         mesh file (scaled as by 'surfhap serve --mesh')."""
         from surfhap.live.shape_live import LiveShapeRenderer
+        from surfhap.models.panel import DisplayModel
         from surfhap.render.shape_renderer import ShapeConfig
         from surfhap.shape.calibration import calibrate
         from surfhap.shape.scenes import builtin_shape
         from surfhap.shape.topsurface import TopSurface
-        from surfhap.sim.display import DisplayModel
 
         sp = self.session.space
         surface = builtin_shape(name)
@@ -125,10 +125,10 @@ class StimulusPlayer:
         return LiveShapeRenderer(surface, calibrate(surface, fz=cfg.fz), cfg, surface_size=(sp.width, sp.height))
 
     def _profile_chain(self, shape: str, mapping: str, rate: int, limits, grain: str):
+        from surfhap.models.panel import DisplayModel
         from surfhap.render.shape_renderer import ShapeConfig
         from surfhap.shape.calibration import calibrate
         from surfhap.shape.scenes import builtin_shape
-        from surfhap.sim.display import DisplayModel
 
         sp = self.session.space
         surface = builtin_shape("gaussian-bump")  # carries the renderer's geometry; the profile sets the intensity

@@ -36,7 +36,7 @@ def synthetic_tribometer(level: float, input: str = "intensity", *, mu_panel: fl
     """One recording at ``level`` (intensity in (0, 1] or V); see the module docstring.
 
     ``leakage_time_constant`` (s, voltage input only): a DC drive whose charge leaks as in
-    :mod:`surfhap.sim.display`: the effective voltage is the drive high-passed with this time
+    :mod:`surfhap.models.panel`: the effective voltage is the drive high-passed with this time
     constant, the friction increase ``mu k V_eff^2``, and there is no vibration."""
     if input not in ("intensity", "voltage"):
         raise ConfigError("must be intensity or voltage", field="input")

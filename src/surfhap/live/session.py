@@ -106,7 +106,7 @@ def build_session(material: str = "cork", output: str = "sim", *, drive_rate: in
     from surfhap.live.engine import EngineConfig, LiveEngine
     from surfhap.live.sources import OscTouchSource, ReplaySource
     from surfhap.render.chain import ChainConfig, TextureChain
-    from surfhap.sim.display import SimulatedDisplay
+    from surfhap.models.panel import SimulatedDisplay
 
     kind, _ = parse_output(output)
     rate = int(drive_rate or (48000 if kind == "sound" else 20000))

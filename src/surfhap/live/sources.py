@@ -302,7 +302,7 @@ class OscTouchSource:
 
 
 class ReplaySource:
-    """Replay a :class:`~surfhap.sim.trajectory.Trajectory` in real time from a thread.
+    """Replay a :class:`~surfhap.models.trajectory.Trajectory` in real time from a thread.
 
     ``loop`` repeats it (bounded by ``max_seconds``); a lift is sent at the end.
     """

@@ -2,7 +2,7 @@
 
 A display file carries what the drive laws and the simulated display need to know about a
 real electrostatic panel. Calibration tools write it; :mod:`surfhap.exchange.display_file`
-reads it into a :class:`surfhap.sim.display.DisplayModel`::
+reads it into a :class:`surfhap.models.panel.DisplayModel`::
 
     {"format": "surfhap-display", "version": 1,
      "k": 5.3e-6,                      # N/V^2, f_e = k V^2 (Zhao et al. eq. 1)

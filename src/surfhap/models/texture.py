@@ -91,12 +91,12 @@ class TextureBank:
         return max(m.order for m in self.models)
 
     def synthesizer(self, seed=0):
-        """A fresh streaming synthesiser for this bank (see :class:`surfhap.render.synth.ARSynthesizer`).
+        """A fresh streaming synthesiser for this bank (see :class:`surfhap.models.synth.ARSynthesizer`).
 
         Every texture kind a Material can hold provides ``quantity``, ``sample_rate`` and
         ``synthesizer(seed)``; the synthesiser's ``process(speed, load)`` returns (n,) samples.
         """
-        from surfhap.render.synth import ARSynthesizer
+        from surfhap.models.synth import ARSynthesizer
 
         return ARSynthesizer(self, seed=seed)
 

@@ -32,8 +32,8 @@ from scipy.stats import norm
 
 from surfhap.errors import ConfigError
 from surfhap.models.material import Material
+from surfhap.models.panel import DisplayModel
 from surfhap.render.safety import SafetyLimits
-from surfhap.sim.display import DisplayModel
 
 __all__ = ["OperatingRange", "GainPlan", "plan_gains", "texture_moments", "PLAN_PERCENTILE", "PLAN_FILL"]
 

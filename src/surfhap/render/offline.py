@@ -16,12 +16,12 @@ from typing import Callable
 import numpy as np
 
 from surfhap.models.material import Material
+from surfhap.models.panel import SimulatedDisplay
+from surfhap.models.trajectory import Trajectory
 from surfhap.render.chain import ChainConfig, TextureChain
+from surfhap.render.expected import expected_texture_psd
 from surfhap.render.kinematics import Kinematics
 from surfhap.render.safety import SafetyCounters
-from surfhap.signal.ar import ar_psd
-from surfhap.sim.display import SimulatedDisplay
-from surfhap.sim.trajectory import Trajectory
 
 __all__ = ["RenderResult", "RenderStats", "render", "sample_trajectory", "summary_dict", "saturation_warning",
            "expected_texture_psd", "render_settings"]
@@ -134,9 +134,10 @@ class RenderResult:
 
     def plot(self, fig=None):
         """Time course and spectrum of the rendered friction against the model (matplotlib Figure)."""
+        from surfhap.render.preview import preview_of
         from surfhap.report.figures import plot_render
 
-        return plot_render(self, fig=fig)
+        return plot_render(preview_of(self), fig=fig)
 
 
 @dataclass
@@ -233,30 +234,6 @@ def saturation_warning(r, fraction: float, onset: float | None, threshold: float
         fix = "lower --alpha, or drop --alpha to use the gain plan"
     return (f"{fraction:.1%} of drive samples saturated at {r.v_max:g} V ({where}); "
             f"the friction no longer follows the model there: {fix}")
-
-
-def expected_texture_psd(r, freqs: np.ndarray, v: float, fn: float) -> np.ndarray | None:
-    """PSD (N^2/Hz) of the added friction's textural part of render ``r`` at speed ``v`` (m/s)
-    and load ``fn`` (N), from its texture model; None for a method without texture."""
-    bank = r.texture_model
-    if bank is None or r.method in ("friction-only", "square"):
-        return None
-    rate = r.texture_rate or r.model_rate
-    f = np.asarray(freqs, dtype=float)
-    if hasattr(bank, "interpolate"):  # a bank interpolated over (speed, force), e.g. HaTT
-        psd = bank.interpolate(v, fn).psd(rate, f)
-    else:
-        model = bank.models[int(bank.select(np.array([v]))[0])]
-        psd = ar_psd(model.coefficients, model.variance, rate, f)
-    psd = np.where(f < rate / 2, psd, 0.0)
-    gain = float((r.alpha / r.alpha_calibrated) ** 2)
-    if r.method == "zhao":
-        load = fn if r.constant_load is None else r.constant_load
-        scale = r.effective_mass if bank.quantity == "acceleration" else load
-    else:
-        per_load = 1.0 if bank.quantity == "cof" else r.effective_mass / fn
-        scale = r.beta * per_load * fn
-    return psd * (scale * gain) ** 2
 
 
 def sample_trajectory(trajectory: Trajectory, model_rate: float, kinematics: Kinematics | None = None):

@@ -177,7 +177,7 @@ class PreviewRecorder:
 
 def preview_of(result, *, columns: int = 1200, spectrum_seconds: float = 30.0) -> RenderPreview:
     """The :class:`RenderPreview` of an in-memory :class:`~surfhap.render.offline.RenderResult`."""
-    from surfhap.render.offline import expected_texture_psd
+    from surfhap.render.expected import expected_texture_psd
 
     rec = PreviewRecorder(result.t.size, result.drive.size, result.model_rate, result.drive_rate, result,
                           expected_texture_psd, columns=columns, spectrum_seconds=spectrum_seconds)

@@ -23,6 +23,8 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from surfhap.errors import ConfigError
+from surfhap.models.panel import DisplayModel, SimulatedDisplay
+from surfhap.models.trajectory import Trajectory
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.hold import hold_latest
 from surfhap.render.grains import DeviceCurve, GrainParams, GrainPlayer, grain_name
@@ -32,8 +34,6 @@ from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks_walk, walk_spacin
 from surfhap.shape.gradient import FZ_DEFAULT
 from surfhap.shape.topsurface import TopSurface
 from surfhap.shape.touch import new_state, touch_block
-from surfhap.sim.display import DisplayModel, SimulatedDisplay
-from surfhap.sim.trajectory import Trajectory
 
 __all__ = ["display_device_curve", "ShapeConfig", "ShapeBlock", "ShapeRenderer", "ShapeDrive", "ShapeResult", "render_shape"]
 

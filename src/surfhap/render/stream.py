@@ -18,23 +18,19 @@ from typing import Callable
 
 import numpy as np
 
+from surfhap.exchange.render_store import RENDER_CHANNELS as CHANNELS
 from surfhap.models.material import Material
+from surfhap.models.panel import SimulatedDisplay
+from surfhap.models.trajectory import Trajectory
 from surfhap.render.chain import ChainConfig, TextureChain
 from surfhap.render.kinematics import Kinematics
-from surfhap.render.offline import RenderStats, expected_texture_psd, render_settings, saturation_warning, summary_dict
+from surfhap.render.expected import expected_texture_psd
+from surfhap.render.offline import RenderStats, render_settings, saturation_warning, summary_dict
 from surfhap.render.preview import PreviewRecorder, RenderPreview
-from surfhap.sim.display import SimulatedDisplay
-from surfhap.sim.trajectory import Trajectory
 
 __all__ = ["CHANNELS", "StreamedRender", "stream_render", "model_samples"]
 
 # channel -> (rate: "model" | "drive", unit); "texture" is in the material's texture quantity
-CHANNELS = {
-    "speed": ("model", "m/s"), "load": ("model", "N"), "texture": ("model", "texture"),
-    "mu_low": ("model", "1"), "mu_tex": ("model", "1"), "target": ("model", "N"),
-    "voltage": ("model", "V"), "friction_sim": ("model", "N"), "drive": ("drive", "V"),
-}
-
 Sink = Callable[[str, np.ndarray], None]
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from surfhap.render.resample import RationalResampler
+from surfhap.signal.resample import RationalResampler
 
 __all__ = ["TextureSource"]
 

@@ -1,14 +1,12 @@
-"""The demo: every built-in material at three scan speeds on the simulated display, as a report.
+"""The demo report: figures and ``report.html`` from :func:`surfhap.sim.demo.run_demo`'s result.
 
-``run_demo`` computes (a list of RenderResult); ``write_demo_report`` writes figures and
-``report.html``. The CLI command ``surfhap demo`` wires them with a progress bar.
+Reads results only; the renders are computed in :mod:`surfhap.sim.demo`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -17,69 +15,10 @@ from surfhap.report.figures import render_spectrum
 from surfhap.report.html import Page
 from surfhap.signal.bands import spectral_deviation_db
 
-__all__ = ["DemoSettings", "run_demo", "write_demo_report", "DEMO_SPEEDS"]
+if TYPE_CHECKING:
+    from surfhap.sim.demo import DemoResults
 
-DEMO_SPEEDS = (0.05, 0.10, 0.15)  # m/s: three of the reference velocities of Otake et al. 2022
-DEMO_LOADS = (0.26, 0.5, 0.96)  # N: the ends and middle of the participants' mean loads (003 Sec. II)
-
-
-@dataclass(frozen=True)
-class DemoSettings:
-    """speeds (m/s), loads (N, 003 Sec. II: 0.26-0.96 N), ``load`` (N) of the per-material figures,
-    seconds per render, seed, display (DisplayModel or None for the documented assumptions)."""
-
-    speeds: tuple[float, ...] = DEMO_SPEEDS
-    loads: tuple[float, ...] = DEMO_LOADS
-    load: float = 0.5
-    duration: float = 10.0
-    seed: int = 0
-    display: object | None = None
-
-
-@dataclass
-class DemoResults:
-    """renders {material: [RenderResult at ``settings.load``, one per speed]}; grid: list of
-    (RenderResult, FidelityMetrics) over loads x speeds x materials; plans {material: GainPlan}."""
-
-    renders: dict
-    grid: list
-    plans: dict
-
-
-def run_demo(settings: DemoSettings = DemoSettings(), progress: Callable[[float], None] | None = None) -> DemoResults:
-    """Render every built-in material at each load and speed; returns :class:`DemoResults`."""
-    from surfhap.exchange.materials import builtin_names, load_material
-    from surfhap.render.chain import ChainConfig
-    from surfhap.render.fidelity import fidelity_metrics
-    from surfhap.render.offline import render
-    from surfhap.sim.display import DisplayModel
-    from surfhap.sim.trajectory import constant_scan
-
-    names = builtin_names()
-    loads = tuple(dict.fromkeys((*settings.loads, settings.load)))
-    renders, grid, plans = {}, [], {}
-    total = len(names) * len(settings.speeds) * len(loads)
-    done = 0
-    display = settings.display or DisplayModel()
-    for name in names:
-        mat = load_material(name)
-        cal = getattr(mat.spec.texture, "calibration", None)
-        target = None if cal is None else cal.target_voltage_ratio
-        renders[name] = []
-        for i, load in enumerate(loads):
-            for j, speed in enumerate(settings.speeds):
-                # one noise seed per cell, so the table shows the spread over texture realisations
-                cfg = ChainConfig(seed=settings.seed + 10 * i + j, display=display)
-                r = render(mat, constant_scan(speed, load, settings.duration), cfg)
-                plans[name] = r.plan
-                if load == settings.load:
-                    renders[name].append(r)
-                if load in settings.loads:
-                    grid.append((r, fidelity_metrics(r, target_voltage_ratio=target)))
-                done += 1
-                if progress is not None:
-                    progress(done / total)
-    return DemoResults(renders, grid, plans)
+__all__ = ["write_demo_report"]
 
 
 def _speed_figure(name: str, runs) -> Figure:
@@ -156,11 +95,12 @@ def load_material_notes(name: str) -> list[str]:
     return list(load_material(name).spec.notes)
 
 
-def write_demo_report(results: DemoResults, out_dir: str | Path, settings: DemoSettings = DemoSettings()) -> Path:
+def write_demo_report(results: DemoResults, out_dir: str | Path) -> Path:
     """Write the gain plans, the fidelity table, one figure per material and ``report.html``;
     returns its path."""
     from surfhap.report.plan_figures import plan_table, plot_gain_plans
 
+    settings = results.settings
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     page = Page("surfhap demo: built-in materials on the simulated electrostatic display")

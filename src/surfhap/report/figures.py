@@ -43,14 +43,11 @@ def render_spectrum(result, settle: float = 0.5):
     return spectrum_of(result.added_friction[start:], fs, result.expected_texture_psd)
 
 
-def plot_render(result, fig: Figure | None = None) -> Figure:
+def plot_render(pv, fig: Figure | None = None) -> Figure:
     """Four panels: friction over time, drive voltage, spectrum vs model, speed and load.
 
-    ``result``: a RenderResult, or a :class:`~surfhap.render.preview.RenderPreview` (what a
-    streamed render keeps); either way the figure is drawn from the bounded preview."""
-    from surfhap.render.preview import RenderPreview, preview_of
-
-    pv = result if isinstance(result, RenderPreview) else preview_of(result)
+    ``pv``: a :class:`~surfhap.render.preview.RenderPreview`, the bounded copy a render keeps
+    for its figure (``RenderResult.plot()`` and the streamed render pass theirs)."""
     fig = fig or Figure(figsize=(11, 7.5), layout="constrained")
     axs = fig.subplots(2, 2)
     ax = axs[0, 0]

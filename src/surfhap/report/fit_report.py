@@ -88,10 +88,10 @@ def write_accel_report(fit, out_dir: str | Path, command: str = "") -> Path:
 
 
 def write_fit_report(fit, out_dir: str | Path, command: str = "") -> Path:
-    """Dispatch on the result type."""
-    from surfhap.fit.accel import AccelFit
-
-    if isinstance(fit, AccelFit):
+    """Dispatch on the result's kind: an acceleration fit (:class:`surfhap.fit.accel.AccelFit`,
+    which has ``segments``) or a friction fit (:class:`surfhap.fit.material_fit.FrictionFit`).
+    Reads the result only: report/ does not import fit/."""
+    if hasattr(fit, "segments"):
         return write_accel_report(fit, out_dir, command)
     return write_friction_report(fit, out_dir, command)
 

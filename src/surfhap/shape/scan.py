@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.sim.trajectory import Trajectory
+from surfhap.models.trajectory import Trajectory
 
 __all__ = ["straight_scan", "parse_scan", "top_view", "DEFAULT_TOUCH_RATE", "DEFAULT_LOAD"]
 

@@ -12,7 +12,7 @@ in *device units*, divided by ``gain`` into newtons, as a Falcon through CHAI3D 
 * end stops at 1.25 x the Falcon workspace (CHAI3D workspace radius 0.04 m): a hard stop
   that zeroes the velocity into it (mechanical limit, beyond the safety stage's walls).
 
-:class:`SimFinger` moves along a :class:`~surfhap.sim.trajectory.Trajectory` in the world
+:class:`SimFinger` moves along a :class:`~surfhap.models.trajectory.Trajectory` in the world
 (position-driven in x, y; the person's arm is far stiffer than the screen's lateral
 holding), presses with the trajectory's load on the screen, drags it with Coulomb friction
 ``mu load`` (CHOICE: mu = 0 by default, so effects are judged without help from friction),

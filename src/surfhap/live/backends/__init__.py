@@ -7,6 +7,7 @@ sounddevice) and ``osc`` (drive or intensity values to an external renderer).
 
 from __future__ import annotations
 
-from surfhap.live.backends.base import Backend, PacedBackend, parse_output, open_backend
+from surfhap.live.backends.base import Backend, PacedBackend
+from surfhap.live.backends.output import open_backend, parse_output
 
 __all__ = ["Backend", "PacedBackend", "parse_output", "open_backend"]

@@ -1,4 +1,4 @@
-"""A simulated electrostatic friction display: the embedded default backend.
+"""The electrostatic friction panel: its parameters and its simulation (the embedded default backend).
 
 From drive voltage (drive rate) and finger load to the lateral friction force::
 
@@ -13,7 +13,7 @@ the model rate for comparison with the material model.
 
 ``mu_panel`` (0.5) and the 50 ms leakage constant are documented assumptions for a
 simulated panel, not measurements; the electrostatic constant ``k`` comes from
-:class:`~surfhap.sim.electrostatics.ElectrostaticStack` (eq. 1 of Zhao et al.) unless a
+:class:`~surfhap.models.electrostatics.ElectrostaticStack` (eq. 1 of Zhao et al.) unless a
 measured ``k_measured`` is given (``--display k=...`` or a display file,
 :mod:`surfhap.exchange.display_file`).
 """
@@ -25,8 +25,8 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from surfhap.render.resample import RationalResampler
-from surfhap.sim.electrostatics import ElectrostaticStack
+from surfhap.models.electrostatics import ElectrostaticStack
+from surfhap.signal.resample import RationalResampler
 
 __all__ = ["DisplayModel", "SimulatedDisplay"]
 

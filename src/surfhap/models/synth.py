@@ -9,10 +9,13 @@ the same seed gives the same output whatever the block sizes.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numba
 import numpy as np
 
-from surfhap.models.texture import TextureBank
+if TYPE_CHECKING:
+    from surfhap.models.texture import TextureBank
 
 __all__ = ["ARSynthesizer"]
 

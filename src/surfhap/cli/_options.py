@@ -1,0 +1,35 @@
+"""Options that several commands share, as ``Annotated`` aliases: one definition, one help text.
+
+Use them as a parameter's type with its default, e.g. ``display: DisplayOption = None``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, LOAD_RANGE_HELP, SPEED_RANGE_HELP
+
+__all__ = ["DisplayOption", "LoadRangeOption", "SpeedRangeOption", "ConfigOption", "SeedOption",
+           "TrajectoryOption", "FigureOption", "LiveAmpGainOption", "JobsOption", "SchedulerOption"]
+
+# the simulated / user's display (see cli/_display_options.py)
+DisplayOption = Annotated[Optional[str], typer.Option("--display", help=DISPLAY_HELP)]
+LoadRangeOption = Annotated[Optional[str], typer.Option("--load-range", help=LOAD_RANGE_HELP)]
+SpeedRangeOption = Annotated[Optional[str], typer.Option("--speed-range", help=SPEED_RANGE_HELP)]
+ConfigOption = Annotated[Optional[Path], typer.Option("--config", help=CONFIG_HELP)]
+
+# rendering
+SeedOption = Annotated[int, typer.Option("--seed", help="Seed of the texture noise (same seed, same output).")]
+TrajectoryOption = Annotated[Optional[Path], typer.Option(
+    "--trajectory", help="Recorded trajectory CSV: time (s), x, y (m), load (N); units may be given as x\\[mm].")]
+FigureOption = Annotated[bool, typer.Option("--figure/--no-figure", help="Write figure.png.")]
+LiveAmpGainOption = Annotated[float, typer.Option(
+    "--amp-gain", help="Amplifier gain, V per DAC full scale (sound/file outputs).")]
+
+# fitting many recordings
+JobsOption = Annotated[int, typer.Option("--jobs", help="Parallel workers (joblib); -1 = all cores.")]
+SchedulerOption = Annotated[Optional[str], typer.Option(
+    "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there.")]
