@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from scipy.io import wavfile
 
+import surfhap
 from surfhap.cli import main
 from surfhap.exchange.materials import load_material
 from surfhap.live.backends.base import PacedBackend
@@ -25,11 +26,23 @@ from surfhap.render.chain import ChainConfig, TextureChain
 
 SURFHAP = [sys.executable, "-c", "import sys; from surfhap.cli import main; sys.exit(main())"]
 RATE = 20000
-FULL = "speed=0.1,load=2.0,duration=120"  # cork at 2 N: the drive sits at the 250 V limit
+FULL = "speed=0.1,load=2.0,duration=120"  # friction-only cork at 2 N: the drive sits at the 250 V limit
+
+
+def _friction_only_cork(tmp_path: Path) -> Path:
+    """Cork's friction law without its texture (a material file): a firm press pins the drive at
+    v_max, so the stop ramp starts at full scale and its length can be measured."""
+    spec = json.loads((Path(surfhap.__file__).parent / "models" / "builtin" / "cork.json").read_text())
+    spec.pop("texture")
+    spec["name"] = "cork-friction-only"
+    path = tmp_path / "cork-friction-only.json"
+    path.write_text(json.dumps(spec))
+    return path
 
 
 def _play(path: Path, scan: str = FULL) -> subprocess.Popen:
-    return subprocess.Popen([*SURFHAP, "play", "cork", "--output", f"file:{path}", "--scan", scan],
+    material = _friction_only_cork(path.parent)
+    return subprocess.Popen([*SURFHAP, "play", str(material), "--output", f"file:{path}", "--scan", scan],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -86,7 +99,7 @@ def test_sigterm_stops_serve_the_same_way(tmp_path):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     path = tmp_path / "serve.wav"
-    p = subprocess.Popen([*SURFHAP, "serve", "--material", "cork", "--port", str(port), "--replay", str(traj),
+    p = subprocess.Popen([*SURFHAP, "serve", "--material", str(_friction_only_cork(tmp_path)), "--port", str(port), "--replay", str(traj),
                           "--output", f"file:{path}", "--duration", "120"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     _wait_for_bytes(p, path, 44 + 4 * RATE // 2)
