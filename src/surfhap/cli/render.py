@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import List, Optional
 
 import typer
 
+from surfhap.cli._batch import GRID_HELP, JOBS_HELP, SCHEDULER_HELP, render_batch, split_inputs
 from surfhap.cli._common import parse_key_values, progress_bar, stderr, stdout
 from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, LOAD_RANGE_HELP, SPEED_RANGE_HELP, resolve_display_and_range
 from surfhap.errors import ConfigError
@@ -32,8 +33,8 @@ def trajectory_from_options(scan: str | None, trajectory: Path | None):
 
 
 def render_cmd(
-    material: str = typer.Argument(..., help="Built-in material name (see 'surfhap materials') or a material file."),
-    out: Path = typer.Option(..., "--out", help="Output folder: drive.wav, render.npz, summary.json, figure.png."),
+    material: List[str] = typer.Argument(..., help="Built-in material name (see 'surfhap materials') or a material file; several (or comma-separated) make a batch."),
+    out: Path = typer.Option(..., "--out", help="Output folder: drive.wav, render.npz, summary.json, figure.png (a batch: one such folder per job, and index.csv/index.json)."),
     scan: Optional[str] = typer.Option(None, "--scan", help="Virtual finger: 'speed=M/S,load=N,duration=S[,length=M for back-and-forth strokes][,rate=HZ sensor rate]'."),
     trajectory: Optional[Path] = typer.Option(None, "--trajectory", help="Recorded trajectory CSV with columns time (s), x, y (m), load (N)."),
     method: str = typer.Option("auto", "--method", help="otake2022 | otake2021 | zhao | friction-only | square (auto: otake2022 when the material has the quasi-static law)."),
@@ -51,30 +52,32 @@ def render_cmd(
     v_max: float = typer.Option(250.0, "--v-max", help="Safety limit on |V| (V)."),
     amp_gain: Optional[float] = typer.Option(None, "--amp-gain", help="Amplifier gain, V per DAC full scale, for drive.wav (default: --v-max)."),
     figure: bool = typer.Option(True, "--figure/--no-figure", help="Write figure.png."),
+    grid: List[str] = typer.Option([], "--grid", help=GRID_HELP),
+    jobs: int = typer.Option(1, "--jobs", help=JOBS_HELP),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
 ) -> None:
     """Render MATERIAL along a virtual or recorded finger trajectory on the simulated display."""
+    from surfhap.batch.jobs import render_to_folder
     from surfhap.exchange.materials import load_material
-    from surfhap.exchange.render_files import write_render
     from surfhap.render.chain import ChainConfig
-    from surfhap.render.offline import render
     from surfhap.cli._display_options import parse_range
     from surfhap.render.safety import SafetyLimits
 
     disp, rng = resolve_display_and_range(display, load_range, speed_range, config)
     sq_load, sq_speed = parse_range(square_reference, "--square-reference")
-    mat = load_material(material)
-    traj = trajectory_from_options(scan, trajectory)
+    materials = split_inputs(material)
+    batch = len(materials) > 1 or bool(grid) or jobs != 1 or scheduler is not None
+    mat = load_material(materials[0])
+    traj = None if batch else trajectory_from_options(scan, trajectory)
     if not (v_max > 0 and v_max <= 1000):
         raise ConfigError("must be within (0, 1000] V", source="--v-max")
     cfg = ChainConfig(method=method, drive_rate=drive_rate, carrier=carrier, seed=seed, alpha=alpha, beta=beta,
                       square_frequency=square_frequency, square_reference_load=sq_load, square_reference_speed=sq_speed,
                       operating_range=rng, display=disp, limits=SafetyLimits(v_max=v_max, rise_rate=v_max * 1e4))
+    if batch:
+        return render_batch(materials, scan, trajectory, grid, cfg, out, amp_gain, figure, jobs, scheduler)
     with progress_bar(f"rendering {mat.name}", enabled=traj.duration > 2.0) as update:
-        result = render(mat, traj, cfg, progress=update)
-    paths = write_render(result, out, amp_gain=amp_gain)
-    if figure:
-        fig = result.plot()
-        fig.savefig(Path(out) / "figure.png", dpi=110)
+        result, paths = render_to_folder(mat, traj, cfg, out, amp_gain=amp_gain, figure=figure, progress=update)
     s = result.summary()
     stdout.print(f"{mat.name} ({s['method']}): alpha {s['alpha_v_per_sqrt_n']:.1f} V/sqrt(N) ({s['alpha_source']}, "
                  f"rendering gain {s['rendering_gain']:.3f}), max |V| {s['max_abs_voltage']:.1f} V, clipped {s['clipped_fraction']:.1%}, "
