@@ -23,7 +23,7 @@ from typing import Any
 
 from surfhap.errors import ConfigError
 
-__all__ = ["JobOutcome", "SchedulerSpec", "parse_scheduler", "open_scheduler", "run_jobs"]
+__all__ = ["JobOutcome", "SchedulerSpec", "parse_scheduler", "open_scheduler", "run_jobs", "joblib_backend"]
 
 _TCP = re.compile(r"^tcp://[^\s:/]+:\d{1,5}$")
 _LOCAL = re.compile(r"^local:(\d+)$")
@@ -121,20 +121,23 @@ class _Processes:
         self._pool.shutdown(wait=True, cancel_futures=True)
 
 
+def _dask_client(spec: SchedulerSpec):
+    """(client, cluster or None) for a Dask spec: a LocalCluster of ``spec.workers``
+    single-threaded worker processes, or a client of the scheduler at ``spec.address``."""
+    from dask.distributed import Client, LocalCluster  # the optional 'dask' extra
+
+    if spec.address is None:
+        cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True, dashboard_address=":0")
+        return Client(cluster), cluster
+    try:
+        return Client(spec.address, timeout="10s"), None
+    except OSError as exc:
+        raise ConfigError(f"cannot reach the Dask scheduler at {spec.address}: {exc}", source="--scheduler") from None
+
+
 class _Dask:
     def __init__(self, spec: SchedulerSpec):
-        from dask.distributed import Client, LocalCluster  # the optional 'dask' extra
-
-        self._cluster = None
-        if spec.address is None:
-            self._cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True,
-                                         dashboard_address=None)
-            self._client = Client(self._cluster)
-        else:
-            try:
-                self._client = Client(spec.address, timeout="10s")
-            except OSError as exc:
-                raise ConfigError(f"cannot reach the Dask scheduler at {spec.address}: {exc}", source="--scheduler") from None
+        self._client, self._cluster = _dask_client(spec)
 
     def map(self, fn, items):
         from dask.distributed import as_completed
@@ -167,6 +170,26 @@ def open_scheduler(spec: SchedulerSpec):
         yield sched
     finally:
         sched.close()
+
+
+@contextlib.contextmanager
+def joblib_backend(scheduler: str | None):
+    """Context in which joblib's ``Parallel`` runs on the Dask cluster named by ``scheduler``
+    (``tcp://HOST:PORT`` or ``local:N``), or joblib's default backend when None."""
+    if not scheduler:
+        yield None
+        return
+    spec = parse_scheduler(scheduler)
+    import joblib
+
+    client, cluster = _dask_client(spec)
+    try:
+        with joblib.parallel_backend("dask"):
+            yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
 
 
 def run_jobs(fn: Callable[[Any], Any], items: Sequence[Any], spec: SchedulerSpec,

@@ -55,7 +55,7 @@ def parse_grid(grid: list[str]) -> dict[str, list[float]]:
 
 
 def _slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9.+-]+", "-", text).strip("-") or "job"
+    return re.sub(r"[^A-Za-z0-9._+-]+", "-", text).strip("-") or "job"
 
 
 def _scan_values(scan: str | None) -> dict[str, float]:

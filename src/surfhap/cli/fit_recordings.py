@@ -34,8 +34,9 @@ def _command() -> str:
 
 
 def _check_jobs(jobs: int, scheduler: str | None) -> int:
-    if jobs == 0 or jobs < -1:
-        raise ConfigError("must be >= 1 (or -1 for all cores)", source="--jobs")
+    from surfhap.batch.schedulers import parse_scheduler
+
+    parse_scheduler(scheduler, jobs)  # one line for a bad --jobs or --scheduler, before any file is read
     return -1 if scheduler and jobs == 1 else jobs  # on a cluster, let the scheduler spread the work
 
 
@@ -58,7 +59,7 @@ def fit_friction_cmd(
     columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'speed=v_x\\[mm/s],normal_force=Fz'."),
     report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
     jobs: int = typer.Option(1, "--jobs", help="Parallel workers (joblib); -1 = all cores."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask cluster for the joblib work: tcp://HOST:PORT (a running scheduler) or local:N (a LocalCluster of N workers); needs the 'dask' extra."),
 ) -> None:
     """Fit Coulomb mu0, the quasi-static law and AR textures per reference velocity (Otake et al.)."""
     from surfhap.exchange.materials import write_material_json
@@ -70,6 +71,7 @@ def fit_friction_cmd(
         raise ConfigError(f"must be one of {', '.join(ESTIMATORS)}", source="--estimator")
     if criterion.lower() not in ("aic", "bic"):
         raise ConfigError("must be aic or bic", source="--criterion")
+    n_jobs = _check_jobs(jobs, scheduler)
     speeds = _speeds_mm(reference_velocities)
     speeds = tuple(v / 1000.0 if v > 5 else v for v in speeds)
     recs = read_recordings(recordings, parse_column_map(columns))
@@ -78,7 +80,7 @@ def fit_friction_cmd(
         fit = fit_friction(recs, material, cutoff=cutoff, reference_speeds=speeds, tolerance=tolerance / 1000.0,
                            min_span=min_span / 1000.0, max_order=max_order, criterion=criterion.lower(), estimator=estimator,
                            edge_trim=None if edge_trim is None else edge_trim / 1000.0,
-                           jobs=_check_jobs(jobs, scheduler))
+                           jobs=n_jobs)
     mat = fit.to_material(command=command)
     write_material_json(mat, out)
     qs = fit.quasi_static
@@ -108,7 +110,7 @@ def fit_accel_cmd(
     columns: Optional[str] = typer.Option(None, "--columns", help="Map channels to columns: 'acceleration=az\\[g],speed=v\\[mm/s]'."),
     report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
     jobs: int = typer.Option(1, "--jobs", help="Parallel workers (joblib); -1 = all cores."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask cluster for the joblib work: tcp://HOST:PORT (a running scheduler) or local:N (a LocalCluster of N workers); needs the 'dask' extra."),
 ) -> None:
     """Segment, fit AR per segment and interpolate over (speed, force) (HaTT / Zhao et al.)."""
     from surfhap.exchange.materials import write_material_json
@@ -116,11 +118,12 @@ def fit_accel_cmd(
     from surfhap.fit.accel import fit_accel
     from surfhap.fit.material_fit import parallel_context
 
+    n_jobs = _check_jobs(jobs, scheduler)
     recs = read_recordings(recordings, parse_column_map(columns))
     command = _command()
     with parallel_context(scheduler):
         fit = fit_accel(recs, material, model_rate=model_rate, highpass=highpass, max_order=max_order, criterion=criterion,
-                        min_segment=min_segment / 1000.0, mu0=mu0, jobs=_check_jobs(jobs, scheduler),
+                        min_segment=min_segment / 1000.0, mu0=mu0, jobs=n_jobs,
                         max_segment=max_segment or None)
     write_material_json(fit.to_material(command=command), out)
     stdout.print(f"{out}: {len(fit.segments)} segments, AR({fit.order}) models (AIC {fit.aic_order}, BIC {fit.bic_order}) over (speed, force), "

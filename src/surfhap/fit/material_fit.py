@@ -15,7 +15,6 @@ runs on a Dask cluster.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -35,25 +34,13 @@ __all__ = ["DEFAULT_REFERENCE_SPEEDS", "FrictionFit", "fit_friction", "parallel_
 DEFAULT_REFERENCE_SPEEDS = (0.05, 0.075, 0.10, 0.125, 0.15)
 
 
-@contextlib.contextmanager
 def parallel_context(scheduler: str | None = None):
-    """joblib backend context: the Dask cluster at ``scheduler`` (needs the ``dask``
-    extra: dask.distributed), or joblib's default (loky) when None."""
-    if not scheduler:
-        yield None
-        return
-    try:
-        from dask.distributed import Client
-    except ImportError:
-        raise ConfigError("needs dask.distributed (install surfhap's optional 'dask' extra)", source="--scheduler") from None
-    import joblib
+    """joblib backend context: the Dask cluster at ``scheduler`` (``tcp://HOST:PORT`` or
+    ``local:N``; needs the ``dask`` extra), or joblib's default (loky) when None. See
+    :func:`surfhap.batch.schedulers.joblib_backend`."""
+    from surfhap.batch.schedulers import joblib_backend
 
-    client = Client(scheduler)
-    try:
-        with joblib.parallel_backend("dask"):
-            yield client
-    finally:
-        client.close()
+    return joblib_backend(scheduler)
 
 
 def _map(fn, items, jobs: int):
