@@ -82,8 +82,6 @@ def test_module_level_imports_need_no_extra():
 
 def _make_test_extras(extras: dict) -> set:
     """Distributions of the extras the Makefile installs for `make test` (``-e ".[a,b]"``)."""
-    import re
-
     found = re.search(r'-e "\.\[([^\]]+)\]"', (REPO / "Makefile").read_text())
     assert found, "the Makefile installs surfhap with its extras"
     names = [n.strip() for n in found.group(1).split(",")]
