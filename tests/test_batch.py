@@ -90,8 +90,7 @@ def test_dask_cluster_gives_the_serial_numbers(serial_grid, cluster, tmp_path, c
     assert code == 0, err
     assert f"dask {cluster.scheduler_address}" in stdout
     _assert_same_renders(serial_grid, tmp_path)
-    workers = {w for w in cluster.scheduler.workers}
-    assert len(workers) == 2
+    assert len(cluster.scheduler.workers) == 2 and "call" in cluster.scheduler.task_prefixes  # the jobs (_call) ran there
 
 
 def test_a_local_dask_cluster_started_by_the_cli(serial_grid, tmp_path, capsys):
@@ -155,6 +154,7 @@ def test_fit_friction_on_a_dask_cluster_equals_serial(cluster, tmp_path, capsys)
     assert run(capsys, *args, "--out", tmp_path / "serial.json")[0] == 0
     code, _, err = run(capsys, *args, "--out", tmp_path / "dask.json", "--jobs", "2", "--scheduler", cluster.scheduler_address)
     assert code == 0, err
+    assert any(p.startswith("batch_of_") for p in cluster.scheduler.task_prefixes)  # joblib's work ran on the cluster
     a, b = (json.loads((tmp_path / f).read_text()) for f in ("serial.json", "dask.json"))
     assert a["texture"]["models"] == b["texture"]["models"] and a["friction"]["quasi_static"]["a"] == b["friction"]["quasi_static"]["a"]
 
