@@ -52,7 +52,7 @@ def render_cmd(
     v_max: float = typer.Option(250.0, "--v-max", help="Safety limit on |V| (V)."),
     amp_gain: Optional[float] = typer.Option(None, "--amp-gain", help="Amplifier gain, V per DAC full scale, for drive.wav (default: --v-max)."),
     figure: bool = typer.Option(True, "--figure/--no-figure", help="Write figure.png."),
-    grid: List[str] = typer.Option([], "--grid", help=GRID_HELP),
+    grid: List[str] = typer.Option([], "--grid", metavar="KEY=V1,V2,...", help=GRID_HELP),
     jobs: int = typer.Option(1, "--jobs", help=JOBS_HELP),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
 ) -> None:
