@@ -20,7 +20,7 @@ $(PY):
 	$(PY) -m pip install --quiet --upgrade pip
 
 $(STAMP): pyproject.toml | $(PY)
-	$(PY) -m pip install --quiet -e ".[dev,live,lsl]"
+	$(PY) -m pip install --quiet -e ".[dev,live,lsl,dask]"
 	touch $(STAMP)
 
 system-deps:

@@ -80,12 +80,21 @@ def test_module_level_imports_need_no_extra():
     assert not bad, f"module-level imports of optional or undeclared packages: {bad}"
 
 
+def _make_test_extras(extras: dict) -> set:
+    """Distributions of the extras the Makefile installs for `make test` (``-e ".[a,b]"``)."""
+    found = re.search(r'-e "\.\[([^\]]+)\]"', (REPO / "Makefile").read_text())
+    assert found, "the Makefile installs surfhap with its extras"
+    names = [n.strip() for n in found.group(1).split(",")]
+    assert {"dev", "live", "lsl", "dask"} <= set(names), names
+    return set().union(*(extras[n] for n in names))
+
+
 def test_tests_and_benchmarks_imports_are_declared():
     core, extras = _declared()
-    allowed = core | extras["dev"] | extras["live"] | extras["lsl"]
+    allowed = core | _make_test_extras(extras)
     missing = sorted({(str(f), name) for root in (REPO / "tests", REPO / "benchmarks")
                       for f, name, _ in _third_party_imports(root) if not _distributions(name) & allowed})
-    assert not missing, f"imported by tests/benchmarks but not in dependencies or the dev/live extras: {missing}"
+    assert not missing, f"imported by tests/benchmarks but not in dependencies or the extras make test installs: {missing}"
 
 
 def _copy_tree(dest: Path) -> Path:
@@ -145,7 +154,7 @@ def test_tests_do_not_skip_on_the_project_or_its_declared_dependencies():
     """``pytest.importorskip`` turns a broken import into a silent skip: allowed only for
     packages that `make test` does not install."""
     core, extras = _declared()
-    installed_by_make_test = core | extras["dev"] | extras["live"] | extras["lsl"]
+    installed_by_make_test = core | _make_test_extras(extras)
     offenders = []
     for path in sorted((REPO / "tests").rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):

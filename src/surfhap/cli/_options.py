@@ -30,6 +30,6 @@ LiveAmpGainOption = Annotated[float, typer.Option(
     "--amp-gain", help="Amplifier gain, V per DAC full scale (sound/file outputs).")]
 
 # fitting many recordings
-JobsOption = Annotated[int, typer.Option("--jobs", help="Parallel workers (joblib); -1 = all cores.")]
+JobsOption = Annotated[int, typer.Option("--jobs", help="Parallel workers, local processes (-1 = all cores): the jobs of a batch (one folder each under --out), or the fits of one fit.")]
 SchedulerOption = Annotated[Optional[str], typer.Option(
-    "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs the 'dask' extra); the joblib work runs there.")]
+    "--scheduler", help="Run on Dask instead of local processes: tcp://HOST:PORT (a running scheduler; output folders must be on storage the workers share) or local:N (a LocalCluster of N workers); needs the 'dask' extra.")]

@@ -35,8 +35,9 @@ def _command() -> str:
 
 
 def _check_jobs(jobs: int, scheduler: str | None) -> int:
-    if jobs == 0 or jobs < -1:
-        raise ConfigError("must be >= 1 (or -1 for all cores)", source="--jobs")
+    from surfhap.batch.schedulers import parse_scheduler
+
+    parse_scheduler(scheduler, jobs)  # one line for a bad --jobs or --scheduler, before any file is read
     return -1 if scheduler and jobs == 1 else jobs  # on a cluster, let the scheduler spread the work
 
 
@@ -64,22 +65,24 @@ def fit_friction_cmd(
     """Fit Coulomb mu0, the quasi-static law and AR textures per reference velocity (Otake et al.)."""
     from surfhap.exchange.material_json import write_material_json
     from surfhap.exchange.recordings import parse_column_map, read_recordings
-    from surfhap.fit.material_fit import fit_friction, parallel_context
+    from surfhap.batch.schedulers import joblib_backend
+    from surfhap.fit.material_fit import fit_friction
     from surfhap.fit.texture import ESTIMATORS
 
     if estimator not in ESTIMATORS:
         raise ConfigError(f"must be one of {', '.join(ESTIMATORS)}", source="--estimator")
     if criterion.lower() not in ("aic", "bic"):
         raise ConfigError("must be aic or bic", source="--criterion")
+    n_jobs = _check_jobs(jobs, scheduler)
     speeds = _speeds_mm(reference_velocities)
     speeds = tuple(v / 1000.0 if v > 5 else v for v in speeds)
     recs = read_recordings(recordings, parse_column_map(columns))
     command = _command()
-    with parallel_context(scheduler):
+    with joblib_backend(scheduler):
         fit = fit_friction(recs, material, cutoff=cutoff, reference_speeds=speeds, tolerance=tolerance / 1000.0,
                            min_span=min_span / 1000.0, max_order=max_order, criterion=criterion.lower(), estimator=estimator,
                            edge_trim=None if edge_trim is None else edge_trim / 1000.0,
-                           jobs=_check_jobs(jobs, scheduler))
+                           jobs=n_jobs)
     mat = fit.to_material(command=command)
     write_material_json(mat, out)
     qs = fit.quasi_static
@@ -115,13 +118,14 @@ def fit_accel_cmd(
     from surfhap.exchange.material_json import write_material_json
     from surfhap.exchange.recordings import parse_column_map, read_recordings
     from surfhap.fit.accel import fit_accel
-    from surfhap.fit.material_fit import parallel_context
+    from surfhap.batch.schedulers import joblib_backend
 
+    n_jobs = _check_jobs(jobs, scheduler)
     recs = read_recordings(recordings, parse_column_map(columns))
     command = _command()
-    with parallel_context(scheduler):
+    with joblib_backend(scheduler):
         fit = fit_accel(recs, material, model_rate=model_rate, highpass=highpass, max_order=max_order, criterion=criterion,
-                        min_segment=min_segment / 1000.0, mu0=mu0, jobs=_check_jobs(jobs, scheduler),
+                        min_segment=min_segment / 1000.0, mu0=mu0, jobs=n_jobs,
                         max_segment=max_segment or None)
     write_material_json(fit.to_material(command=command), out)
     stdout.print(f"{out}: {len(fit.segments)} segments, AR({fit.order}) models (AIC {fit.aic_order}, BIC {fit.bic_order}) over (speed, force), "

@@ -6,89 +6,20 @@ import signal
 import threading
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Optional
+from typing import List, Optional
 
 import typer
 
-from surfhap.cli._common import error_line, parse_key_values, progress_bar, stderr, stdout
+from surfhap.batch.jobs import NPZ_MAX_SECONDS, choose_format
+from surfhap.cli._batch import GRID_HELP, render_batch, split_inputs
+from surfhap.cli._common import error_line, progress_bar, stderr, stdout
 from surfhap.cli._display_options import resolve_display_and_range
-from surfhap.cli._options import ConfigOption, DisplayOption, FigureOption, LoadRangeOption, SeedOption, SpeedRangeOption, TrajectoryOption
+from surfhap.cli._scan import trajectory_from_options
+from surfhap.cli._options import (ConfigOption, DisplayOption, FigureOption, JobsOption, LoadRangeOption, SchedulerOption,
+                                  SeedOption, SpeedRangeOption, TrajectoryOption)
 from surfhap.errors import ConfigError
 
-__all__ = ["register", "trajectory_from_options", "render_to_dir", "choose_format", "NPZ_MAX_SECONDS"]
-
-SCAN_KEYS = {"speed": None, "load": None, "duration": None, "length": 0.0, "rate": 125.0}
-
-
-def trajectory_from_options(scan: str | None, trajectory: Path | None):
-    """Build the trajectory from ``--scan key=value,...`` or ``--trajectory FILE``."""
-    from surfhap.exchange.trajectory_csv import read_trajectory_csv
-    from surfhap.models.trajectory import constant_scan, strokes
-
-    if (scan is None) == (trajectory is None):
-        raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")
-    if trajectory is not None:
-        return read_trajectory_csv(trajectory)
-    kv = parse_key_values(scan, "--scan", SCAN_KEYS)
-    if kv["length"] > 0:
-        return strokes(kv["speed"], kv["load"], kv["duration"], length=kv["length"], sensor_rate=kv["rate"])
-    return constant_scan(kv["speed"], kv["load"], kv["duration"], sensor_rate=kv["rate"])
-
-
-NPZ_MAX_SECONDS = 60.0  # --format auto: render.npz up to this duration, render.h5 above
-
-
-def choose_format(fmt: str, duration: float) -> str:
-    """"npz" or "h5" for ``--format`` ``fmt`` ("auto", "npz" or "h5") and a duration in s."""
-    if fmt not in ("auto", "npz", "h5"):
-        raise ConfigError(f"must be auto, npz or h5, got {fmt!r}", source="--format")
-    if fmt == "auto":
-        return "npz" if duration <= NPZ_MAX_SECONDS else "h5"
-    return fmt
-
-
-def render_to_dir(material, trajectory, config, out: Path, *, fmt: str = "auto", amp_gain: float | None = None,
-                  figure: bool = True, progress=None, stop=None, block_seconds: float = 1.0):
-    """One render job into one folder, streamed: drive.wav, render.npz or render.h5, summary.json
-    and figure.png, in memory independent of the duration (except render.npz, kept until the end).
-
-    ``material`` a Material, ``trajectory`` a Trajectory, ``config`` a ChainConfig; ``stop()``
-    polled between blocks ends the render early with valid files and ``"interrupted": true`` in
-    the summary. Returns (StreamedRender, paths dict with keys wav, render, summary[, figure]).
-    """
-    from surfhap.exchange.render_files import render_file_attrs, render_file_spec, write_summary
-    from surfhap.exchange.render_store import DriveWavWriter, open_render_writer
-    from surfhap.render.chain import TextureChain
-    from surfhap.render.stream import stream_render
-
-    fmt = choose_format(fmt, trajectory.duration)
-    out = Path(out)
-    probe = TextureChain(material, config)  # validates the settings before any file is created
-    out.mkdir(parents=True, exist_ok=True)
-    gain = float(amp_gain) if amp_gain is not None else float(probe.config.limits.v_max)
-    wav = DriveWavWriter(out / "drive.wav", probe.drive_rate, gain)
-    quantity = material.texture.quantity if probe.law.uses_texture else None
-    writer = open_render_writer(out, fmt, render_file_spec(probe.model_rate, probe.drive_rate, quantity))
-
-    def sink(channel, block):
-        writer(channel, block)
-        if channel == "drive":
-            wav(block)
-
-    try:
-        result = stream_render(material, trajectory, config, sink, block_seconds=block_seconds, progress=progress, stop=stop)
-    except BaseException:
-        writer.abort()
-        wav.abort()
-        raise
-    wav.close()
-    writer.close(render_file_attrs(result, interrupted=result.interrupted))
-    paths = {"wav": wav.path, "render": writer.path, "summary": write_summary(out / "summary.json", result.summary(), gain)}
-    if figure and result.n_model:
-        paths["figure"] = out / "figure.png"
-        result.plot().savefig(paths["figure"], dpi=110)
-    return result, paths
-
+__all__ = ["register"]
 
 @contextmanager
 def _stop_on_signals():
@@ -106,8 +37,8 @@ def _stop_on_signals():
 
 
 def render_cmd(
-    material: str = typer.Argument(..., help="Built-in material name (see 'surfhap materials') or a material file."),
-    out: Path = typer.Option(..., "--out", help="Output folder: drive.wav, render.npz or render.h5, summary.json, figure.png."),
+    material: List[str] = typer.Argument(..., help="Built-in material name (see 'surfhap materials') or a material file; several (or comma-separated) make a batch."),
+    out: Path = typer.Option(..., "--out", help="Output folder: drive.wav, render.npz or render.h5, summary.json, figure.png (a batch: one such folder per job, and index.csv/index.json)."),
     fmt: str = typer.Option("auto", "--format", help=f"Render file: npz | h5 | auto (render.npz up to {NPZ_MAX_SECONDS:g} s, render.h5 above; see docs/outputs.md)."),
     scan: Optional[str] = typer.Option(None, "--scan", help="Virtual finger: 'speed=M/S,load=N,duration=S[,length=M for back-and-forth strokes][,rate=HZ sensor rate]'."),
     trajectory: TrajectoryOption = None,
@@ -126,8 +57,12 @@ def render_cmd(
     v_max: float = typer.Option(250.0, "--v-max", help="Safety limit on |V| (V)."),
     amp_gain: Optional[float] = typer.Option(None, "--amp-gain", help="Amplifier gain, V per DAC full scale, for drive.wav (default: --v-max)."),
     figure: FigureOption = True,
+    grid: List[str] = typer.Option([], "--grid", metavar="KEY=V1,V2,...", help=GRID_HELP),
+    jobs: JobsOption = 1,
+    scheduler: SchedulerOption = None,
 ) -> None:
     """Render MATERIAL along a virtual or recorded finger trajectory on the simulated display."""
+    from surfhap.batch.jobs import render_to_folder
     from surfhap.cli._display_options import parse_range
     from surfhap.exchange.materials import load_material
     from surfhap.render.chain import ChainConfig
@@ -135,16 +70,21 @@ def render_cmd(
 
     disp, rng = resolve_display_and_range(display, load_range, speed_range, config)
     sq_load, sq_speed = parse_range(square_reference, "--square-reference")
-    mat = load_material(material)
-    traj = trajectory_from_options(scan, trajectory)
-    choose_format(fmt, traj.duration)
+    materials = split_inputs(material)
+    batch = len(materials) > 1 or bool(grid) or jobs != 1 or scheduler is not None
+    mat = load_material(materials[0])
+    traj = None if batch else trajectory_from_options(scan, trajectory)
+    if not batch:
+        choose_format(fmt, traj.duration)
     if not (v_max > 0 and v_max <= 1000):
         raise ConfigError("must be within (0, 1000] V", source="--v-max")
     cfg = ChainConfig(method=method, drive_rate=drive_rate, carrier=carrier, seed=seed, alpha=alpha, beta=beta,
                       square_frequency=square_frequency, square_reference_load=sq_load, square_reference_speed=sq_speed,
                       operating_range=rng, display=disp, limits=SafetyLimits(v_max=v_max, rise_rate=v_max * 1e4))
+    if batch:
+        return render_batch(materials, scan, trajectory, grid, cfg, out, amp_gain, figure, jobs, scheduler, fmt=fmt)
     with _stop_on_signals() as stop, progress_bar(f"rendering {mat.name}", enabled=traj.duration > 2.0) as update:
-        result, paths = render_to_dir(mat, traj, cfg, out, fmt=fmt, amp_gain=amp_gain, figure=figure, progress=update, stop=stop)
+        result, paths = render_to_folder(mat, traj, cfg, out, fmt=fmt, amp_gain=amp_gain, figure=figure, progress=update, stop=stop)
     s = result.summary()
     stdout.print(f"{mat.name} ({s['method']}): alpha {s['alpha_v_per_sqrt_n']:.1f} V/sqrt(N) ({s['alpha_source']}, "
                  f"rendering gain {s['rendering_gain']:.3f}), max |V| {s['max_abs_voltage']:.1f} V, clipped {s['clipped_fraction']:.1%}, "

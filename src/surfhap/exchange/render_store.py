@@ -268,12 +268,14 @@ class DriveWavWriter:
     scale) at ``rate`` Hz. A block beyond +-1 full scale raises ConfigError (field amp_gain)."""
 
     def __init__(self, path: str | Path, rate: int, amp_gain: float):
-        import soundfile
+        from surfhap.exchange.wav import FloatWavStream
 
         if not (np.isfinite(amp_gain) and amp_gain > 0):
             raise ConfigError("must be > 0 V per DAC unit", field="amp_gain")
         self.path, self.amp_gain = Path(path), float(amp_gain)
-        self._f = soundfile.SoundFile(self.path, "w", samplerate=int(rate), channels=1, subtype="FLOAT", format="WAV")
+        self._f = FloatWavStream(self.path, int(rate))
+        self._flush_every = 3 * int(rate)  # samples: the header is brought up to date every 3 s of drive
+        self._next_flush = self._flush_every
 
     def __call__(self, drive: np.ndarray) -> None:
         units = (np.asarray(drive, dtype=float) / self.amp_gain).astype(np.float32)
@@ -281,6 +283,9 @@ class DriveWavWriter:
         if peak > 1.0:
             raise ConfigError(f"the drive reaches {peak:.3g} DAC full scales; raise the amplifier gain", field="amp_gain")
         self._f.write(units)
+        if self._f.n >= self._next_flush:  # a crash leaves a file readable up to the last flush
+            self._f.flush()
+            self._next_flush = self._f.n + self._flush_every
 
     def close(self) -> None:
         self._f.close()

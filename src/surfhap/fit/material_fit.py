@@ -9,13 +9,12 @@ participants (:mod:`surfhap.fit.texture`). The result object turns into a
 (:meth:`FrictionFit.to_material`) and into figures (:meth:`FrictionFit.plot`).
 
 Parallelism: ``jobs`` runs the per-recording and per-velocity work with joblib; inside a
-``joblib.parallel_backend("dask")`` context (see :func:`parallel_context`) the same code
+``joblib.parallel_backend("dask")`` context (``surfhap.batch.schedulers.joblib_backend``) the same code
 runs on a Dask cluster.
 """
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -29,31 +28,10 @@ from surfhap.fit.preprocess import PreparedRecording, prepare_friction_recording
 from surfhap.fit.texture import VelocityTexture, fit_velocity_texture
 from surfhap.signal.splice import speed_spans
 
-__all__ = ["DEFAULT_REFERENCE_SPEEDS", "FrictionFit", "fit_friction", "parallel_context", "recording_provenance"]
+__all__ = ["DEFAULT_REFERENCE_SPEEDS", "FrictionFit", "fit_friction", "recording_provenance"]
 
 #: m/s, Otake et al. 2022
 DEFAULT_REFERENCE_SPEEDS = (0.05, 0.075, 0.10, 0.125, 0.15)
-
-
-@contextlib.contextmanager
-def parallel_context(scheduler: str | None = None):
-    """joblib backend context: the Dask cluster at ``scheduler`` (needs the ``dask``
-    extra: dask.distributed), or joblib's default (loky) when None."""
-    if not scheduler:
-        yield None
-        return
-    try:
-        from dask.distributed import Client
-    except ImportError:
-        raise ConfigError("needs dask.distributed (install surfhap's optional 'dask' extra)", source="--scheduler") from None
-    import joblib
-
-    client = Client(scheduler)
-    try:
-        with joblib.parallel_backend("dask"):
-            yield client
-    finally:
-        client.close()
 
 
 def _map(fn, items, jobs: int):

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import ConfigError
+from surfhap.exchange.wav import float_wav_header
 from surfhap.live.backends.base import STALL_TIMEOUT, PacedBackend
 
 __all__ = ["FileBackend", "check_writable"]
@@ -57,13 +58,6 @@ def check_writable(path: Path) -> None:
             path.unlink()
         except OSError:
             pass
-
-
-def _wav_header(rate: int, n: int) -> bytes:
-    data = 4 * n
-    return (b"RIFF" + struct.pack("<I", 36 + data) + b"WAVE"
-            + b"fmt " + struct.pack("<IHHIIHH", 16, 3, 1, rate, 4 * rate, 4, 32)
-            + b"data" + struct.pack("<I", data))
 
 
 def _npy_header(n: int) -> bytes:
@@ -117,7 +111,7 @@ class FileBackend(PacedBackend):
         super().start(engine)
 
     def _header(self, n: int) -> bytes:
-        return _npy_header(n) if self.npz else _wav_header(self._rate, n)
+        return _npy_header(n) if self.npz else float_wav_header(self._rate, n)
 
     def _samples(self, volts: np.ndarray) -> bytes:
         if self.npz:

@@ -1,0 +1,230 @@
+"""Schedulers: run one picklable function over many job specs, serially, in local processes
+or on a Dask distributed cluster, and yield every job's outcome as it completes.
+
+A job that raises is reported as a failed :class:`JobOutcome` (type and message of the
+exception); the other jobs run on. The functions are pure with respect to the scheduler:
+the same job gives the same numbers whichever scheduler runs it.
+
+Scheduler specs (``--scheduler``): None (local processes, ``jobs`` of them; one job = serial),
+``tcp://HOST:PORT`` (a running Dask scheduler) or ``local:N`` (a Dask ``LocalCluster`` of N
+single-threaded worker processes started for the run). Dask is imported only when a Dask
+spec is opened (the optional ``dask`` extra).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import re
+import time
+import traceback
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from surfhap.errors import ConfigError
+
+__all__ = ["JobOutcome", "SchedulerSpec", "parse_scheduler", "open_scheduler", "run_jobs", "joblib_backend"]
+
+_TCP = re.compile(r"^tcp://[^\s:/]+:\d{1,5}$")
+_LOCAL = re.compile(r"^local:(\d+)$")
+
+
+@dataclass(frozen=True)
+class JobOutcome:
+    """What one job gave: ``index`` in the job list, ``ok``, the function's ``value`` (None on
+    failure), ``error`` ("Type: message", None on success) and ``seconds`` of wall time in
+    the worker."""
+
+    index: int
+    ok: bool
+    value: Any
+    error: str | None
+    seconds: float
+
+
+@dataclass(frozen=True)
+class SchedulerSpec:
+    """kind: "serial", "processes" or "dask"; workers: processes (or Dask local workers);
+    address: the Dask scheduler address for a remote cluster, None for ``local:N``."""
+
+    kind: str
+    workers: int = 1
+    address: str | None = None
+
+    def describe(self) -> str:
+        if self.kind == "dask":
+            return f"dask {self.address}" if self.address else f"dask LocalCluster of {self.workers}"
+        return "serial" if self.kind == "serial" else f"{self.workers} processes"
+
+
+def parse_scheduler(spec: str | None, jobs: int = 1) -> SchedulerSpec:
+    """Check ``--scheduler`` and ``--jobs`` (no import of dask). ``jobs`` -1 = all cores."""
+    import os
+
+    if jobs == 0 or jobs < -1:
+        raise ConfigError("must be >= 1 (or -1 for all cores)", source="--jobs")
+    if spec is None or spec == "":
+        n = (os.cpu_count() or 1) if jobs == -1 else jobs
+        return SchedulerSpec("serial") if n == 1 else SchedulerSpec("processes", workers=n)
+    spec = spec.strip()
+    m = _LOCAL.match(spec)
+    if m:
+        n = int(m.group(1))
+        if not 1 <= n <= 256:
+            raise ConfigError(f"local:N needs 1 <= N <= 256, got {n}", source="--scheduler")
+        return SchedulerSpec("dask", workers=n)
+    if _TCP.match(spec) and 0 < int(spec.rsplit(":", 1)[1]) < 65536:
+        return SchedulerSpec("dask", address=spec)
+    raise ConfigError(f"expected tcp://HOST:PORT or local:N, got {spec!r}", source="--scheduler")
+
+
+def _call(fn: Callable, index: int, item: Any) -> JobOutcome:
+    """Run one job where the scheduler put it, turning an exception into a failed outcome."""
+    t0 = time.perf_counter()
+    try:
+        value = fn(item)
+    except Exception as exc:  # noqa: BLE001 - a job's failure is data for the index
+        last = traceback.extract_tb(exc.__traceback__)[-1:] if exc.__traceback__ else []
+        where = f" ({last[0].filename.rsplit('/', 1)[-1]}:{last[0].lineno})" if last else ""
+        return JobOutcome(index, False, None, f"{type(exc).__name__}: {exc}{where}", time.perf_counter() - t0)
+    return JobOutcome(index, True, value, None, time.perf_counter() - t0)
+
+
+class _Serial:
+    def map(self, fn, items):
+        for i, item in enumerate(items):
+            yield _call(fn, i, item)
+
+
+class _Processes:
+    """A pool of fresh (spawned) interpreter processes: no fork of a process that runs
+    threads (the progress bar, numba), and the same start-up on every platform."""
+
+    def __init__(self, workers: int):
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                                         initializer=_ignore_sigint)
+
+    def map(self, fn, items):
+        from concurrent.futures import as_completed
+
+        futures = {self._pool.submit(_call, fn, i, item): i for i, item in enumerate(items)}
+        for fut in as_completed(futures):
+            exc = fut.exception()
+            if exc is not None:  # the worker process itself died (a job's exception is caught in _call)
+                yield JobOutcome(futures[fut], False, None, f"{type(exc).__name__}: {exc}", 0.0)
+            else:
+                yield fut.result()
+
+    def close(self):
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def abort(self):
+        """Stop now (Ctrl-C): drop the queued jobs and end the running ones."""
+        procs = list((getattr(self._pool, "_processes", None) or {}).values())  # CPython's executor keeps its workers here
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        for proc in procs:
+            proc.terminate()
+
+
+def _ignore_sigint() -> None:
+    """Worker start-up: Ctrl-C in the terminal reaches the whole process group; only the parent
+    handles it (it ends the workers), so a worker never prints a KeyboardInterrupt traceback."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _dask_client(spec: SchedulerSpec):
+    """(client, cluster or None) for a Dask spec: a LocalCluster of ``spec.workers``
+    single-threaded worker processes, or a client of the scheduler at ``spec.address``."""
+    from dask.distributed import Client, LocalCluster  # the optional 'dask' extra
+
+    if spec.address is None:
+        cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True, dashboard_address=":0")
+        return Client(cluster), cluster
+    try:
+        return Client(spec.address, timeout="10s"), None
+    except OSError as exc:
+        raise ConfigError(f"cannot reach the Dask scheduler at {spec.address}: {exc}", source="--scheduler") from None
+
+
+class _Dask:
+    def __init__(self, spec: SchedulerSpec):
+        self._client, self._cluster = _dask_client(spec)
+
+    def map(self, fn, items):
+        from dask.distributed import as_completed
+
+        futures = [self._client.submit(_call, fn, i, item, pure=False) for i, item in enumerate(items)]
+        index = {f.key: i for i, f in enumerate(futures)}
+        for fut in as_completed(futures):
+            if fut.status == "error":  # lost worker or unpicklable result
+                exc = fut.exception()
+                yield JobOutcome(index[fut.key], False, None, f"{type(exc).__name__}: {exc}", 0.0)
+            else:
+                yield fut.result()
+            fut.release()
+
+    def close(self):
+        self._client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+
+
+@contextlib.contextmanager
+def open_scheduler(spec: SchedulerSpec):
+    """Start the scheduler's workers (a pool, a LocalCluster or a client of a running
+    cluster) and shut them down on exit. Yields an object with ``map(fn, items)``."""
+    if spec.kind == "serial":
+        yield _Serial()
+        return
+    sched = _Processes(spec.workers) if spec.kind == "processes" else _Dask(spec)
+    try:
+        yield sched
+    except BaseException:  # Ctrl-C or an error in the caller: do not wait for the running jobs
+        getattr(sched, "abort", sched.close)()
+        raise
+    sched.close()
+
+
+@contextlib.contextmanager
+def joblib_backend(scheduler: str | None):
+    """Context in which joblib's ``Parallel`` runs on the Dask cluster named by ``scheduler``
+    (``tcp://HOST:PORT`` or ``local:N``), or joblib's default backend when None."""
+    if not scheduler:
+        yield None
+        return
+    spec = parse_scheduler(scheduler)
+    import joblib
+
+    client, cluster = _dask_client(spec)
+    try:
+        with joblib.parallel_backend("dask"):
+            yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def run_jobs(fn: Callable[[Any], Any], items: Sequence[Any], spec: SchedulerSpec,
+             progress: Callable[[JobOutcome, int, int], None] | None = None) -> list[JobOutcome]:
+    """Run ``fn(item)`` for every item on the scheduler ``spec``; ``fn`` must be a module-level
+    (picklable) function. ``progress(outcome, done, total)`` is called as each job ends.
+    Returns the outcomes in the order of ``items``."""
+    outcomes: list[JobOutcome | None] = [None] * len(items)
+    if not items:
+        return []
+    with open_scheduler(spec) as sched:
+        for done, outcome in enumerate(_iter(sched, fn, items), 1):
+            outcomes[outcome.index] = outcome
+            if progress is not None:
+                progress(outcome, done, len(items))
+    return [o for o in outcomes if o is not None]
+
+
+def _iter(sched, fn, items) -> Iterator[JobOutcome]:
+    yield from sched.map(fn, list(items))

@@ -1,0 +1,28 @@
+"""``--scan`` / ``--trajectory``: the virtual or recorded finger of ``surfhap render`` (one
+render or a batch)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from surfhap.cli._common import parse_key_values
+from surfhap.errors import ConfigError
+
+__all__ = ["SCAN_KEYS", "trajectory_from_options"]
+
+SCAN_KEYS = {"speed": None, "load": None, "duration": None, "length": 0.0, "rate": 125.0}
+
+
+def trajectory_from_options(scan: str | None, trajectory: Path | None):
+    """Build the trajectory from ``--scan key=value,...`` or ``--trajectory FILE``."""
+    from surfhap.exchange.trajectory_csv import read_trajectory_csv
+    from surfhap.models.trajectory import constant_scan, strokes
+
+    if (scan is None) == (trajectory is None):
+        raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")
+    if trajectory is not None:
+        return read_trajectory_csv(trajectory)
+    kv = parse_key_values(scan, "--scan", SCAN_KEYS)
+    if kv["length"] > 0:
+        return strokes(kv["speed"], kv["load"], kv["duration"], length=kv["length"], sensor_rate=kv["rate"])
+    return constant_scan(kv["speed"], kv["load"], kv["duration"], sensor_rate=kv["rate"])
