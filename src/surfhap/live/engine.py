@@ -47,7 +47,7 @@ import numpy as np
 from surfhap.errors import ConfigError
 from surfhap.live.clock import now as clock_now
 from surfhap.live.prediction import TouchPredictor
-from surfhap.live.queues import CommandQueue, TouchRing
+from surfhap.live.queues import CommandQueue, TouchRing, ring_rows_since
 from surfhap.render.block import Renderer
 from surfhap.render.safety import OutputSafety
 
@@ -409,15 +409,7 @@ class LiveEngine:
 
         Safe from any thread: copies (at most the ring's length, and at most ``limit`` of
         the newest rows)."""
-        end = self.trace_count
-        cap = self.trace.shape[0]
-        start = max(index, end - cap + 1)
-        if limit is not None:
-            start = max(start, end - limit)
-        if start >= end:
-            return np.zeros((0, self.trace.shape[1])), end
-        idx = np.arange(start, end) & (cap - 1)
-        return self.trace[idx].copy(), end
+        return ring_rows_since(self.trace, self.trace_count, index, limit)
 
     def latency_stats(self) -> dict:
         """Arrival -> first affected drive sample, s (p50, p99, max, last) over the ring."""

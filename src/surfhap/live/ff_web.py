@@ -25,6 +25,8 @@ import threading
 
 import numpy as np
 
+from surfhap.live.queues import ring_rows_since
+
 __all__ = ["FFWebEngine", "FFWebBackend", "build_ff_session", "ff_page_info"]
 
 # t, x, y, speed, load, |F| (in the page's drive slot), Fz, Fx, then for the ff panel:
@@ -77,15 +79,7 @@ class FFWebEngine:
 
     def trace_since(self, index: int, limit: int | None = None):
         with self._lock:
-            end = self.trace_count
-            cap = self.trace.shape[0]
-            start = max(index, end - cap + 1)
-            if limit is not None:
-                start = max(start, end - limit)
-            if start >= end:
-                return np.zeros((0, _TRACE_COLS)), end
-            idx = np.arange(start, end) & (cap - 1)
-            return self.trace[idx].copy(), end
+            return ring_rows_since(self.trace, self.trace_count, index, limit)
 
     def status(self) -> dict:
         st = dict(self.loop.stats())

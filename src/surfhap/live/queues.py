@@ -17,7 +17,21 @@ from collections import deque
 
 import numpy as np
 
-__all__ = ["TouchRing", "CommandQueue", "TOUCH_FIELDS"]
+__all__ = ["TouchRing", "CommandQueue", "TOUCH_FIELDS", "ring_rows_since"]
+
+def ring_rows_since(ring: np.ndarray, count: int, index: int, limit: int | None = None) -> tuple[np.ndarray, int]:
+    """Rows of a power-of-two ring ``ring`` ((cap, c) float) written since ``index``, oldest
+    first, when ``count`` rows were written in all: ((n, c) float copy, ``count``). At most
+    the ring's length less one (the slot being written may be torn) and at most ``limit``
+    of the newest rows."""
+    cap = ring.shape[0]
+    start = max(index, count - cap + 1)
+    if limit is not None:
+        start = max(start, count - limit)
+    if start >= count:
+        return np.zeros((0, ring.shape[1])), count
+    return ring[np.arange(start, count) & (cap - 1)].copy(), count
+
 
 # one row per touch sample
 TOUCH_FIELDS = ("source", "t_event", "t_arrival", "x", "y", "load")
