@@ -210,8 +210,9 @@ def test_ctrl_c_keeps_the_finished_jobs_and_exits_130(tmp_path):
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         end = time.monotonic() + 300
-        while time.monotonic() < end and p.poll() is None and not list(out.glob("*/summary.json")):
+        while time.monotonic() < end and p.poll() is None and len(list(out.glob("*/summary.json"))) < 3:
             time.sleep(0.05)
+        written = len(list(out.glob("*/summary.json")))  # a job's last file (no figure); its outcome may still be on the way
         assert p.poll() is None, "the batch ended before it could be interrupted"
         os.killpg(p.pid, signal.SIGINT)
         stdout, stderr = p.communicate(timeout=120)
@@ -227,6 +228,8 @@ def test_ctrl_c_keeps_the_finished_jobs_and_exits_130(tmp_path):
         rows = list(csv.DictReader(fh))
     assert len(rows) == 24
     done = [r for r in rows if r["status"] == "ok"]
-    assert 1 <= len(done) < 24 and all(r["error"] == "interrupted" for r in rows if r["status"] != "ok")
+    # at most one finished-but-unreported job per worker (2) may be counted as interrupted
+    assert written - 2 <= len(done) < 24 and len(done) >= 1
+    assert all(r["error"] == "interrupted" for r in rows if r["status"] != "ok")
     for r in done:  # a finished job's folder is complete
         assert json.loads((out / r["out"] / "summary.json").read_text())["material"] in ("leather", "cork")

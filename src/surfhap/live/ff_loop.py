@@ -72,7 +72,9 @@ class FFLoop:
         self.done = threading.Event()
         self._thread = None
         self._fb_thread = None
-        self._last = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # px, py, pz, fx, fy, fz (tuple store: atomic)
+        # px, py, pz, fx, fy, fz, active-effect mask, pressed button of the last tick (tuple store: atomic)
+        self._last = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, -1)
+        self.feedback_snapshot = self._last  # the tick the feedback thread is reporting (read it from feedback)
         self.error = None
 
     # ------------------------------------------------------------- producers
@@ -149,7 +151,7 @@ class FFLoop:
                     stop_deadline = t + self.stop_timeout
                 f = eng.tick(t, px, py, pz, t_pos)
                 be.write(f, t)
-                self._last = (px, py, pz, float(f[0]), float(f[1]), float(f[2]))
+                self._last = (px, py, pz, float(f[0]), float(f[1]), float(f[2]), int(eng.mask), int(getattr(eng, "button", -1)))
                 if stop_deadline is not None and ((f[0] == 0.0 and f[1] == 0.0 and f[2] == 0.0) or t > stop_deadline):
                     break
                 deadline += period
@@ -169,7 +171,8 @@ class FFLoop:
         while not self.done.is_set():
             deadline += period
             t = sleep_until(deadline, 0.0)
-            px, py, pz, fx, fy, fz = self._last
+            snap = self.feedback_snapshot = self._last
+            px, py, pz, fx, fy, fz = snap[:6]
             try:
                 self.feedback(t, px, py, pz, -px, -py, fx, fy, fz)
             except Exception:  # noqa: BLE001 - feedback is best effort

@@ -57,14 +57,16 @@ class FFWebEngine:
 
     def record(self, t, px, py, pz, fx, fy, fz, mask: int | None = None, button: int | None = None) -> None:
         """One trace row (called by the feedback thread): device position px, py, pz (m) and
-        safe force fx, fy, fz (N) of one haptic tick; ``mask`` / ``button`` default to the
-        engine's last tick."""
+        safe force fx, fy, fz (N) of one haptic tick; ``mask`` / ``button`` default to those of
+        the same tick (the loop's ``feedback_snapshot``), so a row never pairs a position with
+        a newer button state."""
         eng = self.loop.engine
         st = eng.state
+        snap = getattr(self.loop, "feedback_snapshot", None)
         if mask is None:
-            mask = eng.mask
+            mask = snap[6] if snap is not None else eng.mask
         if button is None:
-            button = getattr(eng, "button", -1)
+            button = snap[7] if snap is not None else getattr(eng, "button", -1)
         with self._lock:
             row = self.trace[self.trace_count & (self.trace.shape[0] - 1)]
             row[:] = (t, st.fx, st.fy, st.speed, st.load if st.touched else 0.0, math.sqrt(fx * fx + fy * fy + fz * fz),
