@@ -4,8 +4,11 @@ delegate to :mod:`surfhap.batch` (which runs the jobs and writes the index)."""
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import re
+import signal
+import threading
 from pathlib import Path
 
 import typer
@@ -65,6 +68,26 @@ def _scan_values(scan: str | None) -> dict[str, float]:
     return {k: v for k, v in kv.items() if v == v}
 
 
+@contextlib.contextmanager
+def _interrupt_on_signals():
+    """SIGINT and SIGTERM raise KeyboardInterrupt in the main thread while the jobs run, whatever
+    the inherited disposition (a shell starts background commands with SIGINT ignored), as
+    ``surfhap render`` and ``serve`` handle them."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = {sig: signal.signal(sig, interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
 def _run(fn, items, names, params, outs, root: Path, spec, what: str) -> int:
     """Run the jobs with a progress bar on stderr, write the index, print one line; returns
     the exit code (0 all done, 1 when a job failed)."""
@@ -85,8 +108,9 @@ def _run(fn, items, names, params, outs, root: Path, spec, what: str) -> int:
             prog.update(task, completed=done, failed=f"{failed} failed" if failed else "")
 
         try:
-            outcomes = run_jobs(fn, items, spec, progress=progress)
-        except KeyboardInterrupt:  # Ctrl-C: keep what finished, mark the rest, no traceback
+            with _interrupt_on_signals():
+                outcomes = run_jobs(fn, items, spec, progress=progress)
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM: keep what finished, mark the rest, no traceback
             outcomes = None
     if outcomes is None:
         outcomes = [finished.get(i, JobOutcome(i, False, None, "interrupted", 0.0)) for i in range(len(items))]
