@@ -239,3 +239,45 @@ def test_ctrl_c_keeps_the_finished_jobs_and_exits_130(tmp_path, sig):
     assert all(r["error"] == "interrupted" for r in rows if r["status"] != "ok")
     for r in done:  # a finished job's folder is complete
         assert json.loads((out / r["out"] / "summary.json").read_text())["material"] in ("leather", "cork")
+
+
+@pytest.mark.parametrize("modules", ["RENDER_JOB_MODULES", "FIT_IMU_JOB_MODULES"])
+def test_job_module_lists_name_real_modules(modules):
+    """The fork server skips a preload module that does not import: a stale name would only
+    make the workers slower, silently. Every listed module must import."""
+    import importlib
+
+    from surfhap.batch import jobs
+
+    for name in getattr(jobs, modules):
+        importlib.import_module(name)
+
+
+@pytest.mark.parametrize("spec", ["SchedulerSpec('processes', workers=2)", "SchedulerSpec('dask', workers=2)"])
+def test_local_workers_start_with_the_job_modules_loaded(tmp_path, spec):
+    """prestart + run_jobs on local processes or a Dask LocalCluster: each worker has the
+    preload modules before its first job (forked from the fork server that imported them),
+    and a fresh interpreter's CLI alone does not import them (else the check proves nothing)."""
+    import subprocess
+
+    if "forkserver" not in __import__("multiprocessing").get_all_start_methods():
+        pytest.skip("no fork server on this platform (spawned workers import as they go)")
+    (tmp_path / "probe_jobs.py").write_text(
+        "import sys\n\ndef loaded(name):\n    return name in sys.modules\n", encoding="utf-8")
+    script = (
+        "import sys, json\n"
+        f"sys.path.insert(0, {str(tmp_path)!r})\n"
+        "import surfhap.cli, probe_jobs\n"
+        "from surfhap.batch.jobs import RENDER_JOB_MODULES as M\n"
+        "from surfhap.batch.schedulers import SchedulerSpec, prestart, run_jobs\n"
+        "before = [m in sys.modules for m in M]\n"
+        f"spec = {spec}\n"
+        "prestart(spec, M)\n"
+        "out = run_jobs(probe_jobs.loaded, list(M) * 2, spec, preload=M)\n"
+        "print(json.dumps({'parent': before, 'workers': [o.value for o in out]}))\n"
+    )
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    seen = json.loads(r.stdout.strip().splitlines()[-1])
+    assert not any(seen["parent"]), seen
+    assert all(seen["workers"]), seen

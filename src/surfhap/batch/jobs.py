@@ -14,8 +14,14 @@ from typing import Any
 
 from surfhap.errors import ConfigError
 
-__all__ = ["NPZ_MAX_SECONDS", "choose_format", "RenderJob", "render_to_folder", "run_render_job", "FitImuJob", "fit_imu_to_file", "run_fit_imu_job"]
+__all__ = ["RENDER_JOB_MODULES", "FIT_IMU_JOB_MODULES", "NPZ_MAX_SECONDS", "choose_format", "RenderJob", "render_to_folder", "run_render_job", "FitImuJob", "fit_imu_to_file", "run_fit_imu_job"]
 
+
+# The modules each job function imports as it runs (lazily, so the CLI starts fast); local
+# worker processes import them once, before the first job (schedulers.prestart / preload).
+RENDER_JOB_MODULES = ("surfhap.render.stream", "surfhap.render.chain", "surfhap.exchange.render_store",
+                      "surfhap.exchange.render_files", "surfhap.report.figures", "matplotlib.backends.backend_agg")
+FIT_IMU_JOB_MODULES = ("surfhap.fit.imu", "surfhap.exchange.imu_csv", "surfhap.exchange.material_json", "surfhap.models.material")
 
 NPZ_MAX_SECONDS = 60.0  # --format auto: render.npz up to this duration, render.h5 above
 

@@ -88,7 +88,7 @@ def _interrupt_on_signals():
             signal.signal(sig, handler)
 
 
-def _run(fn, items, names, params, outs, root: Path, spec, what: str) -> int:
+def _run(fn, items, names, params, outs, root: Path, spec, what: str, preload: tuple[str, ...] = ()) -> int:
     """Run the jobs with a progress bar on stderr, write the index, print one line; returns
     the exit code (0 all done, 1 when a job failed)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
@@ -109,7 +109,7 @@ def _run(fn, items, names, params, outs, root: Path, spec, what: str) -> int:
 
         try:
             with _interrupt_on_signals():
-                outcomes = run_jobs(fn, items, spec, progress=progress)
+                outcomes = run_jobs(fn, items, spec, progress=progress, preload=preload)
         except KeyboardInterrupt:  # Ctrl-C or SIGTERM: keep what finished, mark the rest, no traceback
             outcomes = None
     if outcomes is None:
@@ -132,7 +132,7 @@ def render_batch(materials: list[str], scan: str | None, trajectory: Path | None
                  amp_gain: float | None, figure: bool, jobs: int, scheduler: str | None, *, fmt: str = "auto") -> None:
     """Render every material x grid point, one folder each under ``out`` (render file format ``fmt``);
     exits 1 when a job failed."""
-    from surfhap.batch.jobs import RenderJob, run_render_job
+    from surfhap.batch.jobs import RENDER_JOB_MODULES, RenderJob, run_render_job
     from surfhap.batch.schedulers import parse_scheduler
     from surfhap.cli._scan import trajectory_from_options
     from surfhap.exchange.materials import load_material
@@ -160,7 +160,7 @@ def render_batch(materials: list[str], scan: str | None, trajectory: Path | None
         names.append(name)
         params.append({"material": mats[m].name, **p})
         outs.append(Path(out) / name)
-    code = _run(run_render_job, items, names, params, outs, Path(out), spec, f"rendering {len(items)} jobs")
+    code = _run(run_render_job, items, names, params, outs, Path(out), spec, f"rendering {len(items)} jobs", RENDER_JOB_MODULES)
     if code:
         raise typer.Exit(code)
 
@@ -183,7 +183,7 @@ def recordings_in(paths: list[Path]) -> list[Path]:
 
 def fit_imu_batch(recordings: list[Path], into: Path, out: Path, jobs: int, scheduler: str | None, **fit) -> None:
     """Fit every recording into ``out/<recording stem>/material.json``; exits 1 when a job failed."""
-    from surfhap.batch.jobs import FitImuJob, run_fit_imu_job
+    from surfhap.batch.jobs import FIT_IMU_JOB_MODULES, FitImuJob, run_fit_imu_job
     from surfhap.batch.schedulers import parse_scheduler
 
     spec = parse_scheduler(scheduler, jobs)
@@ -197,6 +197,7 @@ def fit_imu_batch(recordings: list[Path], into: Path, out: Path, jobs: int, sche
     outs = [Path(out) / n for n in names]
     items = [FitImuJob(f, into, o / "material.json", **fit) for f, o in zip(files, outs)]
     params = [{"recording": str(f)} for f in files]
-    code = _run(run_fit_imu_job, items, names, params, outs, Path(out), spec, f"fitting {len(items)} recordings")
+    code = _run(run_fit_imu_job, items, names, params, outs, Path(out), spec, f"fitting {len(items)} recordings",
+                FIT_IMU_JOB_MODULES)
     if code:
         raise typer.Exit(code)

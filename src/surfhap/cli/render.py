@@ -62,6 +62,13 @@ def render_cmd(
     scheduler: SchedulerOption = None,
 ) -> None:
     """Render MATERIAL along a virtual or recorded finger trajectory on the simulated display."""
+    materials = split_inputs(material)
+    batch = len(materials) > 1 or bool(grid) or jobs != 1 or scheduler is not None
+    if batch:  # local workers start importing now, while this process sets up the jobs
+        from surfhap.batch.jobs import RENDER_JOB_MODULES
+        from surfhap.batch.schedulers import parse_scheduler, prestart
+
+        prestart(parse_scheduler(scheduler, jobs), RENDER_JOB_MODULES)
     from surfhap.batch.jobs import render_to_folder
     from surfhap.cli._display_options import parse_range
     from surfhap.exchange.materials import load_material
@@ -70,8 +77,6 @@ def render_cmd(
 
     disp, rng = resolve_display_and_range(display, load_range, speed_range, config)
     sq_load, sq_speed = parse_range(square_reference, "--square-reference")
-    materials = split_inputs(material)
-    batch = len(materials) > 1 or bool(grid) or jobs != 1 or scheduler is not None
     mat = load_material(materials[0])
     traj = None if batch else trajectory_from_options(scan, trajectory)
     if not batch:
