@@ -28,7 +28,9 @@ import numpy as np
 from _common import report, run
 
 from surfhap.exchange.materials import load_material
-from surfhap.live.engine import EngineConfig, LiveEngine, audit_drive
+from surfhap.live.audit import audit_drive
+from surfhap.live.engine import LiveEngine
+from surfhap.live.engine_config import EngineConfig
 from surfhap.models.panel import SimulatedDisplay
 from surfhap.render.chain import ChainConfig, TextureChain
 

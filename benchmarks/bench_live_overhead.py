@@ -28,7 +28,8 @@ SURFACE = (0.217, 0.136)  # m, touch surface of the page
 
 
 def engine_for(name: str, display: bool):
-    from surfhap.live.engine import EngineConfig, LiveEngine
+    from surfhap.live.engine import LiveEngine
+    from surfhap.live.engine_config import EngineConfig
     from surfhap.models.panel import SimulatedDisplay
 
     if name == "suzanne":

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from surfhap.exchange.materials import load_material
-from surfhap.live.engine import EngineConfig, LiveEngine, audit_drive
+from surfhap.live.audit import audit_drive
+from surfhap.live.engine import LiveEngine
+from surfhap.live.engine_config import EngineConfig
 from surfhap.live.prediction import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing
 from surfhap.render.chain import ChainConfig, TextureChain

@@ -4,7 +4,7 @@ Arbitrary sequences of touch (any x, y, load, including NaN, inf and huge values
 touch data, lift (also lift and re-touch within one block), gain (any float), renderer /
 material / method switch, stall (the clock jumps while touch data queues up) and stop, at
 drive rates of 20, 44.1 and 48 kHz and block periods of 0.25-4 ms. Every emitted sample is
-audited (:func:`surfhap.live.engine.audit_drive`) independently of the engine's counters:
+audited (:func:`surfhap.live.audit.audit_drive`) independently of the engine's counters:
 
 * finite and ``|V| <= v_max``;
 * the magnitude rises by at most ``rise_rate / drive_rate`` per sample, across blocks,
@@ -29,7 +29,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from surfhap.exchange.materials import load_material
-from surfhap.live.engine import EngineConfig, LiveEngine, audit_drive
+from surfhap.live.audit import audit_drive
+from surfhap.live.engine import LiveEngine
+from surfhap.live.engine_config import EngineConfig
 from surfhap.render.chain import ChainConfig, TextureChain
 
 RATES = (20000, 44100, 48000)

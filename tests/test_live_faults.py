@@ -21,7 +21,8 @@ import surfhap
 from surfhap.cli import main
 from surfhap.exchange.materials import load_material
 from surfhap.live.backends.base import PacedBackend
-from surfhap.live.engine import EngineConfig, LiveEngine
+from surfhap.live.engine import LiveEngine
+from surfhap.live.engine_config import EngineConfig
 from surfhap.render.chain import ChainConfig, TextureChain
 
 SURFHAP = [sys.executable, "-c", "import sys; from surfhap.cli import main; sys.exit(main())"]

@@ -16,7 +16,9 @@ import pytest
 
 from surfhap.exchange.materials import load_material
 from surfhap.live.clock import now as clock_now
-from surfhap.live.engine import EngineConfig, LiveEngine, audit_drive
+from surfhap.live.audit import audit_drive
+from surfhap.live.engine import LiveEngine
+from surfhap.live.engine_config import EngineConfig
 from surfhap.render.chain import ChainConfig, TextureChain
 
 LOAD = 2.0  # N: a firm press drives cork to the 250 V limit

@@ -17,7 +17,8 @@ import numpy as np
 
 from surfhap.exchange.materials import load_material
 from surfhap.live.backends.sound import SoundBackend, list_devices
-from surfhap.live.engine import EngineConfig, LiveEngine
+from surfhap.live.engine import LiveEngine
+from surfhap.live.engine_config import EngineConfig
 from surfhap.render.chain import ChainConfig, TextureChain
 
 

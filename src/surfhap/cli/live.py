@@ -61,7 +61,7 @@ def _finish(engine) -> None:
 
 
 def _engine_config(block_ms: float, touch_latency_ms: float, smoothing: float):
-    from surfhap.live.engine import EngineConfig
+    from surfhap.live.engine_config import EngineConfig
 
     return EngineConfig(block_seconds=block_ms * 1e-3, touch_latency=touch_latency_ms * 1e-3, smoothing=smoothing)
 

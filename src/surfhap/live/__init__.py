@@ -4,7 +4,9 @@ Importing this package is cheap: the backends (sounddevice, python-osc) and the 
 server (FastAPI, uvicorn) are imported only when used.
 """
 
-from surfhap.live.engine import EngineConfig, LiveEngine, audit_drive
+from surfhap.live.audit import audit_drive
+from surfhap.live.engine import LiveEngine
+from surfhap.live.engine_config import EngineConfig
 from surfhap.live.prediction import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing
 

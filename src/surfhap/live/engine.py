@@ -40,67 +40,22 @@ add the backend's own output latency (reported by the backend).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.live.clock import now as clock_now
+from surfhap.live.engine_config import EngineConfig
 from surfhap.live.prediction import TouchPredictor
-from surfhap.live.queues import CommandQueue, TouchRing, ring_rows_since
+from surfhap.live.queues import CommandQueue, TouchRing, ring_rows_since, ring_stats
 from surfhap.render.block import Renderer
 from surfhap.render.safety import OutputSafety
 
-__all__ = ["EngineConfig", "LiveEngine", "TRACE_FIELDS", "audit_drive"]
+__all__ = ["LiveEngine", "TRACE_FIELDS"]
 
 # one row per processed chunk
 TRACE_FIELDS = ("t", "x", "y", "speed", "load", "v_peak", "target", "friction")
 _NO_TOUCH_TIME = -1.0e6  # "touched long ago": the watchdog holds the output at zero
-
-
-@dataclass(frozen=True)
-class EngineConfig:
-    """Settings of the live engine (SI units).
-
-    block_seconds : s, nominal block period (1 ms default); the backend's block size.
-    touch_latency : s, touch latency compensated by prediction (0 = off; 004 Sec. 4.2).
-    smoothing     : alpha of the exponential smoothing (004 eq. 7); 1 = off.
-    k_pred        : fixed prediction gain (004 eq. 6); None = derived from touch_latency.
-    speed_cutoff  : Hz, low-pass of the speed estimate.
-    takeover      : s, a touch source may take over the finger when the current one has
-                    been silent this long (one finger at a time drives the display).
-    stop_ramp     : s, length of the ramp to zero on stop.
-    simulate_display : run the simulated electroadhesion display to trace friction.
-    touch_capacity, trace_capacity, latency_capacity : ring sizes (powers of two).
-    max_block_frames : largest block a backend may ask for.
-    """
-
-    block_seconds: float = 0.001
-    touch_latency: float = 0.0
-    smoothing: float = 1.0
-    k_pred: float | None = None
-    speed_cutoff: float = 20.0
-    takeover: float = 0.05
-    stop_ramp: float = 0.010
-    simulate_display: bool = True
-    touch_capacity: int = 1024
-    trace_capacity: int = 8192
-    latency_capacity: int = 4096
-    max_block_frames: int = 8192
-
-    def __post_init__(self):
-        if not (math.isfinite(self.block_seconds) and 0.0002 <= self.block_seconds <= 0.1):
-            raise ConfigError("must be within 0.2-100 ms", field="block_seconds")
-        if not (math.isfinite(self.touch_latency) and 0.0 <= self.touch_latency <= 0.2):
-            raise ConfigError("must be within 0-200 ms", field="touch_latency")
-        if not (math.isfinite(self.smoothing) and 0.0 < self.smoothing <= 1.0):
-            raise ConfigError("must be in (0, 1]", field="smoothing")
-        if not (math.isfinite(self.stop_ramp) and 0.0 < self.stop_ramp <= 1.0):
-            raise ConfigError("must be within 0-1 s", field="stop_ramp")
-        for name in ("touch_capacity", "trace_capacity", "latency_capacity"):
-            v = getattr(self, name)
-            if v < 2 or v & (v - 1):
-                raise ConfigError("must be a power of two", field=name)
 
 
 def _pow2_at_least(n: int) -> int:
@@ -413,11 +368,11 @@ class LiveEngine:
 
     def latency_stats(self) -> dict:
         """Arrival -> first affected drive sample, s (p50, p99, max, last) over the ring."""
-        return _stats(self.latencies, self.latency_count)
+        return ring_stats(self.latencies, self.latency_count)
 
     def block_time_stats(self) -> dict:
         """Seconds spent in render() per block (p50, p99, max, last) over the ring."""
-        return _stats(self.block_times, self.block_time_count)
+        return ring_stats(self.block_times, self.block_time_count)
 
     def safety_counters(self) -> dict:
         c = self.renderer.safety.counters
@@ -443,48 +398,3 @@ class LiveEngine:
             "model_rate": self.model_rate,
             "stopped": self.stopped,
         }
-
-
-def _stats(ring: np.ndarray, count: int) -> dict:
-    n = min(count, ring.shape[0])
-    if n == 0:
-        return {"n": 0, "p50": None, "p99": None, "max": None, "last": None}
-    vals = ring[:n] if count <= ring.shape[0] else ring.copy()
-    last = float(ring[(count - 1) & (ring.shape[0] - 1)])
-    return {"n": int(count), "p50": float(np.percentile(vals, 50)), "p99": float(np.percentile(vals, 99)),
-            "max": float(vals.max()), "last": last}
-
-
-def audit_drive(drive: np.ndarray, drive_rate: float, limits, touch_age: np.ndarray | None = None,
-                silent: np.ndarray | None = None, prev: float = 0.0) -> dict:
-    """Count safety violations in an emitted drive stream (volts, shape (n,)), independently
-    of the engine's own bookkeeping:
-
-    * ``over_v_max``: samples with ``|V| > v_max``;
-    * ``rise_too_fast``: magnitude rises beyond ``rise_rate / drive_rate`` per sample (the
-      stream starts from magnitude ``prev``, 0 V by default);
-    * ``non_finite``: NaN or infinite samples;
-    * ``watchdog`` (when ``touch_age`` is given: (n,) s, age of the freshest touch sample at
-      each sample's emission, ``inf`` if none): nonzero samples whose touch data is older
-      than ``watchdog_timeout + watchdog_ramp``;
-    * ``not_silent`` (when ``silent`` is given: (n,) bool, samples that must be 0 V, e.g.
-      after a stop ramp): nonzero samples among them.
-
-    A 1e-9 V tolerance covers rounding. ``violations`` is the sum.
-    """
-    raw = np.asarray(drive, dtype=float)
-    d = np.abs(raw)
-    over = int(np.count_nonzero(d > limits.v_max + 1e-9))
-    step = limits.rise_rate / drive_rate
-    rise = int(np.count_nonzero(np.diff(np.concatenate(([abs(prev)], d))) > step + 1e-9)) if d.size else 0
-    nonfinite = int(np.count_nonzero(~np.isfinite(raw)))
-    wd = 0
-    if touch_age is not None:
-        age = np.asarray(touch_age, dtype=float)
-        stale = ~(age <= limits.watchdog_timeout + limits.watchdog_ramp)  # NaN counts as stale
-        wd = int(np.count_nonzero(stale & (d != 0.0)))
-    loud = 0
-    if silent is not None:
-        loud = int(np.count_nonzero(np.asarray(silent, dtype=bool) & (d != 0.0)))
-    return {"over_v_max": over, "rise_too_fast": rise, "non_finite": nonfinite, "watchdog": wd,
-            "not_silent": loud, "violations": over + rise + nonfinite + wd + loud}

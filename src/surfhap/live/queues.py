@@ -17,7 +17,7 @@ from collections import deque
 
 import numpy as np
 
-__all__ = ["TouchRing", "CommandQueue", "TOUCH_FIELDS", "ring_rows_since"]
+__all__ = ["TouchRing", "CommandQueue", "TOUCH_FIELDS", "ring_rows_since", "ring_stats"]
 
 def ring_rows_since(ring: np.ndarray, count: int, index: int, limit: int | None = None) -> tuple[np.ndarray, int]:
     """Rows of a power-of-two ring ``ring`` ((cap, c) float) written since ``index``, oldest
@@ -36,6 +36,18 @@ def ring_rows_since(ring: np.ndarray, count: int, index: int, limit: int | None 
 # one row per touch sample
 TOUCH_FIELDS = ("source", "t_event", "t_arrival", "x", "y", "load")
 _F = {name: i for i, name in enumerate(TOUCH_FIELDS)}
+
+
+def ring_stats(ring: np.ndarray, count: int) -> dict:
+    """p50, p99, max and last of the ``min(count, len(ring))`` values written into a ring of
+    power-of-two length after ``count`` writes (None each when empty), and ``n`` = count."""
+    n = min(count, ring.shape[0])
+    if n == 0:
+        return {"n": 0, "p50": None, "p99": None, "max": None, "last": None}
+    vals = ring[:n] if count <= ring.shape[0] else ring.copy()
+    last = float(ring[(count - 1) & (ring.shape[0] - 1)])
+    return {"n": int(count), "p50": float(np.percentile(vals, 50)), "p99": float(np.percentile(vals, 99)),
+            "max": float(vals.max()), "last": last}
 
 
 class TouchRing:

@@ -103,7 +103,8 @@ def build_session(material: str = "cork", output: str = "sim", *, drive_rate: in
     -> backend, plus optional OSC touch input ``(host, port)`` and a replayed trajectory."""
     from surfhap.exchange.materials import load_material
     from surfhap.live.backends import open_backend, parse_output
-    from surfhap.live.engine import EngineConfig, LiveEngine
+    from surfhap.live.engine import LiveEngine
+    from surfhap.live.engine_config import EngineConfig
     from surfhap.live.sources import OscTouchSource, ReplaySource
     from surfhap.render.chain import ChainConfig, TextureChain
     from surfhap.models.panel import SimulatedDisplay
