@@ -33,6 +33,27 @@ def test_quasi_static_law_values():
         QuasiStaticLaw(0.5, 0.3, 0.1, 0.1, 1.5)
 
 
+def test_quasi_static_law_matches_numpy_over_arrays_edges_and_shapes():
+    """The compiled law equals eq. 3 evaluated with numpy (to rounding) over random loads and
+    speeds, with no contact (<= 0, NaN) giving 0, negative speeds taken as magnitudes, NaN
+    speed giving NaN, and broadcasting like numpy."""
+    law = QuasiStaticLaw(0.62, -0.27, 1.9, 1.4, 0.55)
+    rng = np.random.default_rng(7)
+    fn = rng.uniform(-0.2, 2.0, 5000)
+    v = rng.normal(0.0, 0.2, 5000)
+    fn[:4] = [0.0, np.nan, -1.0, 1e-320]
+    v[4:6] = [np.nan, -0.3]
+    with np.errstate(all="ignore"):
+        ref = np.where(fn > 0, 0.62 * np.maximum(fn, 1e-300) ** -0.27 * (1 + 1.4 * np.abs(v) ** 0.55) / (1 + 1.9 * np.abs(v)), 0.0)
+    got = law.coefficient(fn, v)
+    assert got.shape == (5000,)
+    np.testing.assert_allclose(got, ref, rtol=1e-14, atol=0.0)  # NaN where ref is NaN
+    assert got[0] == got[1] == got[2] == 0.0 and np.isnan(got[4])
+    grid = law.coefficient(np.array([[0.26], [0.96]]), np.array([0.05, 0.1, 0.2]))
+    assert grid.shape == (2, 3)
+    assert grid[1, 2] == pytest.approx(law.coefficient([0.96], [0.2])[0], rel=1e-15)
+
+
 def test_bank_selects_nearest_reference_speed():
     bank = TextureBank("cof", 2000.0, tuple(ARModel([0.5], 1e-4, s) for s in (0.15, 0.05, 0.1)))
     np.testing.assert_allclose(bank.reference_speeds, [0.05, 0.1, 0.15])

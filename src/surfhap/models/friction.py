@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 __all__ = ["CoulombLaw", "QuasiStaticLaw", "FrictionLaw"]
@@ -49,14 +50,33 @@ class QuasiStaticLaw:
             raise ValueError("quasi-static law needs a >= 0, c >= 0, d >= 0 and 0 <= q <= 1")
 
     def coefficient(self, load: np.ndarray, speed: np.ndarray) -> np.ndarray:
-        """CoF for load (n,) N and speed (n,) m/s; returns (n,) float.
+        """CoF for load (n,) N and speed (n,) m/s; returns (n,) float (arrays of another
+        shape are broadcast, and the result has the broadcast shape).
 
-        Loads <= 0 (no contact) give 0; negative speeds are taken as their magnitude.
+        Loads <= 0 (no contact, or NaN) give 0; negative speeds are taken as their magnitude.
+        One compiled pass: the live engine calls this for a few samples per block, where
+        numpy's per-operation overhead would cost more than the arithmetic.
         """
-        fn = np.asarray(load, dtype=float)
-        v = np.abs(np.asarray(speed, dtype=float))
-        mu = self.a * np.power(np.maximum(fn, 1e-300), self.b) * (1.0 + self.d * np.power(v, self.q)) / (1.0 + self.c * v)
-        return np.where(fn > 0, mu, 0.0)
+        fn = np.asarray(load, dtype=np.float64)
+        v = np.asarray(speed, dtype=np.float64)
+        if fn.ndim != 1 or fn.shape != v.shape:
+            fn, v = np.broadcast_arrays(fn, v)
+        out = np.empty(fn.shape)
+        _quasi_static(np.ascontiguousarray(fn).reshape(-1), np.ascontiguousarray(v).reshape(-1), out.reshape(-1),
+                      self.a, self.b, self.c, self.d, self.q)
+        return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _quasi_static(fn, v, out, a, b, c, d, q):
+    """out[i] = a fn^b (1 + d |v|^q) / (1 + c |v|) where fn[i] > 0, else 0 (all (n,) float)."""
+    for i in range(fn.shape[0]):
+        f = fn[i]
+        if f > 0.0:
+            s = abs(v[i])
+            out[i] = a * max(f, 1e-300) ** b * (1.0 + d * s ** q) / (1.0 + c * s)
+        else:
+            out[i] = 0.0
 
 
 FrictionLaw = CoulombLaw | QuasiStaticLaw
