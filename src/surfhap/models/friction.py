@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 __all__ = ["CoulombLaw", "QuasiStaticLaw", "FrictionLaw"]
@@ -61,22 +60,12 @@ class QuasiStaticLaw:
         v = np.asarray(speed, dtype=np.float64)
         if fn.ndim != 1 or fn.shape != v.shape:
             fn, v = np.broadcast_arrays(fn, v)
+        from surfhap.models.friction_kernel import quasi_static  # numba: not at import (the CLI starts fast)
+
         out = np.empty(fn.shape)
-        _quasi_static(np.ascontiguousarray(fn).reshape(-1), np.ascontiguousarray(v).reshape(-1), out.reshape(-1),
+        quasi_static(np.ascontiguousarray(fn).reshape(-1), np.ascontiguousarray(v).reshape(-1), out.reshape(-1),
                       self.a, self.b, self.c, self.d, self.q)
         return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _quasi_static(fn, v, out, a, b, c, d, q):
-    """out[i] = a fn^b (1 + d |v|^q) / (1 + c |v|) where fn[i] > 0, else 0 (all (n,) float)."""
-    for i in range(fn.shape[0]):
-        f = fn[i]
-        if f > 0.0:
-            s = abs(v[i])
-            out[i] = a * max(f, 1e-300) ** b * (1.0 + d * s ** q) / (1.0 + c * s)
-        else:
-            out[i] = 0.0
 
 
 FrictionLaw = CoulombLaw | QuasiStaticLaw

@@ -35,11 +35,9 @@ still gets 0 V from the safety stage.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import numba
 import numpy as np
 
 from surfhap.errors import ConfigError
@@ -198,30 +196,15 @@ class DriveLaw:
             mu_tex = self._texture_cof(texture, load, mu_low)
             beta = p.beta if m != "friction-only" else 0.0
             target = (mu_low + beta * mu_tex) * load
+        from surfhap.render.drive_kernel import target_to_voltage  # numba: not at import (the CLI starts fast)
+
         target = np.ascontiguousarray(target, dtype=np.float64)
         voltage = np.empty_like(target)
-        clipped, touching = _target_to_voltage(target, np.ascontiguousarray(load), float(p.alpha), voltage)
+        clipped, touching = target_to_voltage(target, np.ascontiguousarray(load), float(p.alpha), voltage)
         self.clipped += clipped
         self.touching += touching
         self._n += load.shape[0]
         return DriveBlock(voltage, target, mu_low, mu_tex)
-
-
-@numba.njit(cache=True, nogil=True)
-def _target_to_voltage(target, load, alpha, voltage):
-    """The tail every law shares, in one pass: ``voltage = alpha sqrt(max(target, 0))`` (V; a
-    NaN target stays NaN for the safety stage to catch). Returns (clipped, touching): samples
-    in contact (load > 0) whose target is negative (not renderable), and samples in contact."""
-    clipped = 0
-    touching = 0
-    for i in range(target.shape[0]):
-        t = target[i]
-        if load[i] > 0.0:
-            touching += 1
-            if t < 0.0:
-                clipped += 1
-        voltage[i] = 0.0 if t <= 0.0 else alpha * math.sqrt(t)
-    return clipped, touching
 
 
 def make_drive_law(method: str, material: Material, params: DriveParams, sample_rate: float) -> DriveLaw:
