@@ -60,12 +60,23 @@ class QuasiStaticLaw:
         v = np.asarray(speed, dtype=np.float64)
         if fn.ndim != 1 or fn.shape != v.shape:
             fn, v = np.broadcast_arrays(fn, v)
-        from surfhap.models.friction_kernel import quasi_static  # numba: not at import (the CLI starts fast)
-
         out = np.empty(fn.shape)
-        quasi_static(np.ascontiguousarray(fn).reshape(-1), np.ascontiguousarray(v).reshape(-1), out.reshape(-1),
+        _quasi_static_kernel()(np.ascontiguousarray(fn).reshape(-1), np.ascontiguousarray(v).reshape(-1), out.reshape(-1),
                       self.a, self.b, self.c, self.d, self.q)
         return out
+
+
+_KERNEL = []
+
+
+def _quasi_static_kernel():
+    """The compiled eq. 3 (numba), imported on the first evaluation rather than when a
+    material is read (the CLI starts fast); later calls run no import statement."""
+    if not _KERNEL:
+        from surfhap.models.friction_kernel import quasi_static
+
+        _KERNEL.append(quasi_static)
+    return _KERNEL[0]
 
 
 FrictionLaw = CoulombLaw | QuasiStaticLaw

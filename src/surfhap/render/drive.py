@@ -114,6 +114,10 @@ class DriveLaw:
     """
 
     def __init__(self, method: str, material: Material, params: DriveParams, sample_rate: float):
+        # the compiled tail, imported here (numba) rather than at module import or per block
+        from surfhap.render.drive_kernel import target_to_voltage
+
+        self._to_voltage = target_to_voltage
         if method not in METHODS:
             raise ConfigError(f"unknown method {method!r} (choose from {', '.join(METHODS)})", field="method")
         if method == "otake2022" and material.quasi_static is None:
@@ -196,11 +200,9 @@ class DriveLaw:
             mu_tex = self._texture_cof(texture, load, mu_low)
             beta = p.beta if m != "friction-only" else 0.0
             target = (mu_low + beta * mu_tex) * load
-        from surfhap.render.drive_kernel import target_to_voltage  # numba: not at import (the CLI starts fast)
-
         target = np.ascontiguousarray(target, dtype=np.float64)
         voltage = np.empty_like(target)
-        clipped, touching = target_to_voltage(target, np.ascontiguousarray(load), float(p.alpha), voltage)
+        clipped, touching = self._to_voltage(target, np.ascontiguousarray(load), float(p.alpha), voltage)
         self.clipped += clipped
         self.touching += touching
         self._n += load.shape[0]
