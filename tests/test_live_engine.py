@@ -109,7 +109,7 @@ def test_drive_follows_touch_within_two_blocks():
             e.render(e.block_frames, t - 3 * e.block_period)
     st = e.latency_stats()
     assert st["n"] == 200
-    assert st["p99"] <= 2 * e.block_period
+    assert st["p99"] <= 2 * e.block_period  # on the engine's simulated clock (times passed in), not wall time
     assert np.abs(e.out[: e.block_frames]).max() > 10.0
 
 

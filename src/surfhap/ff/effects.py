@@ -20,6 +20,7 @@ force (eq. 8). Parameters that vary over the picture come from :mod:`surfhap.ff.
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 
 import numpy as np
 
@@ -58,7 +59,7 @@ def _field(v) -> Field:
     return v if isinstance(v, Field) else ConstantField(float(v))
 
 
-class Effect:
+class Effect(ABC):
     """Base class; subclasses set ``name`` and implement ``update``."""
 
     name = "effect"
@@ -75,9 +76,9 @@ class Effect:
         self.kx, self.ky, self.kz, self.h = kx, ky, kz, h
         self.ffx, self.ffy, self.ffz = ffx, ffy, ffz
 
-    def terms(self, s: TickState):  # pragma: no cover - interface
+    @abstractmethod
+    def terms(self, s: TickState):
         """None (not here) or ``(kx, ky, kz, h, ffx, ffy, ffz)`` for this tick."""
-        raise NotImplementedError
 
     def update(self, s: TickState) -> bool:
         """Evaluate :meth:`terms` and keep them as attributes; False where inactive."""

@@ -11,6 +11,7 @@ arrays built up front (a few hundred ns); nothing allocates.
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 
 import numpy as np
 
@@ -19,11 +20,12 @@ __all__ = ["Field", "ConstantField", "GridField", "RectsField", "MeshHeightField
 NAN = math.nan
 
 
-class Field:
+class Field(ABC):
     """Base class: ``value(x, y)`` in the field's unit (documented by its user)."""
 
-    def value(self, x: float, y: float) -> float:  # pragma: no cover - interface
-        raise NotImplementedError
+    @abstractmethod
+    def value(self, x: float, y: float) -> float:
+        """The field at (x, y) m."""
 
     def sample(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Vectorised convenience for figures and tests: (n,) values at (n,) points."""
