@@ -46,6 +46,7 @@ import numpy as np
 from surfhap.errors import ConfigError
 from surfhap.live.clock import now as clock_now
 from surfhap.live.engine_config import EngineConfig
+from surfhap.live.fifo_kernels import fifo_read, fifo_write_peak, mean_or_nan, write_trace_row
 from surfhap.live.prediction import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing, ring_rows_since, ring_stats
 from surfhap.render.block import Renderer
@@ -206,13 +207,8 @@ class LiveEngine:
             self._commands()
             self._touch(now)
             self._produce(frames, now)
-            r = self._fifo_r
-            a = r & self._fifo_mask
-            k = min(frames, self._fifo_cap - a)
-            out[:k] = self._fifo[a : a + k]
-            if k < frames:
-                out[k:] = self._fifo[: frames - k]
-            self._fifo_r = r + frames
+            fifo_read(self._fifo, self._fifo_mask, self._fifo_r, out)
+            self._fifo_r += frames
         except Exception:  # noqa: BLE001 - the callback must never raise
             self.counters["errors"] += 1
             out[:] = 0.0
@@ -327,19 +323,12 @@ class LiveEngine:
             drive = blk.drive
             m = drive.shape[0]
             offset = self._fifo_w - self._fifo_r
-            w = self._fifo_w
-            a = w & self._fifo_mask
-            k = min(m, self._fifo_cap - a)
-            self._fifo[a : a + k] = drive[:k]
-            if k < m:
-                self._fifo[: m - k] = drive[k:]
-            self._fifo_w = w + m
+            peak = fifo_write_peak(self._fifo, self._fifo_mask, self._fifo_w, drive)
+            self._fifo_w += m
             self._n_model += n
             friction = math.nan
             if self.display is not None and m:
-                f = self.display.process(drive, blk.load_drive)
-                if f.shape[0]:
-                    friction = float(f.mean())
+                friction = mean_or_nan(self.display.process(drive, blk.load_drive))
             if self._n_pending and m:
                 # the touches applied since the last chunk are first heard in this one
                 t_emit = now + offset / self.drive_rate
@@ -347,15 +336,8 @@ class LiveEngine:
                     self.latencies[self.latency_count & (self.latencies.shape[0] - 1)] = t_emit - self._pending_arrivals[j]
                     self.latency_count += 1
                 self._n_pending = 0
-            row = self.trace[self.trace_count & (self.trace.shape[0] - 1)]
-            row[0] = chain_t
-            row[1] = pred.x
-            row[2] = pred.y
-            row[3] = sp[0]
-            row[4] = self._load_now
-            row[5] = max(drive.max(), -drive.min()) if m else 0.0
-            row[6] = blk.target[0] if n else 0.0
-            row[7] = friction
+            write_trace_row(self.trace, self.trace_count, chain_t, pred.x, pred.y, sp[0], self._load_now, peak,
+                            blk.target[0], friction)
             self.trace_count += 1
 
     # ------------------------------------------------------------------ monitoring side

@@ -135,7 +135,10 @@ class CommandQueue:
             return True
 
     def get_nowait(self):
+        """The oldest command, or None when the queue is empty (the usual case, without raising)."""
+        if not self._q:
+            return None
         try:
             return self._q.popleft()
-        except IndexError:
+        except IndexError:  # emptied by another consumer between the test and the pop
             return None

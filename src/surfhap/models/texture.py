@@ -102,9 +102,10 @@ class TextureBank:
 
     def select(self, speed: np.ndarray) -> np.ndarray:
         """Index of the nearest-reference-speed model for each speed (n,) m/s -> (n,) int."""
-        speed = np.abs(np.asarray(speed, dtype=float))
+        speed = np.asarray(speed, dtype=float)
         if len(self.models) == 1:
             return np.zeros(speed.shape, dtype=np.int64)
+        speed = np.abs(speed)
         speed = np.where(speed == speed, speed, 0.0)  # NaN -> slowest model
         return np.searchsorted(self._midpoints, speed, side="left")
 

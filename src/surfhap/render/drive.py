@@ -41,6 +41,7 @@ from typing import NamedTuple
 import numpy as np
 
 from surfhap.errors import ConfigError
+from surfhap.models.friction import QuasiStaticLaw
 from surfhap.models.material import Material
 
 __all__ = ["DriveParams", "DriveBlock", "DriveLaw", "METHODS", "make_drive_law", "default_method"]
@@ -115,9 +116,10 @@ class DriveLaw:
 
     def __init__(self, method: str, material: Material, params: DriveParams, sample_rate: float):
         # the compiled tail, imported here (numba) rather than at module import or per block
-        from surfhap.render.drive_kernel import target_to_voltage
+        from surfhap.render import drive_kernel
 
-        self._to_voltage = target_to_voltage
+        self._to_voltage = drive_kernel.target_to_voltage
+        self._friction_texture = drive_kernel.friction_texture_law
         if method not in METHODS:
             raise ConfigError(f"unknown method {method!r} (choose from {', '.join(METHODS)})", field="method")
         if method == "otake2022" and material.quasi_static is None:
@@ -139,7 +141,27 @@ class DriveLaw:
         self.square_amplitude = None
         if method == "square":
             self.square_amplitude = self._square_amplitude()
+        self._kernel_args = self._friction_texture_args(drive_kernel)
         self.reset()
+
+    def _friction_texture_args(self, kernel) -> tuple:
+        """The law and texture parameters of ``friction_texture_law`` (Otake laws, friction-only)."""
+        law, p = self._law, self.params
+        if isinstance(law, QuasiStaticLaw):
+            friction = (True, law.a, law.b, law.c, law.d, law.q, 0.0)
+        else:
+            friction = (False, 0.0, 0.0, 0.0, 0.0, 0.0, float(law.mu0))
+        g = p.texture_gain
+        if not self.uses_texture or self.method == "friction-only":
+            texture = (kernel.TEXTURE_NONE, 0.0)
+        elif self._relative is not None:
+            texture = (kernel.TEXTURE_RELATIVE, g * self._relative)
+        elif self._quantity == "cof":
+            texture = (kernel.TEXTURE_COF, g)
+        else:
+            texture = (kernel.TEXTURE_ACCELERATION, g * p.effective_mass)
+        beta = p.beta if self.method != "friction-only" else 0.0
+        return (*friction, *texture, float(beta), float(p.alpha))
 
     def _square_amplitude(self) -> float:
         """V: the fixed square amplitude (000 Sec. 3), matched to the friction-only mean at the
@@ -160,52 +182,44 @@ class DriveLaw:
         self.clipped = 0
         self.touching = 0
 
-    def _texture_cof(self, texture: np.ndarray, load: np.ndarray, mu_low: np.ndarray) -> np.ndarray:
-        if not self.uses_texture:
-            return np.zeros_like(load)
-        g = self.params.texture_gain
-        if self._relative is not None:
-            return (g * self._relative) * mu_low * texture
-        if self._quantity == "cof":
-            return g * texture
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(load > 0, (g * self.params.effective_mass) * texture / load, 0.0)
-
     def process(self, speed: np.ndarray, load: np.ndarray, texture: np.ndarray) -> DriveBlock:
+        """speed, load, texture: (n,) float (m/s, N, texture quantity) -> a DriveBlock of (n,)."""
         p = self.params
-        speed = np.asarray(speed, dtype=float)
-        load = np.asarray(load, dtype=float)
-        texture = np.asarray(texture, dtype=float)
-        mu_low = self._law.coefficient(load, speed)
+        speed = np.ascontiguousarray(speed, dtype=np.float64)
+        load = np.ascontiguousarray(load, dtype=np.float64)
+        texture = np.ascontiguousarray(texture, dtype=np.float64)
+        n = load.shape[0]
+        if not (load.ndim == 1 and speed.shape == texture.shape == (n,)):
+            raise ValueError("speed, load and texture must be (n,) arrays of one length")
         m = self.method
-        if m == "zhao":
-            fn = load if p.constant_load is None else np.where(load > 0, p.constant_load, 0.0)
-            if not self.uses_texture:
-                f_tex = np.zeros_like(load)
-            elif self._quantity == "acceleration":
-                f_tex = (p.texture_gain * p.effective_mass) * texture
-            else:
-                f_tex = p.texture_gain * texture * fn
-            f_tex = np.where(load > 0, f_tex, 0.0)
-            target = mu_low * fn + f_tex
-            with np.errstate(divide="ignore", invalid="ignore"):
-                mu_tex = np.where(fn > 0, f_tex / fn, 0.0)
-        elif m == "square":
-            mu_tex = np.zeros_like(load)
-            n = load.shape[0]
-            phase = ((self._n + np.arange(n)) * (p.square_frequency / self.sample_rate)) % 1.0
-            gate = (phase < 0.5).astype(float)
-            target = ((self.square_amplitude / p.alpha) ** 2) * gate
+        if m not in ("zhao", "square"):  # the Otake laws and friction-only: one compiled pass
+            mu_low, mu_tex, target, voltage = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+            clipped, touching = self._friction_texture(load, speed, texture, *self._kernel_args,
+                                                       mu_low, mu_tex, target, voltage)
         else:
-            mu_tex = self._texture_cof(texture, load, mu_low)
-            beta = p.beta if m != "friction-only" else 0.0
-            target = (mu_low + beta * mu_tex) * load
-        target = np.ascontiguousarray(target, dtype=np.float64)
-        voltage = np.empty_like(target)
-        clipped, touching = self._to_voltage(target, np.ascontiguousarray(load), float(p.alpha), voltage)
+            mu_low = self._law.coefficient(load, speed)
+            if m == "zhao":
+                fn = load if p.constant_load is None else np.where(load > 0, p.constant_load, 0.0)
+                if not self.uses_texture:
+                    f_tex = np.zeros_like(load)
+                elif self._quantity == "acceleration":
+                    f_tex = (p.texture_gain * p.effective_mass) * texture
+                else:
+                    f_tex = p.texture_gain * texture * fn
+                f_tex = np.where(load > 0, f_tex, 0.0)
+                target = mu_low * fn + f_tex
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    mu_tex = np.where(fn > 0, f_tex / fn, 0.0)
+            else:  # square
+                mu_tex = np.zeros_like(load)
+                phase = ((self._n + np.arange(n)) * (p.square_frequency / self.sample_rate)) % 1.0
+                target = ((self.square_amplitude / p.alpha) ** 2) * (phase < 0.5).astype(float)
+            target = np.ascontiguousarray(target, dtype=np.float64)
+            voltage = np.empty(n)
+            clipped, touching = self._to_voltage(target, load, float(p.alpha), voltage)
         self.clipped += clipped
         self.touching += touching
-        self._n += load.shape[0]
+        self._n += n
         return DriveBlock(voltage, target, mu_low, mu_tex)
 
 

@@ -26,6 +26,7 @@ from surfhap.errors import ConfigError
 from surfhap.models.panel import DisplayModel, SimulatedDisplay
 from surfhap.models.trajectory import Trajectory
 from surfhap.render.carrier import PolarityCarrier, check_carrier
+from surfhap.render.drive_kernel import target_to_voltage
 from surfhap.render.hold import hold_latest
 from surfhap.render.grains import DeviceCurve, GrainParams, GrainPlayer, grain_name
 from surfhap.render.safety import SafetyCounters, SafetyLimits, SafetyStage
@@ -179,7 +180,9 @@ class ShapeDrive:
 
     def process(self, intensity, tick, load, touch_age):
         target = self.grains.process(intensity, tick)
-        envelope = self.alpha * np.sqrt(np.maximum(target, 0.0))
+        load = np.ascontiguousarray(load, dtype=np.float64)
+        envelope = np.empty(target.shape[0])
+        target_to_voltage(target, load, self.alpha, envelope)  # the drive laws' tail: alpha sqrt(max(F, 0))
         drive = self.safety.process(self.carrier.process(envelope), load, touch_age)
         return drive, target
 

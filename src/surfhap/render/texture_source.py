@@ -53,8 +53,13 @@ class TextureSource:
         while self._fill < n:
             need = n - self._fill
             k = max(1, -(-need * M // L))  # model-rate samples that cover the shortfall
-            pos = np.minimum((np.arange(k) * L) // M + self._fill, n - 1)
-            fresh = self.resampler.process(self.synth.process(speed[pos], load[pos]))
+            if k == 1:  # the usual live case: one model sample, taken at the first uncovered sample
+                p = min(self._fill, n - 1)
+                sp, ld = speed[p : p + 1], load[p : p + 1]
+            else:
+                pos = np.minimum((np.arange(k) * L) // M + self._fill, n - 1)
+                sp, ld = speed[pos], load[pos]
+            fresh = self.resampler.process(self.synth.process(sp, ld))
             self._buf[self._fill:self._fill + fresh.shape[0]] = fresh
             self._fill += fresh.shape[0]
         out = self._buf[:n].copy()

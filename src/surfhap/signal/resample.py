@@ -69,6 +69,26 @@ def _downsample(z, h, M, t0, n_in, out):
     return count, t - n_in
 
 
+@numba.njit(cache=True, nogil=True)
+def _step(z, x, Hr, L, M, t0, out):
+    # one block: append x (n,) to the history z, filter by the right kernel, keep the last K-1
+    # inputs for the next block; returns (outputs written to out, next t0)
+    K1 = Hr.shape[1] - 1
+    n = x.shape[0]
+    for i in range(n):
+        z[K1 + i] = x[i]
+    if M == 1:
+        _upsample(z, Hr, n, out)
+        count, t0 = n * L, 0
+    elif L == 1:
+        count, t0 = _downsample(z, Hr[0], M, t0, n, out)
+    else:
+        count, t0 = _polyphase(z, Hr, L, M, t0, n, out)
+    for i in range(K1):
+        z[i] = z[n + i]
+    return count, t0
+
+
 class RationalResampler:
     """Stateful polyphase resampler from ``rate_in`` to ``rate_out`` Hz.
 
@@ -102,19 +122,9 @@ class RationalResampler:
         self._t0 = 0
 
     def process(self, x: np.ndarray) -> np.ndarray:
-        x = np.asarray(x, dtype=np.float64)
+        x = np.ascontiguousarray(x, dtype=np.float64)
         n = x.shape[0]
         if n > self.max_block:
             return np.concatenate([self.process(x[i : i + self.max_block]) for i in range(0, n, self.max_block)])
-        K1 = self.K - 1
-        self._z[K1 : K1 + n] = x
-        if self.M == 1:
-            count = n * self.L
-            _upsample(self._z, self._Hr, n, self._out)
-        elif self.L == 1:
-            count, self._t0 = _downsample(self._z, self._Hr[0], self.M, self._t0, n, self._out)
-        else:
-            count, self._t0 = _polyphase(self._z, self._Hr, self.L, self.M, self._t0, n, self._out)
-        if K1:
-            self._z[:K1] = self._z[n : n + K1]
+        count, self._t0 = _step(self._z, x, self._Hr, self.L, self.M, self._t0, self._out)
         return self._out[:count].copy()
