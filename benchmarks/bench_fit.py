@@ -2,7 +2,8 @@
 
 * fit_friction_material: full fit of one material (6 participants x 5 reference velocities
   x 60 s of CoF at 2 kHz, synthetic recordings from known models, in memory) on one core.
-  Target <= 2 s; ratio = target / measured (>= 1 meets it).
+  Target <= 2 s; ratio = target / measured (>= 1 meets it); the fastest of 3 runs, in memory
+  and again reading the 30 recordings from NPZ files.
 * lsf_synthesis_realtime: LSF interpolation + ARMA(20, 18) synthesis at 1 kHz over a
   HaTT-sized bank (45 vertices), the (speed, force) query changing every sample.
   Target >= 200 x real time; ratio = measured factor / 200.
@@ -55,9 +56,12 @@ def bench_fit_friction(repeats: int = 3) -> list[dict]:
 
     with tempfile.TemporaryDirectory() as d:
         paths = [write_recording_npz(r, Path(d) / f"r{i}.npz") for i, r in enumerate(recs)]
-        t0 = time.perf_counter()
-        fit_friction(read_recordings(paths), "bench", jobs=1)
-        with_io = time.perf_counter() - t0
+        io_times = []
+        for _ in range(repeats):  # the least disturbed of the runs, as above
+            t0 = time.perf_counter()
+            fit_friction(read_recordings(paths), "bench", jobs=1)
+            io_times.append(time.perf_counter() - t0)
+        with_io = min(io_times)
     rows.append({"figure": "fit_friction_material_from_npz", "what": "same, reading the 30 NPZ files included",
                  "measured_s": round(with_io, 3), "target_s": target, "ratio": round(target / with_io, 3), "pass": with_io <= target})
     return rows

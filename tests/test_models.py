@@ -104,3 +104,23 @@ def test_material_file_errors_name_file_and_field(tmp_path):
         load_material(str(bad))
     with pytest.raises(UnknownMaterialError, match="unknown material"):
         load_material("velvet")
+
+
+def test_ar_model_moments_match_analytic_ar1_and_quadrature():
+    """sd of an AR(1) process is sigma / sqrt(1 - phi^2) (analytic); the sd of its rate of
+    change as a band-limited signal is sqrt(int_0^{fs/2} (2 pi f)^2 PSD(f) df), checked by
+    adaptive quadrature of the closed-form PSD 2 sigma^2 / fs / |1 - phi e^{-i 2 pi f / fs}|^2."""
+    from scipy.integrate import quad
+
+    phi, var, fs = 0.8, 2.5e-3, 100.0
+    model = ARModel([phi], var, 0.1)
+    sd, sd_rate = model.moments(fs)
+    assert sd == pytest.approx(np.sqrt(var / (1 - phi**2)), rel=1e-6)
+
+    def psd(f):
+        return 2 * var / fs / abs(1 - phi * np.exp(-2j * np.pi * f / fs)) ** 2
+
+    slope_var, _ = quad(lambda f: (2 * np.pi * f) ** 2 * psd(f), 0, fs / 2, epsabs=0, epsrel=1e-10)
+    assert sd_rate == pytest.approx(np.sqrt(slope_var), rel=1e-6)
+    assert model.moments(fs) is model.moments(100)  # computed once per rate
+    assert model.moments(2 * fs)[1] == pytest.approx(2 * sd_rate, rel=1e-9)  # same samples, twice as fast

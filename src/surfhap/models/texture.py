@@ -47,6 +47,23 @@ class ARModel:
         """One-sided PSD (units^2/Hz) at freqs (m,) Hz."""
         return ar_psd(self.coefficients, self.variance, sample_rate, freqs)
 
+    def moments(self, sample_rate: float) -> tuple[float, float]:
+        """Standard deviation of the process (units) and of its rate of change (units/s) at
+        ``sample_rate`` Hz, as a band-limited signal: sqrt of the integrals of the PSD and of
+        (2 pi f)^2 PSD over 0 to Nyquist (16385 points). Computed once per rate (the model is
+        frozen); the gain plan of every render asks for it."""
+        cache = self.__dict__.setdefault("_moments", {})
+        rate = float(sample_rate)
+        if rate not in cache:
+            from scipy.signal import freqz
+
+            f, h = freqz([1.0], np.concatenate(([1.0], -self.coefficients)), worN=1 << 14, fs=rate, include_nyquist=True)
+            psd = 2.0 * self.variance * np.abs(h) ** 2 / rate
+            var = float(np.trapezoid(psd, f))
+            slope_var = float(np.trapezoid(psd * (2 * np.pi * f) ** 2, f))
+            cache[rate] = (float(np.sqrt(max(var, 0.0))), float(np.sqrt(max(slope_var, 0.0))))
+        return cache[rate]
+
 
 @dataclass(frozen=True)
 class TextureBank:

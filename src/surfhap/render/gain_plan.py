@@ -27,7 +27,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import freqz
 from scipy.stats import norm
 
 from surfhap.errors import ConfigError
@@ -145,13 +144,8 @@ def texture_moments(material: Material, speed: float, load: float) -> tuple[floa
         var = float(np.trapezoid(psd, f))
         slope_var = float(np.trapezoid(psd * (2 * np.pi * f) ** 2, f))
         return float(np.sqrt(max(var, 0.0))), float(np.sqrt(max(slope_var, 0.0)))
-    model = bank.models[int(bank.select(np.array([speed]))[0])]
     # the texture is resampled up as a band-limited signal: its slope is sqrt(int (2 pi f)^2 PSD df)
-    f, h = freqz([1.0], np.concatenate(([1.0], -model.coefficients)), worN=1 << 14, fs=rate, include_nyquist=True)
-    psd = 2.0 * model.variance * np.abs(h) ** 2 / rate
-    var = float(np.trapezoid(psd, f))
-    slope_var = float(np.trapezoid(psd * (2 * np.pi * f) ** 2, f))
-    return float(np.sqrt(max(var, 0.0))), float(np.sqrt(max(slope_var, 0.0)))
+    return bank.models[int(bank.select(np.array([speed]))[0])].moments(rate)
 
 
 def _texture_force_sd(material, method, sd_x, fn, mu_low, beta, texture_gain, effective_mass, fn_c):

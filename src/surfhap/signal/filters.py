@@ -5,7 +5,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy.signal import butter, sosfiltfilt
+from scipy.signal import butter, sosfilt, sosfilt_zi, sosfiltfilt
 
 __all__ = ["band_split", "dft321", "zero_phase_lowpass"]
 
@@ -40,9 +40,20 @@ def dft321(xyz: np.ndarray) -> np.ndarray:
 
 
 @lru_cache(maxsize=64)
-def _butter_low(order: int, cutoff: float, sample_rate: float) -> np.ndarray:
+def _butter_low(order: int, cutoff: float, sample_rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Second-order sections (k, 6) of the Butterworth low-pass and their unit-step initial
+    state (k, 2) (what ``sosfiltfilt`` recomputes on every call)."""
     sos = butter(order, cutoff, btype="low", fs=sample_rate, output="sos")
-    return sos
+    return sos, sosfilt_zi(sos)
+
+
+def _filtfilt(sos: np.ndarray, zi: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Forward-backward ``sosfilt`` of x (..., n) along its last axis, each pass started in the
+    steady state of its first sample: ``sosfiltfilt(sos, x, axis=-1, padtype=None)``."""
+    state = zi.reshape(zi.shape[0], *([1] * (x.ndim - 1)), 2)  # (k, ..., 2), broadcast over the leading axes
+    y, _ = sosfilt(sos, x, axis=-1, zi=state * x[..., :1][None])
+    y, _ = sosfilt(sos, y[..., ::-1], axis=-1, zi=state * y[..., -1:][None])
+    return y[..., ::-1]
 
 
 def zero_phase_lowpass(x: np.ndarray, sample_rate: float, cutoff: float, order: int = 4, pad_periods: float = 2.0,
@@ -64,7 +75,7 @@ def zero_phase_lowpass(x: np.ndarray, sample_rate: float, cutoff: float, order: 
     n = x.shape[-1]
     if not 0 < cutoff < sample_rate / 2:
         raise ValueError(f"cutoff must be within (0, {sample_rate / 2}) Hz, got {cutoff}")
-    sos = _butter_low(int(order), float(cutoff), float(sample_rate))
+    sos, zi = _butter_low(int(order), float(cutoff), float(sample_rate))
     if n < 3:
         return sosfiltfilt(sos, x, axis=-1, padtype="odd", padlen=max(n - 1, 0))
     pad = int(min(n - 1, max(1, round(pad_periods * sample_rate / cutoff))))
@@ -82,4 +93,4 @@ def zero_phase_lowpass(x: np.ndarray, sample_rate: float, cutoff: float, order: 
     head = 2.0 * l0[..., None] - x[..., np.arange(pad, 0, -1)]
     tail = 2.0 * l1[..., None] - x[..., np.arange(n - 2, n - pad - 2, -1)]
     ext = np.concatenate((head, x, tail), axis=-1)
-    return sosfiltfilt(sos, ext, axis=-1, padtype=None)[..., pad:pad + n]
+    return _filtfilt(sos, zi, ext)[..., pad:pad + n]
