@@ -119,3 +119,19 @@ def test_hatt_model_set_renders_with_zhao_and_follows_its_spectrum(tmp_path):
     f, p, e = render_spectrum(r)
     _, dev = spectral_deviation_db(f, p, e, 3.5, 250.0)
     assert np.max(np.abs(dev)) <= 1.5
+
+
+@pytest.mark.parametrize("name, gain", [("cork", 1.0), ("cork", 0.5), ("wood", 1.0), ("denim", 1.0)])
+def test_expected_texture_psd_of_builtin_materials_matches_the_render(name, gain):
+    """The figure's 'AR model' line for a built-in material: its texture is calibrated relative to
+    the friction law (mu_t = g s mu_low x) and fitted at 100 Hz. The expected PSD (texture PSD x
+    (beta g s mu_low fn)^2 x rendering gain^2) must carry the same power as the rendered high band
+    over 5-25 Hz (where the 100 Hz texture's resampler is flat) within 1 dB, texture gain included."""
+    from scipy.integrate import trapezoid
+
+    r = render(load_material(name), constant_scan(0.1, 0.5, 60.0), ChainConfig(seed=2, texture_gain=gain))
+    assert r.texture_relative_scale is not None and r.texture_rate == 100
+    f, p, e = render_spectrum(r)
+    band = (f >= 5.0) & (f <= 25.0)
+    ratio_db = 10 * np.log10(trapezoid(p[band], f[band]) / trapezoid(e[band], f[band]))
+    assert abs(ratio_db) <= 1.0, ratio_db

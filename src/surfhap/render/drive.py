@@ -44,7 +44,8 @@ from surfhap.errors import ConfigError
 from surfhap.models.friction import QuasiStaticLaw
 from surfhap.models.material import Material
 
-__all__ = ["DriveParams", "DriveBlock", "DriveLaw", "METHODS", "make_drive_law", "default_method"]
+__all__ = ["DriveParams", "DriveBlock", "DriveLaw", "METHODS", "make_drive_law", "default_method", "friction_law_for",
+           "texture_force"]
 
 METHODS = ("otake2022", "otake2021", "zhao", "friction-only", "square")
 
@@ -101,6 +102,35 @@ class DriveBlock(NamedTuple):
     mu_tex: np.ndarray  # textural CoF (0 where none)
 
 
+def friction_law_for(material: Material, method: str):
+    """The low-band friction law ``method`` uses: quasi-static for otake2022, Coulomb's mu0 for
+    otake2021 and zhao, the richest available for friction-only and square (None if missing)."""
+    if method == "otake2022":
+        return material.quasi_static
+    if method in ("otake2021", "zhao"):
+        return material.coulomb
+    return material.low_frequency_law
+
+
+def texture_force(quantity: str, relative_scale: float | None, method: str, x: float, fn: float, mu_low: float,
+                  beta: float, texture_gain: float, effective_mass: float, fn_c: float) -> float:
+    """Textural part of the target force (N) for a texture amount ``x`` (its unit; an sd, or 1
+    for the force per unit) at load ``fn`` N, low-band CoF ``mu_low`` and Zhao's load ``fn_c`` N:
+    zhao ``g m_eff x`` or ``g x fn_c``; the Otake laws ``beta g mu_t fn`` with mu_t as in the
+    module docstring (relative scale, CoF bank or acceleration bank)."""
+    if x == 0.0:
+        return 0.0
+    if method == "zhao":
+        return texture_gain * (effective_mass * x if quantity == "acceleration" else x * fn_c)
+    if relative_scale is not None:
+        mu_t = relative_scale * mu_low * x
+    elif quantity == "cof":
+        mu_t = x
+    else:
+        mu_t = effective_mass * x / fn
+    return beta * texture_gain * mu_t * fn
+
+
 def default_method(material: Material) -> str:
     """otake2022 when the material has the quasi-static law, else otake2021."""
     return "otake2022" if material.quasi_static is not None else "otake2021"
@@ -134,10 +164,7 @@ class DriveLaw:
             raise ConfigError(f"square frequency must be below half the model rate ({self.sample_rate / 2:g} Hz)", field="square_frequency")
         self._quantity = None if material.texture is None else material.texture.quantity
         self._relative = material.texture_relative_scale
-        if method in ("otake2022", "friction-only", "square"):
-            self._law = material.low_frequency_law if method != "otake2022" else material.quasi_static
-        else:
-            self._law = material.coulomb
+        self._law = self.friction_law = friction_law_for(material, method)
         self.square_amplitude = None
         if method == "square":
             self.square_amplitude = self._square_amplitude()

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from surfhap.render.drive import texture_force
 from surfhap.signal.ar import ar_psd
 
 __all__ = ["expected_texture_psd"]
@@ -12,7 +13,11 @@ __all__ = ["expected_texture_psd"]
 
 def expected_texture_psd(r, freqs: np.ndarray, v: float, fn: float) -> np.ndarray | None:
     """PSD (N^2/Hz) of the added friction's textural part of render ``r`` at speed ``v`` (m/s)
-    and load ``fn`` (N), from its texture model; None for a method without texture."""
+    and load ``fn`` (N), from its texture model; None for a method without texture.
+
+    The texture's PSD times the squared force per texture unit of the rendered law
+    (:func:`~surfhap.render.drive.texture_force`: relative scale, texture gain, beta) and the
+    squared rendering gain (alpha / alpha_calibrated)^2."""
     bank = r.texture_model
     if bank is None or r.method in ("friction-only", "square"):
         return None
@@ -24,11 +29,10 @@ def expected_texture_psd(r, freqs: np.ndarray, v: float, fn: float) -> np.ndarra
         model = bank.models[int(bank.select(np.array([v]))[0])]
         psd = ar_psd(model.coefficients, model.variance, rate, f)
     psd = np.where(f < rate / 2, psd, 0.0)
+    law = r.friction_law
+    mu_low = float(law.coefficient(np.array([fn]), np.array([v]))[0]) if law is not None else 0.0
+    fn_c = r.constant_load if (r.method == "zhao" and r.constant_load is not None) else fn
+    per_unit = texture_force(bank.quantity, r.texture_relative_scale, r.method, 1.0, fn, mu_low, r.beta, r.texture_gain,
+                             r.effective_mass, fn_c)  # N of target force per unit of texture
     gain = float((r.alpha / r.alpha_calibrated) ** 2)
-    if r.method == "zhao":
-        load = fn if r.constant_load is None else r.constant_load
-        scale = r.effective_mass if bank.quantity == "acceleration" else load
-    else:
-        per_load = 1.0 if bank.quantity == "cof" else r.effective_mass / fn
-        scale = r.beta * per_load * fn
-    return psd * (scale * gain) ** 2
+    return psd * (per_unit * gain) ** 2

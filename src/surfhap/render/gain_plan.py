@@ -32,6 +32,7 @@ from scipy.stats import norm
 from surfhap.errors import ConfigError
 from surfhap.models.material import Material
 from surfhap.models.panel import DisplayModel
+from surfhap.render.drive import friction_law_for, texture_force
 from surfhap.render.safety import SafetyLimits
 
 __all__ = ["OperatingRange", "GainPlan", "plan_gains", "texture_moments", "PLAN_PERCENTILE", "PLAN_FILL"]
@@ -148,22 +149,6 @@ def texture_moments(material: Material, speed: float, load: float) -> tuple[floa
     return bank.models[int(bank.select(np.array([speed]))[0])].moments(rate)
 
 
-def _texture_force_sd(material, method, sd_x, fn, mu_low, beta, texture_gain, effective_mass, fn_c):
-    """sd of the textural part of the target force (N) for a texture sd ``sd_x``."""
-    if sd_x == 0.0:
-        return 0.0
-    q = material.texture.quantity
-    if method == "zhao":
-        return texture_gain * (effective_mass * sd_x if q == "acceleration" else sd_x * fn_c)
-    if material.texture_relative_scale is not None:
-        sd_mu = material.texture_relative_scale * mu_low * sd_x
-    elif q == "cof":
-        sd_mu = sd_x
-    else:
-        sd_mu = effective_mass * sd_x / fn
-    return beta * texture_gain * sd_mu * fn
-
-
 def plan_gains(material: Material, method: str, display: DisplayModel | None = None,
                operating_range: OperatingRange | None = None, limits: SafetyLimits | None = None, *,
                beta: float = 1.8, texture_gain: float = 1.0, effective_mass: float = 0.05,
@@ -180,8 +165,7 @@ def plan_gains(material: Material, method: str, display: DisplayModel | None = N
     limits = limits or SafetyLimits()
     if not 0 < fill <= 1:
         raise ConfigError("must be in (0, 1]", field="fill")
-    law = material.quasi_static if method == "otake2022" else (
-        material.coulomb if method in ("otake2021", "zhao") else material.low_frequency_law)
+    law = friction_law_for(material, method)
     uses_texture = method in ("otake2022", "otake2021", "zhao") and material.texture is not None
     z = float(norm.ppf(percentile / 100.0))
     loads, speeds = rng.grid()
@@ -220,8 +204,9 @@ def plan_gains(material: Material, method: str, display: DisplayModel | None = N
             sd_tex = slope = 0.0
             if uses_texture:
                 sd_x, sd_dx = moments(v, fn)
-                sd_tex = _texture_force_sd(material, method, sd_x, fn, mu, beta, texture_gain, effective_mass, fn_c)
-                slope = _texture_force_sd(material, method, sd_dx, fn, mu, beta, texture_gain, effective_mass, fn_c)
+                tex = (material.texture.quantity, material.texture_relative_scale, method)
+                sd_tex = texture_force(*tex, sd_x, fn, mu, beta, texture_gain, effective_mass, fn_c)
+                slope = texture_force(*tex, sd_dx, fn, mu, beta, texture_gain, effective_mass, fn_c)
             f_999[i, j] = f + z * sd_tex
             slope_999[i, j] = z * slope
             f_trough[i, j] = max(f - 2.0 * sd_tex, 0.25 * f)

@@ -36,6 +36,8 @@ class RenderResult:
     mu_low, mu_tex (n,); target (n,) N target added friction; voltage (n,) V envelope
     before the carrier; t_drive, drive (m,) s and V after the safety stage;
     friction_sim (n,) N from the simulated display; acc (n,) m/s^2 or None.
+    texture_gain, texture_relative_scale and friction_law (the low-band law the method used)
+    are what :func:`~surfhap.render.expected.expected_texture_psd` needs.
     """
 
     material: str
@@ -77,6 +79,9 @@ class RenderResult:
     display_info: dict | None = None
     square_amplitude: float | None = None
     square_reference: tuple[float, float] | None = None
+    texture_gain: float = 1.0
+    texture_relative_scale: float | None = None
+    friction_law: object | None = None
 
     @property
     def t_drive(self) -> np.ndarray:
@@ -305,4 +310,6 @@ def render_settings(material: Material, trajectory: Trajectory, cfg: ChainConfig
         plan=chain.plan, alpha_source=chain.alpha_source, carrier_choice=chain.carrier_choice,
         display_info=cfg.display.describe(), square_amplitude=chain.law.square_amplitude,
         square_reference=(cfg.square_reference_load, cfg.square_reference_speed) if chain.law.square_amplitude is not None else None,
+        texture_gain=cfg.texture_gain, texture_relative_scale=material.texture_relative_scale,
+        friction_law=chain.law.friction_law,
     )

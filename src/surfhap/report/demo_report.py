@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from matplotlib.figure import Figure
 
+from surfhap.report.axes import plain_log_ticks
 from surfhap.report.figures import render_spectrum
 from surfhap.report.html import Page
 from surfhap.signal.bands import spectral_deviation_db
@@ -44,6 +45,8 @@ def _speed_figure(name: str, runs) -> Figure:
     fig.suptitle(name)
     a.set(title="added friction, last 0.5 s", xlabel="time (s)", ylabel="N")
     b.set(title="high band: simulated (solid) vs model (dashed)", xlabel="Hz", ylabel="N²/Hz")
+    if b.get_xscale() == "log":
+        plain_log_ticks(b.xaxis)
     if runs[0].texture_model is None:
         b.text(0.5, 0.5, "friction-only:\nno texture to compare", ha="center", va="center", transform=b.transAxes)
         b.set_xticks([])

@@ -10,6 +10,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from scipy.signal import welch
 
+from surfhap.report.axes import plain_log_ticks
 from surfhap.signal.bands import band_split_high_gain
 from surfhap.signal.filters import band_split
 
@@ -48,7 +49,9 @@ def plot_render(pv, fig: Figure | None = None) -> Figure:
 
     ``pv``: a :class:`~surfhap.render.preview.RenderPreview`, the bounded copy a render keeps
     for its figure (``RenderResult.plot()`` and the streamed render pass theirs)."""
-    fig = fig or Figure(figsize=(11, 7.5), layout="constrained")
+    if fig is None:  # fixed margins: constrained layout took half of the figure's time (batch jobs draw one each)
+        fig = Figure(figsize=(11, 7.5))
+        fig.subplots_adjust(left=0.065, right=0.935, bottom=0.07, top=0.955, wspace=0.24, hspace=0.3)
     axs = fig.subplots(2, 2)
     ax = axs[0, 0]
     t = pv.win_t
@@ -74,6 +77,7 @@ def plot_render(pv, fig: Figure | None = None) -> Figure:
         if e is not None:
             ax.loglog(f[band], e[band], lw=1.5, color="k", ls="--", label="AR model")
         ax.legend(fontsize=8)
+        plain_log_ticks(ax.xaxis)
     ax.set(xlabel="frequency (Hz)", ylabel="PSD (N²/Hz)", title="added friction above 3.5 Hz")
     ax = axs[1, 1]
     ax.fill_between(pv.col_t, pv.speed_min * 1e3, pv.speed_max * 1e3, color="C2", lw=1, step="post")
@@ -109,6 +113,7 @@ def plot_imu_fit(fit, fig: Figure | None = None) -> Figure:
     a.loglog(f[sel], p[sel], lw=0.8, label="recording (DFT321, high band)")
     a.loglog(f[sel], model[sel], "k--", lw=1.5, label=f"AR({fit.order})")
     a.set(xlabel="frequency (Hz)", ylabel="PSD ((m/s²)²/Hz)")
+    plain_log_ticks(a.xaxis)
     a.legend(fontsize=8)
     plot_order_selection(fit.selection, ax=b)
     return fig

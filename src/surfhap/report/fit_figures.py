@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
+from surfhap.report.axes import plain_log_ticks
 from surfhap.report.figures import plot_order_selection
 
 __all__ = [
@@ -93,6 +94,7 @@ def plot_velocity_spectrum(tex, ax=None):
     ax.loglog(f[sel], tex.model_psd[sel], "k--", lw=1.5, label=f"AR({tex.model.order})")
     ax.set(xlabel="frequency (Hz)", ylabel="PSD (1/Hz)",
            title=f"{tex.reference_speed * 1e3:g} mm/s — SI {tex.similarity_mean:.2f}")
+    plain_log_ticks(ax.xaxis)
     ax.legend(fontsize=7)
     return fig
 
