@@ -30,3 +30,16 @@ def test_cli_compare_writes_figure_and_json(tmp_path, capsys):
     assert [r["material"] for r in doc["table"]] == ["cork", "leather"]
     assert main(["compare", "no-such-material"]) == 2
     assert "no-such-material" in capsys.readouterr().err
+
+
+def test_cli_figure_paths_name_the_file_written(tmp_path, capsys):
+    """A figure path without a suffix becomes PNG and the 'wrote' line names that file; a
+    suffix matplotlib cannot write is bad input (one line naming --out, exit 2) before any work."""
+    assert main(["compare", "cork", "--duration", "1", "--out", str(tmp_path / "cmp")]) == 0
+    assert (tmp_path / "cmp.png").stat().st_size > 10_000
+    out = capsys.readouterr().out.replace("\n", "")  # rich may fold a long path over lines
+    assert "wrote " in out and out.rstrip().endswith("cmp.png")
+    assert main(["compare", "cork", "--out", str(tmp_path / "cmp.jpgx")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--out" in err[0] and ".jpgx" in err[0]
+    assert not list(tmp_path.glob("cmp.jpgx*"))

@@ -12,7 +12,7 @@ from rich.text import Text
 from surfhap.errors import ConfigError, SurfhapError
 
 __all__ = ["run_guarded", "fail", "error_line", "progress_bar", "parse_key_values", "stderr", "stdout",
-           "OPTIONAL_MODULES", "require_modules"]
+           "OPTIONAL_MODULES", "require_modules", "figure_path"]
 
 stderr = Console(stderr=True, highlight=False)
 stdout = Console(highlight=False)
@@ -38,6 +38,26 @@ def require_modules(*names: str) -> None:
     for name in names:
         if find_spec(name) is None:
             raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+
+
+FIGURE_FORMATS = (".png", ".pdf", ".svg")
+
+
+def figure_path(path, option: str):
+    """The file a figure option (``--out``, ``--plot``, ``--figure``) writes: PNG when the name
+    has no suffix (so the "wrote" line names the real file). Any other suffix than .png, .pdf and
+    .svg is bad input: a ConfigError naming the option, raised before any work is done."""
+    from pathlib import Path
+
+    if path is None:
+        return None
+    path = Path(path)
+    if not path.suffix:
+        return path.with_suffix(".png")
+    if path.suffix.lower() not in FIGURE_FORMATS:
+        raise ConfigError(f"a figure is written as {', '.join(FIGURE_FORMATS)}, not {path.suffix!r}", source=option,
+                          field="suffix")
+    return path
 
 
 def error_line(message: str) -> None:

@@ -18,7 +18,7 @@ from typing import Optional
 
 import typer
 
-from surfhap.cli._common import stdout
+from surfhap.cli._common import figure_path, stdout
 
 __all__ = ["register"]
 
@@ -48,6 +48,7 @@ def tribometer(
     from surfhap.exchange.tribometer import read_tribometer
     from surfhap.lab.calibration import calibrate
 
+    plot = figure_path(plot, "--plot")
     recs = [read_tribometer(p) for p in recordings]
     leaks = [read_tribometer(p) for p in (leakage or [])]
     cal = calibrate(recs, curve=curve, guard=guard, volts_per_unit=volts_per_unit, leakage_recordings=leaks)
@@ -68,7 +69,9 @@ def tribometer(
         stdout.print(f"leakage time constant {cal.leakage.time_constant * 1e3:.1f} ms "
                      f"({len(cal.leakage.per_recording)} DC recordings)")
     if plot is not None:
+        plot.parent.mkdir(parents=True, exist_ok=True)
         cal.plot().savefig(plot, dpi=120)
+        stdout.print(f"wrote {plot}")
     stdout.print(f"wrote {out}")
 
 

@@ -9,7 +9,7 @@ from typing import Optional
 
 import typer
 
-from surfhap.cli._common import stdout
+from surfhap.cli._common import figure_path, stdout
 from surfhap.cli._options import SeedOption
 
 __all__ = ["register"]
@@ -33,6 +33,7 @@ def compare(
 
     if not 1.0 <= speed_mm_s <= 2000.0:
         raise ConfigError("must be within 1-2000 mm/s", source="--speed-mm-s", field="speed")
+    out = figure_path(out, "--out")
     comp = compare_materials(materials, speed=speed_mm_s * 1e-3, load=load, duration=duration, seed=seed)
     table = Table(*MaterialComparison.header)
     for row in comp.rows():

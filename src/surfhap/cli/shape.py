@@ -19,7 +19,7 @@ from typing import Optional
 import typer
 from typer.core import TyperGroup
 
-from surfhap.cli._common import progress_bar, stdout
+from surfhap.cli._common import figure_path, progress_bar, stdout
 from surfhap.cli._options import FigureOption, TrajectoryOption
 from surfhap.errors import ConfigError, MeshFormatError
 
@@ -167,12 +167,13 @@ def calibrate_cmd(
     resolution: Optional[float] = typer.Option(None, "--resolution", help="Grid step (m) of built-in Gaussian shapes (default 0.0005, scenes 0.001)."),
     pixel_size: Optional[float] = typer.Option(None, "--pixel-size", help="Height maps: m per pixel."),
     height: Optional[float] = typer.Option(None, "--height", help="Height maps: height (m) of white."),
-    figure: Optional[Path] = typer.Option(None, "--figure", help="Also write the Fsq histogram as PNG."),
+    figure: Optional[Path] = typer.Option(None, "--figure", help="Also write the Fsq histogram (PNG/PDF/SVG)."),
 ) -> None:
     """Measure the Fsq range of MESH by simulated scans (Kim et al. Sec. 4.2) and save it as JSON."""
     from surfhap.exchange.shape_files import default_calibration_path, write_calibration
     from surfhap.shape.calibration import calibrate
 
+    figure = figure_path(figure, "--figure")
     plan = _plan(directions, speeds, v_min, v_max, rate, lines)
     surf = load_surface(mesh, up=up, scale=scale, size=size, resolution=resolution, pixel_size=pixel_size, height=height)
     if out is None:
@@ -182,6 +183,7 @@ def calibrate_cmd(
     cal = calibrate(surf, plan, method=method, k=k, percentiles=_percentiles(percentiles), fz=fz)
     path = write_calibration(cal, out)
     if figure is not None:
+        figure.parent.mkdir(parents=True, exist_ok=True)
         cal.plot().savefig(figure, dpi=110)
     stdout.print(f"{surf.name}: Fsq range [{cal.fmin:+.4g}, {cal.fmax:+.4g}] sqrt(N) ({cal.method}, "
                  f"{cal.n_samples} samples, theta_min {cal.theta_min_deg:.1f} deg) -> {path}")
