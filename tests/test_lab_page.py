@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import sys
 from pathlib import Path
 
 import pytest
@@ -14,7 +15,11 @@ import pytest
 from surfhap.cli import main
 from surfhap.lab.triallog import read_log
 
+sys.path.insert(0, str(Path(__file__).resolve().parent / "live_support"))
+from page_wait import poll  # noqa: E402
+
 CHROMIUM = "/usr/bin/chromium"
+PATIENCE_MS = 60_000  # bound of the waits on the page (generous: a loaded 2-core machine)
 IN_CI = os.environ.get("CI", "").lower() == "true"
 FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
          "--disable-sync", "--no-first-run"]
@@ -66,12 +71,12 @@ def test_short_study_answered_in_chromium(tmp_path):
                 page.goto(server.url + "/", timeout=30000)
                 for k, trial in enumerate(plan):
                     if k == len(plan) // 2:  # block change: the rest screen, then continue
-                        page.wait_for_selector("#rest:not([hidden])", timeout=20000)
+                        page.wait_for_selector("#rest:not([hidden])", timeout=PATIENCE_MS)
                         page.click("#continue")
-                    page.wait_for_function(f"window.study.trialId === {trial.id!r}", timeout=20000)
+                    poll(page, f"window.study.trialId === {trial.id!r}", PATIENCE_MS)
                     assert page.inner_text("#prompt") == trial.prompt
                     if k == 0:  # play the stimulus and stroke the pad: the engine gets touches and drives
-                        page.wait_for_function("window.study.wsOpen === true", timeout=20000)
+                        poll(page, "window.study.wsOpen === true", PATIENCE_MS)
                         touches = eng.counters["touches"]
                         page.click("button.stim")
                         box = page.locator("#pad").bounding_box()
@@ -91,7 +96,7 @@ def test_short_study_answered_in_chromium(tmp_path):
                     page.wait_for_timeout(150)  # a measurable response time
                     page.click(f"#choices button[data-choice='{answer}']")
                     clicked.append((trial.id, answer))
-                page.wait_for_selector("#done:not([hidden])", timeout=20000)
+                page.wait_for_selector("#done:not([hidden])", timeout=PATIENCE_MS)
                 assert page.evaluate("window.study.answered") == len(plan)
             finally:
                 browser.close()
@@ -105,6 +110,64 @@ def test_short_study_answered_in_chromium(tmp_path):
     assert [t["is_correct"] for t in log.trials] == [k % 2 == 0 for k in range(len(plan))]
     assert log.trials[0]["stimuli_touched"] and log.trials[0]["stimuli_touched"][0][0] == 0
     assert [e["event"] for e in log.events] == ["rest", "rest-end", "end"]
+
+
+def test_a_late_poll_response_does_not_bring_back_an_answered_trial(tmp_path):
+    """The page polls /api/state every second. A poll sent just before an answer can be answered
+    after it (separate connections): its older state must not re-show the answered trial, which
+    would also restart the response-time clock. The test holds one poll's response, answers,
+    then releases the held (stale) response."""
+    from playwright.sync_api import sync_playwright
+
+    _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
+    from surfhap.lab.page import PageServer
+    from surfhap.lab.session import SessionRunner
+
+    study = _short_study(tmp_path)
+    runner = SessionRunner(study, "P01", mode="page")
+    first, second = runner.plan.trials[0], runner.plan.trials[1]
+    server = PageServer(runner, port=0).start()
+    held = []
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+            try:
+                page = browser.new_page(viewport={"width": 900, "height": 800})
+                page.goto(server.url + "/", timeout=PATIENCE_MS)
+                poll(page, f"window.study.trialId === {first.id!r}", PATIENCE_MS)
+                # hold the next poll: the server answers it now (the first trial), the page later
+                def hold_first(route):
+                    if held:
+                        route.continue_()
+                    else:
+                        held.append((route, route.fetch()))
+
+                page.route("**/api/state", hold_first)
+                for _ in range(PATIENCE_MS // 50):
+                    if held:
+                        break
+                    page.wait_for_timeout(50)
+                assert held, "the page sent no poll"
+                page.wait_for_timeout(150)
+                page.click(f"#choices button[data-choice='{first.correct}']")
+                poll(page, f"window.study.trialId === {second.id!r}", PATIENCE_MS)
+                route, stale = held[0]
+                assert json.loads(stale.text())["trial"]["id"] == first.id
+                route.fulfill(response=stale)
+                page.wait_for_timeout(400)  # time to render the stale state, were it rendered
+                assert page.evaluate("window.study.trialId") == second.id
+                assert page.inner_text("#prompt") == second.prompt
+                page.wait_for_timeout(150)
+                page.click(f"#choices button[data-choice='{second.correct}']")
+                poll(page, "window.study.answered === 2", PATIENCE_MS)
+            finally:
+                browser.close()
+    finally:
+        server.stop()
+        runner.close()
+    log = read_log(study / "logs" / "P01.jsonl")
+    assert [t["trial_id"] for t in log.trials] == [first.id, second.id]
+    assert all(t["rt_s"] is not None and t["rt_s"] >= 0.15 for t in log.trials)  # at least the waits above
 
 
 def test_lsl_markers_of_stimulus_touch_and_answer(tmp_path):

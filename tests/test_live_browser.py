@@ -6,11 +6,15 @@ from __future__ import annotations
 
 import os
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from playwright.sync_api import sync_playwright
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "live_support"))
+from page_wait import poll  # noqa: E402
 
 CHROMIUM = "/usr/bin/chromium"
 IN_CI = os.environ.get("CI", "").lower() == "true"
@@ -44,7 +48,7 @@ def test_drag_on_page_drives_engine_and_draws_trace():
             try:
                 page = browser.new_page(viewport={"width": 900, "height": 700})
                 page.goto(srv.url + "/", timeout=PATIENCE_MS)
-                page.wait_for_function("window.surfhap && window.surfhap.open", timeout=PATIENCE_MS)
+                _poll(page, "window.surfhap && window.surfhap.open")
                 box = page.locator("#surface").bounding_box()
                 assert box and box["width"] > 100
                 v_before = eng.trace_since(0)[0][:, 5].max() if eng.trace_count else 0.0
@@ -61,16 +65,15 @@ def test_drag_on_page_drives_engine_and_draws_trace():
                 v_during = rows[:, 5].max()
                 # a resting finger keeps the drive on (keep-alive), no watchdog fade
                 n_rest = eng.trace_count
-                page.wait_for_function("(window.surfhap.keepAlive || 0) >= 5", timeout=PATIENCE_MS)
+                _poll(page, "(window.surfhap.keepAlive || 0) >= 5")
                 for _ in range(1200):  # bounded (60 s): 100 trace rows rendered under the resting finger
                     if eng.trace_count > n_rest + 150:
                         break
                     page.wait_for_timeout(50)
                 rest, _ = eng.trace_since(n_rest + 100)
                 page.mouse.up()
-                page.wait_for_function("window.surfhap.traceFrames > 10 && window.surfhap.tracePointsDrawn > 100",
-                                       timeout=PATIENCE_MS)
-                page.wait_for_function("window.surfhap.acked >= window.surfhap.sent - 5", timeout=PATIENCE_MS)
+                _poll(page, "window.surfhap.traceFrames > 10 && window.surfhap.tracePointsDrawn > 100")
+                _poll(page, "window.surfhap.acked >= window.surfhap.sent - 5")
                 page.wait_for_timeout(300)
                 stats = page.evaluate("() => Object.assign({}, window.surfhap)")
                 lit = page.evaluate(
@@ -101,14 +104,8 @@ def test_drag_on_page_drives_engine_and_draws_trace():
 
 
 def _poll(page, expr: str) -> None:
-    """Wait (bounded by PATIENCE_MS) until the JS expression is true, evaluated through the
-    DevTools protocol: the page's Content-Security-Policy forbids the eval that
-    ``wait_for_function`` uses once its first check fails."""
-    for _ in range(PATIENCE_MS // 50):
-        if page.evaluate(f"() => !!({expr})"):
-            return
-        page.wait_for_timeout(50)
-    raise AssertionError(f"timed out waiting for {expr}")
+    """Wait (bounded by PATIENCE_MS) until the JS expression is true (live_support/page_wait.py)."""
+    poll(page, expr, PATIENCE_MS)
 
 
 def test_ff_page_panel_shows_device_position_force_and_button_press():

@@ -19,7 +19,21 @@
     return data;
   }
 
+  // Responses can arrive out of order (a poll sent just before an answer may land after the
+  // answer's response): a state older than the newest one shown would re-show an answered trial
+  // and restart its response-time clock. A response to a request older than the newest one
+  // rendered so far is marked stale, and render() ignores it.
+  let issued = 0, newestRendered = 0;
+  async function state(method, url, body) {
+    const n = ++issued;
+    const st = await call(method, url, body);
+    st.stale = n < newestRendered;
+    if (!st.stale) newestRendered = n;
+    return st;
+  }
+
   function render(st) {
+    if (st.stale) return;
     $("progress").textContent = st.total ? `${st.done} / ${st.total}` : "";
     // never the block's label: it names the condition, which the participant must not know
     $("block").textContent = st.blocks > 1 && st.block_number ? `block ${st.block_number} of ${st.blocks}` : "";
@@ -86,7 +100,7 @@
   }
 
   async function refresh() {
-    try { render(await call("GET", "/api/state")); error(""); }
+    try { render(await state("GET", "/api/state")); error(""); }
     catch (e) { error(`server not reachable (${e.message}); retrying`); }
   }
 
@@ -102,7 +116,7 @@
     const rt = performance.now() - shownAt;
     for (const b of document.querySelectorAll("button.answer")) b.disabled = true;
     try {
-      const st = await call("POST", "/api/answer", { trial_id: tid, answer: value, rt_ms: rt });
+      const st = await state("POST", "/api/answer", { trial_id: tid, answer: value, rt_ms: rt });
       if (st.accepted) S.answered += 1;
       render(st);
     } catch (e) { error(e.message); await refresh(); }
@@ -112,7 +126,7 @@
     }
   }
 
-  $("continue").onclick = async () => { render(await call("POST", "/api/resume")); };
+  $("continue").onclick = async () => { render(await state("POST", "/api/resume")); };
 
   // touch pad -> live engine (ignored by the server when no live output is configured)
   function openSocket() {
