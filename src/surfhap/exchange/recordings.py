@@ -211,9 +211,16 @@ def _read_npz(path: Path, columns: Mapping[str, str]):
     sample_rate = float(arrays.pop("sample_rate")) if "sample_rate" in arrays else None
     headers = list(arrays)
     mapping = resolve_columns(headers, _CHANNEL_UNITS, columns, source, RecordingFormatError)
-    data = {ch: np.asarray(arrays[headers[i]], dtype=float).reshape(-1) * f for ch, (i, f) in mapping.items()}
+    data = {ch: _scaled(arrays[headers[i]], f) for ch, (i, f) in mapping.items()}
     time = data.pop("time", None)
     return time, sample_rate, data, meta
+
+
+def _scaled(x: np.ndarray, factor: float) -> np.ndarray:
+    """(n,) float of x in SI: times the unit's factor, without a copy when it is 1 (an NPZ
+    array is freshly read, so it is not shared)."""
+    x = np.asarray(x, dtype=float).reshape(-1)
+    return x if factor == 1 else x * factor
 
 
 def read_recording(path: str | Path, columns: Mapping[str, str] | None = None, participant: str | None = None) -> Recording:
