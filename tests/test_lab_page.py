@@ -16,13 +16,10 @@ from surfhap.cli import main
 from surfhap.lab.triallog import read_log
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "live_support"))
-from page_wait import poll  # noqa: E402
+from browser_support import CHROMIUM, chromium_page, poll  # noqa: E402
 
-CHROMIUM = "/usr/bin/chromium"
 PATIENCE_MS = 60_000  # bound of the waits on the page (generous: a loaded 2-core machine)
 IN_CI = os.environ.get("CI", "").lower() == "true"
-FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-         "--disable-sync", "--no-first-run"]
 
 
 def _need(what: str, ok: bool):
@@ -30,6 +27,14 @@ def _need(what: str, ok: bool):
         if IN_CI:
             pytest.fail(f"CI needs {what}")
         pytest.skip(f"{what} not available")
+
+
+def _need_browser():
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        _need("the Python package playwright", False)
+    _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
 
 
 def _short_study(tmp_path) -> Path:
@@ -43,12 +48,7 @@ def _short_study(tmp_path) -> Path:
 
 
 def test_short_study_answered_in_chromium(tmp_path):
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        sync_playwright = None
-    _need("the Python package playwright", sync_playwright is not None)
-    _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
+    _need_browser()
     from surfhap.lab.page import PageServer, StimulusPlayer
     from surfhap.lab.session import SessionRunner
     from surfhap.live.session import build_session
@@ -64,42 +64,36 @@ def test_short_study_answered_in_chromium(tmp_path):
     eng = session.engine
     clicked = []
     try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
-            try:
-                page = browser.new_page(viewport={"width": 900, "height": 800})
-                page.goto(server.url + "/", timeout=30000)
-                for k, trial in enumerate(plan):
-                    if k == len(plan) // 2:  # block change: the rest screen, then continue
-                        page.wait_for_selector("#rest:not([hidden])", timeout=PATIENCE_MS)
-                        page.click("#continue")
-                    poll(page, f"window.study.trialId === {trial.id!r}", PATIENCE_MS)
-                    assert page.inner_text("#prompt") == trial.prompt
-                    if k == 0:  # play the stimulus and stroke the pad: the engine gets touches and drives
-                        poll(page, "window.study.wsOpen === true", PATIENCE_MS)
-                        touches = eng.counters["touches"]
-                        page.click("button.stim")
-                        box = page.locator("#pad").bounding_box()
-                        y = box["y"] + box["height"] / 2
-                        page.mouse.move(box["x"] + 30, y)
-                        page.mouse.down()
-                        for i in range(40):
-                            page.mouse.move(box["x"] + 30 + i / 39 * (box["width"] - 60), y)
-                            page.wait_for_timeout(10)
-                        page.mouse.up()
-                        page.wait_for_timeout(200)
-                        assert eng.counters["touches"] > touches
-                        rows, _ = eng.trace_since(0)
-                        assert rows[:, 5].max() > 1.0  # volts were driven for the selected stimulus
-                        assert rows[:, 5].max() <= runner.v_max + 1e-9
-                    answer = trial.correct if k % 2 == 0 else [c.id for c in trial.choices if c.id != trial.correct][0]
-                    page.wait_for_timeout(150)  # a measurable response time
-                    page.click(f"#choices button[data-choice='{answer}']")
-                    clicked.append((trial.id, answer))
-                page.wait_for_selector("#done:not([hidden])", timeout=PATIENCE_MS)
-                assert page.evaluate("window.study.answered") == len(plan)
-            finally:
-                browser.close()
+        with chromium_page(server.url + "/", 900, 800, PATIENCE_MS) as page:
+            for k, trial in enumerate(plan):
+                if k == len(plan) // 2:  # block change: the rest screen, then continue
+                    page.wait_for_selector("#rest:not([hidden])", timeout=PATIENCE_MS)
+                    page.click("#continue")
+                poll(page, f"window.study.trialId === {trial.id!r}", PATIENCE_MS)
+                assert page.inner_text("#prompt") == trial.prompt
+                if k == 0:  # play the stimulus and stroke the pad: the engine gets touches and drives
+                    poll(page, "window.study.wsOpen === true", PATIENCE_MS)
+                    touches = eng.counters["touches"]
+                    page.click("button.stim")
+                    box = page.locator("#pad").bounding_box()
+                    y = box["y"] + box["height"] / 2
+                    page.mouse.move(box["x"] + 30, y)
+                    page.mouse.down()
+                    for i in range(40):
+                        page.mouse.move(box["x"] + 30 + i / 39 * (box["width"] - 60), y)
+                        page.wait_for_timeout(10)
+                    page.mouse.up()
+                    page.wait_for_timeout(200)
+                    assert eng.counters["touches"] > touches
+                    rows, _ = eng.trace_since(0)
+                    assert rows[:, 5].max() > 1.0  # volts were driven for the selected stimulus
+                    assert rows[:, 5].max() <= runner.v_max + 1e-9
+                answer = trial.correct if k % 2 == 0 else [c.id for c in trial.choices if c.id != trial.correct][0]
+                page.wait_for_timeout(150)  # a measurable response time
+                page.click(f"#choices button[data-choice='{answer}']")
+                clicked.append((trial.id, answer))
+            page.wait_for_selector("#done:not([hidden])", timeout=PATIENCE_MS)
+            assert page.evaluate("window.study.answered") == len(plan)
     finally:
         server.stop()
         session.stop()
@@ -117,9 +111,7 @@ def test_a_late_poll_response_does_not_bring_back_an_answered_trial(tmp_path):
     after it (separate connections): its older state must not re-show the answered trial, which
     would also restart the response-time clock. The test holds one poll's response, answers,
     then releases the held (stale) response."""
-    from playwright.sync_api import sync_playwright
-
-    _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
+    _need_browser()
     from surfhap.lab.page import PageServer
     from surfhap.lab.session import SessionRunner
 
@@ -129,39 +121,33 @@ def test_a_late_poll_response_does_not_bring_back_an_answered_trial(tmp_path):
     server = PageServer(runner, port=0).start()
     held = []
     try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
-            try:
-                page = browser.new_page(viewport={"width": 900, "height": 800})
-                page.goto(server.url + "/", timeout=PATIENCE_MS)
-                poll(page, f"window.study.trialId === {first.id!r}", PATIENCE_MS)
-                # hold the next poll: the server answers it now (the first trial), the page later
-                def hold_first(route):
-                    if held:
-                        route.continue_()
-                    else:
-                        held.append((route, route.fetch()))
+        with chromium_page(server.url + "/", 900, 800, PATIENCE_MS) as page:
+            poll(page, f"window.study.trialId === {first.id!r}", PATIENCE_MS)
+            # hold the next poll: the server answers it now (the first trial), the page later
+            def hold_first(route):
+                if held:
+                    route.continue_()
+                else:
+                    held.append((route, route.fetch()))
 
-                page.route("**/api/state", hold_first)
-                for _ in range(PATIENCE_MS // 50):
-                    if held:
-                        break
-                    page.wait_for_timeout(50)
-                assert held, "the page sent no poll"
-                page.wait_for_timeout(150)
-                page.click(f"#choices button[data-choice='{first.correct}']")
-                poll(page, f"window.study.trialId === {second.id!r}", PATIENCE_MS)
-                route, stale = held[0]
-                assert json.loads(stale.text())["trial"]["id"] == first.id
-                route.fulfill(response=stale)
-                page.wait_for_timeout(400)  # time to render the stale state, were it rendered
-                assert page.evaluate("window.study.trialId") == second.id
-                assert page.inner_text("#prompt") == second.prompt
-                page.wait_for_timeout(150)
-                page.click(f"#choices button[data-choice='{second.correct}']")
-                poll(page, "window.study.answered === 2", PATIENCE_MS)
-            finally:
-                browser.close()
+            page.route("**/api/state", hold_first)
+            for _ in range(PATIENCE_MS // 50):
+                if held:
+                    break
+                page.wait_for_timeout(50)
+            assert held, "the page sent no poll"
+            page.wait_for_timeout(150)
+            page.click(f"#choices button[data-choice='{first.correct}']")
+            poll(page, f"window.study.trialId === {second.id!r}", PATIENCE_MS)
+            route, stale = held[0]
+            assert json.loads(stale.text())["trial"]["id"] == first.id
+            route.fulfill(response=stale)
+            page.wait_for_timeout(400)  # time to render the stale state, were it rendered
+            assert page.evaluate("window.study.trialId") == second.id
+            assert page.inner_text("#prompt") == second.prompt
+            page.wait_for_timeout(150)
+            page.click(f"#choices button[data-choice='{second.correct}']")
+            poll(page, "window.study.answered === 2", PATIENCE_MS)
     finally:
         server.stop()
         runner.close()

@@ -11,17 +11,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from playwright.sync_api import sync_playwright
+import playwright.sync_api  # noqa: F401  (the dev extra: a broken install fails, it does not skip)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "live_support"))
-from page_wait import poll  # noqa: E402
+from browser_support import CHROMIUM, chromium_page, poll  # noqa: E402
 
-CHROMIUM = "/usr/bin/chromium"
 IN_CI = os.environ.get("CI", "").lower() == "true"
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
 PATIENCE_MS = 120_000  # bound of every wait on the page (generous: a loaded 2-core machine)
-FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-         "--disable-sync", "--no-first-run"]
 
 
 def _need(what: str, ok: bool):
@@ -43,49 +40,43 @@ def test_drag_on_page_drives_engine_and_draws_trace():
     srv = ServerThread(create_app(session, ServerConfig(port=0)), port=0).start()
     eng = session.engine
     try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
-            try:
-                page = browser.new_page(viewport={"width": 900, "height": 700})
-                page.goto(srv.url + "/", timeout=PATIENCE_MS)
-                _poll(page, "window.surfhap && window.surfhap.open")
-                box = page.locator("#surface").bounding_box()
-                assert box and box["width"] > 100
-                v_before = eng.trace_since(0)[0][:, 5].max() if eng.trace_count else 0.0
-                touches_before = eng.counters["touches"]
-                y = box["y"] + box["height"] / 2
-                page.mouse.move(box["x"] + 50, y)
-                page.mouse.down()
-                for k in range(2):  # two strokes, ~0.8 s
-                    for i in range(40):
-                        f = i / 39 if k % 2 == 0 else 1 - i / 39
-                        page.mouse.move(box["x"] + 50 + f * (box["width"] - 100), y + 10 * (k - 1))
-                        page.wait_for_timeout(10)
-                rows, _ = eng.trace_since(0)
-                v_during = rows[:, 5].max()
-                # a resting finger keeps the drive on (keep-alive), no watchdog fade
-                n_rest = eng.trace_count
-                _poll(page, "(window.surfhap.keepAlive || 0) >= 5")
-                for _ in range(1200):  # bounded (60 s): 100 trace rows rendered under the resting finger
-                    if eng.trace_count > n_rest + 150:
-                        break
-                    page.wait_for_timeout(50)
-                rest, _ = eng.trace_since(n_rest + 100)
-                page.mouse.up()
-                _poll(page, "window.surfhap.traceFrames > 10 && window.surfhap.tracePointsDrawn > 100")
-                _poll(page, "window.surfhap.acked >= window.surfhap.sent - 5")
-                page.wait_for_timeout(300)
-                stats = page.evaluate("() => Object.assign({}, window.surfhap)")
-                lit = page.evaluate(
-                    """() => { const c = document.getElementById('trace');
-                               const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
-                               let n = 0; for (let i = 0; i < d.length; i += 4) if (d[i] > 150 && d[i+1] > 120) n++;
-                               return n; }""")
-                ARTIFACTS.mkdir(exist_ok=True)
-                page.screenshot(path=str(ARTIFACTS / "live_page.png"))
-                latency_text = page.inner_text("#lat")
-            finally:
-                browser.close()
+        with chromium_page(srv.url + "/", 900, 700, PATIENCE_MS) as page:
+            _poll(page, "window.surfhap && window.surfhap.open")
+            box = page.locator("#surface").bounding_box()
+            assert box and box["width"] > 100
+            v_before = eng.trace_since(0)[0][:, 5].max() if eng.trace_count else 0.0
+            touches_before = eng.counters["touches"]
+            y = box["y"] + box["height"] / 2
+            page.mouse.move(box["x"] + 50, y)
+            page.mouse.down()
+            for k in range(2):  # two strokes, ~0.8 s
+                for i in range(40):
+                    f = i / 39 if k % 2 == 0 else 1 - i / 39
+                    page.mouse.move(box["x"] + 50 + f * (box["width"] - 100), y + 10 * (k - 1))
+                    page.wait_for_timeout(10)
+            rows, _ = eng.trace_since(0)
+            v_during = rows[:, 5].max()
+            # a resting finger keeps the drive on (keep-alive), no watchdog fade
+            n_rest = eng.trace_count
+            _poll(page, "(window.surfhap.keepAlive || 0) >= 5")
+            for _ in range(1200):  # bounded (60 s): 100 trace rows rendered under the resting finger
+                if eng.trace_count > n_rest + 150:
+                    break
+                page.wait_for_timeout(50)
+            rest, _ = eng.trace_since(n_rest + 100)
+            page.mouse.up()
+            _poll(page, "window.surfhap.traceFrames > 10 && window.surfhap.tracePointsDrawn > 100")
+            _poll(page, "window.surfhap.acked >= window.surfhap.sent - 5")
+            page.wait_for_timeout(300)
+            stats = page.evaluate("() => Object.assign({}, window.surfhap)")
+            lit = page.evaluate(
+                """() => { const c = document.getElementById('trace');
+                           const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+                           let n = 0; for (let i = 0; i < d.length; i += 4) if (d[i] > 150 && d[i+1] > 120) n++;
+                           return n; }""")
+            ARTIFACTS.mkdir(exist_ok=True)
+            page.screenshot(path=str(ARTIFACTS / "live_page.png"))
+            latency_text = page.inner_text("#lat")
     finally:
         srv.stop()
         session.stop()
@@ -104,7 +95,7 @@ def test_drag_on_page_drives_engine_and_draws_trace():
 
 
 def _poll(page, expr: str) -> None:
-    """Wait (bounded by PATIENCE_MS) until the JS expression is true (live_support/page_wait.py)."""
+    """Wait (bounded by PATIENCE_MS) until the JS expression is true (live_support/browser_support.py)."""
     poll(page, expr, PATIENCE_MS)
 
 
@@ -148,40 +139,34 @@ def test_ff_page_panel_shows_device_position_force_and_button_press():
             hidden: document.getElementById('ffpanel').hidden})""")
 
     try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
-            try:
-                page = browser.new_page(viewport={"width": 900, "height": 800})
-                page.goto(srv.url + "/", timeout=PATIENCE_MS)
-                _poll(page, "window.surfhap && window.surfhap.open && window.surfhap.ff && window.surfhap.ff.frames > 5")
-                # untouched, once the start-up transient has settled: the weight compensation alone
-                _poll(page, f"Math.abs(Number(document.getElementById('ff-fz').dataset.n) - {weight}) < 0.2")
-                idle = panel(page)
-                box = page.locator("#surface").bounding_box()
-                y = box["y"] + box["height"] * (easy.y0 + easy.y1) / 2 / h
-                x_easy = box["x"] + box["width"] * (easy.x0 + easy.x1) / 2 / w
-                page.mouse.move(box["x"] + 0.02 * box["width"], y)
-                page.mouse.down()
-                for i in range(60):  # drag along the row of buttons and back
-                    f = i / 59
-                    x = box["x"] + box["width"] * (0.02 + 0.9 * (1 - abs(2 * f - 1)))
-                    page.mouse.move(x, y)
-                    page.wait_for_timeout(25)
-                    samples.append(panel(page))
-                page.mouse.up()  # lift, then push on the easy button (a landing touch arms it)
-                page.mouse.move(x_easy, y)
-                page.mouse.down()
-                _poll(page, "document.getElementById('ff-button').dataset.index === '0'")
-                pressed = panel(page)
-                _poll(page, "JSON.parse(document.getElementById('ff-pos').dataset.m)[2] < -3e-3")
-                settled = panel(page)
-                ARTIFACTS.mkdir(exist_ok=True)
-                page.screenshot(path=str(ARTIFACTS / "ff_page.png"))
-                page.mouse.up()
-                _poll(page, "document.getElementById('ff-button').dataset.index === '-1'")
-                released = panel(page)
-            finally:
-                browser.close()
+        with chromium_page(srv.url + "/", 900, 800, PATIENCE_MS) as page:
+            _poll(page, "window.surfhap && window.surfhap.open && window.surfhap.ff && window.surfhap.ff.frames > 5")
+            # untouched, once the start-up transient has settled: the weight compensation alone
+            _poll(page, f"Math.abs(Number(document.getElementById('ff-fz').dataset.n) - {weight}) < 0.2")
+            idle = panel(page)
+            box = page.locator("#surface").bounding_box()
+            y = box["y"] + box["height"] * (easy.y0 + easy.y1) / 2 / h
+            x_easy = box["x"] + box["width"] * (easy.x0 + easy.x1) / 2 / w
+            page.mouse.move(box["x"] + 0.02 * box["width"], y)
+            page.mouse.down()
+            for i in range(60):  # drag along the row of buttons and back
+                f = i / 59
+                x = box["x"] + box["width"] * (0.02 + 0.9 * (1 - abs(2 * f - 1)))
+                page.mouse.move(x, y)
+                page.wait_for_timeout(25)
+                samples.append(panel(page))
+            page.mouse.up()  # lift, then push on the easy button (a landing touch arms it)
+            page.mouse.move(x_easy, y)
+            page.mouse.down()
+            _poll(page, "document.getElementById('ff-button').dataset.index === '0'")
+            pressed = panel(page)
+            _poll(page, "JSON.parse(document.getElementById('ff-pos').dataset.m)[2] < -3e-3")
+            settled = panel(page)
+            ARTIFACTS.mkdir(exist_ok=True)
+            page.screenshot(path=str(ARTIFACTS / "ff_page.png"))
+            page.mouse.up()
+            _poll(page, "document.getElementById('ff-button').dataset.index === '-1'")
+            released = panel(page)
     finally:
         srv.stop()
         loop.stop()

@@ -164,7 +164,7 @@ class DriveLaw:
             raise ConfigError(f"square frequency must be below half the model rate ({self.sample_rate / 2:g} Hz)", field="square_frequency")
         self._quantity = None if material.texture is None else material.texture.quantity
         self._relative = material.texture_relative_scale
-        self._law = self.friction_law = friction_law_for(material, method)
+        self.friction_law = friction_law_for(material, method)  # the low-band law of the method
         self.square_amplitude = None
         if method == "square":
             self.square_amplitude = self._square_amplitude()
@@ -173,7 +173,7 @@ class DriveLaw:
 
     def _friction_texture_args(self, kernel) -> tuple:
         """The law and texture parameters of ``friction_texture_law`` (Otake laws, friction-only)."""
-        law, p = self._law, self.params
+        law, p = self.friction_law, self.params
         if isinstance(law, QuasiStaticLaw):
             friction = (True, law.a, law.b, law.c, law.d, law.q, 0.0)
         else:
@@ -197,7 +197,7 @@ class DriveLaw:
         if p.square_amplitude is not None:
             return float(p.square_amplitude)
         fr, vr = p.square_reference_load, p.square_reference_speed
-        f_ref = float(self._law.coefficient(np.array([fr]), np.array([vr]))[0]) * fr
+        f_ref = float(self.friction_law.coefficient(np.array([fr]), np.array([vr]))[0]) * fr
         return float(p.alpha * np.sqrt(2.0 * f_ref))
 
     @property
@@ -224,7 +224,7 @@ class DriveLaw:
             clipped, touching = self._friction_texture(load, speed, texture, *self._kernel_args,
                                                        mu_low, mu_tex, target, voltage)
         else:
-            mu_low = self._law.coefficient(load, speed)
+            mu_low = self.friction_law.coefficient(load, speed)
             if m == "zhao":
                 fn = load if p.constant_load is None else np.where(load > 0, p.constant_load, 0.0)
                 if not self.uses_texture:

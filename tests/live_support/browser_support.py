@@ -1,0 +1,42 @@
+"""Debian's Chromium driven by Playwright (sync API) for the browser tests.
+
+:func:`chromium_page` opens one page on a URL and closes the browser afterwards. :func:`poll`
+waits on the page. The pages' Content-Security-Policy (``default-src 'self'``) forbids ``eval``;
+Playwright's ``page.wait_for_function(expression)`` evaluates a string expression with ``eval``
+once its first check has failed, so on a loaded machine (first check too early) it raises a CSP
+error instead of waiting. :func:`poll` evaluates a function through the DevTools protocol
+instead, which the policy does not cover.
+"""
+
+from __future__ import annotations
+
+import contextlib
+
+CHROMIUM = "/usr/bin/chromium"  # the Debian package; never `playwright install`
+FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+         "--disable-sync", "--no-first-run"]
+
+
+@contextlib.contextmanager
+def chromium_page(url: str, width: int, height: int, timeout_ms: int):
+    """A headless Chromium page of ``width`` x ``height`` CSS px, loaded from ``url``."""
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+        try:
+            page = browser.new_page(viewport={"width": width, "height": height})
+            page.goto(url, timeout=timeout_ms)
+            yield page
+        finally:
+            browser.close()
+
+
+def poll(page, expr: str, timeout_ms: int, every_ms: int = 50) -> None:
+    """Return when the JavaScript expression ``expr`` is truthy on ``page``; raise
+    AssertionError naming it after ``timeout_ms``."""
+    for _ in range(max(1, timeout_ms // every_ms)):
+        if page.evaluate(f"() => !!({expr})"):
+            return
+        page.wait_for_timeout(every_ms)
+    raise AssertionError(f"timed out after {timeout_ms} ms waiting for {expr}")
