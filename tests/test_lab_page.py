@@ -182,23 +182,27 @@ def test_lsl_markers_of_stimulus_touch_and_answer(tmp_path):
         if not streams:  # LSL's own discovery (UDP multicast/broadcast) is blocked on this host
             pytest.skip("LSL stream discovery does not work on this host")
         inlet = pylsl.StreamInlet(streams[0])
-        inlet.open_stream(timeout=10)
-        import time
+        inlet.open_stream(timeout=30)
+        # an outlet sends only to consumers it has accepted: wait for this inlet, not a fixed time
+        assert markers.outlet.wait_for_consumers(30), "the outlet never saw the inlet"
+        got = []
 
-        time.sleep(0.5)
+        def pull(n):  # the next n markers (bounded wait)
+            for _ in range(60):
+                if len(got) >= n:
+                    return
+                sample, _ = inlet.pull_sample(timeout=1.0)
+                if sample:
+                    got.append(json.loads(sample[0]))
+
         t = runner.current()
         assert post(server.url + "/api/stimulus", {"trial_id": t.id, "index": 0})["ok"]
         with connect(server.url.replace("http", "ws") + "/ws", origin=server.url) as ws:
             ws.send(json.dumps({"type": "move", "seq": 0, "t": 1.0, "x": 0.5, "y": 0.5, "p": 0.5}))
             ws.send(json.dumps({"type": "up", "seq": 1, "t": 2.0}))
-            time.sleep(0.5)
+            pull(3)  # the touch reached the server before the answer is sent
         assert post(server.url + "/api/answer", {"trial_id": t.id, "answer": t.correct, "rt_ms": 900})["accepted"]
-        got = []
-        end = time.monotonic() + 10
-        while len(got) < 5 and time.monotonic() < end:
-            sample, _ = inlet.pull_sample(timeout=1.0)
-            if sample:
-                got.append(json.loads(sample[0]))
+        pull(5)
         assert [g["event"] for g in got] == ["stimulus_on", "touch_down", "touch_up", "stimulus_off", "answer"]
         assert got[-1]["trial"] == t.id and got[-1]["answer"] == t.correct and got[-1]["rt_s"] == 0.9
     finally:
