@@ -142,7 +142,7 @@ def test_a_late_poll_response_does_not_bring_back_an_answered_trial(tmp_path):
             route, stale = held[0]
             assert json.loads(stale.text())["trial"]["id"] == first.id
             route.fulfill(response=stale)
-            page.wait_for_timeout(400)  # time to render the stale state, were it rendered
+            poll(page, "window.study.staleDropped === 1", PATIENCE_MS)  # the page has handled it
             assert page.evaluate("window.study.trialId") == second.id
             assert page.inner_text("#prompt") == second.prompt
             page.wait_for_timeout(150)

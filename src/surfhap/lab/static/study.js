@@ -2,7 +2,7 @@
 "use strict";
 (function () {
   const $ = (id) => document.getElementById(id);
-  const S = (window.study = { trialId: null, answered: 0, status: "loading", selected: null });
+  const S = (window.study = { trialId: null, answered: 0, status: "loading", selected: null, staleDropped: 0 });
   let shownAt = 0, busy = false, toggleValues = {}, ws = null, seq = 0;
 
   function show(id) {
@@ -28,7 +28,7 @@
     const n = ++issued;
     const st = await call(method, url, body);
     st.stale = n < newestRendered;
-    if (!st.stale) newestRendered = n;
+    if (st.stale) S.staleDropped += 1; else newestRendered = n;
     return st;
   }
 
