@@ -153,7 +153,7 @@ def test_builtin_scene_names_match_package_files():
     assert set(builtin_scene_names()) >= {"garden", "buttons", "mall", "suzanne", "follow", "reverse"}
 
 
-from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import HealthCheck, example, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from surfhap.errors import SceneFormatError  # noqa: E402
@@ -168,6 +168,7 @@ json_values = st.recursive(st.none() | st.booleans() | st.floats(allow_nan=True)
        value=json_values, effect_key=st.sampled_from(["type", "k_mat", "alpha", "depth", "period_m", "height", "mesh",
                                                      "points", "nu"]),
        effect_value=json_values)
+@example(key="picture", value={"\n": None}, effect_key="type", effect_value=None)  # a line break in a key
 def test_any_mangled_scene_is_a_scene_format_error_or_loads(tmp_path, key, value, effect_key, effect_value):
     """Random values in any field: loading either works or raises SceneFormatError (never
     another exception), so the CLI always prints one line and exits 2."""

@@ -1,6 +1,7 @@
 """Friction laws, texture banks, material files and the built-in materials."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -124,3 +125,18 @@ def test_ar_model_moments_match_analytic_ar1_and_quadrature():
     assert sd_rate == pytest.approx(np.sqrt(slope_var), rel=1e-6)
     assert model.moments(fs) is model.moments(100)  # computed once per rate
     assert model.moments(2 * fs)[1] == pytest.approx(2 * sd_rate, rel=1e-9)  # same samples, twice as fast
+
+
+def test_input_errors_are_one_line_whatever_the_input_holds(tmp_path):
+    """A key with a line break in a material file (quoted into the field by the reader) still
+    gives a one-line error: the CLI's single line, and the library's str(err)."""
+    from surfhap.errors import InputError
+
+    good = json.loads((Path(__file__).resolve().parents[1] / "src/surfhap/models/builtin/cork.json").read_text())
+    good["friction"]["a\nb\u2028c"] = 1
+    p = tmp_path / "m.json"
+    p.write_text(json.dumps(good))
+    with pytest.raises(MaterialFormatError) as err:
+        read_material_json(p)
+    assert str(p) in str(err.value) and len(str(err.value).splitlines()) == 1
+    assert str(InputError("bad\nvalue", source="f.json", field="x\ry")) == "f.json: x y: bad value"

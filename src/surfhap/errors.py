@@ -39,7 +39,9 @@ class InputError(SurfhapError, ValueError):
 
     def _line(self) -> str:
         parts = [p for p in (self.source, self.field) if p]
-        return ": ".join([*parts, self.message])
+        # one line whatever the input held: a JSON key or value with a line break (any of
+        # str.splitlines' separators) is quoted into the field or message by the readers
+        return " ".join(": ".join([*parts, self.message]).splitlines())
 
 
 class MaterialFormatError(InputError):
