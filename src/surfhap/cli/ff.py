@@ -11,7 +11,7 @@ from typing import Optional
 
 import typer
 
-from surfhap.cli._common import stderr, stdout
+from surfhap.cli._common import require_modules, stderr, stdout
 from surfhap.errors import ConfigError
 
 __all__ = ["register"]
@@ -180,6 +180,7 @@ def run_cmd(
 ) -> None:
     """Run SCENE live: a 1 kHz haptic thread driving the device and a 60 Hz position-feedback
     thread; Ctrl-C or SIGTERM ramps the force to zero and stops."""
+    _require_extras(touch if trajectory is None else "trajectory:", device, feedback)
     from surfhap.ff.engine import FFEngine
     from surfhap.ff.scene import load_scene
     from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_osc_url
@@ -266,6 +267,15 @@ def run_cmd(
     st = loop.stats()
     st["scene"] = sc.name
     typer.echo(json.dumps(st, default=float))
+
+
+def _require_extras(touch: str, device: str, feedback: Optional[str]) -> None:
+    """Before anything starts: the modules the chosen touch source, device and feedback need
+    (a missing one is one line naming the extra, exit 2, instead of a web process that never comes up)."""
+    if touch == "web":
+        require_modules("fastapi", "starlette", "uvicorn")
+    if touch.startswith("osc://") or device.startswith("osc://") or feedback is not None:
+        require_modules("pythonosc")
 
 
 class _WebSource:
