@@ -319,4 +319,7 @@ def register(app: typer.Typer) -> None:
     ff_app.command("scenes")(scenes_cmd)
     ff_app.command("simulate")(simulate_cmd)
     ff_app.command("run")(run_cmd)
+    from surfhap.cli.ff_bridge import bridge_check_cmd
+
+    ff_app.command("bridge-check")(bridge_check_cmd)
     app.add_typer(ff_app, name="ff")

@@ -13,15 +13,15 @@ every write by as many of its own ticks as wall-clock periods have passed (so th
 haptic ticks do not slow the simulated physics down; the finger's load, as reported by the
 touch source, presses on it).
 
-``osc``: :class:`OscDeviceBackend` talks to a device bridge (e.g. a CHAI3D program) over UDP:
-
-=====================================  ==================================================
-sent to the bridge, every tick          ``/surfhap/ff/force fx fy fz`` (float32, device
-                                        units = gain x N, device frame)
-received from the bridge                ``/surfhap/ff/position x y z`` (m, relative to X0)
-=====================================  ==================================================
-
-Received messages are size-, type- and range-checked; anything else is counted and dropped.
+``osc``: :class:`OscDeviceBackend` talks to a device bridge (e.g. a CHAI3D program) over UDP
+under the bridge contract (:mod:`surfhap.live.ff_bridge_wire`, docs/forcefeedback.md):
+``/surfhap/ff/force token seq fx fy fz`` every tick (device units = gain x N), and
+``/surfhap/ff/position token seq x y z ax ay az`` back (m, relative to X0). A position is
+used only when it comes from the bridge's own address (the host and port of ``--device``),
+carries this session's token and a sequence number above the last one accepted; anything
+else is dropped and counted (``dropped_sender``, ``dropped_token``, ``dropped_sequence``,
+``rejected`` for a malformed message), so no other local process can move the device's
+idea of where the screen is.
 """
 
 from __future__ import annotations
@@ -29,20 +29,17 @@ from __future__ import annotations
 import logging
 import math
 import socket
-import struct
 import threading
 
 import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.live.clock import now
+from surfhap.live.ff_bridge_wire import decode_position, encode_force, new_token
 
-__all__ = ["SimDeviceBackend", "OscDeviceBackend", "parse_osc_url"]
+__all__ = ["SimDeviceBackend", "OscDeviceBackend", "parse_osc_url", "parse_host_port"]
 
 log = logging.getLogger("surfhap.live")
-
-MAX_POSITION = 1.0  # m, larger positions are rejected as garbage
-
 
 def parse_osc_url(text: str, option: str) -> tuple[str, int]:
     """``osc://HOST:PORT`` -> (host, port); ConfigError naming ``option`` otherwise."""
@@ -51,6 +48,15 @@ def parse_osc_url(text: str, option: str) -> tuple[str, int]:
     host, _, port = text[6:].rstrip("/").rpartition(":")
     if not host or not port.isdigit() or not 0 <= int(port) <= 65535:
         raise ConfigError(f"expected osc://HOST:PORT, got {text!r}", source=option)
+    return host.strip("[]"), int(port)
+
+
+def parse_host_port(text: str, option: str) -> tuple[str, int]:
+    """``HOST:PORT`` (a listening address; ``[::1]:9101`` for IPv6) -> (host, port);
+    ConfigError naming ``option`` otherwise."""
+    host, _, port = text.rpartition(":")
+    if not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+        raise ConfigError(f"expected HOST:PORT, got {text!r}", source=option)
     return host.strip("[]"), int(port)
 
 
@@ -101,35 +107,35 @@ class OscDeviceBackend:
     """Force commands to ``host:port`` over OSC; positions from the bridge on ``listen`` (UDP).
 
     listen : (host, port) to receive positions on; port 0 picks a free one (see ``.listen_port``).
+    token  : the session token (default: a random one per backend).
     """
 
     name = "osc"
 
-    def __init__(self, host: str, port: int, gain: float, listen: tuple[str, int] = ("127.0.0.1", 0)):
-        from pythonosc.osc_message_builder import OscMessageBuilder  # noqa: F401  (fail early if missing)
-
+    def __init__(self, host: str, port: int, gain: float, listen: tuple[str, int] = ("127.0.0.1", 0),
+                 token: int | None = None):
         self.host, self.port = host, int(port)
         self.gain = float(gain)
         self.listen = listen
         self.listen_port = None
+        self.token = new_token() if token is None else int(token)
+        self._seq_out = 0
+        self._seq_in = -1
+        self._bridge: set[tuple[str, int]] = set()
         self._pos = (0.0, 0.0, 0.0, -math.inf)
         self._sock_out = None
         self._sock_in = None
         self._thread = None
         self._run = False
-        self.sent = self.received = self.rejected = self.errors = 0
-        self._prefix = self._build_prefix()
-
-    @staticmethod
-    def _build_prefix() -> bytes:
-        addr = b"/surfhap/ff/force"
-        addr += b"\0" * (4 - len(addr) % 4)
-        tags = b",fff"
-        tags += b"\0" * (4 - len(tags) % 4)
-        return addr + tags
+        self.sent = self.received = self.errors = 0
+        self.rejected = self.dropped_sender = self.dropped_token = self.dropped_sequence = 0
 
     def start(self) -> None:
-        self._sock_out = socket.socket(socket.AF_INET6 if ":" in self.host else socket.AF_INET, socket.SOCK_DGRAM)
+        family = socket.AF_INET6 if ":" in self.host else socket.AF_INET
+        # the bridge's address, resolved once: positions from anywhere else are not the bridge's
+        self._bridge = {(a[4][0], a[4][1]) for a in socket.getaddrinfo(self.host, self.port, family,
+                                                                         socket.SOCK_DGRAM)}
+        self._sock_out = socket.socket(family, socket.SOCK_DGRAM)
         self._sock_out.setblocking(False)
         self._sock_in = socket.socket(socket.AF_INET6 if ":" in self.listen[0] else socket.AF_INET, socket.SOCK_DGRAM)
         self._sock_in.bind(self.listen)
@@ -149,36 +155,48 @@ class OscDeviceBackend:
             if s is not None:
                 s.close()
 
-    def _receive(self) -> None:
-        from pythonosc.osc_message import OscMessage
+    def _drop(self, counter: str, peer, why: str) -> None:
+        setattr(self, counter, getattr(self, counter) + 1)
+        n = self.rejected + self.dropped_sender + self.dropped_token + self.dropped_sequence
+        if n <= 5 or n % 1000 == 0:
+            log.warning("ff osc device: dropped a position from %s: %s (%d dropped so far)", peer, why, n)
 
+    def _receive(self) -> None:
         while self._run:
             try:
-                data, _ = self._sock_in.recvfrom(1024)
+                data, addr = self._sock_in.recvfrom(1024)
             except (socket.timeout, OSError):
                 continue
-            try:
-                msg = OscMessage(data)
-                addr, args = msg.address, msg.params
-            except Exception:  # noqa: BLE001 - any parse failure is a bad message
-                self.rejected += 1
-                continue
-            if addr != "/surfhap/ff/position" or len(args) != 3 or not all(
-                    isinstance(a, (int, float)) and not isinstance(a, bool) and math.isfinite(a)
-                    and abs(a) <= MAX_POSITION for a in args):
-                self.rejected += 1
-                if self.rejected <= 5:
-                    log.warning("ff osc device: rejected %s %r", addr[:64], args[:4] if isinstance(args, list) else args)
-                continue
-            self._pos = (float(args[0]), float(args[1]), float(args[2]), now())  # one tuple store: atomic
-            self.received += 1
+            self.accept(data, addr)
+
+    def accept(self, data: bytes, addr: tuple) -> bool:
+        """Check one datagram from ``addr`` against the contract; True when its position was taken."""
+        if (addr[0], addr[1]) not in self._bridge:
+            self._drop("dropped_sender", addr[:2], f"not the bridge ({self.host}:{self.port})")
+            return False
+        msg = decode_position(data)
+        if msg is None:
+            self._drop("rejected", addr[:2], "not /surfhap/ff/position ,iiffffff with finite values in range")
+            return False
+        token, seq, x, y, z = msg[:5]
+        if token != self.token:
+            self._drop("dropped_token", addr[:2], "wrong session token")
+            return False
+        if seq <= self._seq_in:
+            self._drop("dropped_sequence", addr[:2], f"sequence number {seq} not above {self._seq_in}")
+            return False
+        self._seq_in = seq
+        self._pos = (x, y, z, now())  # one tuple store: atomic
+        self.received += 1
+        return True
 
     def read(self, t: float):
         return self._pos
 
     def write(self, force, t: float) -> None:
         g = self.gain
-        payload = self._prefix + struct.pack(">fff", force[0] * g, force[1] * g, force[2] * g)
+        payload = encode_force(self.token, self._seq_out, force[0] * g, force[1] * g, force[2] * g)
+        self._seq_out += 1
         try:
             self._sock_out.sendto(payload, (self.host, self.port))
             self.sent += 1
@@ -188,4 +206,5 @@ class OscDeviceBackend:
     def info(self) -> dict:
         return {"name": self.name, "target": f"{self.host}:{self.port}", "listen_port": self.listen_port,
                 "gain": self.gain, "sent": self.sent, "received": self.received, "rejected": self.rejected,
-                "errors": self.errors}
+                "dropped_sender": self.dropped_sender, "dropped_token": self.dropped_token,
+                "dropped_sequence": self.dropped_sequence, "errors": self.errors}

@@ -1,0 +1,63 @@
+"""``surfhap ff bridge-check osc://HOST:PORT``: test a running force-feedback bridge against the
+OSC bridge contract (docs/forcefeedback.md); a pass/fail table, exit 0 all pass, 1 any fails."""
+
+from __future__ import annotations
+
+from typing import Optional
+
+import typer
+
+from surfhap.cli._common import stdout
+from surfhap.errors import ConfigError
+
+__all__ = ["bridge_check_cmd"]
+
+
+def bridge_check_cmd(
+    url: str = typer.Argument(..., help="osc://HOST:PORT where the bridge receives /surfhap/ff/force."),
+    listen: str = typer.Option("127.0.0.1:9101", "--listen", help="HOST:PORT the bridge sends /surfhap/ff/position to (as ff run --device-listen)."),
+    gain: float = typer.Option(4.5, "--gain", help="Device units per newton (4.5: a Falcon through CHAI3D)."),
+    limit: Optional[float] = typer.Option(None, "--limit", help="Largest applied force per axis the bridge may report, device units (default: gain x 8 N)."),
+    force: float = typer.Option(1.0, "--force", help="Force of the axes and watchdog rows, N (0.1-4)."),
+    tolerance_ms: float = typer.Option(5.0, "--tolerance-ms", help="Added to the 20 ms watchdog for delivery delays on a busy host, ms (0-1000)."),
+    trials: int = typer.Option(3, "--trials", help="Watchdog trials; the worst counts (1-20)."),
+) -> None:
+    """Test a running bridge: reply, rate, sequence numbers, units, axes, clamp and the 20 ms
+    watchdog. Run it with the device free (the clamp row applies the bridge's limit for 30 ms)."""
+    from surfhap.live.ff_bridge_check import check_bridge
+    from surfhap.live.ff_devices import parse_host_port, parse_osc_url
+
+    host, port = parse_osc_url(url, "URL")
+    if port == 0:
+        raise ConfigError("the bridge's port must be within 1-65535", source="URL")
+    lh, lp = parse_host_port(listen, "--listen")
+    if not 0.1 < gain <= 1000.0:
+        raise ConfigError("must be within 0.1-1000", source="--gain")
+    limit = gain * 8.0 if limit is None else limit
+    if not 0.0 < limit <= 1e5:
+        raise ConfigError("must be within 0-1e5 device units", source="--limit")
+    if not 0.1 <= force <= 4.0:
+        raise ConfigError("must be within 0.1-4 N", source="--force")
+    if not 0.0 <= tolerance_ms <= 1000.0:
+        raise ConfigError("must be within 0-1000 ms", source="--tolerance-ms")
+    if not 1 <= trials <= 20:
+        raise ConfigError("must be within 1-20", source="--trials")
+    try:
+        rows = check_bridge(host, port, listen=(lh, lp), gain=gain, limit=limit, force=force,
+                            tolerance=tolerance_ms * 1e-3, trials=trials)
+    except OSError as exc:
+        raise ConfigError(f"cannot listen or reach the bridge ({exc.strerror or exc})", source="--listen") from None
+    if stdout.is_terminal:
+        from rich.table import Table
+
+        table = Table(title=f"bridge {host}:{port}")
+        for col in ("check", "result", "detail"):
+            table.add_column(col)
+        for r in rows:
+            table.add_row(r.name, "[green]PASS[/]" if r.passed else "[red]FAIL[/]", r.detail)
+        stdout.print(table)
+    else:
+        for r in rows:
+            typer.echo(f"{'PASS' if r.passed else 'FAIL'} {r.name:<9} {r.detail}")
+    if not all(r.passed for r in rows):
+        raise typer.Exit(1)
