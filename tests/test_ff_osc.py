@@ -1,4 +1,5 @@
-"""OSC round trips of the force-feedback loop against a real OSC client (liblo's oscsend / oscdump).
+"""OSC round trips of the force-feedback loop against real OSC clients (liblo's oscsend / oscdump, and
+python-osc reference bridges of the bridge contract).
 
 liblo-tools is a system package (Makefile SYSTEM_PACKAGES); these tests install nothing.
 """
@@ -6,7 +7,9 @@ liblo-tools is a system package (Makefile SYSTEM_PACKAGES); these tests install 
 import shutil
 import socket
 import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,7 +22,10 @@ from surfhap.live.prediction import TouchPredictor
 from surfhap.live.sources import OscTouchSource, TouchSpace
 from surfhap.sim.ff_device import SimDevice
 
-pytestmark = pytest.mark.skipif(not (shutil.which("oscsend") and shutil.which("oscdump")),
+sys.path.insert(0, str(Path(__file__).parent))
+from live_support.ff_bridges import ReferenceBridge  # noqa: E402
+
+needs_liblo = pytest.mark.skipif(not (shutil.which("oscsend") and shutil.which("oscdump")),
                                 reason="liblo-tools (oscsend, oscdump) not installed; run make system-deps")
 
 
@@ -70,6 +76,7 @@ def parse(lines, address):
     return np.array(out)
 
 
+@needs_liblo
 def test_touch_from_oscsend_reaches_the_haptic_loop():
     sc = load_scene("buttons")
     eng = FFEngine(sc.effects, FALCON, TouchPredictor(), touch_latency=0.0)
@@ -97,7 +104,10 @@ def test_touch_from_oscsend_reaches_the_haptic_loop():
     assert loop.error is None
 
 
-def test_osc_device_forces_to_oscdump_and_positions_from_oscsend(tmp_path):
+@needs_liblo
+def test_osc_device_force_messages_decoded_by_oscdump(tmp_path):
+    """liblo decodes the force message: /surfhap/ff/force iifff token seq fx fy fz, the session
+    token in each, sequence numbers counting up; no device position yet: zero force."""
     force_port = free_udp_port()
     dump = Dump(force_port, tmp_path / "dump.txt")
     sc = load_scene("buttons")
@@ -106,28 +116,94 @@ def test_osc_device_forces_to_oscdump_and_positions_from_oscsend(tmp_path):
     loop = FFLoop(eng, be)
     loop.start()
     try:
-        # no device position yet: the device watchdog keeps the force at zero
         assert wait_for(lambda: len(parse(dump.lines(), "/surfhap/ff/force")) > 50)
-        before = parse(dump.lines(), "/surfhap/ff/force")
-        assert np.all(before == 0.0)
-        # the bridge reports the screen 5 mm to the right, repeatedly (the watchdog needs < 10 ms gaps
-        # to hold the force; between bursts it ramps back to zero, which is fine here)
-        shell = f"for i in $(seq 60); do oscsend 127.0.0.1 {be.listen_port} /surfhap/ff/position fff 0.005 0 0; done"
-        subprocess.run(["sh", "-c", shell], check=True, timeout=60)
-        assert be.received >= 1
-        time.sleep(0.2)
-        forces = parse(dump.lines(), "/surfhap/ff/force")
     finally:
         loop.stop()
         dump.close()
-    # Idle centring pulls back (-x) and the weight compensation pushes up (+z), in device units
-    assert forces[:, 0].min() < -0.5
-    assert forces[:, 2].max() > 0.5
+    lines = [ln.split() for ln in dump.lines() if "/surfhap/ff/force" in ln.split()]
+    i = lines[0].index("/surfhap/ff/force")
+    assert all(ln[i + 1] == "iifff" for ln in lines)
+    assert {int(ln[i + 2]) for ln in lines} == {be.token}
+    seqs = [int(ln[i + 3]) for ln in lines]
+    assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)
+    assert all(float(v) == 0.0 for ln in lines for v in ln[i + 4:])  # the device watchdog holds zero
+
+
+def test_osc_device_forces_follow_the_positions_of_a_reference_bridge():
+    """A python-osc bridge (tests/live_support/ff_bridges.py) reports the screen 5 mm to the right."""
+    sc = load_scene("buttons")
+    eng = FFEngine(sc.effects, FALCON, TouchPredictor(), touch_latency=0.0)
+    listen = free_udp_port()
+    with ReferenceBridge(("127.0.0.1", listen), position=(0.005, 0.0, 0.0)) as bridge:
+        be = OscDeviceBackend("127.0.0.1", bridge.port, FALCON.gain, listen=("127.0.0.1", listen))
+        loop = FFLoop(eng, be)
+        loop.start()
+        try:
+            # Idle centring pulls back (-x) and the weight compensation pushes up (+z), in device units
+            assert wait_for(lambda: any(c[0] < -0.5 for c in list(bridge.commands))
+                            and any(c[2] > 0.5 for c in list(bridge.commands)), timeout=30)
+        finally:
+            loop.stop()
+        forces = np.array(bridge.commands)
+    assert be.received >= 1 and be.read(0.0)[:3] == pytest.approx((0.005, 0.0, 0.0))
+    assert be.dropped_sender == be.dropped_token == be.dropped_sequence == be.rejected == 0
     # device units = gain x newtons, never beyond gain x f_max
     assert np.all(np.abs(forces) <= FALCON.gain * np.asarray(FALCON.f_max) * (1 + 1e-6))
     assert loop.error is None
 
 
+def test_positions_from_another_local_process_are_dropped_and_counted():
+    """Issue 17 #7: any local process could inject device positions. An intruder on another
+    port sends well-formed positions (even with the session token, in the old three-float
+    format too): none is taken, each is counted; the bridge's own positions still are."""
+    from pythonosc.udp_client import SimpleUDPClient
+
+    from surfhap.live.ff_bridge_wire import encode_position
+
+    listen = free_udp_port()
+    with ReferenceBridge(("127.0.0.1", listen), position=(0.002, -0.001, 0.0)) as bridge:
+        be = OscDeviceBackend("127.0.0.1", bridge.port, FALCON.gain, listen=("127.0.0.1", listen))
+        be.start()
+        intruder = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        old_style = SimpleUDPClient("127.0.0.1", listen)
+        try:
+            for k in range(100):  # the bridge needs forces to learn the token
+                be.write(np.zeros(3), 0.0)
+                intruder.sendto(encode_position(be.token, 10**6 + k, -0.03, 0.02, 0.01, 0, 0, 0), ("127.0.0.1", listen))
+                old_style.send_message("/surfhap/ff/position", [-0.03, 0.02, 0.01])
+                time.sleep(0.002)
+            assert wait_for(lambda: be.dropped_sender >= 200 and be.received >= 1)
+            assert be.read(0.0)[:3] == pytest.approx((0.002, -0.001, 0.0))
+        finally:
+            intruder.close()
+            be.stop()
+    assert be.dropped_sender == 200
+
+
+def test_wrong_token_and_stale_sequence_numbers_are_dropped_and_counted():
+    from surfhap.live.ff_bridge_wire import encode_position
+
+    be = OscDeviceBackend("127.0.0.1", 9, FALCON.gain, listen=("127.0.0.1", 0), token=12345)
+    be.start()
+    try:
+        bridge = ("127.0.0.1", 9)
+        pos = lambda token, seq, x: encode_position(token, seq, x, 0.0, 0.0, 0.0, 0.0, 0.0)  # noqa: E731
+        assert be.accept(pos(12345, 7, 0.001), bridge)
+        assert not be.accept(pos(54321, 8, 0.002), bridge)  # another session's token
+        assert not be.accept(pos(12345, 7, 0.003), bridge)  # a repeat
+        assert not be.accept(pos(12345, 3, 0.004), bridge)  # older than the last one taken
+        assert not be.accept(pos(12345, 9, 5.0), bridge)  # not metres
+        assert not be.accept(b"/surfhap/ff/position\0\0\0\0,fff\0\0\0\0" + bytes(12), bridge)  # the old format
+        assert be.read(0.0)[:3] == (pytest.approx(0.001), 0.0, 0.0)
+        assert be.accept(pos(12345, 8, 0.005), bridge)  # the next number after a gap of drops
+        assert be.read(0.0)[0] == pytest.approx(0.005)
+        assert (be.received, be.dropped_token, be.dropped_sequence, be.rejected, be.dropped_sender) == (2, 1, 2, 2, 0)
+        assert be.info()["dropped_sequence"] == 2
+    finally:
+        be.stop()
+
+
+@needs_liblo
 def test_feedback_thread_sends_position_offset_and_force(tmp_path):
     port = free_udp_port()
     dump = Dump(port, tmp_path / "fb.txt")

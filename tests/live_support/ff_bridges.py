@@ -34,6 +34,7 @@ class ReferenceBridge:
         self.applied = (0.0, 0.0, 0.0)
         self.t_force = -math.inf
         self.forces = 0
+        self.commands = []  # (fx, fy, fz) as received, device units
         self.lock = threading.Lock()
         disp = Dispatcher()
         disp.map("/surfhap/ff/force", self._on_force)
@@ -56,6 +57,7 @@ class ReferenceBridge:
             self.applied = (self._clamp(fx), self._clamp(fy), self._clamp(fz))
             self.t_force = time.monotonic()
             self.forces += 1
+            self.commands.append((fx, fy, fz))
 
     def _send_positions(self):
         next_t = time.monotonic()
