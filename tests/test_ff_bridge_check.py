@@ -23,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from live_support.ff_bridges import ReferenceBridge  # noqa: E402
 
 ROWS = ["reply", "rate", "sequence", "units", "axes", "clamp", "watchdog"]
-TOLERANCE_MS = "150"
+TOLERANCE_MS = "300"
 
 
 def free_udp_port() -> int:
@@ -71,7 +71,7 @@ def test_bridge_check_passes_a_compliant_bridge_and_fails_one_that_holds_its_for
 def test_bridge_check_names_the_broken_contract_item(kw, failing):
     listen = free_udp_port()
     with ReferenceBridge(("127.0.0.1", listen), **kw) as bridge:
-        rows = check_bridge("127.0.0.1", bridge.port, listen=("127.0.0.1", listen), tolerance=0.15, trials=1)
+        rows = check_bridge("127.0.0.1", bridge.port, listen=("127.0.0.1", listen), tolerance=0.3, trials=1)
     assert [r.name for r in rows] == ROWS
     assert failing in [r.name for r in rows if not r.passed], rows
 

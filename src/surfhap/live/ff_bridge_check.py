@@ -116,14 +116,16 @@ class BridgeCheck:
                 continue
             self.log.append(_Received(t, msg[1], tuple(msg[2:5]), tuple(msg[5:8])))
 
-    def _stream(self, f, seconds: float) -> tuple[int, float]:
-        """Send ``f`` every ms for ``seconds``; returns (index of the first position received
-        from now on, time of the last force sent)."""
+    def _stream(self, f, seconds: float, min_positions: int = 0, max_seconds: float = 0.5) -> tuple[int, float]:
+        """Send ``f`` every ms for ``seconds`` and on (up to ``max_seconds``) until
+        ``min_positions`` positions have come back (a bridge delayed by a busy host is not
+        judged on an empty window); returns (index of the first position received from now
+        on, time of the last force sent)."""
         start = len(self.log)
         t0 = now()
         k = 0
         t = t0
-        while t - t0 < seconds:
+        while t - t0 < seconds or (len(self.log) - start < min_positions and t - t0 < max_seconds):
             self._send(f)
             self._drain()
             k += 1
@@ -183,10 +185,14 @@ class BridgeCheck:
     def _sequence_row(self) -> CheckRow:
         back = sum(1 for a, b in zip(self.log, self.log[1:]) if b.seq <= a.seq)
         f = self.force * self.gain
-        start, t_last = self._stream((f, 0.0, 0.0), 0.05)
-        self._send((-f, 0.0, 0.0), seq=self._seq - 2)  # older than the last one sent: must be ignored
-        self._listen(0.012)  # < 20 ms: the bridge still applies the newest force
-        seen = self._applied_after(start, t_last)
+        seen = []
+        for _ in range(5):  # until positions come back within the 12 ms (a busy host may delay them)
+            start, t_last = self._stream((f, 0.0, 0.0), 0.05, min_positions=5)
+            self._send((-f, 0.0, 0.0), seq=self._seq - 2)  # older than the last one sent: must be ignored
+            self._listen(0.012)  # < 20 ms: the bridge still applies the newest force
+            seen = self._applied_after(start, t_last)
+            if seen:
+                break
         stale = sum(1 for a in seen if a[0] < 0.0)
         ok = back == 0 and stale == 0 and bool(seen)
         detail = (f"{back} positions not above the previous number; stale force applied in {stale} of "
@@ -200,7 +206,7 @@ class BridgeCheck:
         for i, axis in enumerate("xyz"):
             cmd = [0.0, 0.0, 0.0]
             cmd[i] = f
-            start, _ = self._stream(tuple(cmd), 0.06)
+            start, _ = self._stream(tuple(cmd), 0.06, min_positions=10)
             seen = [r.a for r in self.log[start:]]
             tol = 0.05 * f + 1e-6
             hits = [k for k, a in enumerate(seen) if all(abs(a[j] - cmd[j]) <= tol for j in range(3))]
@@ -218,11 +224,11 @@ class BridgeCheck:
 
     def _clamp_row(self) -> CheckRow:
         big = 1e6
-        start, _ = self._stream((big, -big, big), 0.03)
+        start, _ = self._stream((big, -big, big), 0.03, min_positions=5, max_seconds=0.2)
         seen = [r.a for r in self.log[start:]]
         peak = max((max(abs(v) for v in a) for a in seen), default=math.nan)
         m0 = self.malformed
-        start, _ = self._stream((math.nan, math.nan, math.nan), 0.03)
+        start, _ = self._stream((math.nan, math.nan, math.nan), 0.03, min_positions=5)
         nan_seen = [r.a for r in self.log[start:]]
         nan_ok = bool(nan_seen) and all(v == 0.0 for v in nan_seen[-1]) and self.malformed == m0
         self._stream((0.0, 0.0, 0.0), 0.03)
@@ -235,7 +241,7 @@ class BridgeCheck:
         bound = BRIDGE_WATCHDOG_S + self.tolerance
         worst, fails = 0.0, []
         for _ in range(max(1, self.trials)):
-            start, t_last = self._stream((0.0, 0.0, f), 0.1)
+            start, t_last = self._stream((0.0, 0.0, f), 0.1, min_positions=10)
             self._listen(bound + 0.15)
             after = [r for r in self.log[start:] if r.t > t_last]
             if not after:
