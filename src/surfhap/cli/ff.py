@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import logging
 import signal
 import time
 from pathlib import Path
@@ -186,8 +185,9 @@ def run_cmd(
     from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_osc_url
     from surfhap.live.ff_loop import FFLoop, OscFeedback, WorldTouchAdapter
 
-    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    from surfhap.live.logfilter import configure_logging
+
+    configure_logging(verbose)  # rate-limited: a flood of rejected touches is one line per kind per second
     if duration < 0 or duration > 86400:
         raise ConfigError("must be within 0-86400 s", source="--duration")
     dev = _device(gain, slew, f_max)

@@ -19,7 +19,7 @@ import threading
 import time
 from collections import OrderedDict
 
-__all__ = ["RateLimitFilter", "install_rate_limit"]
+__all__ = ["RateLimitFilter", "install_rate_limit", "configure_logging"]
 
 
 class RateLimitFilter(logging.Filter):
@@ -77,3 +77,15 @@ def install_rate_limit(logger: logging.Logger | None = None, period: float = 1.0
         if not any(isinstance(f, RateLimitFilter) for f in h.filters):
             h.addFilter(filt)
     return filt
+
+
+def configure_logging(verbose: bool = False) -> None:
+    """Logging of a long-running command: when the caller has not configured logging (no
+    root handler, as in an embedding app or a test), one stderr handler at WARNING (INFO
+    when ``verbose``) with :func:`install_rate_limit` on it, so whatever a client provokes
+    gives at most one line per kind per second."""
+    root = logging.getLogger()
+    if not root.handlers:
+        logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
+                            format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+        install_rate_limit(root)

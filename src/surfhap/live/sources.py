@@ -25,12 +25,12 @@ from __future__ import annotations
 import logging
 import math
 import socket
-import socketserver
 import threading
 from dataclasses import dataclass
 
 from surfhap.errors import ConfigError
 from surfhap.live.clock import now, sleep_until
+from surfhap.live.udpguard import UdpListener
 
 __all__ = ["TouchSpace", "RateLimiter", "RejectLog", "OscTouchSource", "ReplaySource", "OSC_ADDRESSES",
            "finite_in_range"]
@@ -144,19 +144,25 @@ class OscTouchSource:
 
     So after any burst of junk a new sender is admitted within ``1 / admit_rate`` s; only
     while a flood of new addresses lasts are new senders delayed (established ones are
-    not). ``clock`` (s, monotonic) is injectable for tests.
+    not). A sender that exceeds its bucket is put in a penalty box for ``penalty_hold`` s
+    (:class:`surfhap.live.udpguard.UdpListener`: the kernel drops its datagrams), so a flood
+    from one sender cannot fill the socket's queue and crowd out the other senders' touches.
+    ``clock`` (s, monotonic) is injectable for tests.
     """
 
     def __init__(self, engine, host: str = "127.0.0.1", port: int = 9000, space: TouchSpace | None = None,
                  rate: float = 2000.0, burst: float = 200.0, max_senders: int = 64, source_base: int = 1 << 32,
-                 admit_rate: float = 20.0, admit_burst: float = 16.0, sender_idle: float = 10.0, clock=now):
+                 admit_rate: float = 20.0, admit_burst: float = 16.0, sender_idle: float = 10.0, clock=now,
+                 penalty_hold: float = 1.0):
         """``source_base``: first source id of OSC senders, far above the page's client
         ids (which count up from 1000), so the two never collide.
 
         ``admit_rate``/``admit_burst``: a lab has a few OSC senders that start at about the
         same time; 16 at once and 20 more per second is far above that and still bounds a
         flood. ``sender_idle``: an OSC sender streams at >= 25 Hz while touching, so 10 s of
-        silence means it has stopped (the watchdog silenced it after 50 ms)."""
+        silence means it has stopped (the watchdog silenced it after 50 ms). ``penalty_hold``:
+        s a sender that exceeded its bucket spends in the kernel-level penalty box
+        (:class:`surfhap.live.udpguard.UdpListener`)."""
         from pythonosc.osc_message import OscMessage  # noqa: F401  (fail early if missing)
 
         self.engine = engine
@@ -174,54 +180,71 @@ class OscTouchSource:
         self.evicted = 0
         self._next_source = 0
         self._senders: dict[tuple, _Sender] = {}
-        self._server = None
+        self.penalty_hold = float(penalty_hold)
+        self._listener: UdpListener | None = None
+        self._sock = None
+        self._run = False
         self._thread = None
 
     def start(self) -> None:
-        source = self
-
-        class Handler(socketserver.BaseRequestHandler):
-            def handle(self):
-                try:
-                    source._datagram(self.request[0], self.client_address)
-                except Exception as exc:  # noqa: BLE001 - a datagram must never end the listener
-                    source.rejects.reject(f"osc {self.client_address}", f"bad datagram ({type(exc).__name__})")
-
-        server_cls = socketserver.UDPServer
-        if ":" in self.host:  # an IPv6 address such as ::1 or ::
-
-            class server_cls(socketserver.UDPServer):  # noqa: N801
-                address_family = socket.AF_INET6
-
-        self._server = server_cls((self.host, self.port), Handler)
-        self.port = self._server.server_address[1]
-        self._thread = threading.Thread(target=self._server.serve_forever, kwargs={"poll_interval": 0.1},
-                                        name="surfhap-osc-in", daemon=True)
+        self._listener = UdpListener(self.host, self.port, hold=self.penalty_hold)
+        self._sock = self._listener.sock
+        self._sock.settimeout(0.1)
+        self.port = self._listener.port
+        self._run = True
+        self._thread = threading.Thread(target=self._serve, name="surfhap-osc-in", daemon=True)
         self._thread.start()
         log.info("OSC touch input on udp://%s:%d (%s)", self.host, self.port, ", ".join(OSC_ADDRESSES))
 
+    def _serve(self) -> None:
+        """Receive loop: one plain ``recvfrom`` per datagram, so that a flood from one sender
+        costs a socket read and a token-bucket check per datagram (not a server round,
+        handler object and parse), and the socket is drained faster than a flood fills it:
+        the other senders' datagrams are not lost in the kernel's queue."""
+        sock, datagram, limit, release, clock = (self._sock, self._datagram, MAX_DATAGRAM + 1,
+                                                 self._listener.release_due, self.clock)
+        while self._run:
+            release(clock())
+            try:
+                data, addr = sock.recvfrom(limit)
+            except (socket.timeout, InterruptedError):
+                continue
+            except OSError:
+                if self._run:
+                    continue
+                return
+            try:
+                datagram(data, addr)
+            except Exception as exc:  # noqa: BLE001 - a datagram must never end the listener
+                self.rejects.reject(f"osc {addr}", f"bad datagram ({type(exc).__name__})")
+
     def stop(self) -> None:
-        if self._server is not None:
-            self._server.shutdown()
-            self._server.server_close()
-            self._server = None
+        self._run = False
+        if self._thread is not None:
+            self._thread.join(2.0)
+            self._thread = None
+        if self._listener is not None:
+            self._listener.close()
+            self._listener = self._sock = None
 
     def _datagram(self, data: bytes, addr: tuple) -> None:
         from pythonosc.osc_message import OscMessage, ParseError
 
-        peer = f"osc {addr[0]}:{addr[1]}"
-        if len(data) > MAX_DATAGRAM:
-            self.rejects.reject(peer, f"datagram of {len(data)} bytes (limit {MAX_DATAGRAM})")
-            return
         t = self.clock()
         entry = self._senders.get(addr)
         if entry is None:
-            entry = self._admit(addr, peer, t)
+            entry = self._admit(addr, f"osc {addr[0]}:{addr[1]}", t)
             if entry is None:
                 return
         entry.last_seen = t
-        if not entry.limiter.allow(t):
-            self.rejects.reject(peer, "rate limit exceeded")
+        if not entry.limiter.allow(t):  # a flood's path: one look-up and one bucket per datagram
+            self.rejects.reject(f"osc {addr[0]}:{addr[1]}", "rate limit exceeded")
+            if self._listener is not None:  # and from now on the kernel drops its datagrams for a while
+                self._listener.penalise(addr, t)
+            return
+        peer = f"osc {addr[0]}:{addr[1]}"
+        if len(data) > MAX_DATAGRAM:
+            self.rejects.reject(peer, f"datagram of {len(data)} bytes (limit {MAX_DATAGRAM})")
             return
         if data.startswith(b"#bundle"):
             self.rejects.reject(peer, "OSC bundles are not accepted; send single messages")
