@@ -182,7 +182,7 @@ def run_cmd(
     _require_extras(touch if trajectory is None else "trajectory:", device, feedback)
     from surfhap.ff.engine import FFEngine
     from surfhap.ff.scene import load_scene
-    from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_osc_url
+    from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_host_port, parse_osc_url
     from surfhap.live.ff_loop import FFLoop, OscFeedback, WorldTouchAdapter
 
     from surfhap.live.logfilter import configure_logging
@@ -202,10 +202,7 @@ def run_cmd(
         backend = SimDeviceBackend(SimDevice(gain=dev.gain), dev.gain)
     else:
         host, port = parse_osc_url(device, "--device")
-        lh, _, lp = device_listen.rpartition(":")
-        if not lh or not lp.isdigit() or not 0 <= int(lp) <= 65535:
-            raise ConfigError("expected HOST:PORT", source="--device-listen")
-        backend = OscDeviceBackend(host, port, dev.gain, listen=(lh, int(lp)))
+        backend = OscDeviceBackend(host, port, dev.gain, listen=parse_host_port(device_listen, "--device-listen"))
     fb = None
     if feedback is not None:
         fb = OscFeedback(*parse_osc_url(feedback, "--feedback"))

@@ -3,6 +3,7 @@ OSC bridge contract (docs/forcefeedback.md); a pass/fail table, exit 0 all pass,
 
 from __future__ import annotations
 
+import socket
 from typing import Optional
 
 import typer
@@ -45,8 +46,10 @@ def bridge_check_cmd(
     try:
         rows = check_bridge(host, port, listen=(lh, lp), gain=gain, limit=limit, force=force,
                             tolerance=tolerance_ms * 1e-3, trials=trials)
+    except socket.gaierror as exc:
+        raise ConfigError(f"cannot resolve {host!r} ({exc.strerror or exc})", source="URL") from None
     except OSError as exc:
-        raise ConfigError(f"cannot listen or reach the bridge ({exc.strerror or exc})", source="--listen") from None
+        raise ConfigError(f"cannot listen ({exc.strerror or exc})", source="--listen") from None
     if stdout.is_terminal:
         from rich.table import Table
 
