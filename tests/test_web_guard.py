@@ -243,3 +243,28 @@ def test_a_wildcard_bound_study_page_takes_ip_literals_but_not_names(tmp_path):
                      ("", False)):
         assert guard.host_ok(host) is ok, host
     assert not RequestGuard(host_allow_list("0.0.0.0")).host_ok("192.168.1.20")  # serve's rule: names only
+
+
+def test_a_flood_of_malformed_requests_leaves_a_few_log_lines(page, caplog, monkeypatch):
+    """uvicorn logs one warning per malformed request ('Invalid HTTP request received.'); in
+    'study run' nobody configured logging, so nothing but the server's own throttle bounds it."""
+    from collections import OrderedDict
+
+    from surfhap.live.logfilter import RateLimitFilter
+
+    _, server = page
+    caplog.set_level(logging.INFO)
+    for f in logging.getLogger("uvicorn.error").filters:  # a frozen clock: the flood lasts "no time"
+        if isinstance(f, RateLimitFilter):
+            monkeypatch.setattr(f, "clock", lambda: 1e9)
+            monkeypatch.setattr(f, "_kinds", OrderedDict())
+    port = _port(server)
+    for k in range(300):
+        with socket.create_connection(("127.0.0.1", port), timeout=PATIENCE) as s:
+            s.sendall(b"POST /api/answer HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: x%d\r\n\r\n" % k)
+            s.settimeout(PATIENCE)
+            assert s.recv(4096).startswith(b"HTTP/1.1 400")
+    recs = _records(caplog)
+    assert len(recs) == 1, len(recs)  # one line per kind per second
+    assert not any(r.exc_info for r in recs)
+    assert _request(port, "GET", "/api/state")[0] == 200
