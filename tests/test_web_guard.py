@@ -268,3 +268,29 @@ def test_a_flood_of_malformed_requests_leaves_a_few_log_lines(page, caplog, monk
     assert len(recs) == 1, len(recs)  # one line per kind per second
     assert not any(r.exc_info for r in recs)
     assert _request(port, "GET", "/api/state")[0] == 200
+
+
+def test_an_exception_in_a_route_is_a_500_with_one_line_not_a_traceback(caplog):
+    from fastapi import FastAPI
+
+    from surfhap.live.hosts import host_allow_list
+    from surfhap.live.serverthread import ServerThread
+    from surfhap.live.webguard import RequestGuard
+
+    app = FastAPI()
+    guard = RequestGuard(host_allow_list("127.0.0.1")).install(app)
+
+    @app.get("/boom")
+    def boom():
+        raise RuntimeError("line one\nline two")
+
+    caplog.set_level(logging.INFO)
+    srv = ServerThread(app, port=0).start()
+    try:
+        status, reply = _request(srv.port, "GET", "/boom")
+    finally:
+        srv.stop()
+    assert status == 500 and json.loads(reply) == {"error": "internal error"}
+    recs = _records(caplog)
+    assert len(recs) == 1 and not recs[0].exc_info and "\n" not in recs[0].getMessage(), recs
+    assert "RuntimeError" in recs[0].getMessage() and guard.counts["error"] == 1
