@@ -49,6 +49,7 @@ log = logging.getLogger("surfhap.live")
 MAX_BODY_BYTES = 16 * 1024  # the pages' requests are JSON objects of well under 1 KiB
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 _CROSS = ("cross-site", "same-site")  # Sec-Fetch-Site values of another site's page
+_REFUSALS = ("host", "origin", "body")  # counted as refused; "invalid" bodies and "error"s reached the app
 
 
 def _header(scope, name: bytes) -> str | None:
@@ -129,7 +130,7 @@ class RequestGuard:
 
     def _count(self, kind: str, peer: str, reason: str) -> None:
         self.counts[kind] += 1
-        if kind != "invalid" and self.on_refused is not None:
+        if kind in _REFUSALS and self.on_refused is not None:
             self.on_refused()
         self.rejects.reject(peer, reason)
 
@@ -140,7 +141,8 @@ class RequestGuard:
 
     @property
     def refused(self) -> int:
-        return sum(v for k, v in self.counts.items() if k != "invalid")
+        """Requests and handshakes refused before reaching the app (host, origin, body)."""
+        return sum(self.counts[k] for k in _REFUSALS)
 
 
 def _peer(scope) -> str:
