@@ -22,7 +22,7 @@ def _observer(threshold, rng):
 
 
 def test_estimate_near_the_simulated_threshold(study):
-    est = []
+    est, ceilings = [], []
     for seed in range(6):
         (study / "logs" / "P01-comfort.jsonl").unlink(missing_ok=True)
         r = ComfortRunner(study, "P01")
@@ -30,10 +30,73 @@ def test_estimate_near_the_simulated_threshold(study):
         while not r.finished:
             r.answer(r.state()["trial"]["id"], ans(r.stair.level))
         est.append(r.result().threshold)
+        ceilings.append(comfort_voltage_of(study, "P01"))
         r.close()
-    # 1-up/1-down on "uncomfortable" settles at the 50 % point of the observer (100 V)
-    assert np.exp(np.mean(np.log(est))) == pytest.approx(100.0, rel=0.15)
-    assert all(e <= 250.0 for e in est)
+    # 3 "comfortable" up / 1 "uncomfortable" down settles where the observer (50 % at 100 V,
+    # slope 10 V) is uncomfortable 20.6 % of the time: 100 + 10 ln(0.206 / 0.794) = 86.5 V
+    assert np.exp(np.mean(np.log(est))) == pytest.approx(86.5, rel=0.15)
+    # the written comfort voltage is one final step (2 dB) below each estimate
+    assert ceilings == pytest.approx([e * 10 ** (-2 / 20) for e in est])
+    assert all(c <= 250.0 for c in ceilings)
+
+
+def _p_uncomfortable(threshold, slope):
+    return lambda v: 1.0 / (1.0 + np.exp(-(v - threshold) / slope))
+
+
+@pytest.mark.parametrize("threshold,slope", [(100.0, 10.0), (150.0, 30.0), (40.0, 2.0)])
+def test_the_comfort_ceiling_is_uncomfortable_at_most_levitts_21_percent(threshold, slope):
+    """A simulated participant with a known logistic discomfort function. Levitt (1971): a
+    staircase that goes down after 1 "uncomfortable" and up after 3 "comfortable" in a row is
+    stationary where P(comfortable)^3 = 1/2, so the analytic convergence point is
+    v* = threshold + slope ln(p / (1 - p)) with p = 1 - 0.5^(1/3) = 0.206. Over many seeded
+    runs the staircase's estimate must not lie above v* beyond the run-to-run spread, and the
+    comfort ceiling (one step below) must be uncomfortable at most 20.6 % of the time."""
+    from surfhap.lab.comfort import COMFORT_TARGET, comfort_ceiling, default_comfort_params
+    from surfhap.lab.staircase import run_simulated, target_probability
+
+    p = 1.0 - 0.5 ** (1.0 / 3.0)
+    assert COMFORT_TARGET == pytest.approx(p) and 1.0 - target_probability(3, 1) == pytest.approx(1.0 - p)
+    p_unc = _p_uncomfortable(threshold, slope)
+    v_star = threshold + slope * np.log(p / (1.0 - p))
+    params = default_comfort_params(60.0)
+    runs = [run_simulated(params, p_unc, np.random.default_rng(seed)) for seed in range(120)]
+    est = np.log([r.threshold for r in runs])
+    tol = 3.0 * est.std(ddof=1) / np.sqrt(est.size)  # three standard errors of the mean
+    # not above the convergence point, and not more than one final step (2 dB) below it
+    assert np.log(v_star) - np.log(10 ** (2 / 20)) - tol <= est.mean() <= np.log(v_star) + tol
+    ceilings = np.array([comfort_ceiling(r.threshold, params) for r in runs])
+    assert ceilings == pytest.approx(np.exp(est) * 10 ** (-2 / 20))
+    assert np.mean(p_unc(ceilings)) <= p
+    assert np.mean(p_unc(ceilings) > 0.5) < 0.05  # a ceiling that is mostly uncomfortable is rare
+
+
+def test_uncomfortable_down_to_the_floor_gives_no_threshold_and_study_run_refuses(study, capsys):
+    r = ComfortRunner(study, "P01")
+    while not r.finished:
+        r.answer(r.state()["trial"]["id"], "no")
+    res = r.result()
+    r.close()
+    assert res.levels.min() == 5.0 and res.threshold is None  # the floor, no reversal
+    assert json.loads((study / "logs" / "P01-comfort.json").read_text())["comfort_voltage"] is None
+    capsys.readouterr()
+    assert main(["study", "run", str(study), "-p", "P01", "--simulate", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no threshold" in err[0] and "P01-comfort.json" in err[0], err
+    assert not (study / "logs" / "P01.jsonl").exists()  # no session was started
+    # an explicit --comfort-voltage is a threshold: the session starts with it
+    assert main(["study", "run", str(study), "-p", "P01", "--simulate", "1", "--comfort-voltage", "20"]) == 0
+    assert read_log(study / "logs" / "P01.jsonl").sessions[0]["config"]["v_max"] == pytest.approx(20.0)
+
+
+def test_an_unfinished_comfort_staircase_also_stops_study_run(study, capsys):
+    r = ComfortRunner(study, "P02")
+    r.answer(r.state()["trial"]["id"], "yes")
+    r.close()
+    capsys.readouterr()
+    assert main(["study", "run", str(study), "-p", "P02", "--simulate", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unfinished" in err[0], err
 
 
 def test_killed_run_resumes_by_replay(study):
@@ -51,7 +114,7 @@ def test_killed_run_resumes_by_replay(study):
     ids = [t["trial_id"] for t in read_log(study / "logs" / "P02-comfort.jsonl").trials]
     assert len(ids) == len(set(ids)) == r.result().levels.size
     v = comfort_voltage_of(study, "P02")
-    assert v == pytest.approx(r.result().threshold)
+    assert v == pytest.approx(r.result().threshold * 10 ** (-2 / 20))  # one final step below
 
 
 def test_study_run_uses_the_comfort_voltage(study, capsys):

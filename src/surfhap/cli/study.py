@@ -129,7 +129,7 @@ def run(
                                                   "answer); needs the 'lsl' extra (pylsl)."),
 ) -> None:
     """Run (or resume) one participant: the page shows the trials, the terminal the progress."""
-    from surfhap.lab.comfort import comfort_voltage_of
+    from surfhap.lab.comfort import required_comfort_voltage
     from surfhap.lab.session import SessionRunner
 
     measured = None
@@ -137,7 +137,11 @@ def run(
         from surfhap.lab.schema import load_study
 
         pid = load_study(study).participant(participant).id
-        comfort_voltage = measured = comfort_voltage_of(study, pid)
+        # a staircase without a threshold (or unfinished) stops here: one line, exit 2
+        comfort_voltage = measured = required_comfort_voltage(study, pid)
+        if measured is None:
+            stderr.print(f"no comfort voltage measured for {pid} ('study comfort'): session limit is the safety "
+                         "limit")
     runner = SessionRunner(study, participant, gain=gain, comfort_voltage=comfort_voltage,
                            mode="simulated" if simulate is not None else "page",
                            extra_config={"comfort_voltage_from": "study comfort" if measured is not None else
@@ -240,7 +244,7 @@ def comfort(
     uses it as the session's safety limit."""
     import numpy as np
 
-    from surfhap.lab.comfort import ComfortRunner, default_comfort_params
+    from surfhap.lab.comfort import ComfortRunner, comfort_ceiling, default_comfort_params
     from surfhap.lab.session import SAFETY_V_MAX
 
     if not 5.0 <= start <= SAFETY_V_MAX:
@@ -260,7 +264,9 @@ def comfort(
             _run_page(runner, host, port, output, amp_gain)
         res = runner.result()
         if runner.finished:
-            thr = "none (no reversal)" if res.threshold is None else f"{res.threshold:.1f} V"
+            v = comfort_ceiling(res.threshold, runner.params)
+            thr = ("none (no reversal): 'study run' will not start" if v is None else
+                   f"{v:.1f} V (one {runner.params.steps[-1]:g} dB step below the staircase's {res.threshold:.1f} V)")
             stdout.print(f"{runner.plan.id}: comfort voltage {thr} after {res.levels.size} trials "
                          f"({res.stopped_by})")
         else:

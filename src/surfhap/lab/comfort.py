@@ -4,10 +4,19 @@ under the user's threshold by a staircase), run on the study page before the stu
 The stimulus is Zhao et al.'s baseline: a constant-amplitude square wave (100 Hz, inside their
 30-300 Hz range) whose amplitude is the staircase level in volts, on the study's first
 material. The question is "Is this comfortable?"; "no" (uncomfortable) is the positive
-response that lowers the level. With the default 1-up/1-down rule the staircase settles at
-the voltage found uncomfortable half of the time; its estimate (mean of the last reversals) is
-then the participant's comfort voltage, never above the 250 V safety limit, and ``study run``
-uses it as the session's safety limit.
+response that lowers the level.
+
+Rule (Levitt 1971, transformed up-down): *down* one step after one "uncomfortable", *up* one
+step only after three "comfortable" in a row. The level is stationary where
+P(comfortable)^3 = 1/2, i.e. P(uncomfortable) = 1 - 0.5^(1/3) = 20.6 % (a 1-up/1-down rule would
+settle where it is uncomfortable half of the time). The staircase's estimate is the geometric
+mean of the last reversals; the participant's **comfort voltage** (the ceiling ``study run``
+uses as the session's safety limit) sits one final step (2 dB, x 0.794) below that estimate
+(:func:`comfort_ceiling`), never above the 250 V safety limit.
+
+No reversal (e.g. "uncomfortable" all the way down to the 5 V floor, or "comfortable" up to the
+250 V limit) gives no threshold: the result records ``comfort_voltage: null`` and ``study run``
+refuses to start (:func:`required_comfort_voltage`), as it does while a staircase is unfinished.
 
 The answers go to their own append-only log ``logs/<P>-comfort.jsonl``; a killed run resumes
 by replaying the logged answers into the staircase (it is deterministic). The result is written
@@ -27,17 +36,36 @@ from surfhap.lab.session import SAFETY_V_MAX
 from surfhap.lab.staircase import Staircase, StaircaseParams
 from surfhap.lab.triallog import TrialLog, now_iso
 
-__all__ = ["ComfortRunner", "default_comfort_params", "comfort_voltage_of", "COMFORT_FREQUENCY"]
+__all__ = ["ComfortRunner", "default_comfort_params", "comfort_voltage_of", "required_comfort_voltage",
+           "comfort_ceiling", "COMFORT_FREQUENCY", "COMFORT_TARGET"]
 
 COMFORT_FREQUENCY = 100.0  # Hz, inside Zhao et al.'s 30-300 Hz baseline range (design choice)
 
 
+# P(uncomfortable) at which the default staircase settles: up after 3 "comfortable" (negatives),
+# down after 1 "uncomfortable" (positive): (1 - p)^3 = 1/2
+COMFORT_TARGET = 1.0 - 0.5 ** (1.0 / 3.0)
+
+
 def default_comfort_params(start: float = 60.0) -> StaircaseParams:
-    """1-up/1-down in dB steps (4 dB, then 2 dB after two reversals), from ``start`` V, 8
-    reversals or 40 trials, threshold = geometric mean of the last 6 reversals, levels within
-    5 V .. 250 V (design choices: the paper names the method only)."""
-    return StaircaseParams(start=start, steps=(4.0, 4.0, 2.0), up=1, down=1, step_type="db", max_trials=40,
+    """Up after 3 "comfortable" in a row, down after 1 "uncomfortable" (target: 20.6 %
+    uncomfortable, :data:`COMFORT_TARGET`), in dB steps (4 dB, then 2 dB after two reversals),
+    from ``start`` V, 8 reversals or 60 trials, threshold = geometric mean of the last 6
+    reversals, levels within 5 V .. 250 V (design choices: the paper names the method only;
+    on simulated participants a run takes ~30 trials)."""
+    return StaircaseParams(start=start, steps=(4.0, 4.0, 2.0), up=3, down=1, step_type="db", max_trials=60,
                            max_reversals=8, average_last=6, min_level=5.0, max_level=SAFETY_V_MAX)
+
+
+def comfort_ceiling(threshold: float | None, params: StaircaseParams) -> float | None:
+    """The comfort voltage for a staircase estimate ``threshold`` (V): one final step below it
+    (dB staircase: x 10^(-step/20); linear: - step), within the staircase's level range; None
+    without a threshold."""
+    if threshold is None:
+        return None
+    step = params.steps[-1]
+    v = threshold * 10.0 ** (-step / 20.0) if params.step_type == "db" else threshold - step
+    return float(min(max(v, params.min_level), params.max_level))
 
 
 def comfort_voltage_of(study_dir: str | Path, participant: str) -> float | None:
@@ -50,6 +78,24 @@ def comfort_voltage_of(study_dir: str | Path, participant: str) -> float | None:
     except (ValueError, KeyError, TypeError):
         raise StudyFormatError("not a comfort result", source=str(p), field="comfort_voltage") from None
     return None if v is None else float(v)
+
+
+def required_comfort_voltage(study_dir: str | Path, participant: str) -> float | None:
+    """The comfort voltage ``study run`` must use: None when no comfort staircase was run for
+    the participant (the session's limit stays the 250 V safety limit); raises
+    :class:`~surfhap.errors.StudyFormatError` (one line) when one was started but gave no
+    threshold (no reversal) or is unfinished: a session must not start without it."""
+    folder = Path(study_dir)
+    v = comfort_voltage_of(folder, participant)
+    result = folder / "logs" / f"{participant}-comfort.json"
+    if v is None and result.is_file():
+        raise StudyFormatError("the comfort staircase found no threshold (no reversal); run 'study comfort' again "
+                               "or give --comfort-voltage", source=str(result), field="comfort_voltage")
+    if v is None and (folder / "logs" / f"{participant}-comfort.jsonl").is_file():
+        raise StudyFormatError("the comfort staircase is unfinished; finish it with 'study comfort' or give "
+                               "--comfort-voltage", source=str(folder / "logs" / f"{participant}-comfort.jsonl"),
+                               field="comfort_voltage")
+    return v
 
 
 class ComfortRunner:
@@ -140,9 +186,13 @@ class ComfortRunner:
     def _finish(self) -> None:
         res = self.stair.result()
         self.log.event("end", threshold_V=res.threshold, stopped_by=res.stopped_by)
-        out = {"participant": self.plan.id, "comfort_voltage": res.threshold, "stopped_by": res.stopped_by,
+        p = self.params
+        out = {"participant": self.plan.id, "comfort_voltage": comfort_ceiling(res.threshold, p),
+               "staircase_threshold_V": res.threshold, "stopped_by": res.stopped_by,
                "reversal_levels_V": res.reversal_levels.tolist(), "levels_V": res.levels.tolist(),
-               "method": "1-up/1-down staircase on a constant-amplitude square wave (Zhao et al. Sec. 2-3)",
+               "method": f"{p.up}-up/{p.down}-down staircase on a constant-amplitude square wave (Zhao et al. "
+                         f"Sec. 2-3); comfort voltage one {p.steps[-1]:g} {'dB' if p.step_type == 'db' else 'V'} "
+                         "step below the mean of the last reversals",
                "finished_at": now_iso()}
         (self.dir / "logs" / f"{self.plan.id}-comfort.json").write_text(json.dumps(out, indent=1) + "\n")
 

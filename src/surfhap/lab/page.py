@@ -13,59 +13,89 @@ and selecting a stimulus swaps the engine's renderer to that stimulus (built out
 callback). Stimuli that cannot be rendered on this display (a real sample, a visual-only scene,
 a force-feedback effect) mute the output.
 
-Security: binds 127.0.0.1 by default; requests whose ``Host`` is not the bound loopback name
-are refused (DNS rebinding); the WebSocket accepts only the page's own origin; every message
-is size-checked, rate-limited and parsed as JSON, never evaluated.
+Security (docs/lab.md, "Threat model: study page"): binds 127.0.0.1 by default; every request
+passes the same request guard as ``surfhap serve``'s page (:mod:`surfhap.live.webguard`):
+``Host`` allow list (DNS rebinding), ``Origin`` check on every state-changing request and on
+the WebSocket (CSRF), a body cap enforced while the body is read, one throttled log line per
+refusal. Request bodies and WebSocket messages are validated by pydantic models with finite,
+bounded numbers (:func:`surfhap.live.protocol.parse_json`): invalid input is a 422 with a short
+reason, never a 500 with a traceback.
 """
 
 # no "from __future__ import annotations": FastAPI must see the real WebSocket annotation
-import json
 import logging
-import math
 from importlib import resources
+from typing import Annotated, Optional
+
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 
 from surfhap.lab.stimuli import StimulusPlayer, scene_picture
+from surfhap.live.hosts import OriginRule, WILDCARD_HOSTS, host_allow_list
+from surfhap.live.protocol import Hello, Move, number, parse_json, parse_message
+from surfhap.live.webguard import RequestGuard
 
-__all__ = ["create_page_app", "PageServer", "StimulusPlayer", "scene_picture"]
+__all__ = ["create_page_app", "PageServer", "StimulusPlayer", "scene_picture", "StimulusRequest", "AnswerRequest"]
 
 log = logging.getLogger("surfhap.lab")
 STATIC = {"study.html": "text/html; charset=utf-8", "study.js": "text/javascript; charset=utf-8",
           "study.css": "text/css; charset=utf-8"}
 LOOPBACK = ("127.0.0.1", "localhost", "::1", "[::1]")
 MAX_MESSAGE = 2048
+MAX_BODY = 4096  # an answer is a few dozen bytes; a toggles answer stays under 500 characters
 
 
-def _num(v, lo, hi):
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
-        return None
-    return float(v)
+class _Request(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="ignore")
 
 
-def create_page_app(runner, player: StimulusPlayer | None = None, allowed_hosts: tuple[str, ...] = LOOPBACK,
-                    markers=None):
+TrialId = Annotated[str, Field(max_length=200, strict=True)]
+
+
+class StimulusRequest(_Request):
+    """``POST /api/stimulus``: play stimulus ``index`` of trial ``trial_id``."""
+
+    trial_id: TrialId
+    index: Annotated[int, Field(ge=0, le=1000, strict=True)]
+
+
+class AnswerRequest(_Request):
+    """``POST /api/answer``: ``answer`` to ``trial_id``, ``rt_ms`` measured in the page
+    (trial shown -> click, ms, at most a day)."""
+
+    trial_id: TrialId
+    answer: Annotated[str, Field(max_length=500, strict=True)]
+    rt_ms: Optional[number(0.0, 86_400_000.0)] = None
+
+
+_STIMULUS = TypeAdapter(StimulusRequest)
+_ANSWER = TypeAdapter(AnswerRequest)
+
+
+def create_page_app(runner, player: StimulusPlayer | None = None,
+                    allowed_hosts: tuple[str, ...] = host_allow_list("127.0.0.1"), markers=None,
+                    ip_literals: bool = False):
     """The FastAPI app of the participant page over ``runner`` (a SessionRunner); ``markers``
-    (:mod:`surfhap.lab.markers`) receives stimulus, touch and answer events."""
+    (:mod:`surfhap.lab.markers`) receives stimulus, touch and answer events.
+    ``allowed_hosts`` / ``ip_literals``: the ``Host`` rule of the request guard."""
     from surfhap.lab.markers import NullMarkers
 
     markers = markers or NullMarkers()
     playing: dict[str, str | None] = {"trial": None}
-    from fastapi import Body, FastAPI, Request, WebSocket, WebSocketDisconnect
+    from fastapi import FastAPI, Request, WebSocket, WebSocketDisconnect
     from fastapi.responses import JSONResponse, Response
+    from starlette.concurrency import run_in_threadpool
 
     app = FastAPI(title="surfhap study", docs_url=None, redoc_url=None, openapi_url=None)
+    guard = RequestGuard(allowed_hosts, OriginRule(), max_body_bytes=MAX_BODY, ip_literals=ip_literals,
+                         logger=log).install(app)
     files = resources.files("surfhap.lab") / "static"
 
-    def host_ok(h: str | None) -> bool:
-        if not h:
-            return False
-        host = h.rsplit(":", 1)[0] if not h.startswith("[") else h.split("]")[0] + "]"
-        return "*" in allowed_hosts or host in allowed_hosts
-
-    @app.middleware("http")
-    async def check_host(request: Request, call_next):
-        if not host_ok(request.headers.get("host")):
-            return JSONResponse({"error": "host not allowed"}, status_code=400)
-        return await call_next(request)
+    async def parsed(request: Request, adapter: TypeAdapter):
+        """The request's body validated by ``adapter``, or the 422 response."""
+        msg = parse_json(adapter, await request.body())
+        if isinstance(msg, str):
+            return JSONResponse(guard.invalid(request.scope, msg), status_code=422)
+        return msg
 
     @app.get("/")
     def index():
@@ -104,29 +134,27 @@ def create_page_app(runner, player: StimulusPlayer | None = None, allowed_hosts:
                 return JSONResponse({"error": str(exc)}, status_code=404)
         return Response(pictures[name], media_type="image/png", headers={"Cache-Control": "no-store"})
 
-    @app.post("/api/stimulus")
-    def stimulus(body: dict = Body(...)):
-        tid, idx = body.get("trial_id"), body.get("index")
-        if not isinstance(tid, str) or not isinstance(idx, int) or isinstance(idx, bool):
-            return JSONResponse({"error": "need trial_id (string) and index (int)"}, status_code=400)
-        stim = runner.stimulus(tid, idx)
+    def play(req: StimulusRequest):
+        stim = runner.stimulus(req.trial_id, req.index)
         if stim is None:
-            return JSONResponse({"ok": False})
+            return {"ok": False}
         played = player.select(stim.render) if player is not None else "not rendered (no live output)"
-        markers.push("stimulus_on", trial=tid, index=idx, label=stim.label, muted=played == "muted")
-        playing["trial"] = tid
+        markers.push("stimulus_on", trial=req.trial_id, index=req.index, label=stim.label, muted=played == "muted")
+        playing["trial"] = req.trial_id
         # never the render spec: it names the material and condition (blinding)
         return {"ok": True, "label": stim.label, "playing": "muted" if played == "muted" else
                 ("on" if player is not None else "not rendered")}
 
-    @app.post("/api/answer")
-    def answer(body: dict = Body(...)):
-        tid, ans = body.get("trial_id"), body.get("answer")
-        rt = _num(body.get("rt_ms"), 0.0, 86_400_000.0)
-        if not isinstance(tid, str) or not isinstance(ans, str) or len(ans) > 500:
-            return JSONResponse({"error": "need trial_id and answer (strings)"}, status_code=400)
+    @app.post("/api/stimulus")
+    async def stimulus(request: Request):
+        req = await parsed(request, _STIMULUS)
+        return req if isinstance(req, Response) else await run_in_threadpool(play, req)
+
+    def log_answer(req: AnswerRequest):
+        tid, ans = req.trial_id, req.answer
+        rt_s = None if req.rt_ms is None else req.rt_ms / 1000.0
         try:
-            st = runner.answer(tid, ans, None if rt is None else rt / 1000.0)
+            st = runner.answer(tid, ans, rt_s)
         except ValueError as exc:
             return JSONResponse({"error": str(exc)}, status_code=400)
         if player is not None:
@@ -135,10 +163,15 @@ def create_page_app(runner, player: StimulusPlayer | None = None, allowed_hosts:
             if playing["trial"] == tid:
                 markers.push("stimulus_off", trial=tid)
                 playing["trial"] = None
-            markers.push("answer", trial=tid, answer=ans, rt_s=None if rt is None else rt / 1000.0)
+            markers.push("answer", trial=tid, answer=ans, rt_s=rt_s)
             if st["status"] in ("rest", "done"):
                 markers.push("rest" if st["status"] == "rest" else "end")
         return st
+
+    @app.post("/api/answer")
+    async def answer(request: Request):
+        req = await parsed(request, _ANSWER)
+        return req if isinstance(req, Response) else await run_in_threadpool(log_answer, req)
 
     @app.post("/api/resume")
     def resume():
@@ -147,11 +180,7 @@ def create_page_app(runner, player: StimulusPlayer | None = None, allowed_hosts:
 
     @app.websocket("/ws")
     async def ws(sock: WebSocket):
-        origin = sock.headers.get("origin")
-        host = sock.headers.get("host")
-        if not host_ok(host) or origin not in (f"http://{host}",):
-            await sock.close(code=1008)
-            return
+        # host and origin: checked by the request guard before the handshake gets here
         await sock.accept()
         client = id(sock) & 0x7FFF
         w_px, h_px = 800.0, 400.0
@@ -164,33 +193,24 @@ def create_page_app(runner, player: StimulusPlayer | None = None, allowed_hosts:
                 text = await sock.receive_text()
                 if (player is None and not markers.enabled) or len(text) > MAX_MESSAGE or not limiter.allow():
                     continue
-                try:
-                    msg = json.loads(text)
-                except ValueError:
+                msg = parse_message(text)  # the live page's messages: finite, bounded numbers
+                if isinstance(msg, str):
                     continue
-                if not isinstance(msg, dict):
-                    continue
-                kind = msg.get("type")
-                if kind == "hello":
-                    w_px = _num(msg.get("w"), 10.0, 20000.0) or w_px
-                    h_px = _num(msg.get("h"), 10.0, 20000.0) or h_px
-                elif kind == "move":
-                    t, x, y = _num(msg.get("t"), 0, 1e12), _num(msg.get("x"), -0.05, 1.05), _num(msg.get("y"), -0.05, 1.05)
-                    p = _num(msg.get("p", 0.5), 0.0, 1.0)
-                    if None not in (t, x, y, p):
-                        if player is not None:
-                            player.touch(client, min(max(x, 0.0), 1.0), min(max(y, 0.0), 1.0), p, t, w_px, h_px)
-                        if not touching:
-                            touching = True
-                            markers.push("touch_down")
-                elif kind == "up":
-                    t = _num(msg.get("t"), 0, 1e12)
-                    if t is not None:
-                        if player is not None:
-                            player.lift(client, t)
-                        if touching:
-                            touching = False
-                            markers.push("touch_up")
+                if isinstance(msg, Hello):
+                    w_px, h_px = msg.w, msg.h
+                elif isinstance(msg, Move):
+                    if player is not None:
+                        player.touch(client, min(max(msg.x, 0.0), 1.0), min(max(msg.y, 0.0), 1.0), msg.p, msg.t,
+                                     w_px, h_px)
+                    if not touching:
+                        touching = True
+                        markers.push("touch_down")
+                else:  # Up
+                    if player is not None:
+                        player.lift(client, msg.t)
+                    if touching:
+                        touching = False
+                        markers.push("touch_up")
         except WebSocketDisconnect:
             if player is not None:
                 player.lift(client, 0.0)
@@ -205,9 +225,12 @@ class PageServer:
                  markers=None):
         from surfhap.live.serverthread import ServerThread
 
-        hosts = LOOPBACK if host in ("127.0.0.1", "::1", "localhost") else ("*",)
-        self.thread = ServerThread(create_page_app(runner, player, hosts, markers=markers), host=host, port=port,
-                                   max_message_bytes=MAX_MESSAGE)
+        # the Host rule of 'surfhap serve': loopback names and the bound address; bound to every
+        # interface, also any IP literal (a tablet opening http://192.168.1.20:8780; a DNS
+        # rebinding attack always names the attacker's domain)
+        app = create_page_app(runner, player, host_allow_list(host), markers=markers,
+                              ip_literals=host in WILDCARD_HOSTS)
+        self.thread = ServerThread(app, host=host, port=port, max_message_bytes=MAX_MESSAGE)
 
     @property
     def url(self) -> str:

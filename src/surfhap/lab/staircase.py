@@ -8,7 +8,9 @@ reversal is a change of direction. The run stops after ``max_trials`` trials or
 ``max_reversals`` reversals, whichever comes first; the threshold is the mean of the last
 ``average_last`` reversal levels (geometric mean for a ``"db"`` staircase). An up/down
 staircase converges to the level where P(positive)^down = 0.5 for up = 1 (Levitt 1971):
-1-up/1-down 50 %, 1-up/2-down 70.7 %, 1-up/3-down 79.4 %.
+1-up/1-down 50 %, 1-up/2-down 70.7 %, 1-up/3-down 79.4 %; for down = 1 where
+P(negative)^up = 0.5: 3-up/1-down 20.6 % positives (the comfort staircase,
+:mod:`surfhap.lab.comfort`, where "uncomfortable" is the positive response).
 
 Steps: ``steps`` is a list; step ``steps[min(r, len-1)]`` is used after ``r`` reversals (a
 step rule such as (8, 4, 2) halves the step after the first reversals). ``step_type``

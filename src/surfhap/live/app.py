@@ -3,13 +3,14 @@ WebSocket into the live engine, and the live trace back.
 
 Security (see docs/live.md):
 
-* binds 127.0.0.1 unless told otherwise; the ``Host`` header must name a loopback name,
-  the bound address or one of ``allowed_hosts`` (Starlette's ``TrustedHostMiddleware``,
-  :mod:`surfhap.live.hosts`), which defeats DNS rebinding - also when bound to a wildcard
-  address;
-* a WebSocket is refused (close code 1008, one log line) unless its ``Origin`` is the page's
-  own origin (``http://`` + ``Host``) or listed in ``allowed_origins``; a client that sends no
-  ``Origin`` (not a browser) is allowed only with ``allow_missing_origin``;
+* binds 127.0.0.1 unless told otherwise; every request passes the one request guard of
+  :mod:`surfhap.live.webguard` (shared with the study page): the ``Host`` header must name a
+  loopback name, the bound address or one of ``allowed_hosts`` (:mod:`surfhap.live.hosts`),
+  which defeats DNS rebinding - also when bound to a wildcard address; a WebSocket or a
+  state-changing request is refused (close code 1008 / 403, a throttled log line) unless its
+  ``Origin`` is the page's own origin (``http://`` + ``Host``) or listed in
+  ``allowed_origins``; a client that sends no ``Origin`` (not a browser) is allowed only with
+  ``allow_missing_origin``; request bodies are capped while they are read;
 * every message is size-checked (``max_message_bytes``, also enforced by uvicorn),
   rate-limited per client (token bucket) and validated by the pydantic models of
   :mod:`surfhap.live.protocol` (JSON parsed, never evaluated; a number too large for a
@@ -32,11 +33,12 @@ from contextlib import asynccontextmanager
 from importlib import resources
 
 from surfhap.live.config import ServerConfig
-from surfhap.live.hosts import HostGuard, OriginRule, host_allow_list
+from surfhap.live.hosts import OriginRule, host_allow_list
 from surfhap.live.hub import Client, Hub
 from surfhap.live.link import as_link
 from surfhap.live.protocol import Hello, Move, page_to_surface, parse_message, trace_message
 from surfhap.live.sources import RateLimiter
+from surfhap.live.webguard import RequestGuard
 
 __all__ = ["create_app"]
 
@@ -71,7 +73,6 @@ def create_app(session, cfg: ServerConfig | None = None):
     link = as_link(session, cfg)
     hub = Hub()
     surface_positions = link.positions == "surface"
-    origin_ok = OriginRule(cfg.allowed_origins, cfg.allow_missing_origin)
 
     @asynccontextmanager
     async def lifespan(_app):
@@ -81,15 +82,13 @@ def create_app(session, cfg: ServerConfig | None = None):
         finally:
             task.cancel()
 
-    def refused_host(scope) -> None:
+    def refused() -> None:
         hub.refused += 1
-        host = next((v.decode("latin-1") for k, v in scope.get("headers", ()) if k == b"host"), None)
-        log.warning("refused %s request for host %r", "WebSocket" if scope["type"] == "websocket" else "HTTP",
-                    host if host is None else host[:80])
 
     app = FastAPI(title="surfhap live", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
     app.state.hub = hub
-    app.add_middleware(HostGuard, allowed_hosts=host_allow_list(cfg.host, cfg.allowed_hosts), on_refused=refused_host)
+    RequestGuard(host_allow_list(cfg.host, cfg.allowed_hosts), OriginRule(cfg.allowed_origins, cfg.allow_missing_origin),
+                 on_refused=refused).install(app)
     app.mount("/static", _static_files(), name="static")
     index_html = resources.files("surfhap.live").joinpath("static", "index.html")
 
@@ -169,13 +168,7 @@ def create_app(session, cfg: ServerConfig | None = None):
     @app.websocket("/ws")
     async def ws_endpoint(ws: WebSocket):
         peer = f"ws {ws.client.host}:{ws.client.port}" if ws.client else "ws ?"
-        origin = ws.headers.get("origin")
-        host = ws.headers.get("host")
-        if not origin_ok(origin, host):
-            hub.refused += 1
-            log.warning("refused WebSocket from %s: origin %r not allowed for host %r", peer, origin, host)
-            await ws.close(code=1008)
-            return
+        # host and origin: checked by the request guard before the handshake gets here
         if len(hub.clients) >= cfg.max_clients:
             hub.refused += 1
             log.warning("refused WebSocket from %s: %d clients already", peer, len(hub.clients))

@@ -1,27 +1,20 @@
-"""Who may reach the page: the ``Host`` rule (Starlette's ``TrustedHostMiddleware``, with a
-count and a log line for what it refuses) and the WebSocket ``Origin`` rule.
+"""Who may reach the page: the ``Host`` allow list and the ``Origin`` rule, both applied by
+the request guard of every web app (:mod:`surfhap.live.webguard`).
 
 The ``Host`` header must name a loopback name, the bound address or one of the
 ``--allow-host`` names (``*.example.org`` patterns allowed); a wildcard bind (0.0.0.0,
 ::) widens nothing, which keeps DNS rebinding out. A WebSocket's ``Origin`` must be the
 page's own (``http://`` + ``Host``) or an ``--allow-origin``; a client without ``Origin``
-(not a browser) is allowed only with ``allow_missing_origin``.
+(not a browser) is allowed only with ``allow_missing_origin``. The same ``Origin`` rule
+guards every state-changing HTTP request (CSRF).
 """
 
 from __future__ import annotations
 
-import logging
-from typing import Callable
-
-from starlette.middleware.trustedhost import TrustedHostMiddleware
-
-__all__ = ["host_allow_list", "HostGuard", "OriginRule", "LOOPBACK_NAMES", "WILDCARD_HOSTS"]
-
-log = logging.getLogger("surfhap.live")
+__all__ = ["host_allow_list", "OriginRule", "LOOPBACK_NAMES", "WILDCARD_HOSTS"]
 
 WILDCARD_HOSTS = ("0.0.0.0", "::", "")
 LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")  # as a Host header names them (IPv6 in brackets)
-_PASSED = "surfhap.host_ok"  # scope key set when TrustedHostMiddleware let a request through
 
 
 def _as_host(name: str) -> str:
@@ -39,27 +32,8 @@ def host_allow_list(bind_host: str, allowed_hosts=()) -> tuple[str, ...]:
     return tuple(dict.fromkeys(n for n in names if n))
 
 
-class HostGuard:
-    """ASGI middleware: Starlette's ``TrustedHostMiddleware`` for ``allowed_hosts`` (answers
-    400 to HTTP and WebSocket requests for any other host), calling ``on_refused(scope)``
-    for every request it refuses."""
-
-    def __init__(self, app, allowed_hosts: tuple[str, ...], on_refused: Callable[[dict], None]):
-        async def passed(scope, receive, send):
-            scope[_PASSED] = True
-            await app(scope, receive, send)
-
-        self.trusted = TrustedHostMiddleware(passed, allowed_hosts=list(allowed_hosts), www_redirect=False)
-        self.on_refused = on_refused
-
-    async def __call__(self, scope, receive, send) -> None:
-        await self.trusted(scope, receive, send)
-        if scope["type"] in ("http", "websocket") and not scope.get(_PASSED):
-            self.on_refused(scope)
-
-
 class OriginRule:
-    """The WebSocket ``Origin`` check (see module doc)."""
+    """The ``Origin`` check of WebSockets and state-changing requests (see module doc)."""
 
     def __init__(self, allowed_origins=(), allow_missing: bool = True):
         self.allowed = {o.rstrip("/").lower() for o in allowed_origins}

@@ -19,7 +19,11 @@ server's configuration with a guarded protocol (:class:`ConnectionGuard`):
   uvicorn's ``limit_concurrency`` are set from :class:`~surfhap.live.config.ServerConfig`.
 
 Every closed connection is counted (``evicted``, ``timed_out``, ``refused``) and logged
-through the ``surfhap.live`` logger; :mod:`surfhap.live.logfilter` keeps that log short.
+through the ``surfhap.live.http`` logger. :func:`uvicorn_config` puts a
+:class:`~surfhap.live.logfilter.RateLimitFilter` on that logger and on uvicorn's own
+(``uvicorn.error``: one warning per malformed request) - on the loggers, not on handlers, so
+the lines a client can provoke stay one per kind per second in every process that runs a
+server (``serve``'s web process, ``study run``, a notebook), whatever logging it configured.
 """
 
 from __future__ import annotations
@@ -27,9 +31,11 @@ from __future__ import annotations
 import logging
 from collections import OrderedDict
 
-__all__ = ["ConnectionGuard", "connection_cap", "guarded_protocol", "uvicorn_config", "FD_RESERVE"]
+__all__ = ["ConnectionGuard", "connection_cap", "guarded_protocol", "uvicorn_config", "throttle_server_logs",
+           "FD_RESERVE", "THROTTLED_LOGGERS"]
 
-log = logging.getLogger("surfhap.live")
+log = logging.getLogger("surfhap.live.http")
+THROTTLED_LOGGERS = ("uvicorn.error", "surfhap.live.http")  # what clients can make a server log
 
 # File handles kept free for everything else the web process opens (its listening and
 # datagram sockets, the event loop's selector and self-pipe, the pipe to the engine
@@ -165,6 +171,17 @@ def guarded_protocol(guard: ConnectionGuard) -> type:
     return GuardedH11Protocol
 
 
+def throttle_server_logs() -> None:
+    """Put one :class:`~surfhap.live.logfilter.RateLimitFilter` on each of
+    :data:`THROTTLED_LOGGERS` (once per process)."""
+    from surfhap.live.logfilter import RateLimitFilter
+
+    for name in THROTTLED_LOGGERS:
+        logger = logging.getLogger(name)
+        if not any(isinstance(f, RateLimitFilter) for f in logger.filters):
+            logger.addFilter(RateLimitFilter())
+
+
 def uvicorn_config(app, cfg):
     """A ``uvicorn.Config`` for ``app`` with the limits of ``cfg``
     (:class:`~surfhap.live.config.ServerConfig`) and a guarded h11 protocol.
@@ -175,6 +192,7 @@ def uvicorn_config(app, cfg):
     (when it has one) so ``/api/status`` reports its counters."""
     import uvicorn
 
+    throttle_server_logs()
     cap = connection_cap(cfg.max_connections, cfg.backlog)
     guard = ConnectionGuard(cap, cfg.header_timeout)
     hub = getattr(getattr(app, "state", None), "hub", None)

@@ -27,21 +27,21 @@ from typing import Annotated, Literal, Union
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
-__all__ = ["Hello", "Move", "Up", "ClientMessage", "parse_message", "page_to_surface", "trace_message",
-           "encode", "join_objects", "json_default", "CSS_PX_M"]
+__all__ = ["Hello", "Move", "Up", "ClientMessage", "parse_message", "parse_json", "number", "page_to_surface",
+           "trace_message", "encode", "join_objects", "json_default", "CSS_PX_M"]
 
 CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres (CSS reference pixel: 1/96 inch)
 
 
-def _number(lo: float, hi: float):
+def number(lo: float, hi: float):
     """A JSON number (int or float, not bool or str), finite, within [lo, hi]."""
     return Annotated[float, Field(ge=lo, le=hi, strict=True, allow_inf_nan=False)]
 
 
 Seq = Annotated[int, Field(ge=0, lt=2**53, strict=True)]  # an exact integer in a JS number
-TimeMs = _number(0.0, 1e12)
-Fraction = _number(-0.05, 1.05)  # page position, a little beyond the edges
-CssPx = _number(10.0, 20000.0)
+TimeMs = number(0.0, 1e12)
+Fraction = number(-0.05, 1.05)  # page position, a little beyond the edges
+CssPx = number(10.0, 20000.0)
 
 
 class _Message(BaseModel):
@@ -65,7 +65,7 @@ class Move(_Message):
     t: TimeMs
     x: Fraction
     y: Fraction
-    p: _number(0.0, 1.0) = 0.5
+    p: number(0.0, 1.0) = 0.5
 
 
 class Up(_Message):
@@ -83,8 +83,16 @@ _ADAPTER = TypeAdapter(ClientMessage)
 def parse_message(text: str | bytes) -> Hello | Move | Up | str:
     """The validated message in ``text``, or a one-line reason why it is invalid (str).
     Never raises for any input."""
+    return parse_json(_ADAPTER, text)
+
+
+def parse_json(adapter: TypeAdapter, text: str | bytes):
+    """``text`` (JSON) validated by ``adapter`` (a pydantic ``TypeAdapter`` of a model whose
+    numbers are :func:`number` fields), or a one-line reason why it is invalid (str, at most
+    ~120 characters, never the input itself). Never raises for any input: the one parser of
+    the WebSocket messages and of the study page's request bodies."""
     try:
-        return _ADAPTER.validate_json(text)
+        return adapter.validate_json(text)
     except ValidationError as exc:
         err = exc.errors(include_url=False, include_input=False)[0]
         loc = ".".join(str(p) for p in err.get("loc", ()))[:40]
