@@ -128,10 +128,11 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def strokes_csv(path: Path, dur: float = 4.0, rate: float = 125.0) -> Path:
+def strokes_csv(path: Path, dur: float = 4.0, rate: float = 125.0, x0: float = 0.05, y0: float = 0.03,
+                load: float = 0.5) -> Path:
     t = np.arange(0.0, dur, 1.0 / rate)
-    x = 0.05 + 0.03 * np.sin(2 * np.pi * 0.5 * t)
-    write_trajectory_csv(Trajectory(t, x, np.full(t.size, 0.03), np.full(t.size, 0.5)), path)
+    x = x0 + 0.03 * np.sin(2 * np.pi * 0.5 * t)
+    write_trajectory_csv(Trajectory(t, x, np.full(t.size, y0), np.full(t.size, load)), path)
     return path
 
 
@@ -227,11 +228,11 @@ def test_ff_run_stops_on_sigterm_with_the_force_at_zero(tmp_path):
 
     listener = threading.Thread(target=listen, daemon=True)
     listener.start()
-    proc = Proc(["ff", "run", "follow", "--device", "sim", "--trajectory", str(strokes_csv(tmp_path / "t.csv")),
+    proc = Proc(["ff", "run", "follow", "--device", "sim", "--trajectory", str(strokes_csv(tmp_path / "t.csv", x0=0.1, y0=0.07, load=1.0)),
                  "--duration", "600", "--feedback", f"osc://127.0.0.1:{fb.getsockname()[1]}"])
     try:
         proc.wait_for(lambda: "Ctrl-C" in proc.stderr, "the start line")
-        proc.wait_for(lambda: any(np.hypot(*f[:2]) > 0.1 for f in forces), "a force on the device")
+        proc.wait_for(lambda: any(np.linalg.norm(f) > 0.05 for f in forces), "a force on the device")
         code = proc.stop()
     finally:
         proc.kill()
