@@ -179,7 +179,7 @@ def run_cmd(
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Log at INFO."),
 ) -> None:
     """Run SCENE live: a 1 kHz haptic thread driving the device and a 60 Hz position-feedback
-    thread; Ctrl-C or SIGTERM ramps the force to zero and stops."""
+    thread; Ctrl-C or SIGTERM ramps the force to zero, prints the stats and exits 130."""
     from surfhap.ff.engine import FFEngine
     from surfhap.ff.scene import load_scene
     from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_osc_url

@@ -128,7 +128,10 @@ def run(
     lsl: bool = typer.Option(False, "--lsl", help="Push Lab Streaming Layer markers (stimulus on/off, touch, "
                                                   "answer); needs the 'lsl' extra (pylsl)."),
 ) -> None:
-    """Run (or resume) one participant: the page shows the trials, the terminal the progress."""
+    """Run (or resume) one participant: the page shows the trials, the terminal the progress.
+
+    Ctrl-C or SIGTERM pauses: the live output ramps to zero, every answered trial is in the
+    log, exit 130; run again to resume."""
     from surfhap.lab.comfort import comfort_voltage_of
     from surfhap.lab.session import SessionRunner
 
