@@ -216,6 +216,8 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
             while not runner.finished and not guard.wait(0.25):
                 live.update(table())
             live.update(table())
+        if not stderr.is_terminal:  # a redirected Live table ends without a newline: the next line starts its own
+            stderr.line()
         if not guard.stopped:
             guard.wait(1.0)  # let the page fetch the "done" screen
     finally:  # the output first: its stop ramp runs on the live drive
