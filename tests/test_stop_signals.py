@@ -3,8 +3,9 @@ output ramps to zero, the recording is flushed, the status is printed, one ``int
 line, exit code 130. Each command runs as a real process (``python -m surfhap``); the test
 waits until it is really driving (a line, a growing recording), then sends SIGTERM.
 
-``render`` (single) and a batch render have their own SIGTERM/SIGINT tests in
-tests/test_render_stream.py and tests/test_batch.py; ``ff run`` also in tests/test_ff_cli.py.
+``render`` (single) and a batch render (the same path as ``fit imu`` on a folder) have their
+own SIGTERM/SIGINT tests in tests/test_render_stream.py and tests/test_batch.py; ``ff run``
+also in tests/test_ff_cli.py.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import urllib.request
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from surfhap.cli import main
 from surfhap.cli._signals import EXIT_INTERRUPTED, StopSignals
@@ -326,3 +328,50 @@ def test_study_run_simulated_stops_on_sigterm_between_answers(tmp_path):
     assert_interrupted(code, proc, "paused")
     log = read_log(study / "logs" / "P01.jsonl")
     assert len(log.trials) == 1 and f"{len(log.trials)}/8 trials logged" in proc.stderr
+
+
+SLOW_FIT = """
+import sys, time
+import surfhap.fit.accel, surfhap.fit.material_fit
+def slow(*args, **kw):  # a fit that takes long: says it started, then computes for minutes
+    print("FIT STARTED", flush=True)
+    end = time.monotonic() + 600
+    while time.monotonic() < end:
+        sum(range(10000))
+surfhap.fit.accel.fit_accel = surfhap.fit.material_fit.fit_friction = slow
+from surfhap.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("kind", ["friction", "accel"])
+def test_a_long_fit_stops_on_sigterm_without_writing_a_material(tmp_path, kind):
+    """``fit friction`` / ``fit accel`` while the fit computes (the fit itself is replaced by
+    a long computation that announces its start, so the test knows the command is in it)."""
+    from surfhap.exchange.recordings import write_recording_csv
+    from surfhap.fit.synthetic import synthetic_accel_recording, synthetic_friction_recordings
+    from surfhap.models.friction import QuasiStaticLaw
+
+    if kind == "friction":
+        rec = synthetic_friction_recordings(QuasiStaticLaw(0.4, 0.3, 1.0, 1.0, 0.5), {0.05: (np.array([0.5]), 1e-6)},
+                                            participants=1, duration=2.0, seed=0)[0]
+    else:
+        rec = synthetic_accel_recording([(np.array([0.5]), 1.0, 2000, 0.1, 0.5)], mu=0.4, seed=0)
+    csv = write_recording_csv(rec, tmp_path / "rec.csv")
+    out = tmp_path / "m.json"
+    env = {**os.environ, "PYTHONPATH": str(SRC) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    p = subprocess.Popen([sys.executable, "-c", SLOW_FIT, "fit", kind, str(csv), "--material", "m", "--out", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        line = p.stdout.readline()  # blocks until the fit started (or the process ended)
+        assert "FIT STARTED" in line, p.stderr.read() if p.poll() is not None else line
+        p.send_signal(signal.SIGTERM)
+        _, err = p.communicate(timeout=120)
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait(10)
+    assert p.returncode == EXIT_INTERRUPTED, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: interrupted: the fit did not finish"), err
+    assert lines[0].endswith("(SIGTERM)") and not out.exists()
