@@ -45,7 +45,7 @@ test: system-deps $(STAMP)
 # the reference test of the safety promise with many more, freshly random, sequences
 SOAK_EXAMPLES ?= 300000
 soak: $(STAMP)
-	SURFHAP_SAFETY_SOAK=1 SURFHAP_SAFETY_EXAMPLES=$(SOAK_EXAMPLES) $(PY) -m pytest -q -p no:cacheprovider tests/test_live_engine_property.py
+	SURFHAP_SAFETY_SOAK=1 SURFHAP_SAFETY_EXAMPLES=$(SOAK_EXAMPLES) $(PY) -m pytest -q -p no:cacheprovider tests/test_live_engine_property.py tests/test_lab_session_property.py
 
 # one core: the targets are per-core figures. Every benchmark runs; stdout holds only their
 # JSON lines (progress goes to stderr); the target fails when any figure missed its target.

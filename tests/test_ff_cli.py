@@ -144,7 +144,7 @@ def test_run_stops_cleanly_on_sigterm(tmp_path):
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode == 0, err
+    assert proc.returncode == 130, err
     st = json.loads(out.strip().splitlines()[-1])
     assert st["safety"]["stopped"] >= 1 and st["error"] is None
 

@@ -90,13 +90,13 @@ def test_serve_runs_the_page_from_the_command_line(tmp_path):
         assert page is not None and "surfhap live" in page
         info = json.loads(urllib.request.urlopen(f"http://127.0.0.1:{port}/api/info", timeout=60).read())
         assert info["title"].startswith("cork") and info["drive_rate"] == 20000
-        p.send_signal(signal.SIGINT)  # Ctrl-C: ramped stop, status line, exit 0
+        p.send_signal(signal.SIGINT)  # Ctrl-C: ramped stop, status line, exit 130
         out, err = p.communicate(timeout=120)
     finally:
         if p.poll() is None:
             p.kill()
             p.wait(5)
-    assert p.returncode == 0, err
+    assert p.returncode == 130, err
     assert json.loads(out.strip().splitlines()[-1])["stopped"] is True
 
 

@@ -4,16 +4,14 @@ delegate to :mod:`surfhap.batch` (which runs the jobs and writes the index)."""
 
 from __future__ import annotations
 
-import contextlib
 import itertools
 import re
-import signal
-import threading
 from pathlib import Path
 
 import typer
 
 from surfhap.cli._common import error_line, stderr, stdout
+from surfhap.cli._signals import EXIT_INTERRUPTED, StopSignals
 from surfhap.errors import ConfigError
 
 __all__ = ["GRID_HELP", "split_inputs", "parse_grid", "render_batch", "fit_imu_batch"]
@@ -68,26 +66,6 @@ def _scan_values(scan: str | None) -> dict[str, float]:
     return {k: v for k, v in kv.items() if v == v}
 
 
-@contextlib.contextmanager
-def _interrupt_on_signals():
-    """SIGINT and SIGTERM raise KeyboardInterrupt in the main thread while the jobs run, whatever
-    the inherited disposition (a shell starts background commands with SIGINT ignored), as
-    ``surfhap render`` and ``serve`` handle them."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def interrupt(signum, frame):
-        raise KeyboardInterrupt
-
-    previous = {sig: signal.signal(sig, interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-
-
 def _run(fn, items, names, params, outs, root: Path, spec, what: str, preload: tuple[str, ...] = ()) -> int:
     """Run the jobs with a progress bar on stderr, write the index, print one line; returns
     the exit code (0 all done, 1 when a job failed)."""
@@ -107,17 +85,14 @@ def _run(fn, items, names, params, outs, root: Path, spec, what: str, preload: t
             failed = sum(not o.ok for o in finished.values())
             prog.update(task, completed=done, failed=f"{failed} failed" if failed else "")
 
-        try:
-            with _interrupt_on_signals():
-                outcomes = run_jobs(fn, items, spec, progress=progress, preload=preload)
-        except KeyboardInterrupt:  # Ctrl-C or SIGTERM: keep what finished, mark the rest, no traceback
-            outcomes = None
+        with StopSignals() as guard:  # Ctrl-C or SIGTERM: keep what finished, mark the rest, no traceback
+            outcomes = guard.call(run_jobs, fn, items, spec, progress=progress, preload=preload)
     if outcomes is None:
         outcomes = [finished.get(i, JobOutcome(i, False, None, "interrupted", 0.0)) for i in range(len(items))]
         paths = write_index(index_rows(names, params, outs, outcomes, root), root, where)
         done = sum(o.ok for o in finished.values())
-        error_line(f"interrupted: {done} of {len(items)} jobs done; index -> {paths['csv']}")
-        return 130
+        error_line(f"interrupted: {done} of {len(items)} jobs done; index -> {paths['csv']} ({guard.name})")
+        return EXIT_INTERRUPTED
     rows = index_rows(names, params, outs, outcomes, root)
     paths = write_index(rows, root, where)
     bad = [r for r in rows if r["status"] != "ok"]

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import signal
 import time
 from pathlib import Path
 from typing import Optional
@@ -11,6 +10,7 @@ from typing import Optional
 import typer
 
 from surfhap.cli._common import require_modules, stderr, stdout
+from surfhap.cli._signals import StopSignals
 from surfhap.errors import ConfigError
 
 __all__ = ["register"]
@@ -178,7 +178,7 @@ def run_cmd(
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Log at INFO."),
 ) -> None:
     """Run SCENE live: a 1 kHz haptic thread driving the device and a 60 Hz position-feedback
-    thread; Ctrl-C or SIGTERM ramps the force to zero and stops."""
+    thread; Ctrl-C or SIGTERM ramps the force to zero, prints the stats and exits 130."""
     _require_extras(touch if trajectory is None else "trajectory:", device, feedback)
     from surfhap.ff.engine import FFEngine
     from surfhap.ff.scene import load_scene
@@ -227,43 +227,37 @@ def run_cmd(
         source = _WebSource(sc, loop, dev, host, port)
     else:
         raise ConfigError("expected osc://HOST:PORT, web or trajectory:FILE", source="--touch")
-    stopping = {"sig": None}
-
-    def _on_signal(signum, _frame):
-        stopping["sig"] = signum
-        loop.request_stop()
-
-    old = signal.signal(signal.SIGTERM, _on_signal)
-    try:
+    guard = StopSignals(on_stop=loop.request_stop)  # Ctrl-C and SIGTERM: the loop ramps the force to zero
+    with guard:
         try:
-            source.start()
-        except OSError as exc:
-            raise ConfigError(f"cannot listen ({exc.strerror or exc})", source="--touch") from None
-        try:
-            loop.start()
-        except OSError as exc:
+            try:
+                source.start()
+            except OSError as exc:
+                raise ConfigError(f"cannot listen ({exc.strerror or exc})", source="--touch") from None
+            try:
+                loop.start()
+            except OSError as exc:
+                source.stop()
+                raise ConfigError(f"cannot open the device link ({exc.strerror or exc})", source="--device") from None
+            stderr.print(f"surfhap ff: {sc.name} on {backend.name} at {loop.rate:.0f} Hz; touch {touch}"
+                         f"{'' if backend.name != 'osc' else f'; positions on udp port {backend.listen_port}'}"
+                         " (Ctrl-C stops)")
+            end = time.monotonic() + duration if duration > 0 else None
+            while not loop.done.is_set():
+                if end is not None and time.monotonic() >= end:
+                    loop.request_stop()
+                    end = None
+                if getattr(source, "done", None) is not None and source.done.is_set() and duration == 0:
+                    loop.request_stop()
+                if guard.wait(0.05):  # on_stop requested the ramp: wait for the loop to finish it
+                    loop.done.wait(0.05)
+        finally:
             source.stop()
-            raise ConfigError(f"cannot open the device link ({exc.strerror or exc})", source="--device") from None
-        stderr.print(f"surfhap ff: {sc.name} on {backend.name} at {loop.rate:.0f} Hz; touch {touch}"
-                     f"{'' if backend.name != 'osc' else f'; positions on udp port {backend.listen_port}'}"
-                     " (Ctrl-C stops)")
-        end = time.monotonic() + duration if duration > 0 else None
-        while not loop.done.is_set():
-            if end is not None and time.monotonic() >= end:
-                loop.request_stop()
-                end = None
-            if getattr(source, "done", None) is not None and source.done.is_set() and duration == 0:
-                loop.request_stop()
-            time.sleep(0.05)
-    except KeyboardInterrupt:
-        loop.request_stop()
-    finally:
-        source.stop()
-        loop.stop()
-        signal.signal(signal.SIGTERM, old)
+            loop.stop()
     st = loop.stats()
     st["scene"] = sc.name
     typer.echo(json.dumps(st, default=float))
+    guard.finish("the force ramped to zero, status above")
 
 
 def _require_extras(touch: str, device: str, feedback: Optional[str]) -> None:

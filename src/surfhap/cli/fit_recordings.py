@@ -13,6 +13,7 @@ from typing import List, Optional
 import typer
 
 from surfhap.cli._common import stdout
+from surfhap.cli._signals import StopSignals
 from surfhap.cli._options import JobsOption, SchedulerOption
 from surfhap.cli.fit import fit_app
 from surfhap.errors import ConfigError
@@ -78,11 +79,12 @@ def fit_friction_cmd(
     speeds = tuple(v / 1000.0 if v > 5 else v for v in speeds)
     recs = read_recordings(recordings, parse_column_map(columns))
     command = _command()
-    with joblib_backend(scheduler):
-        fit = fit_friction(recs, material, cutoff=cutoff, reference_speeds=speeds, tolerance=tolerance / 1000.0,
-                           min_span=min_span / 1000.0, max_order=max_order, criterion=criterion.lower(), estimator=estimator,
-                           edge_trim=None if edge_trim is None else edge_trim / 1000.0,
-                           jobs=n_jobs)
+    with StopSignals() as guard, joblib_backend(scheduler):
+        fit = guard.call(fit_friction, recs, material, cutoff=cutoff, reference_speeds=speeds,
+                         tolerance=tolerance / 1000.0, min_span=min_span / 1000.0, max_order=max_order,
+                         criterion=criterion.lower(), estimator=estimator,
+                         edge_trim=None if edge_trim is None else edge_trim / 1000.0, jobs=n_jobs)
+    guard.finish(f"the fit did not finish; {out} not written")
     mat = fit.to_material(command=command)
     write_material_json(mat, out)
     qs = fit.quasi_static
@@ -123,10 +125,11 @@ def fit_accel_cmd(
     n_jobs = _check_jobs(jobs, scheduler)
     recs = read_recordings(recordings, parse_column_map(columns))
     command = _command()
-    with joblib_backend(scheduler):
-        fit = fit_accel(recs, material, model_rate=model_rate, highpass=highpass, max_order=max_order, criterion=criterion,
-                        min_segment=min_segment / 1000.0, mu0=mu0, jobs=n_jobs,
-                        max_segment=max_segment or None)
+    with StopSignals() as guard, joblib_backend(scheduler):
+        fit = guard.call(fit_accel, recs, material, model_rate=model_rate, highpass=highpass, max_order=max_order,
+                         criterion=criterion, min_segment=min_segment / 1000.0, mu0=mu0, jobs=n_jobs,
+                         max_segment=max_segment or None)
+    guard.finish(f"the fit did not finish; {out} not written")
     write_material_json(fit.to_material(command=command), out)
     stdout.print(f"{out}: {len(fit.segments)} segments, AR({fit.order}) models (AIC {fit.aic_order}, BIC {fit.bic_order}) over (speed, force), "
                  f"{fit.bank.triangles.shape[0]} triangles; mu0 {fit.mu0:.3f}")

@@ -1,20 +1,18 @@
 """``surfhap serve`` / ``devices`` / ``play``: live rendering to a sound card, OSC, a file or
 the simulated display, with a touch page in the browser.
 
-Ctrl-C and SIGTERM stop the same way: the output ramps to zero (``stop_ramp``, 10 ms), the
-recording is flushed, the status is printed as JSON, exit code 0. Exit code 3: the output
-backend failed (raised or stalled); the engine drove 0 V from then on and the status's
-``failure`` says why.
+Ctrl-C and SIGTERM stop the same way (:class:`~surfhap.cli._signals.StopSignals`): the
+output ramps to zero (``stop_ramp``, 10 ms), the recording is flushed, the status is printed
+as JSON, one ``interrupted`` line, exit code 130 (0 when ``play`` or ``serve --duration``
+ended by itself). Exit code 3: the output backend failed (raised or stalled); the engine
+drove 0 V from then on and the status's ``failure`` says why.
 """
 
 from __future__ import annotations
 
 import json
 import logging
-import signal
-import threading
 import time
-from contextlib import contextmanager
 from pathlib import Path
 from typing import List, Optional
 
@@ -23,6 +21,7 @@ import typer
 from surfhap.cli._common import parse_key_values, require_modules, stderr, stdout
 from surfhap.cli._display_options import resolve_display_and_range
 from surfhap.cli._options import ConfigOption, DisplayOption, LiveAmpGainOption, SeedOption
+from surfhap.cli._signals import StopSignals
 from surfhap.errors import ConfigError
 
 __all__ = ["register"]
@@ -31,33 +30,14 @@ LOOPBACK = ("127.0.0.1", "localhost", "::1")
 EXIT_BACKEND_FAILED = 3
 
 
-@contextmanager
-def _sigterm_as_interrupt():
-    """Within the block, SIGTERM raises KeyboardInterrupt in the main thread once (later
-    ones are ignored while shutting down), so it stops like Ctrl-C."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    fired = []
-
-    def handler(signum, frame):
-        if not fired:
-            fired.append(signum)
-            raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-
-
-def _finish(engine) -> None:
-    """Exit 3 (after the status was printed) when the output backend failed."""
+def _finish(engine, guard: StopSignals) -> None:
+    """Exit 3 (after the status was printed) when the output backend failed, else 130 when a
+    signal stopped the command."""
     if engine.failure is not None:
         stderr.print(f"[bold red]error:[/] {engine.failure}; the output was halted at 0 V", markup=True,
                      soft_wrap=True)
         raise typer.Exit(EXIT_BACKEND_FAILED)
+    guard.finish("the output ramped to 0 V, status above")
 
 
 def _engine_config(block_ms: float, touch_latency_ms: float, smoothing: float):
@@ -139,7 +119,7 @@ def serve_cmd(
     """Serve the touch page: drag on it and the drive is rendered live to the chosen output.
 
     Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
-    (exit 0); exit 3 when the output backend failed."""
+    (exit 130); exit 3 when the output backend failed."""
     require_modules("fastapi", "starlette", "uvicorn")  # the page; else: install surfhap[live]
     from surfhap.live.app import create_app
     from surfhap.live.config import ServerConfig
@@ -185,7 +165,7 @@ def serve_cmd(
                             backend_options=_channel_options(channels, output), display=disp)
     cfg = ServerConfig(host=host, port=port, allowed_origins=tuple(allow_origin), allowed_hosts=allowed_hosts)
     server = None
-    with _sigterm_as_interrupt():
+    with StopSignals() as guard:
         try:
             session.start()
             if web_process:
@@ -196,18 +176,16 @@ def serve_cmd(
             shown = f"[{shown}]" if ":" in shown else shown
             stdout.print(f"surfhap live: {session.title} -> {output}; open http://{shown}:{port}/ (Ctrl-C stops)")
             end = time.monotonic() + duration if duration > 0 else None
-            while (end is None or time.monotonic() < end) and session.engine.failure is None:
-                time.sleep(0.05)
-        except KeyboardInterrupt:
-            pass
+            while (end is None or time.monotonic() < end) and session.engine.failure is None and not guard.wait(0.05):
+                pass
         except OSError as exc:
             raise ConfigError(f"cannot listen on {host}:{port} ({exc.strerror or exc})", source="--port") from None
-        finally:
+        finally:  # the output first: its stop ramp runs while the page still delivers touches
+            session.stop()
             if server is not None:
                 server.stop()
-            session.stop()
     typer.echo(json.dumps(session.engine.status(), default=float))
-    _finish(session.engine)
+    _finish(session.engine, guard)
 
 
 def devices_cmd() -> None:
@@ -238,7 +216,7 @@ def play_cmd(
     """Play a scripted scan of MATERIAL live, to check the sound card and amplifier chain.
 
     Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
-    (exit 0); exit 3 when the output backend failed."""
+    (exit 130); exit 3 when the output backend failed."""
     from surfhap.live.session import build_session
     from surfhap.models.trajectory import constant_scan, strokes
 
@@ -252,15 +230,14 @@ def play_cmd(
                             engine_config=_engine_config(block_ms, 0.0, 1.0), replay=traj, seed=seed,
                             backend_options=_channel_options(channels, output), display=disp)
     replay = session.sources[0]
-    with _sigterm_as_interrupt():
+    with StopSignals() as guard:
         try:
             session.start()
             end = time.monotonic() + kv["duration"] + 5.0
-            while not replay.done.wait(0.05) and time.monotonic() < end and session.engine.failure is None:
+            while (not replay.done.is_set() and time.monotonic() < end and session.engine.failure is None
+                   and not guard.wait(0.05)):
                 pass
-            time.sleep(0.05)
-        except KeyboardInterrupt:
-            pass
+            guard.wait(0.05)
         finally:
             session.stop()
     st = session.engine.status()
@@ -268,7 +245,7 @@ def play_cmd(
                            "counters": st["counters"], "safety": st["safety"], "output_safety": st["output_safety"],
                            "latency": st["latency"], "stopped": st["stopped"], "failure": st["failure"]},
                           default=float))
-    _finish(session.engine)
+    _finish(session.engine, guard)
 
 
 def register(app: typer.Typer) -> None:

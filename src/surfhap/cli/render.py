@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import signal
-import threading
-from contextlib import contextmanager
 from pathlib import Path
 from typing import List, Optional
 
@@ -12,28 +9,15 @@ import typer
 
 from surfhap.batch.jobs import NPZ_MAX_SECONDS, choose_format
 from surfhap.cli._batch import GRID_HELP, render_batch, split_inputs
-from surfhap.cli._common import error_line, progress_bar, stderr, stdout
+from surfhap.cli._common import progress_bar, stderr, stdout
 from surfhap.cli._display_options import resolve_display_and_range
 from surfhap.cli._scan import trajectory_from_options
+from surfhap.cli._signals import StopSignals
 from surfhap.cli._options import (ConfigOption, DisplayOption, FigureOption, JobsOption, LoadRangeOption, SchedulerOption,
                                   SeedOption, SpeedRangeOption, TrajectoryOption)
 from surfhap.errors import ConfigError
 
 __all__ = ["register"]
-
-@contextmanager
-def _stop_on_signals():
-    """Yields ``stop()``: True once SIGINT or SIGTERM arrived (handled between blocks)."""
-    caught: list[int] = []
-    if threading.current_thread() is not threading.main_thread():
-        yield lambda: False
-        return
-    previous = {sig: signal.signal(sig, lambda signum, frame: caught.append(signum)) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield lambda: bool(caught)
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
 
 
 def render_cmd(
@@ -88,8 +72,8 @@ def render_cmd(
                       operating_range=rng, display=disp, limits=SafetyLimits(v_max=v_max, rise_rate=v_max * 1e4))
     if batch:
         return render_batch(materials, scan, trajectory, grid, cfg, out, amp_gain, figure, jobs, scheduler, fmt=fmt)
-    with _stop_on_signals() as stop, progress_bar(f"rendering {mat.name}", enabled=traj.duration > 2.0) as update:
-        result, paths = render_to_folder(mat, traj, cfg, out, fmt=fmt, amp_gain=amp_gain, figure=figure, progress=update, stop=stop)
+    with StopSignals() as guard, progress_bar(f"rendering {mat.name}", enabled=traj.duration > 2.0) as update:
+        result, paths = render_to_folder(mat, traj, cfg, out, fmt=fmt, amp_gain=amp_gain, figure=figure, progress=update, stop=guard)
     s = result.summary()
     stdout.print(f"{mat.name} ({s['method']}): alpha {s['alpha_v_per_sqrt_n']:.1f} V/sqrt(N) ({s['alpha_source']}, "
                  f"rendering gain {s['rendering_gain']:.3f}), max |V| {s['max_abs_voltage']:.1f} V, clipped {s['clipped_fraction']:.1%}, "
@@ -97,9 +81,8 @@ def render_cmd(
     warning = result.saturation_warning()
     if warning is not None:
         stderr.print(f"[bold yellow]warning:[/] {warning}", markup=True, soft_wrap=True)
-    if result.interrupted:
-        error_line(f"interrupted: wrote the first {s['rendered_s']:g} s of {s['requested_s']:g} s to {paths['render']}")
-        raise typer.Exit(130)
+    guard.finish(f"wrote the first {s['rendered_s']:g} s of {s['requested_s']:g} s to {paths['render']}" if result.interrupted
+                 else f"after the render was complete ({paths['render']})")
 
 
 def register(app: typer.Typer) -> None:

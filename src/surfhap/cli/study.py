@@ -22,6 +22,7 @@ from typing import Optional
 import typer
 
 from surfhap.cli._common import stderr, stdout
+from surfhap.cli._signals import StopSignals
 
 __all__ = ["register"]
 
@@ -75,14 +76,13 @@ def new(
     stdout.print(f"wrote {target}")
 
 
-def _simulate(runner, seed: int, p_correct: float, pace: float) -> None:
+def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSignals) -> None:
     import sys
-    import time
 
     import numpy as np
 
     rng = np.random.default_rng(seed)
-    while not runner.finished:
+    while not runner.finished and not guard.stopped:
         st = runner.state()
         if st["status"] == "rest":
             runner.resume()
@@ -101,7 +101,7 @@ def _simulate(runner, seed: int, p_correct: float, pace: float) -> None:
         sys.stdout.write(f"logged {t.id}\n")
         sys.stdout.flush()
         if pace > 0:
-            time.sleep(pace)
+            guard.wait(pace)
 
 
 @study_app.command("run")
@@ -128,7 +128,10 @@ def run(
     lsl: bool = typer.Option(False, "--lsl", help="Push Lab Streaming Layer markers (stimulus on/off, touch, "
                                                   "answer); needs the 'lsl' extra (pylsl)."),
 ) -> None:
-    """Run (or resume) one participant: the page shows the trials, the terminal the progress."""
+    """Run (or resume) one participant: the page shows the trials, the terminal the progress.
+
+    Ctrl-C or SIGTERM pauses: the live output ramps to zero, every answered trial is in the
+    log, exit 130; run again to resume."""
     from surfhap.lab.comfort import required_comfort_voltage
     from surfhap.lab.session import SessionRunner
 
@@ -151,13 +154,15 @@ def run(
             stderr.print(f"comfort voltage {measured:.1f} V (from 'study comfort'): session limit {runner.v_max:.1f} V")
         if runner.n_done:
             stderr.print(f"resuming {runner.plan.id}: {runner.n_done}/{runner.total} trials already logged")
-        if simulate is not None:
-            _simulate(runner, simulate, p_correct, pace)
-        else:
-            _run_page(runner, host, port, output, amp_gain, lsl)
+        with StopSignals() as guard:
+            if simulate is not None:
+                _simulate(runner, simulate, p_correct, pace, guard)
+            else:
+                _run_page(runner, host, port, output, amp_gain, guard, lsl)
         stderr.print(f"{runner.plan.id}: {runner.n_done}/{runner.total} trials logged in {runner.log.path}")
     finally:
         runner.close()
+    guard.finish("paused; every answered trial is in the log (run again to resume)")
 
 
 def _first_material(runner) -> str:
@@ -168,9 +173,10 @@ def _first_material(runner) -> str:
     return "cork"
 
 
-def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float, lsl: bool = False) -> None:
-    import time
-
+def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float, guard: StopSignals,
+              lsl: bool = False) -> None:
+    """Serve the page until the runner is finished or ``guard`` caught SIGINT/SIGTERM; then
+    the live output ramps to zero (the recording is flushed) before the page stops."""
     from rich.live import Live
     from rich.table import Table
 
@@ -211,17 +217,17 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
 
     try:
         with Live(table(), console=stderr, refresh_per_second=4, transient=False) as live:
-            while not runner.finished:
-                time.sleep(0.25)
+            while not runner.finished and not guard.wait(0.25):
                 live.update(table())
             live.update(table())
-        time.sleep(1.0)  # let the page fetch the "done" screen
-    except KeyboardInterrupt:
-        stderr.print("paused; every answered trial is in the log")
-    finally:
-        server.stop()
+        if not stderr.is_terminal:  # a redirected Live table ends without a newline: the next line starts its own
+            stderr.line()
+        if not guard.stopped:
+            guard.wait(1.0)  # let the page fetch the "done" screen
+    finally:  # the output first: its stop ramp runs on the live drive
         if session is not None:
             session.stop()
+        server.stop()
 
 
 @study_app.command("comfort")
@@ -261,7 +267,11 @@ def comfort(
                 p_no = 1.0 / (1.0 + np.exp(-(v - simulated_threshold) / (0.1 * simulated_threshold)))
                 runner.answer(st["trial"]["id"], "no" if rng.random() < p_no else "yes", float(rng.gamma(4, 0.4)))
         else:
-            _run_page(runner, host, port, output, amp_gain)
+            with StopSignals() as guard:
+                _run_page(runner, host, port, output, amp_gain, guard)
+            if guard.stopped:
+                stdout.print(f"{runner.plan.id}: {runner.result().levels.size} staircase trials logged; run again to continue")
+                guard.finish("paused; every answered trial is in the log")
         res = runner.result()
         if runner.finished:
             v = comfort_ceiling(res.threshold, runner.params)
