@@ -184,6 +184,7 @@ def run_cmd(
     from surfhap.ff.scene import load_scene
     from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_osc_url
     from surfhap.live.ff_loop import FFLoop, OscFeedback, WorldTouchAdapter
+    from surfhap.live.netaddr import parse_host_port
 
     logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
@@ -201,10 +202,7 @@ def run_cmd(
         backend = SimDeviceBackend(SimDevice(gain=dev.gain), dev.gain)
     else:
         host, port = parse_osc_url(device, "--device")
-        lh, _, lp = device_listen.rpartition(":")
-        if not lh or not lp.isdigit() or not 0 <= int(lp) <= 65535:
-            raise ConfigError("expected HOST:PORT", source="--device-listen")
-        backend = OscDeviceBackend(host, port, dev.gain, listen=(lh, int(lp)))
+        backend = OscDeviceBackend(host, port, dev.gain, listen=parse_host_port(device_listen, "--device-listen", listen=True))
     fb = None
     if feedback is not None:
         fb = OscFeedback(*parse_osc_url(feedback, "--feedback"))
@@ -222,7 +220,7 @@ def run_cmd(
     elif touch.startswith("osc://"):
         from surfhap.live.sources import OscTouchSource, TouchSpace
 
-        host, port = parse_osc_url(touch, "--touch")
+        host, port = parse_osc_url(touch, "--touch", listen=True)
         w, h = sc.size
         source = OscTouchSource(loop, host=host, port=port, space=TouchSpace(width=w, height=h))
     elif touch == "web":

@@ -36,6 +36,7 @@ import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.live.clock import now
+from surfhap.live.netaddr import parse_osc_address
 
 __all__ = ["SimDeviceBackend", "OscDeviceBackend", "parse_osc_url"]
 
@@ -44,14 +45,13 @@ log = logging.getLogger("surfhap.live")
 MAX_POSITION = 1.0  # m, larger positions are rejected as garbage
 
 
-def parse_osc_url(text: str, option: str) -> tuple[str, int]:
-    """``osc://HOST:PORT`` -> (host, port); ConfigError naming ``option`` otherwise."""
-    if not text.startswith("osc://"):
+def parse_osc_url(text: str, option: str, *, listen: bool = False) -> tuple[str, int]:
+    """``osc://HOST:PORT`` -> (host, port), checked without a DNS lookup (port 0 only where
+    the option ``listen``\ s); ConfigError naming ``option`` otherwise."""
+    host, port, path = parse_osc_address(text, option, listen=listen)
+    if path:
         raise ConfigError(f"expected osc://HOST:PORT, got {text!r}", source=option)
-    host, _, port = text[6:].rstrip("/").rpartition(":")
-    if not host or not port.isdigit() or not 0 <= int(port) <= 65535:
-        raise ConfigError(f"expected osc://HOST:PORT, got {text!r}", source=option)
-    return host.strip("[]"), int(port)
+    return host, port
 
 
 class SimDeviceBackend:
