@@ -21,7 +21,7 @@ from typer.core import TyperGroup
 
 from surfhap.cli._common import figure_path, progress_bar, stdout
 from surfhap.cli._options import FigureOption, TrajectoryOption
-from surfhap.errors import ConfigError, MeshFormatError
+from surfhap.errors import ConfigError, MeshFormatError, writing
 
 __all__ = ["register", "load_surface"]
 
@@ -140,7 +140,8 @@ def render_cmd(
     paths = write_shape(result, out)
     if figure:
         fig = result.plot()
-        fig.savefig(Path(out) / "figure.png", dpi=110)
+        with writing(Path(out) / "figure.png"):
+            fig.savefig(Path(out) / "figure.png", dpi=110)
     s = result.summary()
     stdout.print(f"{surf.name}: {s['samples']} touch samples, {s['on_mesh_fraction']:.0%} on the mesh, "
                  f"force {s['force_range_n'][0]:+.3g}..{s['force_range_n'][1]:+.3g} N, {s['ticks']} edge ticks, "
@@ -185,7 +186,8 @@ def calibrate_cmd(
     path = write_calibration(cal, out)
     if figure is not None:
         figure.parent.mkdir(parents=True, exist_ok=True)
-        cal.plot().savefig(figure, dpi=110)
+        with writing(figure):
+            cal.plot().savefig(figure, dpi=110)
     stdout.print(f"{surf.name}: Fsq range [{cal.fmin:+.4g}, {cal.fmax:+.4g}] sqrt(N) ({cal.method}, "
                  f"{cal.n_samples} samples, theta_min {cal.theta_min_deg:.1f} deg) -> {path}")
 
