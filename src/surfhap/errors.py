@@ -7,6 +7,12 @@ the field it is about, so the CLI can print one clear line and exit with code 2.
 
 from __future__ import annotations
 
+import errno
+import zipfile
+import zlib
+from contextlib import contextmanager
+from pathlib import Path
+
 __all__ = [
     "SurfhapError",
     "InputError",
@@ -18,6 +24,11 @@ __all__ = [
     "ConfigError",
     "StudyFormatError",
     "SceneFormatError",
+    "OutputError",
+    "InputWarning",
+    "MeshUnitsWarning",
+    "reading",
+    "writing",
 ]
 
 
@@ -74,3 +85,68 @@ class StudyFormatError(InputError):
 
 class SceneFormatError(InputError):
     """A force-feedback scene file (JSON) or one of its map / mesh files that cannot be used."""
+
+
+class OutputError(InputError):
+    """An output file that cannot be written: no space left, no permission, a folder in the way."""
+
+
+class InputWarning(UserWarning):
+    """Input that is accepted but probably not what the user meant (issued with
+    :func:`warnings.warn`; the CLI prints it as one ``warning:`` line). ``source`` and ``hint``
+    locate it like an :class:`InputError`."""
+
+    def __init__(self, message: str, *, source: str | None = None, hint: str | None = None):
+        self.message = message
+        self.source = None if source is None else str(source)
+        self.hint = hint
+        text = ": ".join(p for p in (self.source, message) if p)
+        super().__init__(" ".join((text + (f" ({hint})" if hint else "")).splitlines()))
+
+
+class MeshUnitsWarning(InputWarning):
+    """A mesh whose extent is implausible in metres (a mesh in millimetres, say)."""
+
+
+# The one place where what the OS or a format library raises while a user's file is read or
+# written becomes an InputError naming the file (every reader and writer in exchange/ uses it).
+_FORMAT_ERRORS = (zipfile.BadZipFile, zlib.error, EOFError)
+
+
+def _os_reason(exc: OSError) -> str:
+    if exc.errno == errno.ENOENT:
+        return "no such file"
+    if exc.errno == errno.EISDIR:
+        return "is a folder, not a file"
+    if exc.errno == errno.ENOSPC:
+        return "no space left on the device"
+    return exc.strerror or type(exc).__name__
+
+
+@contextmanager
+def reading(source: str | Path, error: type[InputError] = InputError, what: str = "file"):
+    """Read ``source`` inside this block: an OSError, undecodable text or a truncated/corrupt
+    archive becomes ``error`` naming ``source`` (an InputError raised inside passes as is)."""
+    try:
+        yield
+    except InputError:
+        raise
+    except UnicodeDecodeError as exc:
+        raise error(f"not a UTF-8 text file ({exc.reason}; save the {what} as UTF-8)", source=str(source)) from None
+    except OSError as exc:
+        raise error(f"cannot read file ({_os_reason(exc)})", source=str(source)) from None
+    except _FORMAT_ERRORS as exc:
+        detail = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(exc).__name__
+        raise error(f"truncated or corrupt {what} ({detail})", source=str(source)) from None
+
+
+@contextmanager
+def writing(path: str | Path, what: str = "file"):
+    """Write ``path`` inside this block: an OSError (no space left, no permission...) becomes
+    an :class:`OutputError` naming ``path``."""
+    try:
+        yield
+    except InputError:
+        raise
+    except OSError as exc:
+        raise OutputError(f"cannot write {what} ({_os_reason(exc)})", source=str(path)) from None

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import re
+import warnings
 from contextlib import contextmanager
 
 import typer
 from rich.console import Console
 from rich.text import Text
 
-from surfhap.errors import ConfigError, SurfhapError
+from surfhap.errors import ConfigError, InputWarning, SurfhapError
 
-__all__ = ["run_guarded", "fail", "error_line", "progress_bar", "parse_key_values", "stderr", "stdout",
+__all__ = ["run_guarded", "fail", "error_line", "warning_line", "progress_bar", "parse_key_values", "stderr", "stdout",
            "OPTIONAL_MODULES", "require_modules", "figure_path"]
 
 stderr = Console(stderr=True, highlight=False)
@@ -66,6 +67,30 @@ def error_line(message: str) -> None:
     stderr.print(Text.assemble(("error:", "bold red"), " ", flat), soft_wrap=True)
 
 
+def warning_line(message: str) -> None:
+    """Print ``warning: message`` as exactly one line on stderr (no markup is interpreted)."""
+    flat = re.sub(r"\s+", " ", str(message)).strip()
+    stderr.print(Text.assemble(("warning:", "bold yellow"), " ", flat), soft_wrap=True)
+
+
+@contextmanager
+def input_warnings_as_lines():
+    """Inside: every :class:`~surfhap.errors.InputWarning` the library issues (a mesh in
+    millimetres, ...) is printed as one ``warning:`` line, each time; other warnings as usual."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", InputWarning)
+        shown = warnings.showwarning
+
+        def _show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, InputWarning):
+                warning_line(str(message))
+            else:
+                shown(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = _show
+        yield
+
+
 def fail(message: str) -> None:
     """Print one error line and exit with code 2."""
     error_line(message)
@@ -89,7 +114,8 @@ def run_guarded(app: typer.Typer, argv: list[str]) -> int:
     to install (exit 2). A group called without a command prints its help (exit 2).
     """
     try:
-        code = app(args=argv, prog_name="surfhap", standalone_mode=False)
+        with input_warnings_as_lines():
+            code = app(args=argv, prog_name="surfhap", standalone_mode=False)
     except typer.Abort:
         error_line("aborted")
         return 130

@@ -182,8 +182,9 @@ def run_cmd(
     _require_extras(touch if trajectory is None else "trajectory:", device, feedback)
     from surfhap.ff.engine import FFEngine
     from surfhap.ff.scene import load_scene
-    from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_host_port, parse_osc_url
+    from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_osc_url
     from surfhap.live.ff_loop import FFLoop, OscFeedback, WorldTouchAdapter
+    from surfhap.live.netaddr import parse_host_port
 
     from surfhap.live.logfilter import configure_logging
 
@@ -202,7 +203,7 @@ def run_cmd(
         backend = SimDeviceBackend(SimDevice(gain=dev.gain), dev.gain)
     else:
         host, port = parse_osc_url(device, "--device")
-        backend = OscDeviceBackend(host, port, dev.gain, listen=parse_host_port(device_listen, "--device-listen"))
+        backend = OscDeviceBackend(host, port, dev.gain, listen=parse_host_port(device_listen, "--device-listen", listen=True))
     fb = None
     if feedback is not None:
         fb = OscFeedback(*parse_osc_url(feedback, "--feedback"))
@@ -220,7 +221,7 @@ def run_cmd(
     elif touch.startswith("osc://"):
         from surfhap.live.sources import OscTouchSource, TouchSpace
 
-        host, port = parse_osc_url(touch, "--touch")
+        host, port = parse_osc_url(touch, "--touch", listen=True)
         w, h = sc.size
         source = OscTouchSource(loop, host=host, port=port, space=TouchSpace(width=w, height=h))
     elif touch == "web":

@@ -26,12 +26,13 @@ def bridge_check_cmd(
     """Test a running bridge: reply, rate, sequence numbers, units, axes, clamp and the 20 ms
     watchdog. Run it with the device free (the clamp row applies the bridge's limit for 30 ms)."""
     from surfhap.live.ff_bridge_check import check_bridge
-    from surfhap.live.ff_devices import parse_host_port, parse_osc_url
+    from surfhap.live.ff_devices import parse_osc_url
+    from surfhap.live.netaddr import parse_host_port
 
     host, port = parse_osc_url(url, "URL")
     if port == 0:
         raise ConfigError("the bridge's port must be within 1-65535", source="URL")
-    lh, lp = parse_host_port(listen, "--listen")
+    lh, lp = parse_host_port(listen, "--listen", listen=True)
     if not 0.1 < gain <= 1000.0:
         raise ConfigError("must be within 0.1-1000", source="--gain")
     limit = gain * 8.0 if limit is None else limit

@@ -144,10 +144,9 @@ def serve_cmd(
     allowed_hosts = _allowed_hosts(host, allow_host)
     osc = None
     if osc_in:
-        h, _, p = osc_in.rpartition(":")
-        if not h or not p.isdigit() or not 0 <= int(p) <= 65535:
-            raise ConfigError("expected HOST:PORT", source="--osc-in")
-        osc = (h.strip("[]"), int(p))
+        from surfhap.live.netaddr import parse_host_port
+
+        osc = parse_host_port(osc_in, "--osc-in", listen=True)
     if host not in LOOPBACK:
         stderr.print(f"[yellow]warning:[/] binding {host}: the page is reachable from your network; "
                      "anyone who can reach it can drive the display", markup=True, soft_wrap=True)

@@ -21,7 +21,7 @@ from typer.core import TyperGroup
 
 from surfhap.cli._common import figure_path, progress_bar, stdout
 from surfhap.cli._options import FigureOption, TrajectoryOption
-from surfhap.errors import ConfigError, MeshFormatError
+from surfhap.errors import ConfigError, MeshFormatError, writing
 
 __all__ = ["register", "load_surface"]
 
@@ -65,12 +65,13 @@ def load_surface(mesh: str, *, up: str = "z", scale: float = 1.0, size: float | 
     if scale != 1.0 or size is not None or up != "z":
         import numpy as np
 
-        from surfhap.exchange.mesh import orient_up
+        from surfhap.exchange.mesh import orient_up, warn_mesh_extent
 
         v = orient_up(surf.vertices, up) * scale
         if size is not None:
             lo, hi = v.min(axis=0), v.max(axis=0)
             v = (v - np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.0])) * (size / max(hi[0] - lo[0], hi[1] - lo[1]))
+        warn_mesh_extent(v, mesh)
         surf = TopSurface(v, surf.faces, name=surf.name, source=surf.source)
     return surf
 
@@ -139,7 +140,8 @@ def render_cmd(
     paths = write_shape(result, out)
     if figure:
         fig = result.plot()
-        fig.savefig(Path(out) / "figure.png", dpi=110)
+        with writing(Path(out) / "figure.png"):
+            fig.savefig(Path(out) / "figure.png", dpi=110)
     s = result.summary()
     stdout.print(f"{surf.name}: {s['samples']} touch samples, {s['on_mesh_fraction']:.0%} on the mesh, "
                  f"force {s['force_range_n'][0]:+.3g}..{s['force_range_n'][1]:+.3g} N, {s['ticks']} edge ticks, "
@@ -184,7 +186,8 @@ def calibrate_cmd(
     path = write_calibration(cal, out)
     if figure is not None:
         figure.parent.mkdir(parents=True, exist_ok=True)
-        cal.plot().savefig(figure, dpi=110)
+        with writing(figure):
+            cal.plot().savefig(figure, dpi=110)
     stdout.print(f"{surf.name}: Fsq range [{cal.fmin:+.4g}, {cal.fmax:+.4g}] sqrt(N) ({cal.method}, "
                  f"{cal.n_samples} samples, theta_min {cal.theta_min_deg:.1f} deg) -> {path}")
 

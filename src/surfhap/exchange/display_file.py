@@ -18,6 +18,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from surfhap.errors import ConfigError
+from surfhap.exchange.files import read_text
 from surfhap.models.display import DisplayFile
 from surfhap.models.panel import DisplayModel
 
@@ -42,11 +43,10 @@ def read_display_json(path: str | Path) -> DisplayModel:
     """Read and validate a display file; raises ConfigError(source=file, field=...) on any problem."""
     path = Path(path)
     src = str(path)
+    text = read_text(path, ConfigError)
     try:
-        raw = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ConfigError(f"cannot read file ({exc.strerror})", source=src) from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raw = json.loads(text)
+    except json.JSONDecodeError as exc:
         raise ConfigError(f"malformed JSON ({exc})", source=src) from None
     if not isinstance(raw, dict):
         raise ConfigError("top level must be a JSON object", source=src)

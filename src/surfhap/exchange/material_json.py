@@ -12,6 +12,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from surfhap.errors import MaterialFormatError
+from surfhap.exchange.files import read_text, write_text
 from surfhap.models.material import Material, MaterialFile
 
 __all__ = ["read_material_json", "write_material_json", "validation_error_to_format_error"]
@@ -28,10 +29,7 @@ def validation_error_to_format_error(err: ValidationError, source: str, cls=Mate
 def read_material_json(path: str | Path) -> Material:
     """Read and validate a material JSON file. Raises MaterialFormatError on any problem."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise MaterialFormatError(f"cannot read file ({exc.strerror})", source=str(path)) from None
+    text = read_text(path, MaterialFormatError)
     try:
         raw = json.loads(text)
     except json.JSONDecodeError as exc:
@@ -51,6 +49,4 @@ def read_material_json(path: str | Path) -> Material:
 def write_material_json(material: Material | MaterialFile, path: str | Path) -> Path:
     """Write a material (its spec, provenance included) as indented JSON; returns the path."""
     spec = material.spec if isinstance(material, Material) else material
-    path = Path(path)
-    path.write_text(spec.model_dump_json(indent=2, exclude_none=True) + "\n", encoding="utf-8")
-    return path
+    return write_text(path, spec.model_dump_json(indent=2, exclude_none=True) + "\n")

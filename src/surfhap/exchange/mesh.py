@@ -13,14 +13,20 @@ the screen) says otherwise. ``up`` names the mesh axis that points out of the sc
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from surfhap.errors import MeshFormatError
+from surfhap.errors import MeshFormatError, MeshUnitsWarning
 
-__all__ = ["MeshData", "read_mesh", "arrays_from_trimesh", "orient_up", "builtin_mesh_path", "BUILTIN_MESHES"]
+__all__ = ["MeshData", "read_mesh", "arrays_from_trimesh", "orient_up", "builtin_mesh_path", "BUILTIN_MESHES",
+           "PLAUSIBLE_EXTENT_M", "check_mesh_extent", "warn_mesh_extent"]
+
+#: (smallest, largest) plausible top-view extent of a mesh in metres: a touch surface is
+#: millimetres to decimetres across; outside this a mesh was most likely modelled in other units
+PLAUSIBLE_EXTENT_M = (1e-3, 1.0)
 
 # Meshes shipped in surfhap/data (name -> file name).
 BUILTIN_MESHES = {"suzanne": "suzanne.obj"}
@@ -86,6 +92,27 @@ def arrays_from_trimesh(mesh, source: str = "mesh") -> tuple[np.ndarray, np.ndar
     return v, f
 
 
+def check_mesh_extent(vertices: np.ndarray, source: str) -> MeshUnitsWarning | None:
+    """A :class:`MeshUnitsWarning` when the larger side of the top-view (x-y) extent of
+    ``vertices`` (metres) is outside :data:`PLAUSIBLE_EXTENT_M`, else None."""
+    v = np.asarray(vertices, dtype=float)
+    extent = float(np.max(np.ptp(v[:, :2], axis=0))) if v.size else 0.0
+    lo, hi = PLAUSIBLE_EXTENT_M
+    if lo <= extent <= hi:
+        return None
+    guess = "millimetres" if extent > hi else "kilometres"
+    return MeshUnitsWarning(f"the mesh spans {extent:.4g} m across, read as metres; if it is in {guess}, rescale it "
+                            f"with --size METRES (the width it should span, e.g. --size 0.05) or --scale",
+                            source=source)
+
+
+def warn_mesh_extent(vertices: np.ndarray, source: str) -> None:
+    """Issue :func:`check_mesh_extent`'s warning (if any) with :func:`warnings.warn`."""
+    warning = check_mesh_extent(vertices, source)
+    if warning is not None:
+        warnings.warn(warning, stacklevel=3)
+
+
 def read_mesh(path: str | Path, *, up: str = "z", scale: float = 1.0, size: float | None = None) -> MeshData:
     """Load a mesh file (or a built-in name such as ``suzanne``) as triangles.
 
@@ -93,7 +120,8 @@ def read_mesh(path: str | Path, *, up: str = "z", scale: float = 1.0, size: floa
     scale : factor from mesh units to metres (1.0: the mesh is in metres).
     size  : if given, rescale (after ``scale``) so the larger side of the mesh's xy extent
             is ``size`` metres; the mesh is also centred on x = y = 0.
-    Raises MeshFormatError for anything unusable.
+    Raises MeshFormatError for anything unusable; warns (:class:`MeshUnitsWarning`) when the
+    result is not 1 mm to 1 m across (a mesh in millimetres read as metres, say).
     """
     import trimesh
 
@@ -119,6 +147,9 @@ def read_mesh(path: str | Path, *, up: str = "z", scale: float = 1.0, size: floa
         loaded = trimesh.load(str(p), force="mesh", process=True)
     except MeshFormatError:
         raise
+    except ImportError as exc:  # one of trimesh's optional readers is not installed
+        raise MeshFormatError(f"cannot parse the {ext.upper()} file: trimesh needs the package {exc.name!r} "
+                              "for it (pip install it)", source=src) from None
     except Exception as exc:  # trimesh raises many kinds for malformed files
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise MeshFormatError(f"cannot parse the {ext.upper()} file ({msg[:160]})", source=src) from None
@@ -137,4 +168,5 @@ def read_mesh(path: str | Path, *, up: str = "z", scale: float = 1.0, size: floa
             raise MeshFormatError("the mesh has no extent in x and y", source=src)
         centre = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.0])
         v = (v - centre) * (size / extent)
+    warn_mesh_extent(v, src)
     return MeshData(v, f, p.stem, src)

@@ -24,7 +24,6 @@ column: missing columns, unknown units, non-monotonic time, NaN runs, too few sa
 
 from __future__ import annotations
 
-import hashlib
 import io
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -32,8 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from surfhap.errors import RecordingFormatError
-from surfhap.exchange.table import UNITS, read_csv_table, read_source_bytes, resolve_columns
+from surfhap.errors import RecordingFormatError, writing
+from surfhap.exchange.files import file_sha256, load_npz, npz_number, numeric, write_text
+from surfhap.exchange.table import UNITS, read_csv_table, resolve_columns
 
 __all__ = [
     "CHANNELS",
@@ -193,25 +193,29 @@ def _read_csv(path: Path, columns: Mapping[str, str]):
         raise RecordingFormatError("no data rows", source=str(path))
     data = dict(table.columns)
     time = data.pop("time", None)
-    sample_rate = float(table.meta["sample_rate"]) if "sample_rate" in table.meta else None
+    sample_rate = None
+    if "sample_rate" in table.meta:
+        try:
+            sample_rate = float(table.meta["sample_rate"])
+        except ValueError:
+            raise RecordingFormatError(f"{table.meta['sample_rate']!r} is not a number of Hz", source=str(path),
+                                       field="sample_rate") from None
     return time, sample_rate, data, table.meta
 
 
 def _read_npz(path: Path, columns: Mapping[str, str]):
     source = str(path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except Exception as exc:  # zipfile / pickle / value errors from a corrupt file
-        raise RecordingFormatError(f"not a readable NPZ file ({exc.__class__.__name__})", source=source) from None
+    arrays = load_npz(path, RecordingFormatError)
     meta = {}
     for key in ("participant", "trial"):
         if key in arrays:
             meta[key] = str(arrays.pop(key))
-    sample_rate = float(arrays.pop("sample_rate")) if "sample_rate" in arrays else None
+    sample_rate = npz_number(arrays.pop("sample_rate"), source, "sample_rate", RecordingFormatError) \
+        if "sample_rate" in arrays else None
     headers = list(arrays)
     mapping = resolve_columns(headers, _CHANNEL_UNITS, columns, source, RecordingFormatError)
-    data = {ch: _scaled(arrays[headers[i]], f) for ch, (i, f) in mapping.items()}
+    data = {ch: _scaled(numeric(arrays[headers[i]], source, headers[i], RecordingFormatError), f)
+            for ch, (i, f) in mapping.items()}
     time = data.pop("time", None)
     return time, sample_rate, data, meta
 
@@ -227,7 +231,7 @@ def read_recording(path: str | Path, columns: Mapping[str, str] | None = None, p
     """Read one CSV or NPZ recording into SI channels (see the module docstring)."""
     path = Path(path)
     source = str(path)
-    raw = read_source_bytes(path, RecordingFormatError)
+    digest = file_sha256(path, RecordingFormatError)
     columns = dict(columns or {})
     suffix = path.suffix.lower()
     if suffix == ".npz":
@@ -237,7 +241,7 @@ def read_recording(path: str | Path, columns: Mapping[str, str] | None = None, p
     else:
         raise RecordingFormatError(f"unknown recording type {path.suffix!r} (use .csv or .npz)", source=source)
     label = participant or meta.get("participant") or path.stem
-    return _finish(source, time, sr, data, label, meta.get("trial", ""), hashlib.sha256(raw).hexdigest(), meta)
+    return _finish(source, time, sr, data, label, meta.get("trial", ""), digest, meta)
 
 
 def read_recordings(paths: Sequence[str | Path], columns: Mapping[str, str] | None = None) -> list[Recording]:
@@ -259,12 +263,12 @@ def write_recording_csv(rec: Recording, path: str | Path) -> Path:
     buf.write(",".join(["time", *names]) + "\n")
     cols = np.column_stack([rec.time, *[rec.channels[k] for k in names]])
     np.savetxt(buf, cols, delimiter=",", fmt="%.9g")
-    path.write_text(buf.getvalue(), encoding="utf-8")
-    return path
+    return write_text(path, buf.getvalue())
 
 
 def write_recording_npz(rec: Recording, path: str | Path) -> Path:
     """Write a recording as NPZ (one array per channel, SI)."""
     path = Path(path)
-    np.savez(path, time=rec.time, participant=np.array(rec.participant), trial=np.array(rec.trial), **rec.channels)
+    with writing(path):
+        np.savez(path, time=rec.time, participant=np.array(rec.participant), trial=np.array(rec.trial), **rec.channels)
     return path

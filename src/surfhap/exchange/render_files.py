@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.io import wavfile
 
-from surfhap.errors import ConfigError
+from surfhap.errors import ConfigError, writing
+from surfhap.exchange.files import write_text
 from surfhap.exchange.render_store import RENDER_CHANNELS as CHANNELS
 from surfhap.exchange.render_store import SUFFIXES, open_render_writer
 
@@ -50,9 +51,7 @@ def render_file_attrs(r, *, interrupted: bool = False) -> dict:
 
 def write_summary(path: str | Path, summary: dict, amp_gain: float) -> Path:
     """summary.json: the render's summary plus the amplifier gain (V per DAC unit)."""
-    path = Path(path)
-    path.write_text(json.dumps(summary | {"amp_gain_v_per_unit": amp_gain}, indent=2, default=float) + "\n", encoding="utf-8")
-    return path
+    return write_text(path, json.dumps(summary | {"amp_gain_v_per_unit": amp_gain}, indent=2, default=float) + "\n")
 
 
 def write_drive_wav(path: str | Path, drive: np.ndarray, drive_rate: int, amp_gain: float) -> Path:
@@ -64,7 +63,8 @@ def write_drive_wav(path: str | Path, drive: np.ndarray, drive_rate: int, amp_ga
     if peak > 1.0:
         raise ConfigError(f"the drive reaches {peak:.3g} DAC full scales; raise the amplifier gain", field="amp_gain")
     path = Path(path)
-    wavfile.write(path, int(drive_rate), units)
+    with writing(path):
+        wavfile.write(path, int(drive_rate), units)
     return path
 
 

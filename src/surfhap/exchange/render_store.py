@@ -27,7 +27,8 @@ from typing import Callable
 
 import numpy as np
 
-from surfhap.errors import ConfigError
+from surfhap.errors import ConfigError, writing
+from surfhap.exchange.files import load_npz
 
 RENDER_CHANNELS = {  # channel -> (rate: "model" or "drive", unit)
     "speed": ("model", "m/s"), "load": ("model", "N"), "texture": ("model", "texture"),
@@ -105,7 +106,8 @@ class H5Writer(_Writer):
         import h5py
 
         super().__init__(path, spec)
-        self._f = h5py.File(self.path, "w", rdcc_nbytes=0)  # whole chunks are written: no cache (it grew with the file)
+        with writing(self.path):
+            self._f = h5py.File(self.path, "w", rdcc_nbytes=0)  # whole chunks are written: no cache (it grew with the file)
         self._f.attrs["format"] = FORMAT
         self._f.attrs["version"] = VERSION
         self._f.attrs["complete"] = False
@@ -133,13 +135,17 @@ class H5Writer(_Writer):
     def _flush(self, channel):
         k = self._fill[channel]
         if k:
-            ds, n0 = self._sets[channel], self._size[channel]
-            ds.resize((n0 + k,))
-            ds[n0:n0 + k] = self._buf[channel][:k]
-            self._size[channel] = n0 + k
-            self._fill[channel] = 0
-            if channel == "drive":  # every ~3 s at 20 kHz: metadata on disk, so even a hard kill
-                self._f.flush()     # leaves a file readable up to here ("complete" stays false)
+            with writing(self.path):
+                self._write_chunk(channel, k)
+
+    def _write_chunk(self, channel, k):
+        ds, n0 = self._sets[channel], self._size[channel]
+        ds.resize((n0 + k,))
+        ds[n0:n0 + k] = self._buf[channel][:k]
+        self._size[channel] = n0 + k
+        self._fill[channel] = 0
+        if channel == "drive":  # every ~3 s at 20 kHz: metadata on disk, so even a hard kill
+            self._f.flush()     # leaves a file readable up to here ("complete" stays false)
 
     def close(self, attrs):
         for name in self._sets:
@@ -150,7 +156,8 @@ class H5Writer(_Writer):
             else:
                 self._f.attrs[key] = value
         self._f.attrs["complete"] = True
-        self._f.close()
+        with writing(self.path):
+            self._f.close()
 
     def abort(self):
         self._f.close()
@@ -172,8 +179,12 @@ class NpzWriter(_Writer):
         meta = {"format": FORMAT, "version": VERSION, "rates": {k: v[0] for k, v in self.spec.items()},
                 "units": {k: v[1] for k, v in self.spec.items()}, "attrs": attrs | {"complete": True}}
         tmp = self.path.with_name(self.path.name + ".part.npz")
-        np.savez(tmp, _meta=np.array(json.dumps(meta, default=float)), **arrays)
-        os.replace(tmp, self.path)
+        try:
+            with writing(self.path):
+                np.savez(tmp, _meta=np.array(json.dumps(meta, default=float)), **arrays)
+                os.replace(tmp, self.path)
+        finally:
+            tmp.unlink(missing_ok=True)
         self._blocks = {}
 
     def abort(self):
@@ -225,21 +236,17 @@ def _read_h5(path: Path) -> RenderData:
 
 
 def _read_npz(path: Path) -> RenderData:
-    try:
-        data = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as exc:
-        raise ConfigError(f"not a readable .npz file ({exc})", source=str(path)) from None
-    with data:
-        arrays = {k: data[k] for k in data.files if k != "_meta"}
-        if "_meta" not in data.files:  # written before the format had metadata: t and t_drive stored
-            rates = {}
-            for key, tkey in (("voltage", "t"), ("drive", "t_drive")):
-                t = arrays.get(tkey)
-                if t is not None and t.size > 1:
-                    rates[key] = float(round(1.0 / (t[1] - t[0])))
-            latency = arrays.pop("latency", None)
-            return RenderData(arrays, rates, {}, {} if latency is None else {"latency_s": float(latency)})
-        meta = json.loads(str(data["_meta"]))
+    data = load_npz(path, ConfigError)
+    arrays = {k: v for k, v in data.items() if k != "_meta"}
+    if "_meta" not in data:  # written before the format had metadata: t and t_drive stored
+        rates = {}
+        for key, tkey in (("voltage", "t"), ("drive", "t_drive")):
+            t = arrays.get(tkey)
+            if t is not None and t.size > 1:
+                rates[key] = float(round(1.0 / (t[1] - t[0])))
+        latency = arrays.pop("latency", None)
+        return RenderData(arrays, rates, {}, {} if latency is None else {"latency_s": float(latency)})
+    meta = json.loads(str(data["_meta"]))
     return RenderData(arrays, {k: float(v) for k, v in meta["rates"].items()}, meta["units"], meta["attrs"])
 
 

@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from surfhap.errors import ConfigError
+from surfhap.errors import ConfigError, writing
+from surfhap.exchange.files import read_text, write_text
 from surfhap.shape.calibration import ShapeCalibration
 
 __all__ = ["shape_arrays", "write_shape", "write_calibration", "read_calibration", "default_calibration_path"]
@@ -38,10 +39,11 @@ def write_shape(result, out_dir: str | Path) -> dict[str, Path]:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"npz": out / "shape.npz", "summary": out / "summary.json"}
-    np.savez_compressed(paths["npz"], **shape_arrays(result))
+    with writing(paths["npz"]):
+        np.savez_compressed(paths["npz"], **shape_arrays(result))
     summary = result.summary()
     summary["calibration"] = result.calibration.to_dict()
-    paths["summary"].write_text(json.dumps(summary, indent=2, default=float) + "\n", encoding="utf-8")
+    write_text(paths["summary"], json.dumps(summary, indent=2, default=float) + "\n")
     return paths
 
 
@@ -55,20 +57,16 @@ def write_calibration(cal: ShapeCalibration, path: str | Path) -> Path:
     path = Path(path)
     if path.parent and not path.parent.exists():
         path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(cal.to_dict(), indent=2) + "\n", encoding="utf-8")
-    return path
+    return write_text(path, json.dumps(cal.to_dict(), indent=2) + "\n")
 
 
 def read_calibration(path: str | Path) -> ShapeCalibration:
     """Read a calibration JSON; ConfigError naming the file for anything unusable."""
     path = Path(path)
     src = str(path)
+    text = read_text(path, ConfigError)
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError("no such file", source=src) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read file ({exc.__class__.__name__})", source=src) from None
+        data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise ConfigError(f"not JSON (line {exc.lineno}: {exc.msg})", source=src) from None
     if not isinstance(data, dict):

@@ -17,16 +17,17 @@ UTF-8, no header, missing column, unknown unit, a cell that is not a number (wit
 from __future__ import annotations
 
 import csv
-import hashlib
-import io
 import re
+import warnings
+from array import array
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from surfhap.errors import InputError
+from surfhap.errors import InputError, reading
+from surfhap.exchange.files import file_sha256, read_bytes
 
 __all__ = ["Table", "UNITS", "read_csv_table", "split_header", "unit_factor", "resolve_columns", "read_source_bytes"]
 
@@ -93,10 +94,7 @@ def unit_factor(channel: str, unit: str | None, units: Mapping[str, float], sour
 
 def read_source_bytes(path: Path, error: type[InputError]) -> bytes:
     """The file's bytes; ``error`` naming the file when it cannot be read."""
-    try:
-        return path.read_bytes()
-    except OSError as exc:
-        raise error(f"cannot read file ({exc.strerror})", source=str(path)) from None
+    return read_bytes(path, error)
 
 
 def resolve_columns(headers: list[str], channels: Mapping[str, Mapping[str, float]], rename: Mapping[str, str],
@@ -124,20 +122,61 @@ def resolve_columns(headers: list[str], channels: Mapping[str, Mapping[str, floa
     return out
 
 
-def _column(rows: list[list[str]], i: int, column: str, allow_nan: bool, source: str,
-            error: type[InputError]) -> np.ndarray:
-    vals = np.empty(len(rows))
-    for r, row in enumerate(rows):
-        cell = row[i].strip() if i < len(row) else ""
-        if allow_nan and cell.lower() in _NAN_CELLS:
-            vals[r] = np.nan
-            continue
-        try:
-            vals[r] = float(cell)
-        except ValueError:
-            shown = repr(cell) if cell else "a missing value"
-            raise error(f"row {r + 1}: {shown} is not a number", source=source, field=column) from None
-    return vals
+def _head(fh) -> tuple[dict[str, str], str | None, int]:
+    """Metadata lines and the header line; the file is left at the first body line."""
+    meta: dict[str, str] = {}
+    while True:
+        line = fh.readline()
+        if not line:
+            return meta, None, fh.tell()
+        if line.startswith("#"):
+            if ":" in line:
+                key, value = line[1:].split(":", 1)
+                meta[key.strip().lower()] = value.strip()
+        elif line.strip():
+            return meta, line.rstrip("\r\n"), fh.tell()
+
+
+def _body_lines(fh):
+    """The data lines (no blank line, no "#" line), streamed."""
+    for line in fh:
+        if line.strip() and not line.startswith("#"):
+            yield line
+
+
+def _fast_columns(fh, cols: list[int]) -> np.ndarray | None:
+    """(n, len(cols)) float of a clean numeric body (numpy's C reader, chunked), else None."""
+    if not cols:
+        return None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
+            return np.loadtxt(fh, delimiter=",", comments="#", quotechar='"', ndmin=2, dtype=float, usecols=cols)
+    except ValueError:
+        return None
+
+
+def _slow_columns(fh, mapping, headers, allow_nan: bool, source: str, error: type[InputError]) -> tuple[dict, int]:
+    """Cell by cell (empty / "nan" cells, quoted or ragged rows), naming the first bad cell;
+    one float per cell is kept (stdlib arrays), never the rows."""
+    vals = {channel: array("d") for channel in mapping}
+    r = -1
+    for r, row in enumerate(csv.reader(_body_lines(fh))):
+        for channel, (i, _) in mapping.items():
+            cell = row[i].strip() if i < len(row) else ""
+            if allow_nan and cell.lower() in _NAN_CELLS:
+                vals[channel].append(np.nan)
+                continue
+            try:
+                vals[channel].append(float(cell))
+            except ValueError:
+                shown = repr(cell) if cell else "a missing value"
+                raise error(f"row {r + 1}: {shown} is not a number", source=source, field=headers[i]) from None
+    return {channel: np.frombuffer(v, dtype=float) if len(v) else np.empty(0) for channel, v in vals.items()}, r + 1
+
+
+def _count_rows(fh) -> int:
+    return sum(1 for _ in _body_lines(fh))
 
 
 def read_csv_table(path: str | Path, channels: Mapping[str, Mapping[str, float]], *,
@@ -152,48 +191,40 @@ def read_csv_table(path: str | Path, channels: Mapping[str, Mapping[str, float]]
                 report; otherwise the first one is an error naming its row and column.
     min_rows  : fewer data rows is an error.
     error     : the InputError subclass raised.
+
+    The file is streamed: memory holds the parsed columns (8 bytes per used cell), not the text.
     """
     path = Path(path)
     source = str(path)
-    raw = read_source_bytes(path, error)
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise error("not a UTF-8 text file", source=source) from None
-    meta: dict[str, str] = {}
-    lines = []
-    for line in text.splitlines():
-        if line.startswith("#"):
-            if ":" in line and not lines:
-                key, value = line[1:].split(":", 1)
-                meta[key.strip().lower()] = value.strip()
-        elif line.strip():
-            lines.append(line)
-    if not lines:
-        raise error("empty file (no header line)", source=source)
-    rows = list(csv.reader(io.StringIO("\n".join(lines))))
-    headers = [h.strip() for h in rows[0]]
-    body = rows[1:]
-    mapping = resolve_columns(headers, channels, dict(rename or {}), source, error)
-    missing = [c for c in required if c not in mapping]
-    if missing:
-        raise error(f"missing column (need {', '.join(required)})", source=source, field=missing[0])
-    if len(body) < min_rows:
+    digest = file_sha256(path, error)
+    with reading(path, error, what="CSV file"), open(path, encoding="utf-8-sig", newline="") as fh:
+        meta, header, body_at = _head(fh)
+        if header is None:
+            raise error("empty file (no header line)", source=source)
+        headers = [h.strip() for h in next(csv.reader([header]))]
+        mapping = resolve_columns(headers, channels, dict(rename or {}), source, error)
+        missing = [c for c in required if c not in mapping]
+        if missing:
+            raise error(f"missing column (need {', '.join(required)})", source=source, field=missing[0])
+        order = list(mapping)
+        table = _fast_columns(fh, [mapping[c][0] for c in order])
+        if table is not None:
+            raw = {channel: table[:, k] for k, channel in enumerate(order)}
+            n = table.shape[0]
+        else:
+            fh.seek(body_at)
+            if mapping:
+                raw, n = _slow_columns(fh, mapping, headers, allow_nan, source, error)
+            else:
+                raw, n = {}, _count_rows(fh)
+    if n < min_rows:
         raise error(f"needs at least {min_rows} data row{'s' if min_rows > 1 else ''}", source=source)
-    table = None
-    try:  # fast path: a clean numeric table
-        table = np.loadtxt(io.StringIO("\n".join(lines[1:])), delimiter=",", ndmin=2, dtype=float)
-    except ValueError:
-        pass
     columns: dict[str, np.ndarray] = {}
     for channel, (i, factor) in mapping.items():
-        if table is not None and table.shape == (len(body), len(headers)):
-            vals = table[:, i].copy()
-        else:
-            vals = _column(body, i, headers[i], allow_nan, source, error)
+        vals = raw[channel]
         if not allow_nan:
             bad = np.nonzero(~np.isfinite(vals))[0]
             if bad.size:
                 raise error(f"row {bad[0] + 1}: NaN or infinite value", source=source, field=channel)
         columns[channel] = vals * factor
-    return Table(source, columns, headers, meta, hashlib.sha256(raw).hexdigest())
+    return Table(source, columns, headers, meta, digest)

@@ -28,7 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from surfhap.errors import RecordingFormatError
+from surfhap.errors import RecordingFormatError, writing
+from surfhap.exchange.files import load_npz, npz_number, numeric, write_text
 from surfhap.exchange.table import UNITS, read_csv_table
 
 __all__ = ["TRIBOMETER_CHANNELS", "INPUT_KINDS", "TribometerRecording", "read_tribometer", "write_tribometer_csv",
@@ -129,27 +130,23 @@ def _read_csv(path: Path) -> TribometerRecording:
 
 def _read_npz(path: Path) -> TribometerRecording:
     src = str(path)
-    try:
-        z = np.load(path, allow_pickle=False)
-    except (ValueError, OSError) as exc:
-        raise _err(src, "file", f"not a readable NPZ file ({exc})") from None
-    with z:
-        if "input" not in z.files:
-            raise _err(src, "input", "missing string array 'input' (intensity or voltage)")
-        for name in ("lateral_force", "normal_force", "level"):
-            if name not in z.files:
-                raise _err(src, name, "missing array")
-        data = {name: z[name] for name in ("lateral_force", "normal_force", "level")}
-        if "time" in z.files:
-            t = z["time"]
-        elif "sample_rate" in z.files:
-            fs = float(z["sample_rate"])
-            if not (np.isfinite(fs) and fs > 0):
-                raise _err(src, "sample_rate", "must be > 0 Hz")
-            t = np.arange(np.asarray(data["level"]).size) / fs
-        else:
-            raise _err(src, "time", "missing array 'time' (or scalar 'sample_rate')")
-        return _finish(src, str(z["input"]), t, data)
+    z = load_npz(path, RecordingFormatError)
+    if "input" not in z:
+        raise _err(src, "input", "missing string array 'input' (intensity or voltage)")
+    for name in ("lateral_force", "normal_force", "level"):
+        if name not in z:
+            raise _err(src, name, "missing array")
+    data = {name: numeric(z[name], src, name, RecordingFormatError) for name in ("lateral_force", "normal_force", "level")}
+    if "time" in z:
+        t = numeric(z["time"], src, "time", RecordingFormatError)
+    elif "sample_rate" in z:
+        fs = npz_number(z["sample_rate"], src, "sample_rate", RecordingFormatError)
+        if not (np.isfinite(fs) and fs > 0):
+            raise _err(src, "sample_rate", "must be > 0 Hz")
+        t = np.arange(np.asarray(data["level"]).size) / fs
+    else:
+        raise _err(src, "time", "missing array 'time' (or scalar 'sample_rate')")
+    return _finish(src, str(z["input"]), t, data)
 
 
 def read_tribometer(path: str | Path) -> TribometerRecording:
@@ -171,14 +168,13 @@ def write_tribometer_csv(rec: TribometerRecording, path: str | Path) -> Path:
     lines = [f"# input: {rec.input}", f"time[s],lateral_force[N],normal_force[N],level[{unit}]"]
     lines += [f"{t:.9g},{f:.9g},{n:.9g},{v:.9g}" for t, f, n, v in
               zip(rec.time, rec.lateral_force, rec.normal_force, rec.level)]
-    p.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return p
+    return write_text(p, "\n".join(lines) + "\n")
 
 
 def write_tribometer_npz(rec: TribometerRecording, path: str | Path) -> Path:
     """Write ``rec`` as NPZ in the schema above."""
     p = Path(path)
-    with open(p, "wb") as fh:
+    with writing(p), open(p, "wb") as fh:
         np.savez(fh, time=rec.time, lateral_force=rec.lateral_force, normal_force=rec.normal_force,
                  level=rec.level, input=np.array(rec.input))
     return p

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from surfhap.errors import writing
+
 __all__ = ["float_wav_header", "FloatWavStream"]
 
 
@@ -26,24 +28,30 @@ class FloatWavStream:
 
     def __init__(self, path: str | Path, rate: int):
         self.path, self.rate, self.n = Path(path), int(rate), 0
-        self._f = self.path.open("wb")
-        self._f.write(float_wav_header(self.rate, 0))
+        with writing(self.path):
+            self._f = self.path.open("wb")
+            self._f.write(float_wav_header(self.rate, 0))
 
     def write(self, samples: np.ndarray) -> None:
         """Append ``samples`` ((n,) float, written as little-endian float32)."""
         data = np.asarray(samples, dtype="<f4")
-        self._f.write(data.tobytes())
+        with writing(self.path):
+            self._f.write(data.tobytes())
         self.n += data.size
 
     def flush(self) -> None:
         """Rewrite the header for the samples so far and flush to the operating system."""
-        end = self._f.tell()
-        self._f.seek(0)
-        self._f.write(float_wav_header(self.rate, self.n))
-        self._f.seek(end)
-        self._f.flush()
+        with writing(self.path):
+            end = self._f.tell()
+            self._f.seek(0)
+            self._f.write(float_wav_header(self.rate, self.n))
+            self._f.seek(end)
+            self._f.flush()
 
     def close(self) -> None:
         if not self._f.closed:
-            self.flush()
-            self._f.close()
+            try:
+                self.flush()
+            finally:
+                with writing(self.path):
+                    self._f.close()

@@ -36,28 +36,20 @@ import numpy as np
 from surfhap.errors import ConfigError
 from surfhap.live.clock import now
 from surfhap.live.ff_bridge_wire import decode_position, encode_force, new_token
+from surfhap.live.netaddr import parse_osc_address
 
-__all__ = ["SimDeviceBackend", "OscDeviceBackend", "parse_osc_url", "parse_host_port"]
+__all__ = ["SimDeviceBackend", "OscDeviceBackend", "parse_osc_url"]
 
 log = logging.getLogger("surfhap.live")
 
-def parse_osc_url(text: str, option: str) -> tuple[str, int]:
-    """``osc://HOST:PORT`` -> (host, port); ConfigError naming ``option`` otherwise."""
-    if not text.startswith("osc://"):
-        raise ConfigError(f"expected osc://HOST:PORT, got {text!r}", source=option)
-    host, _, port = text[6:].rstrip("/").rpartition(":")
-    if not host or not port.isdigit() or not 0 <= int(port) <= 65535:
-        raise ConfigError(f"expected osc://HOST:PORT, got {text!r}", source=option)
-    return host.strip("[]"), int(port)
 
-
-def parse_host_port(text: str, option: str) -> tuple[str, int]:
-    """``HOST:PORT`` (a listening address; ``[::1]:9101`` for IPv6) -> (host, port);
-    ConfigError naming ``option`` otherwise."""
-    host, _, port = text.rpartition(":")
-    if not host or not port.isdigit() or not 0 <= int(port) <= 65535:
-        raise ConfigError(f"expected HOST:PORT, got {text!r}", source=option)
-    return host.strip("[]"), int(port)
+def parse_osc_url(text: str, option: str, *, listen: bool = False) -> tuple[str, int]:
+    """``osc://HOST:PORT`` -> (host, port), checked without a DNS lookup (port 0 only where
+    the option listens); ConfigError naming ``option`` otherwise."""
+    host, port, path = parse_osc_address(text, option, listen=listen)
+    if path:
+        raise ConfigError(f"expected osc://HOST:PORT, got {text!r}", source=option)
+    return host, port
 
 
 class SimDeviceBackend:

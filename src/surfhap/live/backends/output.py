@@ -7,9 +7,8 @@ only :mod:`surfhap.live.backends.base`.
 
 from __future__ import annotations
 
-from urllib.parse import urlparse
-
 from surfhap.errors import ConfigError
+from surfhap.live.netaddr import parse_osc_address
 
 __all__ = ["parse_output", "open_backend"]
 
@@ -31,13 +30,11 @@ def parse_output(text: str) -> tuple[str, dict]:
             device = int(dev) if dev.isdigit() else dev
         return "sound", {"device": device}
     if text.startswith("osc://"):
-        u = urlparse(text)
-        if not u.hostname or not u.port:
-            raise ConfigError("OSC output needs osc://HOST:PORT", source="--output")
-        mode = (u.path or "/intensity").strip("/") or "intensity"
+        host, port, mode = parse_osc_address(text, "--output")  # checked here: no DNS lookup, port 1-65535
+        mode = mode or "intensity"
         if mode not in ("intensity", "drive"):
             raise ConfigError(f"OSC output mode must be /intensity or /drive, got /{mode}", source="--output")
-        return "osc", {"host": u.hostname, "port": u.port, "mode": mode}
+        return "osc", {"host": host, "port": port, "mode": mode}
     raise ConfigError(f"unknown output {text!r} (sim, file:PATH, sound[:DEVICE], osc://HOST:PORT)", source="--output")
 
 

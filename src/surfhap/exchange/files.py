@@ -1,0 +1,89 @@
+"""Opening the user's files: bytes, text, NPZ archives and written outputs, with located errors.
+
+Every reader and writer of :mod:`surfhap.exchange` goes through these helpers (and through
+:func:`surfhap.errors.reading` / :func:`surfhap.errors.writing`), so a missing, unreadable,
+undecodable, truncated or corrupt file, an NPZ holding object arrays or an array where a number
+belongs, and a write that fails (no space left) all become one :class:`~surfhap.errors.InputError`
+line naming the file (and the field), never a traceback.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+
+from surfhap.errors import InputError, reading, writing
+
+__all__ = ["read_bytes", "read_text", "file_sha256", "load_npz", "npz_number", "numeric", "write_text"]
+
+_CHUNK = 1 << 20
+
+
+def read_bytes(path: str | Path, error: type[InputError] = InputError) -> bytes:
+    """The file's bytes; ``error`` naming it when it cannot be read."""
+    with reading(path, error):
+        return Path(path).read_bytes()
+
+
+def read_text(path: str | Path, error: type[InputError] = InputError) -> str:
+    """The file's text (UTF-8, a BOM is dropped); ``error`` naming it when unreadable or not UTF-8."""
+    with reading(path, error):
+        return Path(path).read_bytes().decode("utf-8-sig")
+
+
+def file_sha256(path: str | Path, error: type[InputError] = InputError) -> str:
+    """Hex SHA-256 of the file's bytes, read in chunks (memory stays bounded)."""
+    h = hashlib.sha256()
+    with reading(path, error), open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(_CHUNK), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def load_npz(path: str | Path, error: type[InputError] = InputError) -> dict[str, np.ndarray]:
+    """Every array of an NPZ file (read now, without pickles). A truncated or corrupt archive,
+    an array that is not readable, or an object array is ``error`` naming the file (and the key)."""
+    src = str(path)
+    with reading(path, error, what="NPZ file"):
+        try:
+            z = np.load(path, allow_pickle=False)
+        except ValueError as exc:  # numpy: not an npz / npy at all
+            raise error(f"not a readable NPZ file ({str(exc).splitlines()[0][:120]})", source=src) from None
+        if not isinstance(z, np.lib.npyio.NpzFile):
+            raise error("not an NPZ archive (a single .npy array?)", source=src)
+        out: dict[str, np.ndarray] = {}
+        with z:
+            for key in z.files:
+                try:
+                    out[key] = z[key]
+                except ValueError as exc:
+                    reason = ("holds Python objects (an object array), which surfhap does not load"
+                              if "allow_pickle" in str(exc) else f"unreadable array ({str(exc).splitlines()[0][:120]})")
+                    raise error(reason, source=src, field=key) from None
+    return out
+
+
+def numeric(x: np.ndarray, source: str, field: str, error: type[InputError] = InputError) -> np.ndarray:
+    """``x`` as a float array; ``error`` naming the field when it does not hold numbers."""
+    a = np.asarray(x)
+    if a.dtype.kind not in "biuf":
+        raise error(f"must hold numbers, not {a.dtype} values", source=source, field=field)
+    return a.astype(float, copy=False)
+
+
+def npz_number(x: np.ndarray, source: str, field: str, error: type[InputError] = InputError) -> float:
+    """A single number stored in an NPZ (a 0-d or one-element array); ``error`` otherwise."""
+    a = numeric(x, source, field, error)
+    if a.size != 1:
+        raise error(f"must be a single number, got an array of shape {a.shape}", source=source, field=field)
+    return float(a.reshape(()))
+
+
+def write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path``; a failing write (no space left...) names the path."""
+    path = Path(path)
+    with writing(path):
+        path.write_text(text, encoding="utf-8")
+    return path

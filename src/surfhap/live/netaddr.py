@@ -1,0 +1,85 @@
+"""``HOST:PORT`` and ``osc://HOST:PORT[/PATH]`` options, checked without any network call.
+
+The one parser of every address option (``--output osc://``, ``--device``, ``--feedback``,
+``--touch osc://``, ``--osc-in``, ``--device-listen``). A host is an IP address (IPv6 in
+brackets, or bare) or a syntactically valid host name (RFC 1123 labels); a dotted all-numeric
+name must be a valid IPv4 address, so ``999.1.1.1`` is refused here instead of being sent to
+DNS. A port is 1-65535 (0, "any free port", only where the option listens). Errors are a
+:class:`~surfhap.errors.ConfigError` naming the option.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import re
+
+from surfhap.errors import ConfigError
+
+__all__ = ["check_host", "parse_host_port", "parse_osc_address"]
+
+_LABEL = re.compile(r"^(?!-)[A-Za-z0-9-]{1,63}(?<!-)$")
+
+
+def check_host(host: str, option: str) -> str:
+    """``host`` (brackets of an IPv6 literal removed) if it is an IP address or a valid host
+    name; ConfigError naming ``option`` otherwise. Never resolves the name."""
+    h = host.strip()
+    bracketed = h.startswith("[") and h.endswith("]")
+    if bracketed:
+        h = h[1:-1]
+    try:
+        ip = ipaddress.ip_address(h)
+    except ValueError:
+        ip = None
+    if ip is not None:
+        if bracketed and ip.version != 6:
+            raise ConfigError(f"{host!r}: brackets hold an IPv6 address", source=option, field="host")
+        return h
+    if not h:
+        raise ConfigError("the host is missing", source=option, field="host")
+    labels = h[:-1].split(".") if h.endswith(".") else h.split(".")
+    if all(label.isdigit() for label in labels):
+        raise ConfigError(f"{host!r} is not a valid IPv4 address (each of the 4 numbers is 0-255)", source=option,
+                          field="host")
+    if bracketed or len(h) > 253 or not all(_LABEL.match(label) for label in labels) or labels[-1].isdigit():
+        raise ConfigError(f"{host!r} is neither an IP address nor a valid host name", source=option, field="host")
+    return h
+
+
+def _port(text: str, option: str, listen: bool) -> int:
+    lo = 0 if listen else 1
+    if not text.isdigit() or not lo <= int(text) <= 65535:
+        shown = repr(text) if text else "missing"
+        raise ConfigError(f"{shown} is not a number in {lo}-65535", source=option, field="port")
+    return int(text)
+
+
+def parse_host_port(text: str, option: str, *, listen: bool = False) -> tuple[str, int]:
+    """``HOST:PORT`` (``[IPv6]:PORT``) -> (host, port); ``listen`` also allows port 0."""
+    s = (text or "").strip()
+    if s.startswith("["):
+        inner, sep, rest = s[1:].partition("]")
+        if not sep or not rest.startswith(":"):
+            raise ConfigError(f"expected HOST:PORT, got {text!r}", source=option)
+        host, port = f"[{inner}]", rest[1:]
+    else:
+        host, sep, port = s.rpartition(":")
+        if not sep:
+            raise ConfigError(f"expected HOST:PORT, got {text!r}", source=option)
+    return check_host(host, option), _port(port, option, listen)
+
+
+def parse_osc_address(text: str, option: str, *, listen: bool = False) -> tuple[str, int, str]:
+    """``osc://HOST:PORT[/PATH]`` -> (host, port, path without slashes, "" when absent)."""
+    s = (text or "").strip()
+    if not s.startswith("osc://"):
+        raise ConfigError(f"expected osc://HOST:PORT, got {text!r}", source=option)
+    rest = s[len("osc://"):]
+    if rest.startswith("["):
+        close = rest.find("]")
+        cut = rest.find("/", close if close >= 0 else 0)
+    else:
+        cut = rest.find("/")
+    netloc, path = (rest, "") if cut < 0 else (rest[:cut], rest[cut:])
+    host, port = parse_host_port(netloc, option, listen=listen)
+    return host, port, path.strip("/")
