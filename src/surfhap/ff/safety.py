@@ -237,12 +237,20 @@ class ForceSafety:
             self.n_ws += 1
             return max(f, 0.0) + self.wall_k * (-w - p) - self.device.wall_damping * v
         s = 1.0 if v > 0.0 else -1.0
-        d = w - s * p - self.device.brake_margin  # distance to the wall ahead
-        v_lim = math.sqrt(2.0 * self.device.brake_decel * d) if d > 0.0 else 0.0
-        excess = s * v - v_lim
+        dev = self.device
+        a = dev.brake_decel
+        # the output turns at the slew rate: project the motion over the time the net force needs
+        # to go from its present value (along the motion) to braking at m a
+        f_net = s * (self._prev[i] - self._gravity[i])
+        m = dev.moving_mass if dev.moving_mass > 0.0 else 1.0
+        turn = (f_net + m * a) / dev.slew if f_net + m * a > 0.0 else 0.0
+        dv = (f_net * turn - 0.5 * dev.slew * turn * turn) / m
+        d = w - s * p - dev.brake_margin - (s * v * turn + 0.5 * dv * turn)  # distance left once braking
+        v_lim = math.sqrt(2.0 * a * d) if d > 0.0 else 0.0
+        excess = s * v + (dv if dv > 0.0 else 0.0) - v_lim
         if excess > 0.0:
             # along the motion at most: brake B x excess (the weight compensation counted on z)
-            cap = s * self._gravity[i] - self.device.brake_gain * excess
+            cap = s * self._gravity[i] - dev.brake_gain * excess
             if s * f > cap:
                 self.n_brake += 1
                 return s * cap
