@@ -101,9 +101,8 @@ def test_stop_puts_the_tablet_down_instead_of_dropping_it():
     stop_at = 500
     vz, fz = _hold_then(eng, dev, 3500, stop_at, eng.stop)
     assert abs(vz[stop_at - 1]) < 1e-3  # held still before the stop
-    terminal = FALCON.moving_mass * GRAVITY / FALCON.land_damping
+    terminal = FALCON.moving_mass * GRAVITY / 20.0  # 20 N s/m: the Falcon's largest damping (CHAI3D)
     assert -vz[stop_at:].min() <= terminal, f"fell at {-vz[stop_at:].min():.2f} m/s"
-    assert FALCON.land_time >= 1.0
     # the compensation goes down over >= 1 s, then the output ends at zero
     assert np.all(fz[stop_at:stop_at + int(RATE)] > 0.0)
     assert fz[-1] == 0.0

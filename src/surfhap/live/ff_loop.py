@@ -53,13 +53,16 @@ class FFLoop:
     engine        : :class:`surfhap.ff.engine.FFEngine`.
     backend       : device backend (:mod:`surfhap.live.ff_devices`).
     feedback      : callable ``(t, px, py, pz, dx, dy, fx, fy, fz)`` at ``feedback_rate`` Hz, or None.
-    stop_timeout  : s, longest ramp-down on stop.
+    stop_timeout  : s, longest ramp-down on stop (default: the safety stage's landing and ramp).
     history       : ticks of period error kept for the statistics.
+    clock         : the time base of touch arrival stamps (default :func:`now`; tests driving
+                    :meth:`tick_once` pass their simulated clock).
     """
 
     def __init__(self, engine, backend, *, feedback=None, feedback_rate: float = 60.0,
-                 stop_timeout: float | None = None, history: int = 1 << 17, spin: float = 0.0003):
+                 stop_timeout: float | None = None, history: int = 1 << 17, spin: float = 0.0003, clock=now):
         self.engine = engine
+        self.clock = clock
         self.backend = backend
         self.rate = engine.rate
         self.period = 1.0 / self.rate
@@ -91,7 +94,7 @@ class FFLoop:
         The loop stamps the arrival itself (:func:`now`); a caller's ``t_arrival`` can only make
         the sample older. A non-finite or future ``t_arrival`` (beyond one period) is stale:
         counted in ``touches_stale`` and dropped."""
-        ta = now()
+        ta = self.clock()
         if t_arrival is not None:
             if not (t_arrival == t_arrival and abs(t_arrival) != math.inf and t_arrival <= ta + self.period):
                 self.touches_stale += 1
