@@ -85,6 +85,7 @@ class FFLoop:
         self._last = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, -1)
         self.feedback_snapshot = self._last  # the tick the feedback thread is reporting (read it from feedback)
         self.error = None
+        self._stop_left = None  # ticks left for the stop ramp (None = not stopping)
 
     # ------------------------------------------------------------- producers
     def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan,
@@ -112,6 +113,7 @@ class FFLoop:
         self._switch = sys.getswitchinterval()
         sys.setswitchinterval(min(self._switch, 0.0002))
         self.engine.reset()
+        self._stop_left = None
         self.backend.start()
         self._thread = threading.Thread(target=self._run, name="surfhap-ff-haptic", daemon=True)
         self._thread.start()
@@ -158,11 +160,12 @@ class FFLoop:
             log.debug("ff haptic loop failed", exc_info=exc)
         self._stop.set()
 
-    def tick_once(self, t: float, stop_deadline: float | None) -> tuple[bool, float | None]:
+    def tick_once(self, t: float) -> bool:
         """One haptic tick at time ``t`` (s, :func:`now` clock): drain the touches, read the
         device, tick the engine (its safety stage runs on every tick, also after an exception)
-        and write the force. Returns (go on, stop deadline). The thread calls it on its
-        deadlines; tests call it directly with a simulated clock."""
+        and write the force. False once a stop has ramped to zero (or used its
+        ``stop_timeout`` worth of ticks: counted in ticks, so a stalled loop still ramps). The
+        thread calls it on its deadlines; tests call it directly with a simulated clock."""
         eng, be = self.engine, self.backend
         px = py = pz = t_pos = math.nan
         try:
@@ -170,9 +173,9 @@ class FFLoop:
             px, py, pz, t_pos = be.read(t)
         except Exception as exc:  # noqa: BLE001 - no position: the safety stage ramps to zero
             self._fail(exc)
-        if self._stop.is_set() and stop_deadline is None:
+        if self._stop.is_set() and self._stop_left is None:
             eng.stop()
-            stop_deadline = t + self.stop_timeout
+            self._stop_left = math.ceil(self.stop_timeout * self.rate)
         try:
             f = eng.tick(t, px, py, pz, t_pos)
         except Exception as exc:  # noqa: BLE001 - outside the control law: the safety stage alone
@@ -187,14 +190,15 @@ class FFLoop:
             self._fail(exc)
         self._last = (px, py, pz, float(f[0]), float(f[1]), float(f[2]), int(eng.mask),
                       int(getattr(eng, "button", -1)))
-        if stop_deadline is not None and ((f[0] == 0.0 and f[1] == 0.0 and f[2] == 0.0) or t > stop_deadline):
-            return False, stop_deadline
-        return True, stop_deadline
+        if self._stop_left is not None:
+            self._stop_left -= 1
+            if (f[0] == 0.0 and f[1] == 0.0 and f[2] == 0.0) or self._stop_left <= 0:
+                return False
+        return True
 
     def _run(self) -> None:
         period = self.period
         err, n_err = self._err, self._err.shape[0]
-        stop_deadline = None
         try:
             deadline = now() + period
             go = True
@@ -207,7 +211,7 @@ class FFLoop:
                     skipped = int(late / period)
                     self.missed += skipped
                     deadline += skipped * period
-                go, stop_deadline = self.tick_once(t, stop_deadline)
+                go = self.tick_once(t)
                 deadline += period
         except Exception as exc:  # noqa: BLE001 - the safety stage itself failed: last resort below
             self._fail(exc)
