@@ -35,7 +35,7 @@ TWO_PI = 2.0 * math.pi
 class TickState:
     """Everything an effect may read on one haptic tick (mutable, reused every tick).
 
-    t, dt          : s, tick time and interval.
+    t, dt          : s, tick time (the safety stage's own clock, see :mod:`surfhap.ff.safety`) and interval.
     touched        : finger on the screen (and touch stream fresh).
     fx, fy         : m, finger position in content (world) coordinates.
     fvx, fvy       : m/s, finger velocity in the world; ``speed`` its norm.
