@@ -132,16 +132,17 @@ def test_touch_watchdog_falls_back_to_idle():
 def test_workspace_wall_pushes_back_and_drops_outward_force():
     saf = ForceSafety(FALCON, RATE)
     ws = FALCON.workspace[0]
-    for _ in range(200):
-        out = saf.process(np.array([5.0, 0.0, 0.0]), 0.0, 0.0, ws + 0.002, 0.0, 0.0)
+    for k in range(200):
+        out = saf.process(np.array([5.0, 0.0, 0.0]), k / RATE, k / RATE, ws + 0.002, 0.0, 0.0)
     assert out[0] == pytest.approx(-FALCON.wall_k * 0.002)
     assert saf.counters.workspace == 200
 
 
-def test_stop_ramps_to_zero_at_slew_rate():
+def test_stop_ramps_lateral_axes_to_zero_at_slew_rate():
     saf = ForceSafety(FALCON, RATE)
-    for _ in range(100):
-        saf.process(np.array([0.0, 0.0, 4.0]), 0.0, 0.0, 0.0, 0.0, 0.0)
-    outs = [saf.process(np.array([0.0, 0.0, 4.0]), 0.0, 0.0, 0.0, 0.0, 0.0, stop=True)[2] for _ in range(20)]
-    assert outs[0] == pytest.approx(4.0 - FALCON.slew / RATE)
-    assert outs[-1] == 0.0
+    for k in range(100):
+        saf.process(np.array([4.0, -4.0, 0.0]), k / RATE, k / RATE, 0.0, 0.0, 0.0)
+    outs = np.array([saf.process(np.array([4.0, -4.0, 0.0]), k / RATE, k / RATE, 0.0, 0.0, 0.0, stop=True).copy()
+                     for k in range(100, 120)])
+    assert outs[0, 0] == pytest.approx(4.0 - FALCON.slew / RATE)
+    assert outs[-1, 0] == 0.0 and outs[-1, 1] == 0.0

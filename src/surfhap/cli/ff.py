@@ -258,6 +258,11 @@ def run_cmd(
     st = loop.stats()
     st["scene"] = sc.name
     typer.echo(json.dumps(st, default=float))
+    if loop.error is not None:  # the loop ramped down through the safety stage; say so, exit 3
+        msg = " ".join(f"{type(loop.error).__name__}: {loop.error}".split())[:300]
+        stderr.print(f"error: force-feedback loop failed ({msg}); the force was ramped to zero", markup=False,
+                     soft_wrap=True)
+        raise typer.Exit(3)
     guard.finish("the force ramped to zero, status above")
 
 

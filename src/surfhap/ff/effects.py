@@ -35,7 +35,7 @@ TWO_PI = 2.0 * math.pi
 class TickState:
     """Everything an effect may read on one haptic tick (mutable, reused every tick).
 
-    t, dt          : s, tick time and interval.
+    t, dt          : s, tick time (the safety stage's own clock, see :mod:`surfhap.ff.safety`) and interval.
     touched        : finger on the screen (and touch stream fresh).
     fx, fy         : m, finger position in content (world) coordinates.
     fvx, fvy       : m/s, finger velocity in the world; ``speed`` its norm.
@@ -185,9 +185,13 @@ class Roughness(Effect):
         d = self.depth.value(s.fx, s.fy)
         if not d > 0.0:
             return None
-        ph = self.phase + TWO_PI * s.speed * s.dt / self.period
-        if ph > TWO_PI:
-            ph -= TWO_PI * math.floor(ph / TWO_PI)
+        # the distance travelled this tick in periods, wrapped: the phase stays in [0, 2 pi)
+        # whatever the speed (a non-finite or absurd speed advances it by nothing)
+        cyc = s.speed * s.dt / self.period
+        cyc = cyc - math.floor(cyc) if 0.0 <= cyc < 1e15 else 0.0
+        ph = self.phase + TWO_PI * cyc
+        if not 0.0 <= ph < TWO_PI:
+            ph = ph - TWO_PI if TWO_PI <= ph < 2.0 * TWO_PI else 0.0
         self.phase = ph
         km = self.k_max
         return (km, km, km, d * math.sin(ph), 0.0, 0.0, 0.0)

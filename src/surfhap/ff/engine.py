@@ -24,7 +24,17 @@ Prediction: ``predictor`` is the live side's :class:`surfhap.live.prediction.Tou
 attributes); it is passed in because this layer does not import the live package.
 
 Watchdogs: no touch sample for ``touch_timeout`` (100 ms) -> untouched (Idle); no device
-position for ``device_timeout`` (10 ms) -> zero force (in the safety stage).
+position for ``device_timeout`` (10 ms) -> zero force (in the safety stage). Both run on the
+safety stage's own clock (:class:`surfhap.ff.safety.ForceSafety`): a caller's time stamp
+orders samples and can only make them older. A touch stamp older than the previous one,
+non-finite or in the future (beyond one period after the next tick) is stale: rejected, or
+(future) the finger counts as lifted. Touch positions beyond ``TOUCH_BOUND``, loads beyond
+``LOAD_BOUND`` and samples implying a finger faster than ``FINGER_SPEED`` are rejected too
+(counted in ``touch_rejected``); the finger's acceleration is bounded by ``FINGER_ACCEL``.
+
+Failure: an exception in an effect or the control law is kept in ``error`` and turns the
+tick into a stop: the safety stage still runs on every tick and ramps the force down (and
+lowers the tablet) within its limits.
 
 Buttons: with a scene's GUI buttons the engine also reports, each tick, the button being
 pressed (``button``: index, -1 = none; :mod:`surfhap.ff.buttons`).
@@ -42,7 +52,12 @@ from surfhap.ff.effects import Effect, TickState
 from surfhap.ff.params import DeviceParams
 from surfhap.ff.safety import ForceSafety
 
-__all__ = ["FFEngine"]
+__all__ = ["FFEngine", "TOUCH_BOUND", "LOAD_BOUND", "FINGER_SPEED", "FINGER_ACCEL"]
+
+TOUCH_BOUND = 1.0  # m, no tablet is larger: touch coordinates beyond are garbage (rejected)
+LOAD_BOUND = 100.0  # N, a finger (or a hand) does not press harder: larger loads are garbage
+FINGER_SPEED = 5.0  # m/s, CHOICE: fast flicks reach ~2-3 m/s; faster = a jump, the filter restarts
+FINGER_ACCEL = 50.0  # m/s^2, CHOICE: ~5 g, bound of the (derived) finger acceleration
 
 
 class FFEngine:
@@ -55,7 +70,8 @@ class FFEngine:
     touch_latency   : s, age of a touch sample when it arrives (004: "a few dozens of ms";
                       the predictor should compensate the same latency).
     velocity_cutoff : Hz, one-pole low-pass of the device velocity (finite differences of
-                      positions). CHOICE: 100 Hz, well above the 8 Hz K_max resonance.
+                      positions, in the safety stage). CHOICE: 100 Hz, well above the 8 Hz
+                      K_max resonance.
     accel_cutoff    : Hz, one-pole low-pass of the finger acceleration (differences of the
                       predicted velocity per touch sample). CHOICE: 5 Hz, ten times the
                       0.5 Hz strokes of the paper's study (Sec. 5.2).
@@ -78,11 +94,9 @@ class FFEngine:
         self.rate = float(rate)
         self.dt = 1.0 / self.rate
         self.law = ControlLaw(effects, device, self.rate)
-        self.safety = ForceSafety(device, self.rate)
+        self.safety = ForceSafety(device, self.rate, velocity_cutoff)
         self.predictor = predictor
         self.max_extrapolate = float(max_extrapolate)
-        tau = 1.0 / (2.0 * math.pi * velocity_cutoff)
-        self._vg = self.dt / (tau + self.dt)
         self._atau = 1.0 / (2.0 * math.pi * accel_cutoff)
         self.state = TickState()
         self.state.dt = self.dt
@@ -102,22 +116,37 @@ class FFEngine:
         self._pvx = self._pvy = 0.0
         self._pt = math.nan
         s.px = s.py = s.pz = s.vx = s.vy = s.vz = 0.0
-        self._have_pos = False
-        self._t_touch = -math.inf  # arrival time of the last touch sample
+        self._stamp = -math.inf  # caller stamp of the last accepted touch sample
+        self._new_touch = False  # a touch sample since the last tick
+        self._touch_at = -math.inf  # its arrival on the safety stage's clock
         self._t_pred = 0.0  # time stamp of the last predictor update
         self._finger = False  # last sample said "finger down"
         self.stopping = False
+        self.error = None  # the first exception of an effect / the control law
+        self.touch_rejected = 0
+        self.touch_stale = 0
         self._hist_k = 0
         self._t_last = 0.0
+
+    def switch(self, effects: list[Effect], buttons=()) -> None:
+        """Another scene's effects from the next tick, without resetting the safety stage: the
+        weight compensation and the output stay up (bumpless, from the screen's position)."""
+        law = ControlLaw(effects, self.device, self.rate)
+        self.button_presses = ButtonPresses(buttons)
+        self.button = -1
+        self.law = law
 
     # ----------------------------------------------------------------- inputs
     def touch(self, t: float, x: float, y: float, load: float, t_event: float = math.nan) -> None:
         """One touch sample: screen position (m), load (N; <= 0 = lifted), arrival time ``t``
-        (s, engine clock) and optionally the source's own time stamp ``t_event`` (s, its own
-        clock; used by the prediction filter when finite)."""
-        if not (math.isfinite(t) and math.isfinite(x) and math.isfinite(y) and math.isfinite(load)):
+        (s, engine clock; orders samples) and optionally the source's own time stamp ``t_event``
+        (s, its own clock; used by the prediction filter when finite)."""
+        if not (t == t and abs(t) != math.inf and t >= self._stamp and abs(x) <= TOUCH_BOUND
+                and abs(y) <= TOUCH_BOUND and abs(load) <= LOAD_BOUND):  # also NaN
+            self.touch_rejected += 1
             return
-        self._t_touch = t
+        self._stamp = t
+        self._new_touch = True
         if load <= 0.0:
             self._finger = False
             self.predictor.reset()
@@ -127,15 +156,24 @@ class FFEngine:
         self._finger = True
         self.state.load = load
         sx, sy = self._screen_at(t - self.touch_latency)
-        te = t_event if math.isfinite(t_event) else t
+        te = t_event if (t_event == t_event and abs(t_event) < 1e12) else t
         pr = self.predictor
         pr.update(te, x + sx, y + sy)
+        if not pr.vx * pr.vx + pr.vy * pr.vy <= FINGER_SPEED * FINGER_SPEED:  # a jump: restart the filter here
+            self.touch_rejected += 1
+            pr.reset()
+            pr.update(te, x + sx, y + sy)
+            self._pt = math.nan
         st = self.state
         h = te - self._pt
         if 0.0 < h <= 0.1:
             g = h / (self._atau + h)
             st.fax += g * ((pr.vx - self._pvx) / h - st.fax)
             st.fay += g * ((pr.vy - self._pvy) / h - st.fay)
+            a = math.hypot(st.fax, st.fay)
+            if a > FINGER_ACCEL:
+                st.fax *= FINGER_ACCEL / a
+                st.fay *= FINGER_ACCEL / a
         else:
             st.fax = st.fay = 0.0
         self._pt, self._pvx, self._pvy = te, pr.vx, pr.vy
@@ -146,9 +184,8 @@ class FFEngine:
         k = self._hist_k
         if k == 0:
             return 0.0, 0.0
-        back = int(round((self._t_last - ts) * self.rate))
-        if back < 0:
-            back = 0
+        back = (self._t_last - ts) * self.rate
+        back = int(round(back)) if 0.0 < back < self._hist_n else (0 if not back > 0.0 else self._hist_n)
         lim = min(k, self._hist_n) - 1
         if back > lim:
             back = lim
@@ -156,32 +193,42 @@ class FFEngine:
         return self._hist_x[j], self._hist_y[j]
 
     def stop(self) -> None:
-        """Ramp the force to zero (safety stage slew) and keep it there."""
+        """Lower the tablet and ramp the force to zero (safety stage), and keep it there."""
         self.stopping = True
 
     # ----------------------------------------------------------------- tick
     def tick(self, t: float, px: float, py: float, pz: float, t_pos: float) -> np.ndarray:
         """Safe force (3,) N for this tick; see the module docstring."""
         s = self.state
-        s.t = t
-        if math.isfinite(px) and math.isfinite(py) and math.isfinite(pz):
-            if self._have_pos:
-                g = self._vg / self.dt
-                s.vx += g * ((px - s.px) - s.vx * self.dt)
-                s.vy += g * ((py - s.py) - s.vy * self.dt)
-                s.vz += g * ((pz - s.pz) - s.vz * self.dt)
-            self._have_pos = True
-            s.px, s.py, s.pz = px, py, pz
+        saf = self.safety
+        if saf.observe(t, t_pos, px, py, pz):
+            s.px, s.py, s.pz = saf.p
+            s.vx, s.vy, s.vz = saf.v
+        c = saf.now
+        s.t = c
         j = self._hist_k % self._hist_n
         self._hist_x[j] = s.px
         self._hist_y[j] = s.py
         self._hist_k += 1
-        self._t_last = t
-        touched = self._finger and (t - self._t_touch) <= self.device.touch_timeout and self.predictor.started
+        finite_t = t == t and abs(t) != math.inf
+        if finite_t:
+            self._t_last = t
+        if self._new_touch:  # stamp its arrival on this clock: the caller's stamp can only age it
+            self._new_touch = False
+            age = t - self._stamp
+            if not (finite_t and age >= -self.dt):
+                self.touch_stale += 1
+                self._finger = False
+                self.predictor.reset()
+                self._touch_at = -math.inf
+                self._stamp = t if finite_t else self._stamp
+            else:
+                self._touch_at = c - (age if age > 0.0 else 0.0)
+        touched = self._finger and (c - self._touch_at) <= self.device.touch_timeout + 1e-9 and self.predictor.started
         if touched:
             pr = self.predictor
             ahead = t - self._t_pred
-            if ahead < 0.0:
+            if not ahead > 0.0:
                 ahead = 0.0
             elif ahead > self.max_extrapolate:
                 ahead = self.max_extrapolate
@@ -193,12 +240,23 @@ class FFEngine:
         else:
             s.fvx = s.fvy = s.speed = 0.0
         s.touched = touched
-        f0, f1, f2 = self.law.compute_xyz(s)
-        if self.button_presses.buttons:
-            self.button = self.button_presses.update(touched, s.fx, s.fy, s.pz)
-        return self.safety.process_xyz(f0, f1, f2, t, t_pos, px, py, pz, self.stopping)
+        f0 = f1 = f2 = 0.0
+        if self.error is None:
+            try:
+                f0, f1, f2 = self.law.compute_xyz(s)
+                if self.button_presses.buttons:
+                    self.button = self.button_presses.update(touched, s.fx, s.fy, s.pz)
+            except Exception as exc:  # noqa: BLE001 - kept for the caller; the safety stage ramps down
+                self.error = exc
+                self.stopping = True
+        return saf.limit(f0, f1, f2, self.stopping)
 
     # ----------------------------------------------------------------- outputs
+    @property
+    def failed(self) -> bool:
+        """True once an effect or the control law raised (see ``error``)."""
+        return self.error is not None
+
     @property
     def mask(self) -> int:
         """Bit mask of the effects active on the last tick (0 = idle)."""

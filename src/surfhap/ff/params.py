@@ -67,6 +67,21 @@ class DeviceParams:
                     workspace takes 0.4 s.
     device_timeout: s, no device position for this long -> force ramps to zero (10 ms).
     touch_timeout : s, no touch sample for this long -> Idle (100 ms).
+    brake_decel   : m/s^2, deceleration a of the wall brake: towards a wall the screen speed is
+                    held to ``sqrt(2 a d)`` (d = distance to the wall less ``brake_margin``).
+                    CHOICE: 4 m/s^2 (1.6 N on the tablet), leaving of the 8 N the weight
+                    (3.8 N) and a finger pushing ~2 N.
+    brake_gain    : N s/m, force per m/s of speed above that profile. CHOICE: 100 N s/m
+                    (B dt / m = 0.26 at 1 kHz, well inside the discrete stability bound 2).
+    brake_margin  : m, the profile reaches zero this far inside the wall. CHOICE: 1 mm.
+    wall_damping  : N s/m, damping of the workspace wall (beyond it). CHOICE: 20 N s/m, the
+                    Falcon's largest damping (CHAI3D).
+    land_time     : s, on stop the weight compensation is lowered to zero over this time while
+                    ``land_damping`` brakes the tablet's descent. CHOICE: 1.5 s (>= 1 s).
+    land_damping  : N s/m, damping of the landing. CHOICE: 20 N s/m (CHAI3D's Falcon maximum):
+                    the tablet sinks at no more than its weight / land_damping (0.19 m/s).
+    max_speed     : m/s, device positions implying a faster screen are rejected as garbage.
+                    CHOICE: 5 m/s, 3x what 8 N gives the tablet across the workspace.
     """
 
     name: str = "falcon"
@@ -81,6 +96,13 @@ class DeviceParams:
     ref_speed: float = 0.2
     device_timeout: float = 0.010
     touch_timeout: float = 0.100
+    brake_decel: float = 4.0
+    brake_gain: float = 100.0
+    brake_margin: float = 0.001
+    wall_damping: float = 20.0
+    land_time: float = 1.5
+    land_damping: float = 20.0
+    max_speed: float = 5.0
     extra: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self):
@@ -97,11 +119,24 @@ class DeviceParams:
         _check("ref_speed", self.ref_speed, 1e-3, 10.0)
         _check("device_timeout", self.device_timeout, 1e-4, 1.0)
         _check("touch_timeout", self.touch_timeout, 1e-3, 10.0)
+        _check("brake_decel", self.brake_decel, 0.1, 1e3)
+        _check("brake_gain", self.brake_gain, 0.0, 1e4)
+        _check("brake_margin", self.brake_margin, 0.0, 0.1)
+        _check("wall_damping", self.wall_damping, 0.0, 1e3)
+        _check("land_time", self.land_time, 0.0, 60.0)
+        _check("land_damping", self.land_damping, 0.0, 1e3)
+        _check("max_speed", self.max_speed, 0.01, 100.0)
 
     @property
     def weight(self) -> float:
         """N, the weight m g that the control law compensates (004 Sec. 4.2 "Transparency")."""
         return self.moving_mass * GRAVITY
+
+    @property
+    def position_bound(self) -> tuple[float, float, float]:
+        """m per axis: device positions beyond 3x the workspace are rejected as garbage
+        (CHOICE: a Falcon's end stops sit at ~1.25x its 4 cm workspace radius)."""
+        return tuple(3.0 * w for w in self.workspace)
 
 
 FALCON = DeviceParams()

@@ -11,9 +11,13 @@ Real-time contract of the haptic thread (004 Sec. 4.2: "a haptic thread running 
   period late counts the periods it skipped as *missed* and re-anchors the schedule;
 * the period error (start time minus deadline) of every tick is kept in a preallocated
   ring for the statistics (:meth:`FFLoop.stats`);
-* stop (Ctrl-C, SIGTERM, ``request_stop``): the safety stage ramps the force to zero at its
-  slew rate, the loop runs until the output is zero (at most ``stop_timeout``), then writes
-  one zero force and ends.
+* stop (Ctrl-C, SIGTERM, ``request_stop``): the safety stage ramps the lateral force to zero at
+  its slew rate and puts the tablet down (weight compensation lowered over its ``land_time``),
+  the loop runs until the output is zero (at most ``stop_timeout``), then writes one zero
+  force and ends;
+* failure: an exception anywhere in a tick (touch drain, device read / write, an effect) is
+  kept in ``error`` and turns into a stop: the tick still runs the safety stage, so the output
+  ramps down within its limits (the command exits 3).
 
 The feedback thread sends, at ``feedback_rate``, the device position and the content offset
 (``-X_t``, so the tablet draws the content still in the world) to ``feedback(...)``,
@@ -49,21 +53,26 @@ class FFLoop:
     engine        : :class:`surfhap.ff.engine.FFEngine`.
     backend       : device backend (:mod:`surfhap.live.ff_devices`).
     feedback      : callable ``(t, px, py, pz, dx, dy, fx, fy, fz)`` at ``feedback_rate`` Hz, or None.
-    stop_timeout  : s, longest ramp-down on stop.
+    stop_timeout  : s, longest ramp-down on stop (default: the safety stage's landing and ramp).
     history       : ticks of period error kept for the statistics.
+    clock         : the time base of touch arrival stamps (default :func:`now`; tests driving
+                    :meth:`tick_once` pass their simulated clock).
     """
 
-    def __init__(self, engine, backend, *, feedback=None, feedback_rate: float = 60.0, stop_timeout: float = 0.5,
-                 history: int = 1 << 17, spin: float = 0.0003):
+    def __init__(self, engine, backend, *, feedback=None, feedback_rate: float = 60.0,
+                 stop_timeout: float | None = None, history: int = 1 << 17, spin: float = 0.0003, clock=now):
         self.engine = engine
+        self.clock = clock
         self.backend = backend
         self.rate = engine.rate
         self.period = 1.0 / self.rate
         self.feedback = feedback
         self.feedback_rate = float(feedback_rate)
-        self.stop_timeout = float(stop_timeout)
+        # long enough for the safety stage to put the tablet down and ramp to zero
+        self.stop_timeout = engine.safety.stop_duration + 0.1 if stop_timeout is None else float(stop_timeout)
         self.spin = float(spin)
         self.touches = TouchRing(1024)
+        self.touches_stale = 0
         self._buf = np.zeros((64, 6))
         self._err = np.zeros(int(history))
         self.ticks = 0
@@ -76,12 +85,24 @@ class FFLoop:
         self._last = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, -1)
         self.feedback_snapshot = self._last  # the tick the feedback thread is reporting (read it from feedback)
         self.error = None
+        self._stop_left = None  # ticks left for the stop ramp (None = not stopping)
 
     # ------------------------------------------------------------- producers
     def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan,
                    t_arrival: float | None = None) -> bool:
-        """Hand one validated touch sample to the loop (any thread). x, y m; load N (0 = lifted)."""
-        return self.touches.push(source, t_event, now() if t_arrival is None else t_arrival, x, y, load)
+        """Hand one validated touch sample to the loop (any thread). x, y m; load N (0 = lifted).
+
+        The loop stamps the arrival itself (:func:`now`); a caller's ``t_arrival`` can only make
+        the sample older. A non-finite or future ``t_arrival`` (beyond one period) is stale:
+        counted in ``touches_stale`` and dropped."""
+        ta = self.clock()
+        if t_arrival is not None:
+            if not (t_arrival == t_arrival and abs(t_arrival) != math.inf and t_arrival <= ta + self.period):
+                self.touches_stale += 1
+                return False
+            if t_arrival < ta:
+                ta = t_arrival
+        return self.touches.push(source, t_event, ta, x, y, load)
 
     # ------------------------------------------------------------- control
     def start(self) -> None:
@@ -92,6 +113,7 @@ class FFLoop:
         self._switch = sys.getswitchinterval()
         sys.setswitchinterval(min(self._switch, 0.0002))
         self.engine.reset()
+        self._stop_left = None
         self.backend.start()
         self._thread = threading.Thread(target=self._run, name="surfhap-ff-haptic", daemon=True)
         self._thread.start()
@@ -103,9 +125,10 @@ class FFLoop:
         """Ramp the force to zero and end the loop (returns at once)."""
         self._stop.set()
 
-    def stop(self, timeout: float = 2.0) -> None:
+    def stop(self, timeout: float | None = None) -> None:
         """Request a stop and wait for the ramp-down and the threads."""
         self.request_stop()
+        timeout = self.stop_timeout + 2.0 if timeout is None else timeout
         if self._thread is not None:
             self._thread.join(timeout)
         if self._fb_thread is not None:
@@ -129,13 +152,57 @@ class FFLoop:
             if hasattr(be, "finger_load"):
                 be.finger_load = float(r[5])
 
+    def _fail(self, exc: BaseException) -> None:
+        """Keep the first failure (one log line, no traceback on stderr); the tick goes on
+        through the safety stage's stop."""
+        if self.error is None:
+            self.error = exc
+            log.debug("ff haptic loop failed", exc_info=exc)
+        self._stop.set()
+
+    def tick_once(self, t: float) -> bool:
+        """One haptic tick at time ``t`` (s, :func:`now` clock): drain the touches, read the
+        device, tick the engine (its safety stage runs on every tick, also after an exception)
+        and write the force. False once a stop has ramped to zero (or used its
+        ``stop_timeout`` worth of ticks: counted in ticks, so a stalled loop still ramps). The
+        thread calls it on its deadlines; tests call it directly with a simulated clock."""
+        eng, be = self.engine, self.backend
+        px = py = pz = t_pos = math.nan
+        try:
+            self._drain()
+            px, py, pz, t_pos = be.read(t)
+        except Exception as exc:  # noqa: BLE001 - no position: the safety stage ramps to zero
+            self._fail(exc)
+        if self._stop.is_set() and self._stop_left is None:
+            eng.stop()
+            self._stop_left = math.ceil(self.stop_timeout * self.rate)
+        try:
+            f = eng.tick(t, px, py, pz, t_pos)
+        except Exception as exc:  # noqa: BLE001 - outside the control law: the safety stage alone
+            self._fail(exc)
+            eng.stop()
+            f = eng.safety.process_xyz(0.0, 0.0, 0.0, t, t_pos, px, py, pz, True)
+        if eng.error is not None:
+            self._fail(eng.error)
+        try:
+            be.write(f, t)
+        except Exception as exc:  # noqa: BLE001
+            self._fail(exc)
+        self._last = (px, py, pz, float(f[0]), float(f[1]), float(f[2]), int(eng.mask),
+                      int(getattr(eng, "button", -1)))
+        if self._stop_left is not None:
+            self._stop_left -= 1
+            if (f[0] == 0.0 and f[1] == 0.0 and f[2] == 0.0) or self._stop_left <= 0:
+                return False
+        return True
+
     def _run(self) -> None:
-        eng, be, period = self.engine, self.backend, self.period
+        period = self.period
         err, n_err = self._err, self._err.shape[0]
-        stop_deadline = None
         try:
             deadline = now() + period
-            while True:
+            go = True
+            while go:
                 t = sleep_until(deadline, self.spin)
                 late = t - deadline
                 err[self.ticks % n_err] = late
@@ -144,25 +211,15 @@ class FFLoop:
                     skipped = int(late / period)
                     self.missed += skipped
                     deadline += skipped * period
-                self._drain()
-                px, py, pz, t_pos = be.read(t)
-                if self._stop.is_set() and stop_deadline is None:
-                    eng.stop()
-                    stop_deadline = t + self.stop_timeout
-                f = eng.tick(t, px, py, pz, t_pos)
-                be.write(f, t)
-                self._last = (px, py, pz, float(f[0]), float(f[1]), float(f[2]), int(eng.mask), int(getattr(eng, "button", -1)))
-                if stop_deadline is not None and ((f[0] == 0.0 and f[1] == 0.0 and f[2] == 0.0) or t > stop_deadline):
-                    break
+                go = self.tick_once(t)
                 deadline += period
-        except Exception as exc:  # noqa: BLE001 - report, then leave the device at zero force
-            self.error = exc
-            log.exception("ff haptic thread failed")
+        except Exception as exc:  # noqa: BLE001 - the safety stage itself failed: last resort below
+            self._fail(exc)
         finally:
             try:
-                be.write(np.zeros(3), now())
+                self.backend.write(np.zeros(3), now())
             except Exception:  # noqa: BLE001
-                log.exception("ff: could not write the final zero force")
+                log.debug("ff: could not write the final zero force", exc_info=True)
             self.done.set()
 
     def _run_feedback(self) -> None:
@@ -189,8 +246,10 @@ class FFLoop:
             ticks=self.ticks, missed=self.missed, rate_hz=self.rate,
             period_error_ms={"p50": pct(50), "p99": pct(99), "p999": pct(99.9), "max": float(e.max()) if n else 0.0},
             touches_received=self.touches._write, touches_dropped=self.touches.dropped,
+            touches_stale=self.touches_stale + self.engine.touch_stale, touches_rejected=self.engine.touch_rejected,
             safety={"clamped": c.clamped, "slew_limited": c.slew_limited, "faults": c.faults,
-                    "device_lost": c.device_lost, "workspace": c.workspace, "stopped": c.stopped},
+                    "device_lost": c.device_lost, "workspace": c.workspace, "stopped": c.stopped,
+                    "stale": c.stale, "rejected": c.rejected, "braked": c.braked},
             device=self.backend.info() if hasattr(self.backend, "info") else {},
             error=None if self.error is None else repr(self.error),
         )

@@ -1,0 +1,85 @@
+"""A failure inside the force-feedback loop (issue 17 item 2): the output ramps down through
+the safety stage instead of jumping to 0 N, and ``ff run`` exits 3 with one line."""
+
+import json
+import threading
+
+import numpy as np
+
+from surfhap.cli import main
+from surfhap.exchange.trajectory_csv import write_trajectory_csv
+from surfhap.ff import FALCON, FFEngine, Sliding, Stiffness
+from surfhap.live.ff_devices import SimDeviceBackend
+from surfhap.live.ff_loop import FFLoop
+from surfhap.live.prediction import TouchPredictor
+from surfhap.models.trajectory import Trajectory
+from surfhap.sim.ff_device import SimDevice
+
+
+class Recording(SimDeviceBackend):
+    """The simulated device, keeping every force written."""
+
+    def __init__(self):
+        super().__init__(SimDevice(gain=FALCON.gain), FALCON.gain)
+        self.log = []
+        self.first_touch = threading.Event()
+
+    def write(self, force, t):
+        self.log.append(np.array(force, dtype=float))
+        super().write(force, t)
+
+
+def test_exception_in_an_effect_ramps_down_in_the_running_loop():
+    """The haptic thread: an effect raises while the screen is held at the weight plus a
+    pressing finger; every written change stays within the slew limit, the loop ends at 0 N
+    and keeps the error."""
+    calls = {"n": 0}
+
+    class Flaky(Stiffness):
+        def terms(self, s):
+            calls["n"] += 1
+            if calls["n"] > 200:
+                raise RuntimeError("injected")
+            return super().terms(s)
+
+    eng = FFEngine([Flaky(300.0)], FALCON, TouchPredictor(), touch_latency=0.0)
+    be = Recording()
+    loop = FFLoop(eng, be)
+    loop.start()
+    try:
+        for _ in range(2000):  # touch every 5 ms until the effect fails and the loop ends
+            loop.push_touch(0, 0.05, 0.05, 2.0)
+            if loop.done.wait(0.005):
+                break
+        assert loop.done.wait(30.0)
+    finally:
+        loop.stop()
+    assert isinstance(loop.error, RuntimeError)
+    f = np.array(be.log)
+    assert np.abs(f).max() > 1.0  # it was holding a force when the effect failed
+    assert np.abs(np.diff(f, axis=0)).max() <= FALCON.slew / FALCON_RATE + 1e-9
+    assert np.all(f[-1] == 0.0)
+    assert loop.stats()["error"] is not None
+
+
+FALCON_RATE = 1000.0
+
+
+def test_ff_run_exits_3_with_one_line_when_the_loop_fails(tmp_path, capsys, monkeypatch):
+    t = np.arange(0.0, 1.0, 1.0 / 120)
+    csv = tmp_path / "t.csv"
+    write_trajectory_csv(Trajectory(t, 0.1 + 0.03 * np.sin(np.pi * t), np.full(t.size, 0.07), np.ones(t.size)), csv)
+
+    def boom(self, s):
+        raise RuntimeError("injected\nfailure")
+
+    monkeypatch.setattr(Sliding, "terms", boom)
+    code = main(["ff", "run", "follow", "--device", "sim", "--trajectory", str(csv)])
+    out = capsys.readouterr()
+    assert code == 3, out.err
+    start = out.err.index("(Ctrl-C stops)") + len("(Ctrl-C stops)")  # the start line (wrapped by the console)
+    lines = [ln for ln in out.err[start:].splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: force-feedback loop failed"), out.err
+    assert "Traceback" not in out.err
+    st = json.loads(out.out.strip().splitlines()[-1])
+    assert "injected" in st["error"] and st["safety"]["stopped"] >= 1
