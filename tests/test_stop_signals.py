@@ -291,9 +291,11 @@ def test_study_run_while_touching_stops_on_sigterm_with_a_ramp(tmp_path):
                 with connect(url.replace("http", "ws") + "/ws", origin=url) as ws:
                     ws.send(json.dumps({"type": "hello", "w": 800, "h": 400}))
                     t0 = time.monotonic()
+                    seq = 0
                     while not stop_touching.is_set():
                         t = time.monotonic() - t0
-                        ws.send(json.dumps({"type": "move", "t": 1000.0 * t, "x": 0.5 + 0.3 * np.sin(2 * np.pi * t),
+                        seq += 1
+                        ws.send(json.dumps({"type": "move", "seq": seq, "t": 1000.0 * t, "x": 0.5 + 0.3 * np.sin(2 * np.pi * t),
                                             "y": 0.5, "p": 0.5}))
                         time.sleep(0.004)
             except Exception:  # noqa: BLE001 - the server went away: the test is over
