@@ -276,3 +276,39 @@ def test_renderer_swap_keeps_rendering():
     assert e.renderer is new and e.counters["errors"] == 0
     assert np.abs(out[-e.drive_rate // 50 :]).max() > 50
     assert e.safety_counters()["faults"] == 0
+
+
+@pytest.mark.parametrize("stamp", [3.0, 1e300, math.inf, -math.inf, math.nan, "back"])
+def test_a_callers_stamp_never_extends_a_touch_life(stamp):
+    # issue 17 #1: a normal stroke, then one sample whose caller's t_arrival is from the
+    # future / non-finite / going backwards, then silence: the engine stamps arrival on its
+    # own clock, so the output is 0 V from 50 + 5 ms after the last trusted sample
+    clock = [0.0]
+    chain = TextureChain(load_material("cork"), ChainConfig(drive_rate=20000))
+    e = LiveEngine(chain, EngineConfig(), clock=lambda: clock[0])
+    out, t_last = [], 0.0
+    for k in range(300):
+        t = clock[0] = k * e.block_period
+        if t < 0.2 and k % 8 == 0:
+            e.push_touch(1, *stroke(t), t_event=t, t_arrival=t)
+            t_last = t
+        if k == 200:  # 0.2 s: the hostile stamp on an otherwise fresh sample
+            e.push_touch(1, *stroke(t), t_arrival=(t_last - 0.01) if stamp == "back" else t + stamp)
+        out.append(e.render(e.block_frames, t).copy())
+    out = np.concatenate(out)
+    fs = e.drive_rate
+    assert np.abs(out[int(0.15 * fs) : int(0.19 * fs)]).max() > 50
+    assert not np.any(out[int((t_last + 0.055) * fs) + 1 :])
+    assert e.counters["stale_stamps"] == 1
+    assert e.output_safety_counters()["watchdog"] + e.safety_counters()["watchdog"] > 0
+
+
+def test_the_engine_stamps_arrival_on_its_own_clock():
+    clock = [5.0]
+    e = LiveEngine(TextureChain(load_material("cork"), ChainConfig(drive_rate=20000)), clock=lambda: clock[0])
+    e.push_touch(1, 0.02, 0.03, 0.5)  # no stamp: now
+    e.push_touch(1, 0.02, 0.03, 0.5, t_arrival=4.9)  # older: kept
+    e.push_touch(1, 0.02, 0.03, 0.5, t_arrival=5.1)  # future: stale
+    buf = np.zeros((8, 6))
+    assert e.touches.pop_into(buf) == 3
+    assert list(buf[:3, 2]) == [5.0, 4.9, -math.inf]
