@@ -275,19 +275,19 @@ def test_sound_callback_that_raises_writes_zero_and_halts():
 
     e = _engine()
     b = SoundBackend()
-    b.engine, b._chans, b._inv_gain = e, (0, 1), 1.0 / 250.0
-    b._units = np.zeros(e.config.max_block_frames, dtype=np.float32)
+    b.bind(e, (0, 1))
     ok = SimpleNamespace(output_underflow=False)
+    times = SimpleNamespace(currentTime=3.0, outputBufferDacTime=3.002, inputBufferAdcTime=0.0)  # 2 ms latency
     outdata = np.zeros((e.block_frames, 2), dtype=np.float32)
     for _ in range(50):  # a firm touch: the card gets a strong drive (real clock, as PortAudio's thread)
         e.push_touch(1, 0.05, 0.03, 2.0)
-        b._callback(outdata, e.block_frames, None, ok)
+        b._callback(outdata, e.block_frames, times, ok)
     assert np.abs(outdata).max() > 0.5
     units = b._units
     b._units = np.zeros(0, dtype=np.float32)  # a bug inside the callback: it raises
-    b._callback(outdata, e.block_frames, None, ok)
+    b._callback(outdata, e.block_frames, times, ok)
     assert not np.any(outdata) and "sound output failed" in e.status()["failure"]
     b._units = units  # later callbacks work again, but the engine stays at 0 V
     e.push_touch(1, 0.05, 0.03, 2.0)
-    b._callback(outdata, e.block_frames, None, ok)
+    b._callback(outdata, e.block_frames, times, ok)
     assert not np.any(outdata) and e.status()["output_safety"]["halted"] > 0

@@ -40,9 +40,9 @@ stall stays stale. ``now`` given to :meth:`LiveEngine.render` is the backend's e
 time of the block on the same clock (the backend owns the clock; it is not caller input).
 
 Latency (``latency_stats``): for every touch sample applied, the time from its arrival to
-the emission of the first drive sample computed from it (the block's start time plus the
-sample's offset in the block). This is the engine-internal latency; the DAC and amplifier
-add the backend's own output latency (reported by the backend).
+the emission of the first drive sample computed from it (the block's emission time ``now``
+plus the sample's offset in the block). The sound backend passes PortAudio's DAC time, so
+there it includes the output latency; the amplifier adds its own.
 """
 
 from __future__ import annotations
@@ -111,7 +111,7 @@ class LiveEngine:
         self.latencies = np.zeros(cfg.latency_capacity)
         self.block_times = np.zeros(cfg.latency_capacity)  # seconds spent in render()
         self.guard = OutputSafety(self.drive_rate, renderer.safety.limits, cfg.stop_ramp)
-        self._clock = clock_now if clock is None else clock  # the engine clock (s); tests may simulate it
+        self.clock = clock_now if clock is None else clock  # the engine clock (s); tests may simulate it
         self.reset()
 
     # ------------------------------------------------------------------ control side
@@ -152,7 +152,7 @@ class LiveEngine:
         buffer), then reset.
 
         Call before a backend starts, so the first real-time blocks are not slow."""
-        t = self._clock()
+        t = self.clock()
         for i in range(blocks):  # a short stroke, so the touch paths are compiled too
             t += self.block_period
             if i % 4 == 0 and i < blocks - 4:
@@ -172,7 +172,7 @@ class LiveEngine:
         future or non-finite stamp makes it stale (see the module docstring).
         Returns False when the ring is full (the sample is dropped and counted).
         """
-        ta = arrival_stamp(t_arrival, self._clock())
+        ta = arrival_stamp(t_arrival, self.clock())
         return self.touches.push(source, t_event, ta, x, y, load)
 
     def send(self, *command) -> bool:
@@ -207,7 +207,7 @@ class LiveEngine:
         Runs inside the audio callback; see the module docstring for what it may do.
         ``now`` is the engine-clock time at which the block starts to be emitted.
         """
-        t_start = self._clock()
+        t_start = self.clock()
         if now is None:
             now = t_start
         if frames > self._max_frames:
@@ -236,7 +236,7 @@ class LiveEngine:
         c = self.counters
         c["blocks"] += 1
         c["frames"] += frames
-        spent = self._clock() - t_start
+        spent = self.clock() - t_start
         self.block_times[self.block_time_count & (self.block_times.shape[0] - 1)] = spent
         self.block_time_count += 1
         if spent > frames / self.drive_rate:
