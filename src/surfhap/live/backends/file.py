@@ -16,9 +16,10 @@ The recording is streamed to disk: only the samples since the last flush are hel
 memory (a buffer allocated at start), so a recording may run for any length; ``recorded``
 reads the file back (for checks). There is no silent cap. ``max_seconds`` (``None`` by
 default: no limit) is an explicit cap: shortly before it the backend asks the engine for
-its stop ramp, so the file ends at 0 V after the ramp, exactly ``max_seconds`` long; one
-warning line is logged, and blocks rendered after the cap are counted in
-``capped_blocks`` (in :meth:`FileBackend.info`, shown in the status). A normal stop
+its stop ramp (``cap_reached``, one warning line), so the file ends at 0 V after the
+ramp, at most ``max_seconds`` long (exactly, if the backend runs on past the cap); blocks
+rendered after the cap are counted in ``capped_blocks`` (:meth:`FileBackend.info`, in the
+status). A normal stop
 records the stop ramp too. A write error halts the engine (0 V) through the backend
 failure path.
 """
@@ -119,7 +120,6 @@ class FileBackend(PacedBackend):
         if self._cap_stop is not None and self._cap_stop < 0:
             need = (ramp + 4 * int(engine.block_frames)) / rate
             raise ConfigError(f"must be at least {need:.3f} s (the stop ramp and four blocks)", source="--max-seconds")
-        self._stop_asked = False
         self.capped_blocks = 0
         self.cap_reached = False
         try:
@@ -162,16 +162,14 @@ class FileBackend(PacedBackend):
         n = volts.shape[0]
         if self._cap is not None:
             total = self.samples
-            if total + n >= self._cap_stop and not self._stop_asked:
-                self._stop_asked = True
+            if total + n >= self._cap_stop and not self.cap_reached:
+                self.cap_reached = True
                 self.engine.request_stop()  # the ramp goes into the file before the cap
+                log.warning("file output %s reaches --max-seconds %g: the output ramps to 0 V and the recording "
+                            "ends (later blocks are counted in capped_blocks)", self.path, self.max_seconds)
             if total + n > self._cap:
                 n = self._cap - total
                 self.capped_blocks += 1
-                if not self.cap_reached:
-                    self.cap_reached = True
-                    log.warning("file output %s reached --max-seconds %g: the output was ramped to 0 V and "
-                                "later blocks are not recorded (counted in capped_blocks)", self.path, self.max_seconds)
                 if n <= 0:
                     return
         k = self._pending
