@@ -276,3 +276,145 @@ def test_renderer_swap_keeps_rendering():
     assert e.renderer is new and e.counters["errors"] == 0
     assert np.abs(out[-e.drive_rate // 50 :]).max() > 50
     assert e.safety_counters()["faults"] == 0
+
+
+@pytest.mark.parametrize("stamp", [3.0, 1e300, math.inf, -math.inf, math.nan, "back"])
+def test_a_callers_stamp_never_extends_a_touch_life(stamp):
+    # issue 17 #1: a normal stroke, then one sample whose caller's t_arrival is from the
+    # future / non-finite / going backwards, then silence: the engine stamps arrival on its
+    # own clock, so the output is 0 V from 50 + 5 ms after the last trusted sample
+    clock = [0.0]
+    chain = TextureChain(load_material("cork"), ChainConfig(drive_rate=20000))
+    e = LiveEngine(chain, EngineConfig(), clock=lambda: clock[0])
+    out, t_last = [], 0.0
+    for k in range(300):
+        t = clock[0] = k * e.block_period
+        if t < 0.2 and k % 8 == 0:
+            e.push_touch(1, *stroke(t), t_event=t, t_arrival=t)
+            t_last = t
+        if k == 200:  # 0.2 s: the hostile stamp on an otherwise fresh sample
+            e.push_touch(1, *stroke(t), t_arrival=(t_last - 0.01) if stamp == "back" else t + stamp)
+        out.append(e.render(e.block_frames, t).copy())
+    out = np.concatenate(out)
+    fs = e.drive_rate
+    assert np.abs(out[int(0.15 * fs) : int(0.19 * fs)]).max() > 50
+    assert not np.any(out[int((t_last + 0.055) * fs) + 1 :])
+    assert e.counters["stale_stamps"] == 1
+    assert e.output_safety_counters()["watchdog"] + e.safety_counters()["watchdog"] > 0
+
+
+def test_the_engine_stamps_arrival_on_its_own_clock():
+    clock = [5.0]
+    e = LiveEngine(TextureChain(load_material("cork"), ChainConfig(drive_rate=20000)), clock=lambda: clock[0])
+    e.push_touch(1, 0.02, 0.03, 0.5)  # no stamp: now
+    e.push_touch(1, 0.02, 0.03, 0.5, t_arrival=4.9)  # older: kept
+    e.push_touch(1, 0.02, 0.03, 0.5, t_arrival=5.1)  # future: stale
+    buf = np.zeros((8, 6))
+    assert e.touches.pop_into(buf) == 3
+    assert list(buf[:3, 2]) == [5.0, 4.9, -math.inf]
+
+
+class _SimClock:
+    """A simulated engine clock for the paced backends: sleeping jumps to the deadline."""
+
+    def __init__(self, t=100.0):
+        self.t = t
+
+    def now(self):
+        return self.t
+
+    def sleep_until(self, deadline, spin=0.0):
+        if deadline > self.t:
+            self.t = deadline
+        return self.t
+
+
+def _touching_file_backend(path, **kw):
+    """A file backend whose blocks are followed by a firm, moving touch (the finger stays on)."""
+    from surfhap.live.backends.file import FileBackend
+
+    class Touching(FileBackend):
+        def emit(self, volts):
+            super().emit(volts)
+            t = self.engine.clock()
+            self.engine.push_touch(1, 0.05 + 0.03 * math.sin(t), 0.03, 2.0)
+
+    return Touching(path, **kw)
+
+
+def _run_file_backend(monkeypatch, b, seconds, rate=20000, block=0.005):
+    """Run ``b`` on a simulated clock for ``seconds``, then stop."""
+    import time
+
+    import surfhap.live.backends.base as base
+
+    sim = _SimClock()
+    monkeypatch.setattr(base, "now", sim.now)
+    monkeypatch.setattr(base, "sleep_until", sim.sleep_until)
+    e = LiveEngine(TextureChain(load_material("cork"), ChainConfig(drive_rate=rate)), EngineConfig(block_seconds=block),
+                   clock=sim.now)
+    t0 = sim.t
+    b.start(e)
+    guard = time.monotonic() + 600.0  # failure guard only
+    while sim.t - t0 < seconds and time.monotonic() < guard:
+        time.sleep(0.05)
+    b.stop()
+    return e
+
+
+def _ends_with_a_stop_ramp(rec, e):
+    """The recording drives until a linear stop ramp, then holds exactly 0 V to its end."""
+    nz = np.flatnonzero(rec)
+    i_last = nz[-1]
+    ramp_n = int(round(e.config.stop_ramp * e.drive_rate))
+    assert i_last < rec.size - 1 and not np.any(rec[i_last + 1 :])  # ends at 0 V
+    assert np.abs(rec[i_last - ramp_n - 100 : i_last - ramp_n]).max() > 100  # driving before the ramp
+    j = np.arange(ramp_n)
+    env = 250.0 * (ramp_n - j + 1) / ramp_n + 1e-3  # a linear ramp from v_max (one sample of slack)
+    assert np.all(np.abs(rec[i_last - ramp_n + 1 + j]) <= env)
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".wav"])
+def test_file_output_longer_than_the_old_cap_keeps_everything_and_the_stop_ramp(tmp_path, monkeypatch, suffix):
+    # issue 17 #6: `serve --output file:x.wav --duration 130` wrote 120.0 s (a silent cap)
+    # and lost the stop ramp; 130 s on a simulated clock (a few s of wall time)
+    path = tmp_path / f"long{suffix}"
+    b = _touching_file_backend(path)
+    e = _run_file_backend(monkeypatch, b, 130.0)
+    assert e.stopped and e.failure is None
+    rec = b.recorded
+    assert rec.size == e.counters["frames"] and rec.size >= 130 * e.drive_rate  # nothing dropped
+    assert b.info()["capped_blocks"] == 0 and not b.info()["cap_reached"]
+    if suffix == ".npz":
+        assert audit_drive(rec, e.drive_rate, e.renderer.safety.limits)["violations"] == 0
+    else:
+        from scipy.io import wavfile
+
+        rate, u = wavfile.read(path)
+        assert rate == e.drive_rate and u.size == rec.size
+    _ends_with_a_stop_ramp(rec, e)
+
+
+def test_file_output_cap_is_explicit_warned_counted_and_ramped(tmp_path, monkeypatch, caplog):
+    import logging
+
+    path = tmp_path / "capped.npz"
+    b = _touching_file_backend(path, max_seconds=2.0)
+    with caplog.at_level(logging.WARNING, logger="surfhap.live"):
+        e = _run_file_backend(monkeypatch, b, 10.0)
+    rec = b.recorded
+    assert rec.size == 2 * e.drive_rate  # exactly the cap: it ran on past it
+    info = b.info()
+    assert info["cap_reached"] and info["capped_blocks"] >= 1 and info["max_seconds"] == 2.0
+    assert sum("reaches --max-seconds" in r.getMessage() for r in caplog.records) == 1
+    assert audit_drive(rec, e.drive_rate, e.renderer.safety.limits)["violations"] == 0
+    _ends_with_a_stop_ramp(rec, e)
+
+
+def test_file_output_cap_option_is_checked(tmp_path):
+    from surfhap.errors import ConfigError
+    from surfhap.live.backends.file import FileBackend
+
+    for bad in (0.0, -1.0, math.nan, math.inf, 0.01):
+        with pytest.raises(ConfigError, match="--max-seconds"):
+            FileBackend(tmp_path / "x.wav", max_seconds=bad)

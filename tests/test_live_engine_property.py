@@ -2,15 +2,20 @@
 
 Arbitrary sequences of touch (any x, y, load, including NaN, inf and huge values), stale
 touch data, lift (also lift and re-touch within one block), gain (any float), renderer /
-material / method switch, stall (the clock jumps while touch data queues up) and stop, at
-drive rates of 20, 44.1 and 48 kHz and block periods of 0.25-4 ms. Every emitted sample is
-audited (:func:`surfhap.live.audit.audit_drive`) independently of the engine's counters:
+material / method switch, stall (the clock jumps while touch data queues up), stop, and
+adversarial caller stamps (``t_arrival`` from the future, +inf, -inf, NaN, going backwards,
+huge jumps, followed by silence), at drive rates of 20, 44.1 and 48 kHz and block periods
+of 0.25-4 ms. The engine runs on a simulated clock (its ``clock``) that the producers share,
+as in the real process. Every emitted sample is audited
+(:func:`surfhap.live.audit.audit_drive`) independently of the engine's counters:
 
 * finite and ``|V| <= v_max``;
 * the magnitude rises by at most ``rise_rate / drive_rate`` per sample, across blocks,
   commands and switches (the stream starts from 0 V);
 * watchdog: 0 V whenever the freshest touch sample handed to the engine is older than
-  ``watchdog_timeout + watchdog_ramp`` at the sample's emission time;
+  ``watchdog_timeout + watchdog_ramp`` at the sample's emission time; a sample is never
+  younger than the engine clock at the moment it was handed over (a caller's stamp may
+  make it older, never fresher);
 * stop: 0 V from ``stop_ramp`` after the block that took the stop command.
 
 ``make test`` runs ``SURFHAP_SAFETY_EXAMPLES`` sequences (default 10 000, derandomized so
@@ -80,33 +85,49 @@ gain = st.one_of(st.sampled_from([0.0, 1.0, 0.5]), st.floats(-0.5, 1.5), anythin
 stale = st.sampled_from([0.0, 0.02, 0.049, 0.051, 0.056, 0.2, 1.2, 2.7])
 stall = st.sampled_from([0.01, 0.05, 0.06, 0.3, 1.1, 2.7])
 
-# (kind, blocks, source, x, y, load, value): value is the gain, renderer index, stall or staleness
-KINDS = ("touch",) * 5 + ("stale", "lift", "lift+touch", "gain", "renderer", "stall", "stop", "idle")
+# a caller's t_arrival relative to the engine clock at hand-over (s): future, huge jumps,
+# going backwards against the last stamp (the "stamp" op adds the last stamp to "back"), or
+# not a number at all
+STAMPS = (0.0005, 0.003, 0.06, 3.0, 1e6, 1e300, math.inf, -math.inf, math.nan, -1e300, "back")
+stamp = st.one_of(st.sampled_from(STAMPS), st.floats(-5.0, 5.0), anything)
+
+# (kind, blocks, source, x, y, load, value): value is the gain, renderer index, stall,
+# staleness or caller stamp
+KINDS = ("touch",) * 5 + ("stale", "lift", "lift+touch", "gain", "renderer", "stall", "stop", "idle") + ("stamp",) * 2
 op = st.tuples(st.sampled_from(KINDS), st.integers(1, 6), st.sampled_from([1, 1, 1, 2]), coord, coord, load,
-               st.one_of(gain, stale, stall, st.integers(0, len(RENDERERS))))
+               st.one_of(gain, stale, stall, st.integers(0, len(RENDERERS)), stamp))
 
 
 class Harness:
-    """Drives one engine on a manual clock and records what the audit needs."""
+    """Drives one engine on a simulated clock (``self.t``, the engine's clock too) and
+    records what the audit needs."""
 
     def __init__(self, rate: int, block: float, first: int = 0):
         self.rends = renderers(rate)
         for r in self.rends:
             r.reset()
         self.e = LiveEngine(self.rends[first], EngineConfig(block_seconds=block, stop_ramp=STOP_RAMP, trace_capacity=64,
-                                                        latency_capacity=64, touch_capacity=256))
+                                                        latency_capacity=64, touch_capacity=256),
+                            clock=lambda: self.t)
         self.rate = rate
         self.t = 10.0
-        self.fresh = -math.inf  # newest arrival stamp handed to the engine
+        self.fresh = -math.inf  # reference: newest arrival of a sample handed to the engine
+        self.last_stamp = self.t
         self.x = 0.05
         self.out, self.age, self.silent = [], [], []
         self.stop_pending = False
         self.silent_from = None  # global sample index from which the output must be 0
         self.n = 0
 
-    def push(self, src, x, y, ld, t_arr):
+    def push(self, src, x, y, ld, t_arr=None):
+        """Hand a sample over at engine time ``self.t``, with a caller's stamp ``t_arr``."""
         self.e.push_touch(src, x, y, ld, t_arrival=t_arr)
-        self.fresh = max(self.fresh, t_arr)
+        # independent reference: a sample is at most as fresh as the moment it was handed
+        # over; a caller's stamp can only make it older
+        arrival = self.t if t_arr is None or not t_arr <= self.t else t_arr
+        self.fresh = max(self.fresh, arrival)
+        if t_arr is not None and math.isfinite(t_arr):
+            self.last_stamp = t_arr
 
     def blocks(self, n, touch=None):
         e = self.e
@@ -147,10 +168,23 @@ class Harness:
             self.blocks(n, touch)
         elif kind == "stall":
             dt = float(value) if isinstance(value, float) and 0 < value <= 3 else 2.7
+            t0 = self.t
             for k in range(5):  # the finger went on while the engine stood still
-                self.push(src, x, y, ld, self.t + dt * k / 5)
-            self.t += dt
+                self.t = t0 + dt * k / 5
+                self.push(src, x, y, ld, self.t if k % 2 else None)
+            self.t = t0 + dt
             self.blocks(n)
+        elif kind == "stamp":
+            # a caller's stamp that must not extend the sample's life, then silence long
+            # enough for the watchdog (60-85 ms)
+            if value == "back":
+                t_arr = self.last_stamp - 0.03
+            elif isinstance(value, float):
+                t_arr = self.t + value
+            else:
+                t_arr = self.t + 3.0
+            self.push(src, x, y, ld, t_arr)
+            self.blocks(math.ceil((0.055 + 0.005 * n) / self.e.block_period))
         elif kind == "stop":
             self.e.request_stop()
             self.stop_pending = True

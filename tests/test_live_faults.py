@@ -275,19 +275,53 @@ def test_sound_callback_that_raises_writes_zero_and_halts():
 
     e = _engine()
     b = SoundBackend()
-    b.engine, b._chans, b._inv_gain = e, (0, 1), 1.0 / 250.0
-    b._units = np.zeros(e.config.max_block_frames, dtype=np.float32)
+    b.bind(e, (0, 1))
     ok = SimpleNamespace(output_underflow=False)
+    times = SimpleNamespace(currentTime=3.0, outputBufferDacTime=3.002, inputBufferAdcTime=0.0)  # 2 ms latency
     outdata = np.zeros((e.block_frames, 2), dtype=np.float32)
     for _ in range(50):  # a firm touch: the card gets a strong drive (real clock, as PortAudio's thread)
         e.push_touch(1, 0.05, 0.03, 2.0)
-        b._callback(outdata, e.block_frames, None, ok)
+        b._callback(outdata, e.block_frames, times, ok)
     assert np.abs(outdata).max() > 0.5
     units = b._units
     b._units = np.zeros(0, dtype=np.float32)  # a bug inside the callback: it raises
-    b._callback(outdata, e.block_frames, None, ok)
+    b._callback(outdata, e.block_frames, times, ok)
     assert not np.any(outdata) and "sound output failed" in e.status()["failure"]
     b._units = units  # later callbacks work again, but the engine stays at 0 V
     e.push_touch(1, 0.05, 0.03, 2.0)
-    b._callback(outdata, e.block_frames, None, ok)
+    b._callback(outdata, e.block_frames, times, ok)
     assert not np.any(outdata) and e.status()["output_safety"]["halted"] > 0
+
+
+# ---------------------------------------------------------------- file output cap (issue 17 #6)
+def test_serve_max_seconds_ends_the_recording_with_a_ramp_a_warning_and_a_count(tmp_path):
+    import socket
+
+    traj = tmp_path / "stroke.csv"
+    t = np.arange(0, 2.0, 0.008)
+    traj.write_text("time,x,y,load\n" + "\n".join(f"{ti:.4f},{0.05 + 0.02 * ti:.5f},0.03,2.0" for ti in t) + "\n")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    path = tmp_path / "capped.wav"
+    p = subprocess.Popen([*SURFHAP, "serve", "--material", str(_friction_only_cork(tmp_path)), "--port", str(port),
+                          "--replay", str(traj), "--output", f"file:{path}", "--max-seconds", "1.5",
+                          "--duration", "600", "--no-web-process"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    out, err = _finish(p, timeout=300.0)  # ends by itself at the cap, long before --duration
+    assert p.returncode == 0, err
+    assert "Traceback" not in err and "reaches --max-seconds 1.5" in err
+    status = json.loads(out.strip().splitlines()[-1])
+    assert status["stopped"] is True and status["failure"] is None
+    assert status["output"]["cap_reached"] is True and status["output"]["max_seconds"] == 1.5
+    rate, u = wavfile.read(path)
+    assert 1.4 * RATE <= u.size <= 1.5 * RATE
+    mag = np.abs(u.astype(float))
+    last = int(np.nonzero(mag)[0][-1])
+    full = int(np.nonzero(mag >= 0.999)[0][-1])
+    assert last < u.size - 1 and 0.005 * RATE <= last - full <= 0.010 * RATE  # the 10 ms stop ramp
+    assert np.all(np.diff(mag[full : last + 2]) <= 1e-6)
+
+
+def test_max_seconds_only_for_file_output():
+    assert main(["serve", "--output", "sim", "--max-seconds", "10"]) == 2

@@ -102,3 +102,58 @@ def test_devices_and_play_through_jack(tmp_path):
     summary = json.loads(play.stdout.strip().splitlines()[-1])
     assert summary["touches"] >= 40 and summary["counters"]["errors"] == 0
     assert summary["counters"]["frames"] > 0
+
+
+def test_watchdog_ramp_is_complete_at_the_dac_not_one_latency_later(monkeypatch):
+    # issue 17 #10: the callback's block reaches the DAC at time.outputBufferDacTime, 20 ms
+    # after currentTime; the 50 ms + 5 ms watchdog promise must hold at the DAC. No audio
+    # hardware: the PortAudio callback is called with a fake time info, the engine (and, for
+    # the old code, the backend module's clock) run on a simulated clock.
+    from types import SimpleNamespace
+
+    from surfhap.exchange.materials import load_material
+    import surfhap.live.backends.sound as sound
+    from surfhap.live.audit import audit_drive
+    from surfhap.live.engine import LiveEngine
+    from surfhap.live.engine_config import EngineConfig
+    from surfhap.render.chain import ChainConfig, TextureChain
+
+    rate, latency, stream_offset = 20000, 0.020, 1234.5  # PortAudio's stream clock has its own origin
+    clock = [100.0]
+    monkeypatch.setattr(sound, "now", lambda: clock[0], raising=False)
+    eng = LiveEngine(TextureChain(load_material("cork"), ChainConfig(drive_rate=rate)), EngineConfig(),
+                     clock=lambda: clock[0])
+    be = sound.SoundBackend(amp_gain=250.0)
+    be.bind(eng, (0,))
+    status = SimpleNamespace(output_underflow=False)
+    frames = eng.block_frames
+    out, dac, t_last = [], [], None
+    for k in range(400):
+        t = clock[0] = 100.0 + k * eng.block_period
+        if t < 100.2 and k % 8 == 0:
+            eng.push_touch(1, 0.02 + 0.1 * (t - 100.0), 0.03, 2.0)
+            t_last = t
+        info = SimpleNamespace(currentTime=stream_offset + (t - 100.0),
+                               outputBufferDacTime=stream_offset + (t - 100.0) + latency, inputBufferAdcTime=0.0)
+        buf = np.zeros((frames, 1), dtype=np.float32)
+        be._callback(buf, frames, info, status)
+        out.append(buf[:, 0].astype(np.float64) * 250.0)
+        dac.append(t + latency + np.arange(frames) / rate)  # engine-clock time each sample reaches the DAC
+    out, dac = np.concatenate(out), np.concatenate(dac)
+    assert be.error is None and eng.counters["errors"] == 0
+    assert np.abs(out[dac < t_last]).max() > 50  # it was driving
+    lim = eng.renderer.safety.limits
+    assert lim.watchdog_timeout + lim.watchdog_ramp == pytest.approx(0.055)
+    a = audit_drive(out, rate, lim, touch_age=dac - t_last)
+    assert a["watchdog"] == 0, a  # 0 V at the DAC from 55 ms after the last touch
+    assert not np.any(out[dac > t_last + 0.055 + 1e-9])
+
+
+def test_dac_time_falls_back_to_the_nominal_latency():
+    from types import SimpleNamespace
+
+    from surfhap.live.backends.sound import dac_time
+
+    assert dac_time(5.0, SimpleNamespace(currentTime=10.0, outputBufferDacTime=10.02), 0.1) == pytest.approx(5.02)
+    for cur, d in [(0.0, 0.0), (10.0, 9.0), (10.0, 20.0), (float("nan"), 1.0), (1.0, float("inf"))]:
+        assert dac_time(5.0, SimpleNamespace(currentTime=cur, outputBufferDacTime=d), 0.1) == pytest.approx(5.1)

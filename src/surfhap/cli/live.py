@@ -60,6 +60,14 @@ def _channel_options(text: str | None, output: str) -> dict:
     return {"channels": chans, "n_channels": max(chans) + 1}
 
 
+def _file_options(max_seconds: float | None, output: str) -> dict:
+    if max_seconds is None:
+        return {}
+    if not output.startswith("file:"):
+        raise ConfigError("only applies to file outputs", source="--max-seconds")
+    return {"max_seconds": max_seconds}
+
+
 def _setup_logging(verbose: bool) -> None:
     from surfhap.live.logfilter import install_rate_limit
 
@@ -110,6 +118,7 @@ def serve_cmd(
     smoothing: float = typer.Option(1.0, "--smoothing", help="Exponential smoothing of predicted positions, (0, 1] (1 = off; KinesTouch: 0.15)."),
     seed: SeedOption = 0,
     duration: float = typer.Option(0.0, "--duration", help="Stop after this many seconds (0 = until Ctrl-C)."),
+    max_seconds: Optional[float] = typer.Option(None, "--max-seconds", help="File output: end the recording with the stop ramp after this many seconds, warn and stop (default: no limit)."),
     web_process: bool = typer.Option(True, "--web-process/--no-web-process",
                                      help="Run the page server in its own process, so web traffic cannot delay the engine."),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Log connections and rejected messages at INFO."),
@@ -124,7 +133,7 @@ def serve_cmd(
     from surfhap.live.app import create_app
     from surfhap.live.config import ServerConfig
     from surfhap.live.serverthread import ServerThread
-    from surfhap.live.session import build_session
+    from surfhap.live.session import backend_info, build_session
     from surfhap.live.webproc import WebProcess
 
     _setup_logging(verbose)
@@ -161,7 +170,8 @@ def serve_cmd(
     session = build_session(material or "cork", output, drive_rate=drive_rate, amp_gain=amp_gain,
                             engine_config=_engine_config(block_ms, touch_latency_ms, smoothing),
                             osc_in=osc, replay=traj, replay_loop=True, seed=seed, mesh=mesh,
-                            backend_options=_channel_options(channels, output), display=disp)
+                            backend_options={**_channel_options(channels, output), **_file_options(max_seconds, output)},
+                            display=disp)
     cfg = ServerConfig(host=host, port=port, allowed_origins=tuple(allow_origin), allowed_hosts=allowed_hosts)
     server = None
     with StopSignals() as guard:
@@ -175,7 +185,8 @@ def serve_cmd(
             shown = f"[{shown}]" if ":" in shown else shown
             stdout.print(f"surfhap live: {session.title} -> {output}; open http://{shown}:{port}/ (Ctrl-C stops)")
             end = time.monotonic() + duration if duration > 0 else None
-            while (end is None or time.monotonic() < end) and session.engine.failure is None and not guard.wait(0.05):
+            while ((end is None or time.monotonic() < end) and session.engine.failure is None
+                   and not session.engine.stopped and not guard.wait(0.05)):
                 pass
         except OSError as exc:
             raise ConfigError(f"cannot listen on {host}:{port} ({exc.strerror or exc})", source="--port") from None
@@ -183,7 +194,7 @@ def serve_cmd(
             session.stop()
             if server is not None:
                 server.stop()
-    typer.echo(json.dumps(session.engine.status(), default=float))
+    typer.echo(json.dumps(dict(session.engine.status(), output=backend_info(session.backend)), default=float))
     _finish(session.engine, guard)
 
 

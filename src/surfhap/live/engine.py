@@ -25,16 +25,24 @@ the rise limit (remembering the last emitted magnitude across blocks, lifts, gai
 and renderer switches) and the watchdog on each sample's emission time. ``fail(reason)``
 halts the engine at 0 V (a backend that raised or stalled).
 
-Touch samples are time-stamped at arrival (``t_arrival`` on :func:`surfhap.live.clock.now`).
-At each block the freshest sample is mapped onto the chain's sample clock as
-``chain_time - (now - t_arrival)``, so the watchdog of the safety stage (touch older than
-50 ms -> ramp to zero within 5 ms) sees how old the finger data really is. A stamp is
-never refreshed: data that waited during a stall stays stale.
+Touch samples are time-stamped at arrival by the engine itself, on its own clock
+(:func:`surfhap.live.clock.now`, or the ``clock`` given to the constructor), in
+:meth:`LiveEngine.push_touch`. A caller's stamp (``t_arrival``, e.g. the web process's
+arrival time) may only make a sample older, never extend its life
+(:func:`surfhap.live.clock.arrival_stamp`): a stamp from the future, NaN or +-inf, and a
+stamp earlier than the previous one of the same source (non-monotonic), makes the sample
+stale, counted in ``counters['stale_stamps']``; a stale sample never refreshes the
+watchdog (its position is not used; a stale lift still lifts). At each block the freshest
+sample is mapped onto the chain's sample clock as ``chain_time - (now - t_arrival)``, so
+the watchdog of the safety stage (touch older than 50 ms -> ramp to zero within 5 ms) sees
+how old the finger data really is. A stamp is never refreshed: data that waited during a
+stall stays stale. ``now`` given to :meth:`LiveEngine.render` is the backend's emission
+time of the block on the same clock (the backend owns the clock; it is not caller input).
 
 Latency (``latency_stats``): for every touch sample applied, the time from its arrival to
-the emission of the first drive sample computed from it (the block's start time plus the
-sample's offset in the block). This is the engine-internal latency; the DAC and amplifier
-add the backend's own output latency (reported by the backend).
+the emission of the first drive sample computed from it (the block's emission time ``now``
+plus the sample's offset in the block). The sound backend passes PortAudio's DAC time, so
+there it includes the output latency; the amplifier adds its own.
 """
 
 from __future__ import annotations
@@ -44,7 +52,7 @@ import math
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.live.clock import now as clock_now
+from surfhap.live.clock import STALE, arrival_stamp, now as clock_now
 from surfhap.live.engine_config import EngineConfig
 from surfhap.live.fifo_kernels import fifo_read, fifo_write_peak, mean_or_nan, write_trace_row
 from surfhap.live.prediction import TouchPredictor
@@ -73,7 +81,7 @@ class LiveEngine:
     rate, already through the renderer's safety stage), ``load_drive`` and ``target``.
     """
 
-    def __init__(self, renderer: Renderer, config: EngineConfig | None = None, display=None):
+    def __init__(self, renderer: Renderer, config: EngineConfig | None = None, display=None, clock=None):
         self.config = cfg = config or EngineConfig()
         self.renderer = renderer
         self.drive_rate = int(renderer.drive_rate)
@@ -103,7 +111,7 @@ class LiveEngine:
         self.latencies = np.zeros(cfg.latency_capacity)
         self.block_times = np.zeros(cfg.latency_capacity)  # seconds spent in render()
         self.guard = OutputSafety(self.drive_rate, renderer.safety.limits, cfg.stop_ramp)
-        self._clock = clock_now
+        self.clock = clock_now if clock is None else clock  # the engine clock (s); tests may simulate it
         self.reset()
 
     # ------------------------------------------------------------------ control side
@@ -136,7 +144,7 @@ class LiveEngine:
         self.block_time_count = 0
         self.counters = {
             "blocks": 0, "frames": 0, "touches": 0, "touches_ignored": 0, "underruns": 0,
-            "overruns": 0, "errors": 0, "commands": 0, "backend_failures": 0,
+            "overruns": 0, "errors": 0, "commands": 0, "backend_failures": 0, "stale_stamps": 0,
         }
 
     def warm_up(self, blocks: int = 20) -> None:
@@ -144,13 +152,13 @@ class LiveEngine:
         buffer), then reset.
 
         Call before a backend starts, so the first real-time blocks are not slow."""
-        t = self._clock()
+        t = self.clock()
         for i in range(blocks):  # a short stroke, so the touch paths are compiled too
             t += self.block_period
             if i % 4 == 0 and i < blocks - 4:
-                self.push_touch(-1, 0.05 + 0.0005 * i, 0.05, 0.5, t_event=t, t_arrival=t)
+                self.push_touch(-1, 0.05 + 0.0005 * i, 0.05, 0.5, t_event=t)
             elif i == blocks - 4:
-                self.push_touch(-1, 0.0, 0.0, 0.0, t_arrival=t)
+                self.push_touch(-1, 0.0, 0.0, 0.0)
             self.render(self.block_frames, t)
         self.reset()
 
@@ -158,10 +166,13 @@ class LiveEngine:
                    t_arrival: float | None = None) -> bool:
         """Hand one validated touch sample to the engine (any thread; never blocks long).
 
-        x, y in m; load in N (0 = lifted); ``t_event`` the source's own time stamp in s.
+        x, y in m; load in N (0 = lifted); ``t_event`` the source's own time stamp in s
+        (orders the samples for the speed estimate only). The engine stamps the arrival on
+        its own clock; ``t_arrival`` (engine clock, s) may only make the sample older: a
+        future or non-finite stamp makes it stale (see the module docstring).
         Returns False when the ring is full (the sample is dropped and counted).
         """
-        ta = self._clock() if t_arrival is None else t_arrival
+        ta = arrival_stamp(t_arrival, self.clock())
         return self.touches.push(source, t_event, ta, x, y, load)
 
     def send(self, *command) -> bool:
@@ -196,7 +207,7 @@ class LiveEngine:
         Runs inside the audio callback; see the module docstring for what it may do.
         ``now`` is the engine-clock time at which the block starts to be emitted.
         """
-        t_start = self._clock()
+        t_start = self.clock()
         if now is None:
             now = t_start
         if frames > self._max_frames:
@@ -225,7 +236,7 @@ class LiveEngine:
         c = self.counters
         c["blocks"] += 1
         c["frames"] += frames
-        spent = self._clock() - t_start
+        spent = self.clock() - t_start
         self.block_times[self.block_time_count & (self.block_times.shape[0] - 1)] = spent
         self.block_time_count += 1
         if spent > frames / self.drive_rate:
@@ -260,6 +271,10 @@ class LiveEngine:
         pred = self.predictor
         for i in range(n):
             src, t_ev, t_arr, x, y, load = buf[i, 0], buf[i, 1], buf[i, 2], buf[i, 3], buf[i, 4], buf[i, 5]
+            if not t_arr > STALE or (src == self._owner and t_arr < self._owner_arrival):
+                # untrusted (future / non-finite) or non-monotonic stamp: stale, counted
+                self.counters["stale_stamps"] += 1
+                t_arr = STALE
             if src != self._owner:
                 if self._owner_active and t_arr - self._owner_arrival < self.config.takeover:
                     self.counters["touches_ignored"] += 1
@@ -270,7 +285,7 @@ class LiveEngine:
             self._owner_arrival = t_arr
             self._last_arrival = t_arr
             self.counters["touches"] += 1
-            if applied < self._pending_arrivals.shape[0]:
+            if applied < self._pending_arrivals.shape[0] and t_arr > STALE:
                 self._pending_arrivals[applied] = t_arr
                 applied += 1
             if not load > 0.0:
@@ -281,6 +296,8 @@ class LiveEngine:
                 # period) is silenced at once; removing voltage is always safe
                 for j in range(self._fifo_r, self._fifo_w):
                     self._fifo[j & self._fifo_mask] = 0.0
+                continue
+            if t_arr == STALE:  # data of unknown age: not used (the watchdog holds 0 V)
                 continue
             self._owner_active = True
             self._load_now = load

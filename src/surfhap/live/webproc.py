@@ -32,7 +32,7 @@ import socket
 import struct
 import threading
 
-from surfhap.live.clock import now
+from surfhap.live.clock import arrival_stamp, now
 
 __all__ = ["TouchBridge", "TracePublisher", "WebProcess", "RemoteLink", "describe"]
 
@@ -79,12 +79,11 @@ class TouchBridge:
             if token != self.token:
                 self.dropped += 1
                 continue
-            t = now()
-            if not t_arr <= t:  # a stamp from the future (or NaN) is not trusted: use now
-                t_arr = t
-            # a stale stamp stays stale (datagrams queued while this process was stopped):
-            # the engine's watchdog then keeps the output at zero until fresh data arrives
-            push(src, x, y, load, t_event=t_ev, t_arrival=t_arr)
+            # the web process's arrival stamp may only make a sample older; a future or
+            # non-finite one is stale (the one law, clock.arrival_stamp, which LiveEngine's
+            # push_touch applies again; here it also covers the force-feedback loop), and a
+            # stale stamp stays stale (datagrams queued while this process was stopped)
+            push(src, x, y, load, t_event=t_ev, t_arrival=arrival_stamp(t_arr, now()))
             self.received += 1
 
     def stop(self) -> None:

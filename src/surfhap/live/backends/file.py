@@ -12,9 +12,16 @@ SIGKILL) keeps a valid file with everything up to the last flush:
   loadable with ``numpy.load``) and are packed into ``PATH`` (``drive``, ``drive_rate``)
   on a clean stop, which removes the partial file.
 
-The in-memory copy (``recorded``, allocated at start for ``max_seconds``) and the file hold
-the same samples; blocks beyond ``max_seconds`` are counted in ``dropped_blocks`` and not
-recorded. A write error halts the engine (0 V) through the backend failure path.
+The recording is streamed to disk: only the samples since the last flush are held in
+memory (a buffer allocated at start), so a recording may run for any length; ``recorded``
+reads the file back (for checks). There is no silent cap. ``max_seconds`` (``None`` by
+default: no limit) is an explicit cap: shortly before it the backend asks the engine for
+its stop ramp (``cap_reached``, one warning line), so the file ends at 0 V after the
+ramp, at most ``max_seconds`` long (exactly, if the backend runs on past the cap); blocks
+rendered after the cap are counted in ``capped_blocks`` (:meth:`FileBackend.info`, in the
+status). A normal stop
+records the stop ramp too. A write error halts the engine (0 V) through the backend
+failure path.
 """
 
 from __future__ import annotations
@@ -30,11 +37,12 @@ from surfhap.errors import ConfigError
 from surfhap.exchange.wav import float_wav_header
 from surfhap.live.backends.base import STALL_TIMEOUT, PacedBackend
 
-__all__ = ["FileBackend", "check_writable"]
+__all__ = ["FileBackend", "check_writable", "MIN_SECONDS"]
 
 log = logging.getLogger("surfhap.live")
 
 _NPY_HEADER = 128  # bytes of the partial .npy header (magic, version, length, padded dict)
+MIN_SECONDS = 0.1  # s, the shortest --max-seconds (room for the stop ramp before the cap)
 
 
 def check_writable(path: Path) -> None:
@@ -69,16 +77,16 @@ def _npy_header(n: int) -> bytes:
 class FileBackend(PacedBackend):
     name = "file"
 
-    def __init__(self, path: str | Path, amp_gain: float = 250.0, max_seconds: float = 120.0,
-                 flush_seconds: float = 0.1, stall_timeout: float = STALL_TIMEOUT, **_ignored):
+    def __init__(self, path: str | Path, amp_gain: float = 250.0, max_seconds: float | None = None,
+                 flush_seconds: float = 0.1, stall_timeout: float = STALL_TIMEOUT):
         super().__init__(stall_timeout)
         self.path = Path(path)
         if self.path.suffix.lower() not in (".wav", ".npz"):
             raise ConfigError("must end in .wav or .npz", source="--output", field="file")
         if not (np.isfinite(amp_gain) and amp_gain > 0):
             raise ConfigError("must be > 0 V per DAC unit", field="amp_gain")
-        if not (np.isfinite(max_seconds) and 0 < max_seconds <= 3600):
-            raise ConfigError("must be within 0-3600 s", field="max_seconds")
+        if max_seconds is not None and not (np.isfinite(max_seconds) and MIN_SECONDS <= max_seconds <= 1e7):
+            raise ConfigError(f"must be within {MIN_SECONDS}-1e7 s", source="--max-seconds")
         if not (np.isfinite(flush_seconds) and 0.001 <= flush_seconds <= 60):
             raise ConfigError("must be within 1 ms-60 s", field="flush_seconds")
         self.npz = self.path.suffix.lower() == ".npz"
@@ -87,21 +95,33 @@ class FileBackend(PacedBackend):
         if self.npz:
             check_writable(self.stream_path)
         self.amp_gain = float(amp_gain)
-        self.max_seconds = float(max_seconds)
+        self.max_seconds = None if max_seconds is None else float(max_seconds)
         self.flush_seconds = float(flush_seconds)
-        self._buf = None
-        self._n = 0
-        self._written = 0
+        self._buf = np.zeros(0)
+        self._pending = 0  # samples in _buf, not yet in the file
+        self._written = 0  # samples in the file
+        self._rate = 0
         self._file = None
-        self.dropped_blocks = 0
+        self.capped_blocks = 0
+        self.cap_reached = False
 
     def start(self, engine) -> None:
-        self._buf = np.zeros(int(self.max_seconds * engine.drive_rate))
+        self._rate = rate = int(engine.drive_rate)
+        self._flush_every = max(1, int(self.flush_seconds * rate))
+        self._buf = np.zeros(self._flush_every + int(engine.config.max_block_frames))
         self._buf.fill(0.0)  # commit the pages now, not block by block in the loop
-        self._n = 0
+        self._pending = 0
         self._written = 0
-        self._flush_every = max(1, int(self.flush_seconds * engine.drive_rate))
-        self._rate = int(engine.drive_rate)
+        self._cap = None if self.max_seconds is None else int(round(self.max_seconds * rate))
+        # ask for the stop ramp early enough that it ends (and a few blocks of 0 V follow)
+        # before the cap: two blocks for the command to be taken, the ramp, two blocks more
+        ramp = int(np.ceil(engine.config.stop_ramp * rate))
+        self._cap_stop = None if self._cap is None else self._cap - ramp - 4 * int(engine.block_frames)
+        if self._cap_stop is not None and self._cap_stop < 0:
+            need = (ramp + 4 * int(engine.block_frames)) / rate
+            raise ConfigError(f"must be at least {need:.3f} s (the stop ramp and four blocks)", source="--max-seconds")
+        self.capped_blocks = 0
+        self.cap_reached = False
         try:
             self._file = open(self.stream_path, "wb")
             self._file.write(self._header(0))
@@ -109,6 +129,11 @@ class FileBackend(PacedBackend):
         except OSError as exc:
             raise ConfigError(f"cannot be written ({exc.strerror or exc})", source=str(self.stream_path)) from None
         super().start(engine)
+
+    @property
+    def samples(self) -> int:
+        """Samples recorded so far (in the file or about to be flushed)."""
+        return self._written + self._pending
 
     def _header(self, n: int) -> bytes:
         return _npy_header(n) if self.npz else float_wav_header(self._rate, n)
@@ -122,10 +147,11 @@ class FileBackend(PacedBackend):
         """Append what was recorded since the last flush and update the header (own thread
         while running; the file is always valid up to the last flush)."""
         f = self._file
-        if f is None or self._written == self._n:
+        if f is None or self._pending == 0:
             return
-        f.write(self._samples(self._buf[self._written : self._n]))
-        self._written = self._n
+        f.write(self._samples(self._buf[: self._pending]))
+        self._written += self._pending
+        self._pending = 0
         end = f.tell()
         f.seek(0)
         f.write(self._header(self._written))
@@ -134,17 +160,40 @@ class FileBackend(PacedBackend):
 
     def emit(self, volts) -> None:
         n = volts.shape[0]
-        if self._n + n > self._buf.shape[0]:
-            self.dropped_blocks += 1
-            return
-        self._buf[self._n : self._n + n] = volts
-        self._n += n
-        if self._n - self._written >= self._flush_every:
+        if self._cap is not None:
+            total = self.samples
+            if total + n >= self._cap_stop and not self.cap_reached:
+                self.cap_reached = True
+                self.engine.request_stop()  # the ramp goes into the file before the cap
+                log.warning("file output %s reaches --max-seconds %g: the output ramps to 0 V and the recording "
+                            "ends (later blocks are counted in capped_blocks)", self.path, self.max_seconds)
+            if total + n > self._cap:
+                n = self._cap - total
+                self.capped_blocks += 1
+                if n <= 0:
+                    return
+        k = self._pending
+        self._buf[k : k + n] = volts[:n]
+        self._pending = k + n
+        if self._pending >= self._flush_every:
             self.flush()
 
     @property
     def recorded(self) -> np.ndarray:
-        return self._buf[: self._n] if self._buf is not None else np.zeros(0)
+        """The recording read back from the file, volts (a WAV holds float32 DAC units:
+        volts / amp_gain, clipped to full scale). For checks, not for the real-time path."""
+        if self._file is not None:
+            return np.zeros(0)  # still running: read it after stop()
+        if self.npz:
+            if self.path.exists() and not self.stream_path.exists():
+                with np.load(self.path) as z:
+                    return np.asarray(z["drive"], dtype=float)
+            return np.load(self.stream_path).astype(float) if self.stream_path.exists() else np.zeros(0)
+        if not self.path.exists():
+            return np.zeros(0)
+        with open(self.path, "rb") as f:
+            f.seek(44)
+            return np.frombuffer(f.read(), dtype="<f4").astype(float) * self.amp_gain
 
     def close(self) -> None:
         if self._file is None or self.engine is None:
@@ -152,10 +201,13 @@ class FileBackend(PacedBackend):
         try:
             self.flush()
             self._file.close()
-            if self.npz:
-                np.savez_compressed(self.path, drive=self.recorded, drive_rate=np.array(self._rate))
+            self._file = None
+            if self.npz:  # pack the streamed samples (read in chunks from a memory map)
+                drive = np.load(self.stream_path, mmap_mode="r")
+                np.savez_compressed(self.path, drive=drive, drive_rate=np.array(self._rate))
+                del drive
                 os.remove(self.stream_path)
-            log.info("wrote %d drive samples to %s", self._n, self.path)
+            log.info("wrote %d drive samples to %s", self._written, self.path)
         except OSError as exc:
             self.error = f"file output failed: {exc}"
             self.engine.fail(self.error)
@@ -164,4 +216,6 @@ class FileBackend(PacedBackend):
             self._file = None
 
     def info(self) -> dict:
-        return {"name": self.name, "path": str(self.path), "seconds": self._n / self.engine.drive_rate if self.engine else 0.0}
+        rate = self._rate or 1
+        return {"name": self.name, "path": str(self.path), "seconds": self.samples / rate,
+                "max_seconds": self.max_seconds, "cap_reached": self.cap_reached, "capped_blocks": self.capped_blocks}

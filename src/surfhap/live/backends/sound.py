@@ -8,6 +8,13 @@ The stream runs at the engine's drive rate with the engine's block size; PortAud
 ``channels`` (0-based; default: all channels of the stream). ``amp_gain`` is the
 amplifier's gain in volts per DAC full-scale unit, from the rig's configuration.
 
+Emission time: each block is rendered for the moment its first sample reaches the DAC,
+``time.outputBufferDacTime`` of the callback's time info, mapped onto the engine clock as
+``engine.clock() + (outputBufferDacTime - currentTime)`` (:func:`dac_time`). The engine's
+watchdog (touch older than 50 ms -> 0 V within 5 ms) therefore counts the output latency:
+the ramp is complete at the DAC, not one output latency later. A host API that reports no
+usable times (zeros, NaN, a latency outside 0-1 s) gets the stream's nominal output latency.
+
 PortAudio's underflow flags count as engine underruns. An exception in the callback writes
 0 V and calls ``engine.fail`` (every later callback then writes 0 V); no callback for
 ``stall_timeout`` seconds also calls ``engine.fail`` and aborts the stream. ``capture_seconds`` keeps a copy of
@@ -23,9 +30,8 @@ import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.live.backends.base import STALL_TIMEOUT, StallWatch
-from surfhap.live.clock import now
 
-__all__ = ["SoundBackend", "list_devices"]
+__all__ = ["SoundBackend", "list_devices", "dac_time"]
 
 log = logging.getLogger("surfhap.live")
 
@@ -40,6 +46,19 @@ def _sd():
     except ImportError:
         raise ConfigError("sounddevice is not installed; pip install 'surfhap[live]'", source="--output") from None
     return sd
+
+
+def dac_time(t_now: float, time_info, nominal_latency: float) -> float:
+    """Engine-clock time (s) at which the block of a PortAudio callback reaches the DAC:
+    ``t_now`` (engine clock, in the callback) plus the callback's
+    ``outputBufferDacTime - currentTime``; ``nominal_latency`` when the host API gives no
+    usable times (both zero, not finite, or a latency outside 0-1 s)."""
+    dac = float(time_info.outputBufferDacTime)
+    cur = float(time_info.currentTime)
+    lat = dac - cur
+    if (dac == 0.0 and cur == 0.0) or not 0.0 <= lat <= 1.0:  # False for NaN: nominal
+        lat = nominal_latency
+    return t_now + lat
 
 
 def list_devices() -> list[dict]:
@@ -71,11 +90,13 @@ class SoundBackend:
         self.capture_seconds = float(capture_seconds)
         self.capture = np.zeros(0, dtype=np.float32)
         self.captured = 0
+        self._chans: tuple[int, ...] = ()
         self.engine = None
         self._stream = None
         self.clipped = 0
         self.stall_timeout = float(stall_timeout)
         self._watch = None
+        self.nominal_latency = 0.0
         self.error: str | None = None
 
     def start(self, engine) -> None:
@@ -90,17 +111,12 @@ class SoundBackend:
         chans = tuple(range(n_ch)) if self.channels is None else tuple(self.channels)
         if not chans or any(not 0 <= c < n_ch for c in chans):
             raise ConfigError(f"drive channels must be within 0-{n_ch - 1}", field="channels")
-        self._chans = chans
-        self._inv_gain = 1.0 / self.amp_gain
-        self._units = np.zeros(engine.config.max_block_frames, dtype=np.float32)
-        self.capture = np.zeros(int(self.capture_seconds * engine.drive_rate), dtype=np.float32)
-        self.captured = 0
-        self.engine = engine
-        self._t_offset = None
+        self.bind(engine, chans)
         try:
             self._stream = sd.OutputStream(device=self.device, samplerate=engine.drive_rate, channels=n_ch,
                                            dtype="float32", blocksize=engine.block_frames, latency=self.latency,
                                            callback=self._callback)
+            self.nominal_latency = max(0.0, float(self._stream.latency))  # s, before the first callback
             self._stream.start()
         except sd.PortAudioError as exc:
             self._stream = None
@@ -109,9 +125,20 @@ class SoundBackend:
         log.info("sound output on %r: %d channel(s) at %d Hz, block %d, output latency %.1f ms",
                  dev["name"], n_ch, engine.drive_rate, engine.block_frames, 1e3 * self._stream.latency)
 
+    def bind(self, engine, chans: tuple[int, ...], nominal_latency: float = 0.0) -> None:
+        """Allocate the callback's buffers for ``engine`` writing to ``chans`` (0-based);
+        ``nominal_latency`` (s) stands in for a host API without usable DAC times."""
+        self._chans = tuple(chans)
+        self._inv_gain = 1.0 / self.amp_gain
+        self._units = np.zeros(engine.config.max_block_frames, dtype=np.float32)
+        self.capture = np.zeros(int(self.capture_seconds * engine.drive_rate), dtype=np.float32)
+        self.captured = 0
+        self.engine = engine
+        self.nominal_latency = float(nominal_latency)
+
     def _callback(self, outdata, frames, time_info, status) -> None:
         try:
-            self._fill(outdata, frames, status)
+            self._fill(outdata, frames, time_info, status)
         except Exception as exc:  # noqa: BLE001 - the device must not keep the last samples
             outdata.fill(0.0)
             if self.error is None:
@@ -123,12 +150,12 @@ class SoundBackend:
         if stream is not None:
             stream.abort()
 
-    def _fill(self, outdata, frames, status) -> None:
+    def _fill(self, outdata, frames, time_info, status) -> None:
         # real-time: no allocation beyond numpy views, no locks, no logging
         eng = self.engine
         if status.output_underflow:
             eng.counters["underruns"] += 1
-        volts = eng.render(frames, now())
+        volts = eng.render(frames, dac_time(eng.clock(), time_info, self.nominal_latency))
         u = self._units[:frames]
         np.multiply(volts, self._inv_gain, out=u, casting="same_kind")
         np.clip(u, -_FULL_SCALE, _FULL_SCALE, out=u)
@@ -162,4 +189,4 @@ class SoundBackend:
     def info(self) -> dict:
         lat = self._stream.latency if self._stream is not None else None
         return {"name": self.name, "device": self.device, "amp_gain": self.amp_gain,
-                "output_latency": lat, "channels": list(getattr(self, "_chans", ()))}
+                "output_latency": lat, "channels": list(self._chans)}
