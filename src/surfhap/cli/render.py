@@ -100,6 +100,10 @@ def render_cmd(
     if result.interrupted:
         error_line(f"interrupted: wrote the first {s['rendered_s']:g} s of {s['requested_s']:g} s to {paths['render']}")
         raise typer.Exit(130)
+    fault = result.fault_error()
+    if fault is not None:  # a failed render, like a failed batch job (docs/outputs.md)
+        error_line(fault)
+        raise typer.Exit(1)
 
 
 def register(app: typer.Typer) -> None:

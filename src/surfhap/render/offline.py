@@ -24,7 +24,14 @@ from surfhap.render.kinematics import Kinematics
 from surfhap.render.safety import SafetyCounters
 
 __all__ = ["RenderResult", "RenderStats", "render", "sample_trajectory", "summary_dict", "saturation_warning",
-           "expected_texture_psd", "render_settings"]
+           "expected_texture_psd", "render_settings", "fault_error", "RenderFaultError", "MAX_FAULT_FRACTION"]
+
+MAX_FAULT_FRACTION = 0.01  # a render whose safety stage zeroed more drive samples than this failed
+
+
+class RenderFaultError(RuntimeError):
+    """A render whose safety stage faulted (0 V for NaN/absurd input) on more than
+    MAX_FAULT_FRACTION of its drive samples: its output is not the material, whatever it wrote."""
 
 
 @dataclass
@@ -109,6 +116,10 @@ class RenderResult:
         """One line saying where saturation starts and what to change, when more than
         ``threshold`` of the drive samples saturated; else None."""
         return saturation_warning(self, self.saturated_fraction, self.saturation_onset_load, threshold)
+
+    def fault_error(self, threshold: float = MAX_FAULT_FRACTION) -> str | None:
+        """One line when the safety stage faulted on more than ``threshold`` of the drive samples; else None."""
+        return fault_error(self, threshold)
 
     @property
     def texture_quantity(self) -> str | None:
@@ -239,6 +250,19 @@ def saturation_warning(r, fraction: float, onset: float | None, threshold: float
         fix = "lower --alpha, or drop --alpha to use the gain plan"
     return (f"{fraction:.1%} of drive samples saturated at {r.v_max:g} V ({where}); "
             f"the friction no longer follows the model there: {fix}")
+
+
+def fault_error(r, threshold: float = MAX_FAULT_FRACTION) -> str | None:
+    """One line saying that the safety stage of render ``r`` (anything with ``safety`` counters,
+    ``v_max``) zeroed more than ``threshold`` of the drive samples as faults, and the usual
+    causes; else None."""
+    s = r.safety
+    fraction = s.faults / s.samples if s.samples else 0.0
+    if fraction <= threshold:
+        return None
+    return (f"{fraction:.1%} of the drive samples ({s.faults} of {s.samples}) were zeroed by the safety stage as faults "
+            f"(NaN, a drive far beyond {r.v_max:g} V, or an absurd load): the render does not show the material; "
+            f"check the trajectory's units and --alpha")
 
 
 def sample_trajectory(trajectory: Trajectory, model_rate: float, kinematics: Kinematics | None = None):

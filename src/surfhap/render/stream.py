@@ -25,7 +25,7 @@ from surfhap.models.trajectory import Trajectory
 from surfhap.render.chain import ChainConfig, TextureChain
 from surfhap.render.kinematics import Kinematics
 from surfhap.render.expected import expected_texture_psd
-from surfhap.render.offline import RenderStats, render_settings, saturation_warning, summary_dict
+from surfhap.render.offline import MAX_FAULT_FRACTION, RenderStats, fault_error, render_settings, saturation_warning, summary_dict
 from surfhap.render.preview import PreviewRecorder, RenderPreview
 
 __all__ = ["CHANNELS", "StreamedRender", "stream_render", "model_samples"]
@@ -78,6 +78,9 @@ class StreamedRender:
 
     def saturation_warning(self, threshold: float = 0.01) -> str | None:
         return saturation_warning(self, self.saturated_fraction, self.stats.onset_load, threshold)
+
+    def fault_error(self, threshold: float = MAX_FAULT_FRACTION) -> str | None:
+        return fault_error(self, threshold)
 
     def plot(self, fig=None):
         """The render figure, drawn from the preview (matplotlib Figure)."""
