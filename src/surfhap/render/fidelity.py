@@ -77,10 +77,7 @@ def fidelity_metrics(result, cutoff: float = 3.5, warmup: float = 0.5, target_vo
     f_add = r.added_friction
     lo, hi = _split(f_add, rate, cutoff)
     steady = (r.t >= warmup) & touching
-    fn_law = r.load
-    if r.method == "zhao" and r.constant_load is not None:
-        fn_law = np.where(touching, r.constant_load, 0.0)  # Zhao's constant load
-    law_force = r.mu_low * fn_law
+    law_force = r.low_band.force(r.load, r.mu_low)  # the drive law's low band (Zhao: its constant load)
     law = g * float(np.mean(law_force[steady]))
     lo_mean = float(np.mean(lo[steady]))
     low_err = lo_mean / law - 1.0 if law > 0 else float("nan")
