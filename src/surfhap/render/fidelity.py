@@ -9,7 +9,8 @@ saturated_fraction
 low_band_error
     ``mean(lowpass(f_add)) / (G mean(mu_low fn)) - 1`` over the steady part (after ``warmup``
     s): how far the display's low band is from the friction law (``mu_p(fn, v) fn``, or
-    ``mu0 fn`` for otake2021) times the planned gain.
+    ``mu0 fn`` for otake2021, ``mu0 fn_c`` for zhao: the drive law's ``LowBand``) times the
+    planned gain.
 texture_correlation
     Pearson r between ``highpass(f_add)`` and ``highpass(G (target - mu_low fn))``, the textural
     force the law asked for, shifted by the chain's and the display's delays: does the
