@@ -11,7 +11,7 @@ study the one before wrote. Documented substitutions, each keeping the command's
   friction recordings), ``scan*.npz`` (a synthetic tool scan), ``~/HaTT`` (a HaTT model set),
   ``rec/*.csv`` (synthetic tribometer runs);
 * ``.venv/bin/surfhap`` and ``surfhap`` become this interpreter's ``-m surfhap``;
-* ``duration=N`` in ``--scan`` becomes ``duration=0.5`` (time, not structure);
+* ``duration=N`` in ``--scan`` becomes ``duration=0.2`` (time, not structure);
 * ``--output sound:3`` becomes ``--output file:sound3.wav`` (CI has no sound card);
 * fixed TCP/UDP ports (the page's 8765 / 8780, OSC 9100, the bridge's listen port) become
   free ones (``--port 0``, ``:0``), since other test processes may hold them;
@@ -73,7 +73,7 @@ def substitute(cmd: str, home: Path) -> list[str]:
     args = shlex.split(cmd)
     out = [sys.executable, "-m", "surfhap"]
     for a in args[1:]:
-        a = re.sub(r"duration=[0-9.]+", "duration=0.5", a)
+        a = re.sub(r"duration=[0-9.]+", "duration=0.2", a)
         a = a.replace("sound:3", "file:sound3.wav")
         a = re.sub(r"^osc://127\.0\.0\.1:9100$", "osc://127.0.0.1:0", a)
         if a.startswith("~"):
@@ -188,7 +188,7 @@ def results(tmp_path_factory) -> dict[str, tuple[int, str]]:
     d = tmp_path_factory.mktemp("readme")
     write_placeholders(d)
     chain = [c for c in COMMANDS if re.search(r"surfhap study ", c)]
-    alone = [c for c in COMMANDS if c not in chain]
+    alone = sorted((c for c in COMMANDS if c not in chain), key=lambda c: not re.search(r"--grid|scenes", c))  # longest first
 
     def run_chain() -> dict:
         done = {}
