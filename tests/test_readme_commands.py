@@ -216,6 +216,7 @@ def test_the_readme_has_the_commands_it_documents():
         assert needle in joined, needle
 
 
+@pytest.mark.slow  # runs in `make test` (which runs every test): ~1.5 min on an idle 2-core machine, all commands
 @pytest.mark.parametrize("cmd", COMMANDS, ids=[f"{i:02d}" for i in range(len(COMMANDS))])
 def test_readme_command_runs(results, cmd):
     code, text = results[cmd]
