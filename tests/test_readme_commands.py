@@ -5,7 +5,7 @@ out of scope) and run as written (globs and ``~`` expanded as a shell would), wi
 a temporary folder, three at a time; the ``study`` commands in README order, since each uses the
 study the one before wrote. Documented substitutions, each keeping the command's structure:
 
-* placeholders become small files in the right schema, written by :func:`workspace`:
+* placeholders become small files in the right schema, written by :func:`write_placeholders`:
   ``my_material.json`` (a built-in material file), ``finger.csv`` (a trajectory), ``my_panel.json``
   (a ``surfhap-display`` file), ``my_mesh.obj`` / ``my_mesh.stl`` (Suzanne), ``P*.csv`` (synthetic
   friction recordings), ``scan*.npz`` (a synthetic tool scan), ``~/HaTT`` (a HaTT model set),
@@ -13,8 +13,9 @@ study the one before wrote. Documented substitutions, each keeping the command's
 * ``.venv/bin/surfhap`` and ``surfhap`` become this interpreter's ``-m surfhap``;
 * ``duration=N`` in ``--scan`` becomes ``duration=0.2`` (time, not structure);
 * ``--output sound:3`` becomes ``--output file:sound3.wav`` (CI has no sound card);
-* fixed TCP/UDP ports (the page's 8765 / 8780, OSC 9100, the bridge's listen port) become
-  free ones (``--port 0``, ``:0``), since other test processes may hold them;
+* fixed TCP/UDP ports (the pages' 8765 / 8780, OSC 9100, the bridge's listen port 9101) become
+  free ones (``:0``, or a free port the test picks where a command needs a number), since other
+  test processes may hold them;
 * long-running commands stop by themselves: ``serve`` and ``ff run`` get ``--duration 1``;
   ``study run`` (a participant page) is interrupted with SIGINT once it serves, and must
   exit in order (130, as every interrupted command);
@@ -216,7 +217,7 @@ def test_the_readme_has_the_commands_it_documents():
         assert needle in joined, needle
 
 
-@pytest.mark.slow  # runs in `make test` (which runs every test): ~1.5 min on an idle 2-core machine, all commands
+@pytest.mark.slow  # still runs in `make test` (it runs every test); the time is ~35 interpreter start-ups
 @pytest.mark.parametrize("cmd", COMMANDS, ids=[f"{i:02d}" for i in range(len(COMMANDS))])
 def test_readme_command_runs(results, cmd):
     code, text = results[cmd]
