@@ -76,6 +76,7 @@ class Implausible:
     message: str
 
 
+_CHUNK = 1 << 20  # samples per piece of the speed check
 _HINTS = {"speed": "in mm? use metres", "acceleration": "in mm? use metres", "load": "in grams? use newtons"}
 
 
@@ -89,21 +90,22 @@ def implausible(t: np.ndarray, x: np.ndarray, y: np.ndarray, load: np.ndarray) -
     MAX_ACCELERATION, load <= MAX_LOAD) by touch samples t (n,) s, x, y (n,) m, load (n,) N, or
     None. Speed and acceleration count only while touching (load > 0) at both ends: a lift may
     move the finger anywhere. Speed is the distance between consecutive samples over their time
-    difference; acceleration the change of that velocity vector over at least
-    ACCELERATION_WINDOW s (sensors faster than 125 Hz do not inflate it)."""
+    difference; acceleration the change of the velocity vector over ACCELERATION_WINDOW (20 ms,
+    so a fast sensor's jitter does not inflate it)."""
     t, x, y, load = (np.asarray(a, dtype=float) for a in (t, x, y, load))
     over = np.nonzero(load > MAX_LOAD)[0]
     if over.size:
         return Implausible("load", int(over[0]), float(load[over[0]]), _bound_message("load", float(load[over[0]])))
-    if t.size < 2:
-        return None
-    dt = np.diff(t)
-    vx, vy = np.diff(x) / dt, np.diff(y) / dt
-    contact = (load[:-1] > 0) & (load[1:] > 0)
-    speed = np.where(contact, np.hypot(vx, vy), 0.0)
-    fast = np.nonzero(speed > MAX_SPEED * (1 + 1e-9))[0]
-    if fast.size:
-        return Implausible("speed", int(fast[0]) + 1, float(speed[fast[0]]), _bound_message("speed", float(speed[fast[0]])))
+    for lo in range(0, t.size - 1, _CHUNK):  # in pieces: a long recording at 10 kHz needs no copies of itself
+        sl = slice(lo, min(t.size, lo + _CHUNK + 1))
+        tc, xc, yc, lc = t[sl], x[sl], y[sl], load[sl]
+        dt = np.diff(tc)
+        contact = (lc[:-1] > 0) & (lc[1:] > 0)
+        speed = np.where(contact, np.hypot(np.diff(xc), np.diff(yc)) / dt, 0.0)
+        fast = np.nonzero(speed > MAX_SPEED * (1 + 1e-9))[0]
+        if fast.size:
+            v = float(speed[fast[0]])
+            return Implausible("speed", lo + int(fast[0]) + 1, v, _bound_message("speed", v))
     return _acceleration(t, x, y, load)
 
 
@@ -116,7 +118,7 @@ def _acceleration(t, x, y, load) -> Implausible | None:
     grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) / (w / 2))) + 1) * (w / 2)
     held = np.searchsorted(t, grid, side="right") - 1
     touching = load[held] > 0
-    lifted_before = np.concatenate(([0], np.cumsum(load == 0)))  # lifts among the samples before each index
+    lifted_before = np.concatenate(([0], np.cumsum(load <= 0, dtype=np.int64 if t.size >= 2**31 else np.int32)))  # lifts among the samples before each index
     px, py = np.interp(grid, t, x), np.interp(grid, t, y)
     vx, vy = (px[2:] - px[:-2]) / w, (py[2:] - py[:-2]) / w  # velocity over [k, k+2]
     acc = np.hypot(vx[2:] - vx[:-2], vy[2:] - vy[:-2]) / w  # over [k, k+4]
