@@ -25,7 +25,8 @@ from surfhap.render.kinematics import Kinematics
 from surfhap.render.safety import SafetyCounters
 
 __all__ = ["RenderResult", "RenderStats", "render", "sample_trajectory", "summary_dict", "saturation_warning",
-           "expected_texture_psd", "render_settings", "fault_error", "RenderFaultError", "MAX_FAULT_FRACTION"]
+           "expected_texture_psd", "render_settings", "fault_error", "RenderFaultError", "MAX_FAULT_FRACTION",
+           "texture_warning", "MIN_TEXTURE_SHARE"]
 
 MAX_FAULT_FRACTION = 0.01  # a render whose safety stage zeroed more drive samples than this failed
 MIN_TEXTURE_SHARE = 0.01  # a texture below this share of the target force is reported (nearly flat friction)
