@@ -99,12 +99,17 @@ RENDER_FIGURES = ("max_abs_voltage", "clipped_fraction", "saturated_fraction", "
 
 def run_render_job(job: RenderJob) -> dict:
     """Render one grid point into ``job.out``; returns the summary figures for the index
-    (plus ``warning``: the saturation warning or "")."""
+    (plus ``warning``: the saturation and texture-share warnings, or "")."""
     result, _ = render_to_folder(job.material, job.trajectory, job.config, job.out, fmt=job.fmt, amp_gain=job.amp_gain,
                                  figure=job.figure)
+    fault = result.fault_error()
+    if fault is not None:  # the job failed: listed in the index, exit code 1 (files kept for diagnosis)
+        from surfhap.render.offline import RenderFaultError
+
+        raise RenderFaultError(fault)
     s = result.summary()
     row = {k: s[k] for k in RENDER_FIGURES if k in s}
-    row["warning"] = result.saturation_warning() or ""
+    row["warning"] = "; ".join(w for w in (result.saturation_warning(), result.texture_warning()) if w)
     return row
 
 

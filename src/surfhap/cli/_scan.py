@@ -23,6 +23,11 @@ def trajectory_from_options(scan: str | None, trajectory: Path | None):
     if trajectory is not None:
         return read_trajectory_csv(trajectory)
     kv = parse_key_values(scan, "--scan", SCAN_KEYS)
-    if kv["length"] > 0:
-        return strokes(kv["speed"], kv["load"], kv["duration"], length=kv["length"], sensor_rate=kv["rate"])
-    return constant_scan(kv["speed"], kv["load"], kv["duration"], sensor_rate=kv["rate"])
+    try:  # the plausibility bounds of models.trajectory, the ones trajectory files are read with
+        if kv["length"] > 0:
+            return strokes(kv["speed"], kv["load"], kv["duration"], length=kv["length"], sensor_rate=kv["rate"])
+        return constant_scan(kv["speed"], kv["load"], kv["duration"], sensor_rate=kv["rate"])
+    except ConfigError as e:
+        if e.source is not None:
+            raise
+        raise ConfigError(e.message, source="--scan", field=e.field) from None

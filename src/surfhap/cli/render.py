@@ -78,11 +78,15 @@ def render_cmd(
     stdout.print(f"{mat.name} ({s['method']}): alpha {s['alpha_v_per_sqrt_n']:.1f} V/sqrt(N) ({s['alpha_source']}, "
                  f"rendering gain {s['rendering_gain']:.3f}), max |V| {s['max_abs_voltage']:.1f} V, clipped {s['clipped_fraction']:.1%}, "
                  f"saturated {s['saturated_fraction']:.1%} -> {paths['render']}")
-    warning = result.saturation_warning()
-    if warning is not None:
-        stderr.print(f"[bold yellow]warning:[/] {warning}", markup=True, soft_wrap=True)
+    for warning in (result.saturation_warning(), result.texture_warning()):
+        if warning is not None:
+            stderr.print(f"[bold yellow]warning:[/] {warning}", markup=True, soft_wrap=True)
     guard.finish(f"wrote the first {s['rendered_s']:g} s of {s['requested_s']:g} s to {paths['render']}" if result.interrupted
                  else f"after the render was complete ({paths['render']})")
+    fault = result.fault_error()
+    if fault is not None:  # a failed render, like a failed batch job (docs/outputs.md)
+        error_line(fault)
+        raise typer.Exit(1)
 
 
 def register(app: typer.Typer) -> None:

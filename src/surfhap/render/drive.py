@@ -44,8 +44,8 @@ from surfhap.errors import ConfigError
 from surfhap.models.friction import QuasiStaticLaw
 from surfhap.models.material import Material
 
-__all__ = ["DriveParams", "DriveBlock", "DriveLaw", "METHODS", "make_drive_law", "default_method", "friction_law_for",
-           "texture_force"]
+__all__ = ["DriveParams", "DriveBlock", "DriveLaw", "LowBand", "METHODS", "make_drive_law", "default_method",
+           "friction_law_for", "texture_force"]
 
 METHODS = ("otake2022", "otake2021", "zhao", "friction-only", "square")
 
@@ -100,6 +100,33 @@ class DriveBlock(NamedTuple):
     target: np.ndarray  # N, target added friction before clipping
     mu_low: np.ndarray  # low-frequency CoF
     mu_tex: np.ndarray  # textural CoF (0 where none)
+
+
+@dataclass(frozen=True)
+class LowBand:
+    """The low-band part of a drive law's target force: ``mu_low(fn, v)`` (``law.coefficient``)
+    times the load the law uses, the measured load or, for Zhao, ``constant_load`` while
+    touching. A :class:`DriveLaw` computes its target with it; the figure's law line, the
+    expected spectrum and the fidelity metrics take it from there (``RenderResult.low_band``).
+    The square baseline's low band is its own mean, ``constant_force`` N while touching (it
+    follows neither the load nor the speed)."""
+
+    law: object  # a friction law with coefficient(load, speed), or None (a material without one)
+    constant_load: float | None = None
+    constant_force: float | None = None
+
+    def load(self, load: np.ndarray) -> np.ndarray:
+        """(n,) N: the load the law multiplies the CoF with (0 where lifted)."""
+        load = np.asarray(load, dtype=float)
+        if self.constant_load is None:
+            return np.where(load > 0, load, 0.0)
+        return np.where(load > 0, self.constant_load, 0.0)
+
+    def force(self, load: np.ndarray, mu_low: np.ndarray) -> np.ndarray:
+        """(n,) N: the law's low-band target for measured ``load`` (n,) N and the law's ``mu_low`` (n,)."""
+        if self.constant_force is not None:
+            return np.where(np.asarray(load) > 0, self.constant_force, 0.0)
+        return np.asarray(mu_low, dtype=float) * self.load(load)
 
 
 def friction_law_for(material: Material, method: str):
@@ -168,6 +195,8 @@ class DriveLaw:
         self.square_amplitude = None
         if method == "square":
             self.square_amplitude = self._square_amplitude()
+        self.low_band = LowBand(self.friction_law, params.constant_load if method == "zhao" else None,
+                                0.5 * (self.square_amplitude / params.alpha) ** 2 if method == "square" else None)
         self._kernel_args = self._friction_texture_args(drive_kernel)
         self.reset()
 
@@ -226,7 +255,7 @@ class DriveLaw:
         else:
             mu_low = self.friction_law.coefficient(load, speed)
             if m == "zhao":
-                fn = load if p.constant_load is None else np.where(load > 0, p.constant_load, 0.0)
+                fn = self.low_band.load(load)
                 if not self.uses_texture:
                     f_tex = np.zeros_like(load)
                 elif self._quantity == "acceleration":
@@ -234,7 +263,7 @@ class DriveLaw:
                 else:
                     f_tex = p.texture_gain * texture * fn
                 f_tex = np.where(load > 0, f_tex, 0.0)
-                target = mu_low * fn + f_tex
+                target = self.low_band.force(load, mu_low) + f_tex
                 with np.errstate(divide="ignore", invalid="ignore"):
                     mu_tex = np.where(fn > 0, f_tex / fn, 0.0)
             else:  # square

@@ -29,9 +29,10 @@ def expected_texture_psd(r, freqs: np.ndarray, v: float, fn: float) -> np.ndarra
         model = bank.models[int(bank.select(np.array([v]))[0])]
         psd = ar_psd(model.coefficients, model.variance, rate, f)
     psd = np.where(f < rate / 2, psd, 0.0)
-    law = r.friction_law
+    low = r.low_band  # the drive law's low band: its friction law and the load it uses (Zhao: constant)
+    law = low.law if low is not None else r.friction_law
     mu_low = float(law.coefficient(np.array([fn]), np.array([v]))[0]) if law is not None else 0.0
-    fn_c = r.constant_load if (r.method == "zhao" and r.constant_load is not None) else fn
+    fn_c = float(low.load(np.array([fn]))[0]) if low is not None else fn
     per_unit = texture_force(bank.quantity, r.texture_relative_scale, r.method, 1.0, fn, mu_low, r.beta, r.texture_gain,
                              r.effective_mass, fn_c)  # N of target force per unit of texture
     gain = float((r.alpha / r.alpha_calibrated) ** 2)

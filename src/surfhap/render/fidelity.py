@@ -9,7 +9,8 @@ saturated_fraction
 low_band_error
     ``mean(lowpass(f_add)) / (G mean(mu_low fn)) - 1`` over the steady part (after ``warmup``
     s): how far the display's low band is from the friction law (``mu_p(fn, v) fn``, or
-    ``mu0 fn`` for otake2021) times the planned gain.
+    ``mu0 fn`` for otake2021, ``mu0 fn_c`` for zhao: the drive law's ``LowBand``) times the
+    planned gain.
 texture_correlation
     Pearson r between ``highpass(f_add)`` and ``highpass(G (target - mu_low fn))``, the textural
     force the law asked for, shifted by the chain's and the display's delays: does the
@@ -77,10 +78,7 @@ def fidelity_metrics(result, cutoff: float = 3.5, warmup: float = 0.5, target_vo
     f_add = r.added_friction
     lo, hi = _split(f_add, rate, cutoff)
     steady = (r.t >= warmup) & touching
-    fn_law = r.load
-    if r.method == "zhao" and r.constant_load is not None:
-        fn_law = np.where(touching, r.constant_load, 0.0)  # Zhao's constant load
-    law_force = r.mu_low * fn_law
+    law_force = r.low_band.force(r.load, r.mu_low)  # the drive law's low band (Zhao: its constant load)
     law = g * float(np.mean(law_force[steady]))
     lo_mean = float(np.mean(lo[steady]))
     low_err = lo_mean / law - 1.0 if law > 0 else float("nan")

@@ -19,12 +19,22 @@ from surfhap.models.material import Material
 from surfhap.models.panel import SimulatedDisplay
 from surfhap.models.trajectory import Trajectory
 from surfhap.render.chain import ChainConfig, TextureChain
+from surfhap.render.drive import LowBand
 from surfhap.render.expected import expected_texture_psd
 from surfhap.render.kinematics import Kinematics
 from surfhap.render.safety import SafetyCounters
 
 __all__ = ["RenderResult", "RenderStats", "render", "sample_trajectory", "summary_dict", "saturation_warning",
-           "expected_texture_psd", "render_settings"]
+           "expected_texture_psd", "render_settings", "fault_error", "RenderFaultError", "MAX_FAULT_FRACTION",
+           "texture_warning", "MIN_TEXTURE_SHARE"]
+
+MAX_FAULT_FRACTION = 0.01  # a render whose safety stage zeroed more drive samples than this failed
+MIN_TEXTURE_SHARE = 0.01  # a texture below this share of the target force is reported (nearly flat friction)
+
+
+class RenderFaultError(RuntimeError):
+    """A render whose safety stage faulted (0 V for NaN/absurd input) on more than
+    MAX_FAULT_FRACTION of its drive samples: its output is not the material, whatever it wrote."""
 
 
 @dataclass
@@ -36,8 +46,10 @@ class RenderResult:
     mu_low, mu_tex (n,); target (n,) N target added friction; voltage (n,) V envelope
     before the carrier; t_drive, drive (m,) s and V after the safety stage;
     friction_sim (n,) N from the simulated display; acc (n,) m/s^2 or None.
-    texture_gain, texture_relative_scale and friction_law (the low-band law the method used)
-    are what :func:`~surfhap.render.expected.expected_texture_psd` needs.
+    texture_gain, texture_relative_scale, friction_law (the low-band law the method used) and
+    low_band (the drive law's :class:`~surfhap.render.drive.LowBand`: that law times the load it
+    uses) are what :func:`~surfhap.render.expected.expected_texture_psd`, the figure's law line
+    and the fidelity metrics need.
     """
 
     material: str
@@ -82,6 +94,7 @@ class RenderResult:
     texture_gain: float = 1.0
     texture_relative_scale: float | None = None
     friction_law: object | None = None
+    low_band: LowBand | None = None
 
     @property
     def t_drive(self) -> np.ndarray:
@@ -109,6 +122,14 @@ class RenderResult:
         """One line saying where saturation starts and what to change, when more than
         ``threshold`` of the drive samples saturated; else None."""
         return saturation_warning(self, self.saturated_fraction, self.saturation_onset_load, threshold)
+
+    def fault_error(self, threshold: float = MAX_FAULT_FRACTION) -> str | None:
+        """One line when the safety stage faulted on more than ``threshold`` of the drive samples; else None."""
+        return fault_error(self, threshold)
+
+    def texture_warning(self, threshold: float = MIN_TEXTURE_SHARE) -> str | None:
+        """One line when the texture is under ``threshold`` of the target force; else None."""
+        return texture_warning(self, RenderStats.of(self).texture_share, threshold)
 
     @property
     def texture_quantity(self) -> str | None:
@@ -151,18 +172,44 @@ class RenderStats:
 
     n_model: model samples; max_abs_drive: V; friction_sum: N summed over model samples
     (for the mean); onset_load: N, smallest load whose envelope reached v_max, or None.
+    touching / target_sum / texture_sq_sum: while touching, samples, the target force (N) and
+    the squared textural target (target minus the law's low band, N^2) summed, for the texture
+    share; ``has_texture`` False for a method without texture.
     """
 
     n_model: int = 0
     max_abs_drive: float = 0.0
     friction_sum: float = 0.0
     onset_load: float | None = None
+    has_texture: bool = False
+    touching: int = 0
+    target_sum: float = 0.0
+    texture_sq_sum: float = 0.0
 
     @classmethod
     def of(cls, r: "RenderResult") -> "RenderStats":
         n = int(r.t.size)
-        return cls(n, float(np.max(np.abs(r.drive))) if r.drive.size else 0.0,
-                   float(np.sum(r.friction_sim)) if n else 0.0, r.saturation_onset_load)
+        stats = cls(n, float(np.max(np.abs(r.drive))) if r.drive.size else 0.0,
+                    float(np.sum(r.friction_sim)) if n else 0.0, r.saturation_onset_load, has_texture=r.texture_model is not None)
+        if r.low_band is not None:
+            stats.add_texture(r.load, r.target, r.low_band.force(r.load, r.mu_low))
+        return stats
+
+    @property
+    def texture_share(self) -> float | None:
+        """rms of the textural target over the mean target while touching (a force ratio; the
+        built-in textures at their calibrated 10:3-ish voltage ratios give ~0.1), or None
+        without a texture or a touch."""
+        if not self.has_texture or not self.touching or self.target_sum <= 0:
+            return None
+        return float(np.sqrt(self.texture_sq_sum / self.touching) / (self.target_sum / self.touching))
+
+    def add_texture(self, load: np.ndarray, target: np.ndarray, low: np.ndarray) -> None:
+        """Account one block: load (n,) N, the law's target (n,) N and its low band (n,) N."""
+        on = load > 0
+        self.touching += int(np.count_nonzero(on))
+        self.target_sum += float(np.sum(target[on]))
+        self.texture_sq_sum += float(np.sum(np.square(target[on] - low[on])))
 
     def add_model(self, load: np.ndarray, voltage: np.ndarray, v_max: float) -> None:
         """Account one block of model-rate load (n,) N and envelope (n,) V."""
@@ -211,6 +258,8 @@ def summary_dict(r, stats: RenderStats) -> dict:
         },
         "latency_s": r.latency,
         "mean_friction_sim_n": stats.friction_sum / stats.n_model if stats.n_model else 0.0,
+        "texture_share": stats.texture_share,
+        "texture_warning": texture_warning(r, stats.texture_share),
         "v_max": r.v_max,
         "mu_panel": r.mu_panel,
         "k_n_per_v2": r.k,
@@ -239,6 +288,30 @@ def saturation_warning(r, fraction: float, onset: float | None, threshold: float
         fix = "lower --alpha, or drop --alpha to use the gain plan"
     return (f"{fraction:.1%} of drive samples saturated at {r.v_max:g} V ({where}); "
             f"the friction no longer follows the model there: {fix}")
+
+
+def texture_warning(r, share: float | None, threshold: float = MIN_TEXTURE_SHARE) -> str | None:
+    """One line when the texture of render ``r`` is under ``threshold`` of its target force
+    (``share``, :attr:`RenderStats.texture_share`): the display renders nearly flat friction."""
+    if share is None or share >= threshold:
+        return None
+    hint = ("its texture is m_eff x acceleration (Zhao et al.), far weaker than the calibrated texture otake2022/otake2021 "
+            "render" if r.method == "zhao" else "raise the texture (texture_gain / the material's texture) or choose another method")
+    return (f"the texture is {share:.2%} of the target force (under {threshold:.0%}): {r.method} renders nearly flat friction "
+            f"on {r.material}; {hint} (docs/texture.md, \"Texture share\")")
+
+
+def fault_error(r, threshold: float = MAX_FAULT_FRACTION) -> str | None:
+    """One line saying that the safety stage of render ``r`` (anything with ``safety`` counters,
+    ``v_max``) zeroed more than ``threshold`` of the drive samples as faults, and the usual
+    causes; else None."""
+    s = r.safety
+    fraction = s.faults / s.samples if s.samples else 0.0
+    if fraction <= threshold:
+        return None
+    return (f"{fraction:.1%} of the drive samples ({s.faults} of {s.samples}) were zeroed by the safety stage as faults "
+            f"(NaN, a drive far beyond {r.v_max:g} V, or an absurd load): the render does not show the material; "
+            f"check the trajectory's units and --alpha")
 
 
 def sample_trajectory(trajectory: Trajectory, model_rate: float, kinematics: Kinematics | None = None):
@@ -311,5 +384,5 @@ def render_settings(material: Material, trajectory: Trajectory, cfg: ChainConfig
         display_info=cfg.display.describe(), square_amplitude=chain.law.square_amplitude,
         square_reference=(cfg.square_reference_load, cfg.square_reference_speed) if chain.law.square_amplitude is not None else None,
         texture_gain=cfg.texture_gain, texture_relative_scale=material.texture_relative_scale,
-        friction_law=chain.law.friction_law,
+        friction_law=chain.law.friction_law, low_band=chain.law.low_band,
     )

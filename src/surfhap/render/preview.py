@@ -27,6 +27,8 @@ class RenderPreview:
     """Bounded copies of a render for its figure (arrays float64; times in s).
 
     win_t, win_friction, win_target, win_mu_low, win_load: (w,) the middle window, N and N.
+    win_low: (w,) N, the drive law's low-band target there (its ``LowBand``: mu_low times the
+    load the method uses, Zhao's constant load for zhao), which the figure's law line draws.
     drv_t, drv: (d,) drive window, V; env_t, env: (e,) envelope in that window, V.
     spec_added: (s,) N added friction from ``SETTLE_S`` on, at ``model_rate`` (spectrum input).
     col_t, speed_min, speed_max, load_min, load_max: (c,) min/max envelope per column.
@@ -47,6 +49,7 @@ class RenderPreview:
     win_target: np.ndarray
     win_mu_low: np.ndarray
     win_load: np.ndarray
+    win_low: np.ndarray
     drv_t: np.ndarray
     drv: np.ndarray
     env_t: np.ndarray
@@ -95,7 +98,7 @@ class PreviewRecorder:
         self.span = min(1.0, t_last) if n_model else 1.0
         start = max(0.0, t_last / 2 - self.span / 2)
         a, b = _index_window(start, start + self.span, model_rate, n_model)
-        self._win = {k: _Window(a, b) for k in ("friction", "target", "mu_low", "load")}
+        self._win = {k: _Window(a, b) for k in ("friction", "target", "mu_low", "load", "low")}
         td_last = (n_drive - 1) / drive_rate if n_drive else 0.0
         self.window = min(0.05, td_last) if n_drive else 0.05
         mid = td_last / 2
@@ -114,6 +117,9 @@ class PreviewRecorder:
         """Model-rate block (n,) starting at model sample ``start``."""
         for key, arr in (("target", target), ("mu_low", mu_low), ("load", load)):
             self._win[key].add(start, arr)
+        low_band = self.meta.low_band
+        if low_band is not None and self._win["low"].b > start and self._win["low"].a < start + load.shape[0]:
+            self._win["low"].add(start, low_band.force(load, mu_low))
         self._env.add(start, voltage)
         self._spec["load"].add(start, load)
         self._spec["speed"].add(start, speed)
@@ -168,7 +174,7 @@ class PreviewRecorder:
             material=m.material, method=m.method, carrier=m.carrier, rendering_gain=float((m.alpha / m.alpha_calibrated) ** 2),
             mu_panel=m.mu_panel, model_rate=self.fm, texture_rate=m.texture_rate, span=self.span, window=self.window,
             win_t=wt, win_friction=fr, win_target=self._win["target"].buf[:k], win_mu_low=self._win["mu_low"].buf[:k],
-            win_load=self._win["load"].buf[:k], drv_t=di / self.fd, drv=dv, env_t=ei / self.fm, env=ev,
+            win_load=self._win["load"].buf[:k], win_low=self._win["low"].buf[:k], drv_t=di / self.fd, drv=dv, env_t=ei / self.fm, env=ev,
             spec_added=sf - m.mu_panel * sl, col_t=np.arange(ncol) * self._bin / self.fm,
             speed_min=self._cols["speed_min"][:ncol], speed_max=self._cols["speed_max"][:ncol],
             load_min=self._cols["load_min"][:ncol], load_max=self._cols["load_max"][:ncol], expected_psd=psd,

@@ -25,7 +25,8 @@ from surfhap.models.trajectory import Trajectory
 from surfhap.render.chain import ChainConfig, TextureChain
 from surfhap.render.kinematics import Kinematics
 from surfhap.render.expected import expected_texture_psd
-from surfhap.render.offline import RenderStats, render_settings, saturation_warning, summary_dict
+from surfhap.render.offline import (MAX_FAULT_FRACTION, MIN_TEXTURE_SHARE, RenderStats, fault_error, render_settings,
+                                    saturation_warning, summary_dict, texture_warning)
 from surfhap.render.preview import PreviewRecorder, RenderPreview
 
 __all__ = ["CHANNELS", "StreamedRender", "stream_render", "model_samples"]
@@ -79,6 +80,12 @@ class StreamedRender:
     def saturation_warning(self, threshold: float = 0.01) -> str | None:
         return saturation_warning(self, self.saturated_fraction, self.stats.onset_load, threshold)
 
+    def fault_error(self, threshold: float = MAX_FAULT_FRACTION) -> str | None:
+        return fault_error(self, threshold)
+
+    def texture_warning(self, threshold: float = MIN_TEXTURE_SHARE) -> str | None:
+        return texture_warning(self, self.stats.texture_share, threshold)
+
     def plot(self, fig=None):
         """The render figure, drawn from the preview (matplotlib Figure)."""
         from surfhap.report.figures import plot_render
@@ -109,7 +116,8 @@ def stream_render(material: Material, trajectory: Trajectory, config: ChainConfi
     meta = _Meta(render_settings(material, trajectory, cfg, chain, display))  # settings; counters taken again at the end
     preview = PreviewRecorder(n, math.ceil(n * chain.drive_rate / fm), fm, chain.drive_rate, meta, expected_texture_psd,
                               columns=preview_columns)
-    stats = RenderStats()
+    stats = RenderStats(has_texture=chain.law.uses_texture)
+    low_band = chain.law.low_band
     v_max = cfg.limits.v_max
     n_done = n_drive = n_fric = 0
     last_fric = 0.0
@@ -128,6 +136,7 @@ def stream_render(material: Material, trajectory: Trajectory, config: ChainConfi
             sink(key, arr)
         sink("drive", out.drive)
         stats.add_model(load, law.voltage, v_max)
+        stats.add_texture(load, law.target, low_band.force(load, law.mu_low))
         stats.add_drive(out.drive)
         preview.add_model(start, speed, load, law.target, law.mu_low, law.voltage)
         preview.add_drive(n_drive, out.drive)

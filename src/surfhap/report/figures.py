@@ -14,7 +14,7 @@ from surfhap.report.axes import plain_log_ticks
 from surfhap.signal.bands import band_split_high_gain
 from surfhap.signal.filters import band_split
 
-__all__ = ["plot_render", "plot_order_selection", "plot_imu_fit", "render_spectrum", "spectrum_of"]
+__all__ = ["plot_render", "plot_order_selection", "plot_imu_fit", "render_spectrum", "spectrum_of", "law_line"]
 
 _CUTOFF = 3.5  # Hz, band split of Otake et al. 2022
 
@@ -44,6 +44,13 @@ def render_spectrum(result, settle: float = 0.5):
     return spectrum_of(result.added_friction[start:], fs, result.expected_texture_psd)
 
 
+def law_line(pv) -> np.ndarray:
+    """(w,) N, the dashed law line of the render figure over ``pv.win_t``: the bare panel's
+    friction plus the rendering gain times the low band of the method's own drive law
+    (``pv.win_low``, e.g. Zhao's mu0 times his constant 1.6 N, not the measured load)."""
+    return pv.mu_panel * pv.win_load + pv.rendering_gain * pv.win_low
+
+
 def plot_render(pv, fig: Figure | None = None) -> Figure:
     """Four panels: friction over time, drive voltage, spectrum vs model, speed and load.
 
@@ -59,8 +66,7 @@ def plot_render(pv, fig: Figure | None = None) -> Figure:
     g = pv.rendering_gain
     scaled = "" if abs(g - 1) < 1e-9 else f" × {g:.3g}"
     ax.plot(t, pv.mu_panel * pv.win_load + g * pv.win_target, lw=0.8, color="C1", alpha=0.8, label=f"panel + target{scaled}")
-    ax.plot(t, pv.mu_panel * pv.win_load + g * pv.win_mu_low * pv.win_load * (pv.win_load > 0), lw=1.2, color="k", ls="--",
-            label=f"panel + low band{scaled}")
+    ax.plot(t, law_line(pv), lw=1.2, color="k", ls="--", label=f"panel + low band{scaled}")
     ax.set(xlabel="time (s)", ylabel="lateral force (N)", title=f"{pv.material} — {pv.method}, {pv.span:g} s window")
     ax.legend(loc="upper right", fontsize=8)
     ax = axs[0, 1]
