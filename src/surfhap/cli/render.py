@@ -9,7 +9,7 @@ import typer
 
 from surfhap.batch.jobs import NPZ_MAX_SECONDS, choose_format
 from surfhap.cli._batch import GRID_HELP, render_batch, split_inputs
-from surfhap.cli._common import progress_bar, stderr, stdout
+from surfhap.cli._common import error_line, progress_bar, stderr, stdout
 from surfhap.cli._display_options import resolve_display_and_range
 from surfhap.cli._scan import trajectory_from_options
 from surfhap.cli._signals import StopSignals
