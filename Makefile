@@ -2,8 +2,10 @@
 #   make demo   render every built-in material on the simulated display, write demo/report.html
 #   make test   install, check the import layers (lint-imports), run the whole test suite
 #   make bench  run the performance benchmarks (one JSON line each)
-#   make soak   nightly-style: the whole-engine safety property test with SOAK_EXAMPLES
-#               (default 300000) random sequences instead of the 10^4 fixed ones of `make test`
+#   make soak   nightly-style: the whole-process safety property tests (texture engine, force
+#               loop, study runner) with SOAK_EXAMPLES (default 300000) freshly random sequences
+#               for the engine (1/20 for the force loop, 1/100 for the study runner) instead of
+#               the fixed ones of `make test`
 PYTHON ?= python3
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
@@ -42,10 +44,10 @@ test: system-deps $(STAMP)
 	$(VENV)/bin/lint-imports --no-cache
 	$(PY) -m pytest
 
-# the reference test of the safety promise with many more, freshly random, sequences
+# the whole-process safety property tests with many more, freshly random, sequences
 SOAK_EXAMPLES ?= 300000
 soak: $(STAMP)
-	SURFHAP_SAFETY_SOAK=1 SURFHAP_SAFETY_EXAMPLES=$(SOAK_EXAMPLES) $(PY) -m pytest -q -p no:cacheprovider tests/test_live_engine_property.py tests/test_lab_session_property.py
+	SURFHAP_SAFETY_SOAK=1 SURFHAP_SAFETY_EXAMPLES=$(SOAK_EXAMPLES) $(PY) -m pytest -q -p no:cacheprovider tests/test_live_engine_property.py tests/test_ff_loop_property.py tests/test_lab_session_property.py
 
 # one core: the targets are per-core figures. Every benchmark runs; stdout holds only their
 # JSON lines (progress goes to stderr); the target fails when any figure missed its target.
