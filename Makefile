@@ -4,7 +4,7 @@
 #   make bench  run the performance benchmarks (one JSON line each)
 #   make soak   nightly-style: the whole-process safety property tests (texture engine, force
 #               loop, study runner) with SOAK_EXAMPLES (default 300000) freshly random sequences
-#               for the engine (1/20 for the force loop, 1/100 for the study runner) instead of
+#               for the engine (1/5 for the force loop, 1/100 for the study runner) instead of
 #               the fixed ones of `make test`
 PYTHON ?= python3
 VENV   ?= .venv

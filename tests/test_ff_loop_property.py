@@ -19,8 +19,8 @@ safety stage's counters:
 * an exception anywhere -> ``loop.error`` set (the command exits 3), the loop still ends
   through the ramp: the last force is 0 N, within the safety stage's stop duration.
 
-``SURFHAP_FF_SAFETY_EXAMPLES`` sets the number of sequences (default: 1/20 of
-``SURFHAP_SAFETY_EXAMPLES``, so 500 in ``make test``; derandomized unless
+``SURFHAP_FF_SAFETY_EXAMPLES`` sets the number of sequences (default: 1/5 of
+``SURFHAP_SAFETY_EXAMPLES``, so 2 000 in ``make test``; derandomized unless
 ``SURFHAP_SAFETY_SOAK`` is set).
 """
 
@@ -41,7 +41,7 @@ from surfhap.sim.ff_device import SimDevice
 RATE = 1000.0
 EPS = 1e-9
 EXAMPLES = int(os.environ.get("SURFHAP_FF_SAFETY_EXAMPLES",
-                              max(1, int(os.environ.get("SURFHAP_SAFETY_EXAMPLES", "10000")) // 20)))
+                              max(1, int(os.environ.get("SURFHAP_SAFETY_EXAMPLES", "10000")) // 5)))
 SOAK = os.environ.get("SURFHAP_SAFETY_SOAK", "") not in ("", "0")
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from surfhap.cli import main
+from live_support.studies import identification_study
 from surfhap.lab.triallog import read_log
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "live_support"))
@@ -37,23 +37,13 @@ def _need_browser():
     _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
 
 
-def _short_study(tmp_path) -> Path:
-    design = {"format": "surfhap-study-design", "version": 1, "kind": "identification", "name": "page test",
-              "participants": 1, "seed": 3, "params": {"materials": ["cork", "denim"], "repetitions": 1}}
-    p = tmp_path / "design.json"
-    p.write_text(json.dumps(design))
-    study = tmp_path / "study"
-    assert main(["study", "new", str(p), "--out", str(study)]) == 0
-    return study
-
-
 def test_short_study_answered_in_chromium(tmp_path):
     _need_browser()
     from surfhap.lab.page import PageServer, StimulusPlayer
     from surfhap.lab.session import SessionRunner
     from surfhap.live.session import build_session
 
-    study = _short_study(tmp_path)
+    study = identification_study(tmp_path, name="page test")
     runner = SessionRunner(study, "P01", mode="page")
     plan = runner.plan.trials
     session = build_session("cork", "sim")
@@ -115,7 +105,7 @@ def test_a_late_poll_response_does_not_bring_back_an_answered_trial(tmp_path):
     from surfhap.lab.page import PageServer
     from surfhap.lab.session import SessionRunner
 
-    study = _short_study(tmp_path)
+    study = identification_study(tmp_path, name="page test")
     runner = SessionRunner(study, "P01", mode="page")
     first, second = runner.plan.trials[0], runner.plan.trials[1]
     server = PageServer(runner, port=0).start()
@@ -173,7 +163,7 @@ def test_lsl_markers_of_stimulus_touch_and_answer(tmp_path):
         with urllib.request.urlopen(req, timeout=30) as r:
             return json.loads(r.read())
 
-    study = _short_study(tmp_path)
+    study = identification_study(tmp_path, name="page test")
     runner = SessionRunner(study, "P01", mode="page")
     markers = open_markers(True, "P01", "page test")
     server = PageServer(runner, port=0, markers=markers).start()
@@ -221,7 +211,7 @@ def test_cli_study_run_serves_the_page_until_done(tmp_path):
     import time
     import urllib.request
 
-    study = _short_study(tmp_path)
+    study = identification_study(tmp_path, name="page test")
     src = str(Path(__file__).resolve().parents[1] / "src")
     env = {**os.environ, "PYTHONPATH": src + os.pathsep + os.environ.get("PYTHONPATH", "")}
     proc = subprocess.Popen([sys.executable, "-c", "import sys; from surfhap.cli import main; sys.exit(main())",

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from surfhap.cli import main
+from live_support.studies import identification_study
 from surfhap.cli._signals import EXIT_INTERRUPTED, StopSignals
 from surfhap.exchange.trajectory_csv import write_trajectory_csv
 from surfhap.models.trajectory import Trajectory
@@ -247,16 +247,6 @@ def test_ff_run_stops_on_sigterm_with_the_force_at_zero(tmp_path):
     assert forces and forces[-1] == (0.0, 0.0, 0.0), forces[-3:]
 
 
-def _study(tmp_path) -> Path:
-    design = {"format": "surfhap-study-design", "version": 1, "kind": "identification", "name": "stop test",
-              "participants": 1, "seed": 3, "params": {"materials": ["cork", "denim"], "repetitions": 2}}
-    p = tmp_path / "design.json"
-    p.write_text(json.dumps(design))
-    study = tmp_path / "study"
-    assert main(["study", "new", str(p), "--out", str(study)]) == 0
-    return study
-
-
 def test_study_run_while_touching_stops_on_sigterm_with_a_ramp(tmp_path):
     """The reproduction of issue 17 item 4: a participant touches a stimulus on the page
     (WebSocket moves, as the page sends them) with ``--output file:``; SIGTERM."""
@@ -264,7 +254,7 @@ def test_study_run_while_touching_stops_on_sigterm_with_a_ramp(tmp_path):
 
     from surfhap.lab.triallog import read_log
 
-    study = _study(tmp_path)
+    study = identification_study(tmp_path, repetitions=2, name="stop test")
     rec = tmp_path / "study.npz"
     proc = Proc(["study", "run", str(study), "-p", "P01", "--port", "0", "--comfort-voltage", "200",
                  "--output", f"file:{rec}"])
@@ -319,7 +309,7 @@ def test_study_run_while_touching_stops_on_sigterm_with_a_ramp(tmp_path):
 def test_study_run_simulated_stops_on_sigterm_between_answers(tmp_path):
     from surfhap.lab.triallog import read_log
 
-    study = _study(tmp_path)
+    study = identification_study(tmp_path, repetitions=2, name="stop test")
     proc = Proc(["study", "run", str(study), "-p", "P01", "--simulate", "1", "--pace", "60",
                  "--comfort-voltage", "200"])
     try:

@@ -13,21 +13,11 @@ import threading
 
 import pytest
 
-from surfhap.cli import main
+from live_support.studies import identification_study
 
 PATIENCE = 60.0  # s: bound of every wait for the server (generous: a loaded 2-core machine)
 HUGE = "1" + "0" * 400  # 10**400 as a JSON integer: float() of it raises OverflowError
 HUGE_BODY = 300 * 1024 * 1024  # what a cross-site fetch can send
-
-
-def _study(tmp_path):
-    design = {"format": "surfhap-study-design", "version": 1, "kind": "identification", "name": "guard test",
-              "participants": 1, "seed": 3, "params": {"materials": ["cork", "denim"], "repetitions": 1}}
-    p = tmp_path / "design.json"
-    p.write_text(json.dumps(design))
-    study = tmp_path / "study"
-    assert main(["study", "new", str(p), "--out", str(study)]) == 0
-    return study
 
 
 @pytest.fixture
@@ -36,7 +26,7 @@ def page(tmp_path):
     from surfhap.lab.page import PageServer
     from surfhap.lab.session import SessionRunner
 
-    runner = SessionRunner(_study(tmp_path), "P01", mode="page")
+    runner = SessionRunner(identification_study(tmp_path, name="guard test"), "P01", mode="page")
     server = PageServer(runner, port=0).start()
     yield runner, server
     server.stop()

@@ -35,7 +35,7 @@ import threading
 
 import numpy as np
 
-from surfhap.live.clock import now, sleep_until
+from surfhap.live.clock import STALE, arrival_stamp, now, sleep_until
 from surfhap.live.queues import TouchRing
 
 __all__ = ["FFLoop", "OscFeedback", "FFLoopStats", "WorldTouchAdapter"]
@@ -92,16 +92,14 @@ class FFLoop:
                    t_arrival: float | None = None) -> bool:
         """Hand one validated touch sample to the loop (any thread). x, y m; load N (0 = lifted).
 
-        The loop stamps the arrival itself (:func:`now`); a caller's ``t_arrival`` can only make
-        the sample older. A non-finite or future ``t_arrival`` (beyond one period) is stale:
-        counted in ``touches_stale`` and dropped."""
-        ta = self.clock()
-        if t_arrival is not None:
-            if not (t_arrival == t_arrival and abs(t_arrival) != math.inf and t_arrival <= ta + self.period):
-                self.touches_stale += 1
-                return False
-            if t_arrival < ta:
-                ta = t_arrival
+        The loop stamps the arrival itself on its clock; a caller's ``t_arrival`` can only make
+        the sample older (:func:`surfhap.live.clock.arrival_stamp`, the law the texture engine
+        uses too). A future or non-finite ``t_arrival`` is stale: counted in ``touches_stale``
+        and dropped."""
+        ta = arrival_stamp(t_arrival, self.clock())
+        if ta == STALE:
+            self.touches_stale += 1
+            return False
         return self.touches.push(source, t_event, ta, x, y, load)
 
     # ------------------------------------------------------------- control
