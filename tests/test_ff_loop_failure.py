@@ -83,3 +83,32 @@ def test_ff_run_exits_3_with_one_line_when_the_loop_fails(tmp_path, capsys, monk
     assert "Traceback" not in out.err
     st = json.loads(out.out.strip().splitlines()[-1])
     assert "injected" in st["error"] and st["safety"]["stopped"] >= 1
+
+
+def test_ff_simulate_exits_3_with_one_line_when_an_effect_fails(tmp_path, capsys, monkeypatch):
+    """The offline simulation ends like the live loop: the files are written (the force ramped
+    down through the safety stage, never a jump), the summary keeps the error, one line, exit 3."""
+    calls = {"n": 0}
+    original = Sliding.terms
+
+    def flaky(self, s):
+        calls["n"] += 1
+        if calls["n"] > 300:
+            raise RuntimeError("injected\nfailure")
+        return original(self, s)
+
+    monkeypatch.setattr(Sliding, "terms", flaky)
+    out_dir = tmp_path / "sim"
+    code = main(["ff", "simulate", "follow", "--out", str(out_dir), "--no-figures"])
+    out = capsys.readouterr()
+    assert code == 3, out.err
+    lines = [ln for ln in out.err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: force-feedback loop failed"), out.err
+    assert "Traceback" not in out.err
+    summary = json.loads((out_dir / "summary.json").read_text())
+    assert "injected failure" in summary["error"]
+    with np.load(out_dir / "ff_simulation.npz") as z:
+        f = z["force"]
+    assert np.abs(f).max() > 0.1  # it was rendering a force when the effect failed
+    assert np.abs(np.diff(f[:, :2], axis=0)).max() <= FALCON.slew / FALCON_RATE + 1e-9  # lateral: slew-limited
+    assert np.all(f[-1, :2] == 0.0)

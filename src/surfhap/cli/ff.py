@@ -147,7 +147,8 @@ def simulate_cmd(
                         touched=res.touched, mask=res.mask, load=res.load, effects=np.array(res.effects),
                         button=res.button, buttons=np.array(res.buttons, dtype=str))
     summary = res.summary()
-    summary.update(scene=sc.source, trajectory=str(trajectory) if trajectory else tr.name, device=dev.name,
+    summary.update(error=None if eng.error is None else " ".join(f"{type(eng.error).__name__}: {eng.error}".split())[:300],
+                   scene=sc.source, trajectory=str(trajectory) if trajectory else tr.name, device=dev.name,
                    gain=dev.gain, touch_latency_ms=touch_latency_ms, predict=predict,
                    switch_log=[{"t_s": round(t, 4), "active": names} for t, names in res.switches()[:200]])
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
@@ -160,6 +161,7 @@ def simulate_cmd(
                  f"sliding rms {summary['sliding_speed_rms_m_s'] * 1e3:.1f} mm/s "
                  f"(finger {summary['finger_speed_rms_m_s'] * 1e3:.1f} mm/s)"
                  + (f", {len(summary['button_presses'])} button presses" if res.buttons else "") + f" -> {out}")
+    _exit_if_failed(eng.error)
 
 
 def run_cmd(
@@ -258,12 +260,18 @@ def run_cmd(
     st = loop.stats()
     st["scene"] = sc.name
     typer.echo(json.dumps(st, default=float))
-    if loop.error is not None:  # the loop ramped down through the safety stage; say so, exit 3
-        msg = " ".join(f"{type(loop.error).__name__}: {loop.error}".split())[:300]
+    _exit_if_failed(loop.error)
+    guard.finish("the force ramped to zero, status above")
+
+
+def _exit_if_failed(error: BaseException | None) -> None:
+    """A force loop that raised has ramped down through the safety stage: one line, exit 3
+    (as ``play`` does for a failed backend). ``ff run`` and ``ff simulate`` end the same way."""
+    if error is not None:
+        msg = " ".join(f"{type(error).__name__}: {error}".split())[:300]
         stderr.print(f"error: force-feedback loop failed ({msg}); the force was ramped to zero", markup=False,
                      soft_wrap=True)
         raise typer.Exit(3)
-    guard.finish("the force ramped to zero, status above")
 
 
 def _require_extras(touch: str, device: str, feedback: Optional[str]) -> None:
