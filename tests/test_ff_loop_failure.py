@@ -5,6 +5,7 @@ import json
 import threading
 
 import numpy as np
+import pytest
 
 from surfhap.cli import main
 from surfhap.exchange.trajectory_csv import write_trajectory_csv
@@ -112,3 +113,65 @@ def test_ff_simulate_exits_3_with_one_line_when_an_effect_fails(tmp_path, capsys
     assert np.abs(f).max() > 0.1  # it was rendering a force when the effect failed
     assert np.abs(np.diff(f[:, :2], axis=0)).max() <= FALCON.slew / FALCON_RATE + 1e-9  # lateral: slew-limited
     assert np.all(f[-1, :2] == 0.0)
+
+
+class _SimClock:
+    def __init__(self):
+        self.t = 0.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+def _fail_in_loop(where: str):
+    """The buttons scene held by the simulated device on a simulated clock for 0.5 s, then a
+    failure ``where`` ('drain': the touch drain raises; 'tick': the engine's tick raises after
+    its safety stage took the position). Returns the loop and the vertical speed and force per tick."""
+    from surfhap.ff.scene import load_scene
+
+    sc = load_scene("buttons", FALCON)
+    eng = FFEngine(sc.effects, FALCON, TouchPredictor(), rate=FALCON_RATE)
+    dev = SimDevice(rate=FALCON_RATE, gain=FALCON.gain)
+    be = SimDeviceBackend(dev, FALCON.gain)
+    clock = _SimClock()
+    loop = FFLoop(eng, be, clock=clock)
+    be.start()
+
+    def broken_drain():
+        raise RuntimeError("touch ring broken")
+
+    def tick_broken_after_the_safety_stage(t, px, py, pz, t_pos):
+        eng.safety.observe(t, t_pos, px, py, pz)  # the safety stage took this tick's position
+        raise RuntimeError("tick broken after the safety stage")
+
+    vz, fz = [], []
+    for k in range(6000):
+        clock.t = k / FALCON_RATE
+        if k == 500 and where == "drain":
+            loop._drain = broken_drain
+        elif k == 500:
+            eng.tick = tick_broken_after_the_safety_stage
+        go = loop.tick_once(clock.t)
+        vz.append(dev.v[2])
+        fz.append(float(eng.safety.out[2]))
+        if not go:
+            break
+    return loop, np.array(vz), np.array(fz)
+
+
+@pytest.mark.parametrize("where", ["drain", "tick"])
+def test_a_failure_anywhere_in_the_tick_lands_the_tablet(where):
+    """A failure in the touch drain or in the engine's tick (after its safety stage took the
+    position) is a stop like any other: the device is still read, the weight compensation is
+    lowered over >= 1 s (the tablet sinks no faster than its weight against the landing damping),
+    every change is slew-limited, and the loop ends at 0 N with the error kept."""
+    from surfhap.ff.params import GRAVITY
+
+    loop, vz, fz = _fail_in_loop(where)
+    assert loop.error is not None and "broken" in str(loop.error)
+    after = slice(500, None)
+    assert fz[500:500 + int(FALCON_RATE)].min() > 0.0, "the compensation was dropped within 1 s"
+    terminal = FALCON.moving_mass * GRAVITY / 20.0
+    assert -vz[after].min() <= terminal, f"fell at {-vz[after].min():.2f} m/s"
+    assert np.abs(np.diff(fz)).max() <= FALCON.slew / FALCON_RATE + 1e-9
+    assert fz[-1] == 0.0

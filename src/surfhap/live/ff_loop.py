@@ -168,18 +168,28 @@ class FFLoop:
         px = py = pz = t_pos = math.nan
         try:
             self._drain()
+        except Exception as exc:  # noqa: BLE001 - the device is still read: the stop lands the tablet
+            self._fail(exc)
+        try:
             px, py, pz, t_pos = be.read(t)
         except Exception as exc:  # noqa: BLE001 - no position: the safety stage ramps to zero
             self._fail(exc)
         if self._stop.is_set() and self._stop_left is None:
             eng.stop()
             self._stop_left = math.ceil(self.stop_timeout * self.rate)
+        saf = eng.safety
+        ticks = saf.n_ticks
         try:
             f = eng.tick(t, px, py, pz, t_pos)
         except Exception as exc:  # noqa: BLE001 - outside the control law: the safety stage alone
             self._fail(exc)
             eng.stop()
-            f = eng.safety.process_xyz(0.0, 0.0, 0.0, t, t_pos, px, py, pz, True)
+            if saf.n_ticks == ticks:  # the tick failed before the safety stage took this tick's position
+                try:
+                    saf.observe(t, t_pos, px, py, pz)
+                except Exception:  # noqa: BLE001 - unusable position: the stop below still ramps
+                    pass
+            f = saf.limit(0.0, 0.0, 0.0, True)  # this tick's clock advanced once: a ramp, never a jump
         if eng.error is not None:
             self._fail(eng.error)
         try:
