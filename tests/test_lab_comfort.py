@@ -135,3 +135,28 @@ def test_comfort_thresholds_in_the_analysis(study, tmp_path):
     res = analyze_study(study)
     sec = [s for s in res.sections if s.title.startswith("Comfort")]
     assert sec and sec[0].tables[0][1][0][0] == "P02"
+
+
+def test_a_real_display_needs_a_comfort_voltage_before_a_session_starts(study, capsys):
+    """No staircase was run: on a simulated or recorded output the session may start at the
+    safety limit (with a line saying so); on an output that reaches an amplifier (sound, OSC)
+    it does not start (one line, exit 2) unless --comfort-voltage is given."""
+    capsys.readouterr()
+    for output in ("sound:0", "osc://127.0.0.1:9000"):
+        assert main(["study", "run", str(study), "-p", "P01", "--output", output, "--port", "0"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "--output" in err[0] and "study comfort" in err[0], err
+    assert not (study / "logs" / "P01.jsonl").exists()  # no session was started
+
+
+def test_a_comfort_result_of_the_old_one_up_one_down_rule_is_refused(study, capsys):
+    """A result written before the 3-up/1-down rule (no ``staircase_threshold_V``) holds a
+    voltage judged uncomfortable half the time: study run refuses it in one line."""
+    (study / "logs").mkdir(exist_ok=True)
+    (study / "logs" / "P01-comfort.json").write_text(json.dumps(
+        {"participant": "P01", "comfort_voltage": 80.0, "stopped_by": "reversals",
+         "method": "1-up/1-down staircase"}))
+    capsys.readouterr()
+    assert main(["study", "run", str(study), "-p", "P01", "--simulate", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "1-up/1-down" in err[0] and "P01-comfort.json" in err[0], err

@@ -23,6 +23,7 @@ import typer
 
 from surfhap.cli._common import stderr, stdout
 from surfhap.cli._signals import StopSignals
+from surfhap.errors import ConfigError
 
 __all__ = ["register"]
 
@@ -143,6 +144,12 @@ def run(
         # a staircase without a threshold (or unfinished) stops here: one line, exit 2
         comfort_voltage = measured = required_comfort_voltage(study, pid)
         if measured is None:
+            from surfhap.live.backends.output import HARDWARE_OUTPUTS, parse_output
+
+            if output is not None and parse_output(output)[0] in HARDWARE_OUTPUTS:
+                raise ConfigError(f"no comfort voltage for {pid}: run 'study comfort' first or give --comfort-voltage "
+                                  "(a session on a real display never starts at the 250 V safety limit by default)",
+                                  source="--output")
             stderr.print(f"no comfort voltage measured for {pid} ('study comfort'): session limit is the safety "
                          "limit")
     runner = SessionRunner(study, participant, gain=gain, comfort_voltage=comfort_voltage,
@@ -254,8 +261,6 @@ def comfort(
     from surfhap.lab.session import SAFETY_V_MAX
 
     if not 5.0 <= start <= SAFETY_V_MAX:
-        from surfhap.errors import ConfigError
-
         raise ConfigError(f"must be within 5-{SAFETY_V_MAX:g} V", source="--start", field="start")
     runner = ComfortRunner(study, participant, default_comfort_params(start), material=material)
     try:

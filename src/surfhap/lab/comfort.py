@@ -88,6 +88,11 @@ def required_comfort_voltage(study_dir: str | Path, participant: str) -> float |
     folder = Path(study_dir)
     v = comfort_voltage_of(folder, participant)
     result = folder / "logs" / f"{participant}-comfort.json"
+    if v is not None and "staircase_threshold_V" not in json.loads(result.read_text()):
+        # written by surfhap before 3-up/1-down: its voltage was judged uncomfortable half the time
+        raise StudyFormatError("measured with the old 1-up/1-down comfort rule (uncomfortable half the time); run "
+                               "'study comfort' again or give --comfort-voltage", source=str(result),
+                               field="staircase_threshold_V")
     if v is None and result.is_file():
         raise StudyFormatError("the comfort staircase found no threshold (no reversal); run 'study comfort' again "
                                "or give --comfort-voltage", source=str(result), field="comfort_voltage")

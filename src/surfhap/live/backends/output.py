@@ -13,6 +13,11 @@ from surfhap.live.netaddr import parse_osc_address
 __all__ = ["parse_output", "open_backend"]
 
 
+# the outputs that reach an amplifier, so a finger: a study session on one of them never
+# starts without a comfort voltage (``study run``)
+HARDWARE_OUTPUTS = frozenset({"sound", "osc"})
+
+
 def parse_output(text: str) -> tuple[str, dict]:
     """``sim`` | ``file:PATH.wav|.npz`` | ``sound`` | ``sound:DEVICE`` | ``osc://HOST:PORT[/intensity|/drive]``."""
     text = (text or "sim").strip()
