@@ -9,6 +9,7 @@ bridge never reaches zero, whatever the tolerance."""
 
 from __future__ import annotations
 
+import math
 import os
 import socket
 import subprocess
@@ -22,7 +23,7 @@ from surfhap.live.ff_bridge_check import check_bridge
 sys.path.insert(0, str(Path(__file__).parent))
 from live_support.ff_bridges import ReferenceBridge  # noqa: E402
 
-ROWS = ["reply", "rate", "sequence", "units", "axes", "clamp", "watchdog"]
+ROWS = ["reply", "rate", "sequence", "units", "axes", "nonfinite", "watchdog"]
 TOLERANCE_MS = "300"
 
 
@@ -53,10 +54,10 @@ def test_bridge_check_passes_a_compliant_bridge_and_fails_one_that_holds_its_for
     listen = free_udp_port()
     with ReferenceBridge(("127.0.0.1", listen), watchdog=watchdog) as bridge:
         r = bridge_check(f"osc://127.0.0.1:{bridge.port}", "--listen", f"127.0.0.1:{listen}",
-                         "--tolerance-ms", TOLERANCE_MS)
+                         "--tolerance-ms", TOLERANCE_MS, "--clamp")
         assert bridge.forces > 0
     rows = table(r.stdout)
-    assert list(rows) == ROWS, r.stdout + r.stderr
+    assert list(rows) == ROWS[:-1] + ["clamp", "watchdog"], r.stdout + r.stderr
     if watchdog:
         assert r.returncode == 0 and all(rows.values()), r.stdout + r.stderr
     else:
@@ -71,8 +72,9 @@ def test_bridge_check_passes_a_compliant_bridge_and_fails_one_that_holds_its_for
 def test_bridge_check_names_the_broken_contract_item(kw, failing):
     listen = free_udp_port()
     with ReferenceBridge(("127.0.0.1", listen), **kw) as bridge:
-        rows = check_bridge("127.0.0.1", bridge.port, listen=("127.0.0.1", listen), tolerance=0.3, trials=1)
-    assert [r.name for r in rows] == ROWS
+        rows = check_bridge("127.0.0.1", bridge.port, listen=("127.0.0.1", listen), tolerance=0.3, trials=1,
+                            full_scale=True)
+    assert [r.name for r in rows] == ROWS[:-1] + ["clamp", "watchdog"]
     assert failing in [r.name for r in rows if not r.passed], rows
 
 
@@ -95,3 +97,16 @@ def test_bridge_check_bad_input_is_one_line_exit_2(args, option):
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert r.returncode == 2, r.stdout + r.stderr
     assert len(lines) == 1 and option in lines[0], r.stderr
+
+
+def test_bridge_check_drives_full_scale_only_when_asked():
+    """Without --clamp no force above the check's small --force reaches the bridge (a device
+    under a hand never gets the full-scale step); the table has no clamp row."""
+    listen = free_udp_port()
+    with ReferenceBridge(("127.0.0.1", listen), limit=1e9) as bridge:  # passes any force through
+        rows = check_bridge("127.0.0.1", bridge.port, listen=("127.0.0.1", listen), tolerance=0.3, trials=1)
+        with bridge.lock:
+            commands = list(bridge.commands)
+    assert [r.name for r in rows] == ROWS
+    finite = [abs(v) for c in commands for v in c if math.isfinite(v)]
+    assert commands and max(finite) <= 1.0 * 4.5 + 1e-9, max(finite)  # --force 1 N x gain 4.5

@@ -22,9 +22,10 @@ def bridge_check_cmd(
     force: float = typer.Option(1.0, "--force", help="Force of the axes and watchdog rows, N (0.1-4)."),
     tolerance_ms: float = typer.Option(5.0, "--tolerance-ms", help="Added to the 20 ms watchdog for delivery delays on a busy host, ms (0-1000)."),
     trials: int = typer.Option(3, "--trials", help="Watchdog trials; the worst counts (1-20)."),
+    clamp: bool = typer.Option(False, "--clamp", help="Also check the clamp: drives the device at the bridge's full limit for 30 ms (the device free, nothing held on it)."),
 ) -> None:
-    """Test a running bridge: reply, rate, sequence numbers, units, axes, clamp and the 20 ms
-    watchdog. Run it with the device free (the clamp row applies the bridge's limit for 30 ms)."""
+    """Test a running bridge: reply, rate, sequence numbers, units, axes, non-finite forces and
+    the 20 ms watchdog, with small forces; --clamp adds the full-scale clamp row."""
     from surfhap.live.ff_bridge_check import check_bridge
     from surfhap.live.ff_devices import parse_osc_url
     from surfhap.live.netaddr import parse_host_port
@@ -46,7 +47,7 @@ def bridge_check_cmd(
         raise ConfigError("must be within 1-20", source="--trials")
     try:
         rows = check_bridge(host, port, listen=(lh, lp), gain=gain, limit=limit, force=force,
-                            tolerance=tolerance_ms * 1e-3, trials=trials)
+                            tolerance=tolerance_ms * 1e-3, trials=trials, full_scale=clamp)
     except socket.gaierror as exc:
         raise ConfigError(f"cannot resolve {host!r} ({exc.strerror or exc})", source="URL") from None
     except OSError as exc:

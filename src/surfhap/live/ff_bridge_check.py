@@ -12,13 +12,15 @@ sequence   position numbers strictly increasing; a stale force (lower number) se
            after a newer one is ignored
 units      positions finite and within +-0.1 m of X0 (metres, not mm)
 axes       a force along x, y and z is reported applied on that axis alone, with its sign
-clamp      +-1e6 device units are applied clamped to ``limit``; NaN is applied as zero
+nonfinite  a force of NaN is applied as zero
+clamp      (only with ``full_scale``) +-1e6 device units are applied clamped to ``limit``
 watchdog   after the last force message the applied force is zero within 20 ms and
            positions keep coming (``trials`` times, the worst counts)
 =========  ======================================================================
 
-The forces stay small (``force`` N x gain) except for the clamp row (30 ms at the bridge's
-limit): run it with the device free, nothing held on it. Timing is measured where the
+The forces stay small (``force`` N x gain, 0.1-4 N). The clamp row drives the device at the
+bridge's full limit for 30 ms, so it runs only when asked (``full_scale``, ``--clamp``): run
+it with the device free, nothing held on it. Timing is measured where the
 positions arrive; ``tolerance`` (s) is added to the 20 ms for the delivery on a busy host.
 """
 
@@ -60,6 +62,7 @@ class BridgeCheck:
     limit     : device units, the largest applied force per axis the bridge may report.
     force     : N, the force used for the axes and watchdog rows.
     tolerance : s, added to the 20 ms watchdog for delivery delays.
+    full_scale: also run the clamp row (30 ms at the bridge's full limit: the device free).
     """
 
     host: str
@@ -70,6 +73,7 @@ class BridgeCheck:
     force: float = 1.0
     tolerance: float = 0.005
     trials: int = 3
+    full_scale: bool = False
     token: int = field(default_factory=new_token)
 
     def __post_init__(self):
@@ -175,7 +179,9 @@ class BridgeCheck:
                              f"largest |position| {far * 1e3:.1f} mm (<= {UNITS_BOUND_M * 1e3:.0f} mm: metres "
                              "relative to X0)"))
         rows.append(self._axes_row())
-        rows.append(self._clamp_row())
+        rows.append(self._nonfinite_row())
+        if self.full_scale:
+            rows.append(self._clamp_row())
         rows.append(self._watchdog_row())
         return rows
 
@@ -222,19 +228,22 @@ class BridgeCheck:
         return CheckRow("axes", not bad, "; ".join(bad) if bad else f"{f:.2f} device units along x, y, z applied "
                         "on that axis alone")
 
+    def _nonfinite_row(self) -> CheckRow:
+        m0 = self.malformed
+        start, _ = self._stream((math.nan, math.nan, math.nan), 0.03, min_positions=5)
+        seen = [r.a for r in self.log[start:]]
+        ok = bool(seen) and all(v == 0.0 for v in seen[-1]) and self.malformed == m0
+        self._stream((0.0, 0.0, 0.0), 0.03)
+        return CheckRow("nonfinite", ok, f"NaN applied as {'zero' if ok else 'non-zero or not reported'}")
+
     def _clamp_row(self) -> CheckRow:
         big = 1e6
         start, _ = self._stream((big, -big, big), 0.03, min_positions=5, max_seconds=0.2)
         seen = [r.a for r in self.log[start:]]
         peak = max((max(abs(v) for v in a) for a in seen), default=math.nan)
-        m0 = self.malformed
-        start, _ = self._stream((math.nan, math.nan, math.nan), 0.03, min_positions=5)
-        nan_seen = [r.a for r in self.log[start:]]
-        nan_ok = bool(nan_seen) and all(v == 0.0 for v in nan_seen[-1]) and self.malformed == m0
         self._stream((0.0, 0.0, 0.0), 0.03)
-        ok = bool(seen) and peak <= self.limit * (1 + 1e-6) and nan_ok
-        return CheckRow("clamp", ok, f"+-1e6 applied as at most {peak:.2f} (limit {self.limit:g}); NaN applied "
-                        f"as {'zero' if nan_ok else 'non-zero or not reported'}")
+        ok = bool(seen) and peak <= self.limit * (1 + 1e-6)
+        return CheckRow("clamp", ok, f"+-1e6 applied as at most {peak:.2f} (limit {self.limit:g})")
 
     def _watchdog_row(self) -> CheckRow:
         f = self.force * self.gain
