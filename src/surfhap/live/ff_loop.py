@@ -235,13 +235,16 @@ class FFLoop:
         deadline = now()
         while not self.done.is_set():
             deadline += period
-            t = sleep_until(deadline, 0.0)
-            snap = self.feedback_snapshot = self._last
-            px, py, pz, fx, fy, fz = snap[:6]
-            try:
-                self.feedback(t, px, py, pz, -px, -py, fx, fy, fz)
-            except Exception:  # noqa: BLE001 - feedback is best effort
-                log.debug("ff feedback failed", exc_info=True)
+            self._send_feedback(sleep_until(deadline, 0.0))
+        self._send_feedback(now())  # the final state (the force at zero after the stop) reaches the tablet too
+
+    def _send_feedback(self, t: float) -> None:
+        snap = self.feedback_snapshot = self._last
+        px, py, pz, fx, fy, fz = snap[:6]
+        try:
+            self.feedback(t, px, py, pz, -px, -py, fx, fy, fz)
+        except Exception:  # noqa: BLE001 - feedback is best effort
+            log.debug("ff feedback failed", exc_info=True)
 
     # ------------------------------------------------------------- results
     def stats(self) -> FFLoopStats:
