@@ -147,7 +147,7 @@ def simulate_cmd(
                         touched=res.touched, mask=res.mask, load=res.load, effects=np.array(res.effects),
                         button=res.button, buttons=np.array(res.buttons, dtype=str))
     summary = res.summary()
-    summary.update(error=None if eng.error is None else " ".join(f"{type(eng.error).__name__}: {eng.error}".split())[:300],
+    summary.update(error=None if eng.error is None else _one_line(eng.error),
                    scene=sc.source, trajectory=str(trajectory) if trajectory else tr.name, device=dev.name,
                    gain=dev.gain, touch_latency_ms=touch_latency_ms, predict=predict,
                    switch_log=[{"t_s": round(t, 4), "active": names} for t, names in res.switches()[:200]])
@@ -264,12 +264,16 @@ def run_cmd(
     guard.finish("the force ramped to zero, status above")
 
 
+def _one_line(error: BaseException) -> str:
+    """``Type: message`` on one line, at most 300 characters (status lines and summaries)."""
+    return " ".join(f"{type(error).__name__}: {error}".split())[:300]
+
+
 def _exit_if_failed(error: BaseException | None) -> None:
     """A force loop that raised has ramped down through the safety stage: one line, exit 3
     (as ``play`` does for a failed backend). ``ff run`` and ``ff simulate`` end the same way."""
     if error is not None:
-        msg = " ".join(f"{type(error).__name__}: {error}".split())[:300]
-        stderr.print(f"error: force-feedback loop failed ({msg}); the force was ramped to zero", markup=False,
+        stderr.print(f"error: force-feedback loop failed ({_one_line(error)}); the force was ramped to zero", markup=False,
                      soft_wrap=True)
         raise typer.Exit(3)
 

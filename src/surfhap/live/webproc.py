@@ -32,7 +32,7 @@ import socket
 import struct
 import threading
 
-from surfhap.live.clock import arrival_stamp, now
+from surfhap.live.clock import now
 
 __all__ = ["TouchBridge", "TracePublisher", "WebProcess", "RemoteLink", "describe"]
 
@@ -79,11 +79,10 @@ class TouchBridge:
             if token != self.token:
                 self.dropped += 1
                 continue
-            # the web process's arrival stamp may only make a sample older; a future or
-            # non-finite one is stale (the one law, clock.arrival_stamp, which LiveEngine's
-            # push_touch applies again; here it also covers the force-feedback loop), and a
+            # the web process's arrival stamp: the receiver (LiveEngine or FFLoop push_touch)
+            # applies clock.arrival_stamp to it, so it can only make the sample older, and a
             # stale stamp stays stale (datagrams queued while this process was stopped)
-            push(src, x, y, load, t_event=t_ev, t_arrival=arrival_stamp(t_arr, now()))
+            push(src, x, y, load, t_event=t_ev, t_arrival=t_arr)
             self.received += 1
 
     def stop(self) -> None:
