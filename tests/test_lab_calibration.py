@@ -11,6 +11,7 @@ from surfhap.exchange.tribometer import read_tribometer, write_tribometer_csv, w
 from surfhap.lab.calibration import calibrate, invert_curve
 from surfhap.lab.tribometer_synth import synthetic_tribometer
 from surfhap.signal.tribometer import fit_quadratic
+from live_support.figures import assert_png_drawn
 
 NOISE = 0.005  # N
 
@@ -105,7 +106,7 @@ def test_cli_writes_display_schema(tmp_path, capsys):
         paths.append(str(write_tribometer_npz(rec, tmp_path / f"v{i}.npz")))
     out = tmp_path / "cal.json"
     assert main(["calibrate", "tribometer", *paths, "--out", str(out), "--plot", str(tmp_path / "cal.png")]) == 0
-    assert (tmp_path / "cal.png").stat().st_size > 10_000
+    assert_png_drawn(tmp_path / "cal.png")
     doc = json.loads(out.read_text())
     assert doc["format"] == "surfhap-display" and doc["version"] == 1
     assert doc["k"] == pytest.approx(5e-6, rel=0.02) and doc["mu_panel"] == pytest.approx(0.5, rel=0.01)

@@ -8,6 +8,7 @@ import pytest
 from surfhap.cli import main
 from surfhap.exchange.materials import load_material
 from surfhap.lab.compare import compare_materials
+from live_support.figures import assert_png_drawn
 
 
 def test_profiles_follow_the_material_laws():
@@ -25,7 +26,7 @@ def test_profiles_follow_the_material_laws():
 def test_cli_compare_writes_figure_and_json(tmp_path, capsys):
     fig, js = tmp_path / "cmp.png", tmp_path / "cmp.json"
     assert main(["compare", "cork", "leather", "--duration", "1", "--out", str(fig), "--json", str(js)]) == 0
-    assert fig.stat().st_size > 10_000
+    assert_png_drawn(fig)
     doc = json.loads(js.read_text())
     assert [r["material"] for r in doc["table"]] == ["cork", "leather"]
     assert main(["compare", "no-such-material"]) == 2
@@ -36,7 +37,7 @@ def test_cli_figure_paths_name_the_file_written(tmp_path, capsys):
     """A figure path without a suffix becomes PNG and the 'wrote' line names that file; a
     suffix matplotlib cannot write is bad input (one line naming --out, exit 2) before any work."""
     assert main(["compare", "cork", "--duration", "1", "--out", str(tmp_path / "cmp")]) == 0
-    assert (tmp_path / "cmp.png").stat().st_size > 10_000
+    assert_png_drawn(tmp_path / "cmp.png")
     out = capsys.readouterr().out.replace("\n", "")  # rich may fold a long path over lines
     assert "wrote " in out and out.rstrip().endswith("cmp.png")
     assert main(["compare", "cork", "--out", str(tmp_path / "cmp.jpgx")]) == 2

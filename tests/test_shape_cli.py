@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from surfhap.cli import main
+from live_support.figures import assert_png_drawn
 
 BUNNY = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "stanford-bunny" / "bun_zipper_res2.ply"
 NPZ_KEYS = {"t", "x", "y", "z", "force", "intensity", "edge"}
@@ -21,7 +22,7 @@ def test_shape_scan_writes_npz_summary_and_figure(tmp_path):
     assert NPZ_KEYS <= set(data.files)
     assert np.count_nonzero(data["edge"]) == 2
     assert np.all((data["intensity"] >= 0.3) & (data["intensity"] <= 1.0))
-    assert (out / "figure.png").stat().st_size > 1000
+    assert_png_drawn(out / "figure.png")
     summary = json.loads((out / "summary.json").read_text())
     assert summary["ticks"] == 2
 

@@ -13,6 +13,7 @@ from surfhap.shape.profiles import SIGMA, formative_profile, ip_intensity, piece
 from surfhap.shape.scan import straight_scan, top_view
 from surfhap.shape.scenes import (CONFIGURATIONS, all_scenes, builtin_shape, builtin_shape_names, gaussian_height,
                                   get_scene, light_direction)
+from live_support.figures import assert_png_drawn
 
 
 def test_twenty_scenes():
@@ -118,4 +119,5 @@ def test_figures_draw(tmp_path):
     fig = res.plot()
     fig.savefig(tmp_path / "f.png", dpi=50)
     formative_profile().plot().savefig(tmp_path / "p.png", dpi=50)
-    assert (tmp_path / "f.png").stat().st_size > 1000
+    assert_png_drawn(tmp_path / "f.png", min_width=150, min_height=100)
+    assert_png_drawn(tmp_path / "p.png", min_width=150, min_height=100)
