@@ -60,3 +60,13 @@ def test_bad_params():
         StaircaseParams(start=300.0, max_level=250.0)
     with pytest.raises(ConfigError, match="steps"):
         StaircaseParams(start=1.0, steps=(0.0,))
+    with pytest.raises(ConfigError, match="step_type"):
+        StaircaseParams(start=1.0, step_type="log")
+    with pytest.raises(ConfigError, match="up"):
+        StaircaseParams(start=1.0, up=0)
+    with pytest.raises(ConfigError, match="min_level"):
+        StaircaseParams(start=1.0, step_type="db")
+    with pytest.raises(ConfigError, match="start"):
+        StaircaseParams(start=float("nan"))
+    with pytest.raises(ConfigError, match="unknown"):
+        StaircaseParams(start=1.0, unknown=2)

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import json
 import threading
-from dataclasses import asdict
 from pathlib import Path
 
 from surfhap.errors import StudyFormatError
@@ -120,7 +119,7 @@ class ComfortRunner:
         self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}-comfort.jsonl",
                             config={"participant": self.plan.id, "procedure": "comfort staircase",
                                     "staircase": {k: (list(v) if isinstance(v, tuple) else v)
-                                                  for k, v in asdict(self.params).items()},
+                                                  for k, v in self.params.model_dump().items()},
                                     "material": self.material, "square_frequency": COMFORT_FREQUENCY},
                             software_version=__version__)
         self.stair = Staircase(self.params)

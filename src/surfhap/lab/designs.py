@@ -39,7 +39,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from surfhap.errors import StudyFormatError
 from surfhap.lab.counterbalance import balanced_assignment, balanced_latin_square, participant_rng
-from surfhap.lab.schema import Choice, DesignSpec, ParticipantPlan, Stimulus, Study, Trial, validation_line
+from surfhap.checked import first_error
+from surfhap.lab.schema import Choice, DesignSpec, ParticipantPlan, Stimulus, Study, Trial
 
 __all__ = ["build_study", "TEMPLATES", "template", "study_template", "trial_counts", "ZHAO_MATERIALS", "square_frequencies"]
 
@@ -105,7 +106,7 @@ def _params(model: type[_P], design: DesignSpec) -> _P:
     try:
         return model.model_validate(design.params)
     except ValidationError as exc:
-        field, msg = validation_line(exc)
+        field, msg = first_error(exc)
         raise StudyFormatError(msg, field=f"params.{field}") from None
 
 

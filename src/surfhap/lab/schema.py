@@ -18,10 +18,11 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from surfhap.checked import first_error
 from surfhap.errors import StudyFormatError
 
 __all__ = ["DESIGN_FORMAT", "STUDY_FORMAT", "KINDS", "Choice", "Stimulus", "Trial", "ParticipantPlan", "DesignSpec",
-           "Session", "Study", "load_design", "load_study", "validation_line"]
+           "Session", "Study", "load_design", "load_study"]
 
 DESIGN_FORMAT = "surfhap-study-design"
 STUDY_FORMAT = "surfhap-study"
@@ -118,13 +119,6 @@ class Study(_Strict):
                                f"{' ...' if len(self.participants) > 8 else ''})", field="participant")
 
 
-def validation_line(exc: ValidationError) -> tuple[str, str]:
-    """(field, message) of the first pydantic error; field is the dotted location."""
-    err = exc.errors()[0]
-    loc = ".".join(str(x) for x in err.get("loc", ())) or "(top)"
-    return loc, err.get("msg", "invalid")
-
-
 def _read_json(path: Path) -> Any:
     if not path.is_file():
         raise StudyFormatError("not found", source=str(path), field="file")
@@ -141,7 +135,7 @@ def load_design(path: str | Path) -> DesignSpec:
     try:
         return DesignSpec.model_validate(data)
     except ValidationError as exc:
-        field, msg = validation_line(exc)
+        field, msg = first_error(exc)
         raise StudyFormatError(msg, source=str(p), field=field) from None
 
 
@@ -154,5 +148,5 @@ def load_study(folder: str | Path) -> Study:
     try:
         return Study.model_validate(data)
     except ValidationError as exc:
-        field, msg = validation_line(exc)
+        field, msg = first_error(exc)
         raise StudyFormatError(msg, source=str(p), field=field) from None

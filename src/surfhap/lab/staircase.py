@@ -26,9 +26,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
+from pydantic import Field, FiniteFloat, PositiveFloat, model_validator
 
+from surfhap.checked import Checked
 from surfhap.errors import ConfigError
 
 __all__ = ["StaircaseParams", "Staircase", "StaircaseResult", "target_probability", "run_simulated"]
@@ -49,37 +52,30 @@ def target_probability(up: int, down: int) -> float:
     return float(brentq(race, 1e-12, 1.0 - 1e-12))
 
 
-@dataclass(frozen=True)
-class StaircaseParams:
+class StaircaseParams(Checked):
     """start: first level; steps: step sizes by reversal count (level units, or dB for
     ``step_type="db"``); up/down: consecutive negatives/positives to step up/down;
     max_trials / max_reversals: stop rules; average_last: reversals averaged for the
     threshold; min_level / max_level: clamp (max_level <= safety limit for voltages)."""
 
-    start: float
-    steps: Sequence[float] = (1.0,)
-    up: int = 1
-    down: int = 2
-    step_type: str = "linear"
-    max_trials: int = 100
-    max_reversals: int = 12
-    average_last: int = 6
+    start: FiniteFloat
+    steps: tuple[PositiveFloat, ...] = Field(default=(1.0,), min_length=1)
+    up: int = Field(default=1, ge=1)
+    down: int = Field(default=2, ge=1)
+    step_type: Literal["linear", "db"] = "linear"
+    max_trials: int = Field(default=100, ge=1)
+    max_reversals: int = Field(default=12, ge=1)
+    average_last: int = Field(default=6, ge=1)
     min_level: float = 0.0
     max_level: float = np.inf
 
-    def __post_init__(self):
-        if self.step_type not in ("linear", "db"):
-            raise ConfigError("must be 'linear' or 'db'", field="step_type")
-        if not self.steps or not all(np.isfinite(s) and s > 0 for s in self.steps):
-            raise ConfigError("step sizes must be > 0", field="steps")
-        if not (isinstance(self.up, int) and isinstance(self.down, int) and self.up >= 1 and self.down >= 1):
-            raise ConfigError("up and down must be integers >= 1", field="up/down")
-        if self.max_trials < 1 or self.max_reversals < 1 or self.average_last < 1:
-            raise ConfigError("stop rules and average_last must be >= 1", field="max_trials")
-        if not (self.min_level <= self.start <= self.max_level) or not np.isfinite(self.start):
-            raise ConfigError(f"start must lie within [{self.min_level}, {self.max_level}]", field="start")
+    @model_validator(mode="after")
+    def _start_within_the_clamp(self):
+        if not self.min_level <= self.start <= self.max_level:
+            raise ValueError(f"start must lie within [{self.min_level}, {self.max_level}]")
         if self.step_type == "db" and not self.min_level > 0:
-            raise ConfigError("a dB staircase needs min_level > 0", field="min_level")
+            raise ValueError("a dB staircase needs min_level > 0")
+        return self
 
 
 @dataclass(frozen=True)

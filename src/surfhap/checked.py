@@ -1,0 +1,41 @@
+"""One base for surfhap's parameter types: pydantic-validated, frozen, and a bad value is one
+:class:`~surfhap.errors.ConfigError` line naming the field.
+
+A parameter object states its ranges as pydantic field constraints (``Field(gt=0)``,
+``FiniteFloat``, ``Literal[...]``) and cross-field rules in one ``model_validator``; there is
+no hand-written ``__post_init__``. Constructing one with a bad value raises ``ConfigError``
+(a ``ValueError``) whose ``field`` is the dotted location of the first error, so the command
+line prints ``field: message`` and exits 2. File readers that validate a whole document
+(``Model.model_validate``) get pydantic's ``ValidationError`` and turn it into their format
+error with :func:`first_error`.
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from surfhap.errors import ConfigError
+
+__all__ = ["Checked", "first_error"]
+
+
+def first_error(exc: ValidationError) -> tuple[str, str]:
+    """(field, message) of a validation error's first entry; ``field`` is its dotted location
+    ("(top)" for a whole-object rule) and ``message`` pydantic's text without its "Value error, " prefix."""
+    err = exc.errors()[0]
+    loc = ".".join(str(x) for x in err.get("loc", ())) or "(top)"
+    msg = str(err.get("msg", "invalid"))
+    return loc, msg.removeprefix("Value error, ").removeprefix("Assertion failed, ")
+
+
+class Checked(BaseModel):
+    """Frozen, validated parameters: keyword construction, unknown fields refused."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", arbitrary_types_allowed=True)
+
+    def __init__(self, /, **data):
+        try:
+            super().__init__(**data)
+        except ValidationError as exc:
+            field, msg = first_error(exc)
+            raise ConfigError(msg, field=field) from None
