@@ -36,8 +36,8 @@ def plot_ff_result(result, fig: Figure | None = None) -> Figure:
     axs[3].fill_between(t, -0.9, -0.9 + 0.8 * (result.mask == 0), step="post", color="0.6", lw=0)
     axs[3].set_yticks(np.arange(-1, len(names)) + 0.5, ["idle", *names])
     axs[3].set(xlabel="time (s)", title="active effects", ylim=(-1, max(1, len(names))))
-    bt = getattr(result, "button", None)
-    if bt is not None and getattr(result, "buttons", None):  # GUI button presses: shaded spans, named
+    bt = result.button
+    if bt is not None and result.buttons:  # GUI button presses: shaded spans, named
         down = bt >= 0
         axs[3].set_title("active effects; GUI button presses shaded")
         for ax in axs[:2]:

@@ -9,7 +9,7 @@ import numpy as np
 
 from surfhap.report.html import Page
 
-__all__ = ["write_friction_report", "write_accel_report", "write_fit_report"]
+__all__ = ["write_friction_report", "write_accel_report"]
 
 
 def _save(fig, out: Path, name: str, page: Page, alt: str) -> None:
@@ -85,15 +85,6 @@ def write_accel_report(fit, out_dir: str | Path, command: str = "") -> Path:
     path = out / "index.html"
     path.write_text(page.html(), encoding="utf-8")
     return path
-
-
-def write_fit_report(fit, out_dir: str | Path, command: str = "") -> Path:
-    """Dispatch on the result's kind: an acceleration fit (:class:`surfhap.fit.accel.AccelFit`,
-    which has ``segments``) or a friction fit (:class:`surfhap.fit.material_fit.FrictionFit`).
-    Reads the result only: report/ does not import fit/."""
-    if hasattr(fit, "segments"):
-        return write_accel_report(fit, out_dir, command)
-    return write_friction_report(fit, out_dir, command)
 
 
 def _esc(s: str) -> str:

@@ -18,7 +18,7 @@ def write_study_report(result, folder: str | Path) -> Path:
                    f"({', '.join(result.participants)}), {result.n_trials} trials logged.")
     if result.incomplete:
         page.paragraph(f"Incomplete sessions: {', '.join(result.incomplete)}.", cls="bad")
-    for w in getattr(result, "warnings", []):
+    for w in result.warnings:
         page.paragraph(f"Warning: {w}", cls="bad")
     for sec in result.sections:
         page.heading(sec.title)
