@@ -94,9 +94,9 @@ def fit_friction_cmd(
     for note in fit.notes:
         stdout.print(f"note: {note}")
     if report is not None:
-        from surfhap.report.fit_report import write_fit_report
+        from surfhap.report.fit_report import write_friction_report
 
-        stdout.print(f"report: {write_fit_report(fit, report, command)}")
+        stdout.print(f"report: {write_friction_report(fit, report, command)}")
 
 
 @fit_app.command("accel")
@@ -134,9 +134,9 @@ def fit_accel_cmd(
     stdout.print(f"{out}: {len(fit.segments)} segments, AR({fit.order}) models (AIC {fit.aic_order}, BIC {fit.bic_order}) over (speed, force), "
                  f"{fit.bank.triangles.shape[0]} triangles; mu0 {fit.mu0:.3f}")
     if report is not None:
-        from surfhap.report.fit_report import write_fit_report
+        from surfhap.report.fit_report import write_accel_report
 
-        stdout.print(f"report: {write_fit_report(fit, report, command)}")
+        stdout.print(f"report: {write_accel_report(fit, report, command)}")
 
 
 def register(app: typer.Typer) -> None:
