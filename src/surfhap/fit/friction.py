@@ -22,13 +22,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from surfhap.models.friction import CoulombLaw, QuasiStaticLaw
+from surfhap.models.friction import QUASI_STATIC_RANGES, CoulombLaw, QuasiStaticLaw
 
 __all__ = ["PARAMETERS", "CoulombFit", "QuasiStaticFit", "fit_coulomb", "coulomb_from_sums", "fit_quasi_static", "summarize_fits", "quasi_static_model"]
 
-PARAMETERS = ("a", "b", "c", "d", "q")
-_LOWER = np.array([1e-9, -2.0, 0.0, 0.0, 0.0])
-_UPPER = np.array([5.0, 2.0, np.inf, np.inf, 1.0])
+PARAMETERS = tuple(QUASI_STATIC_RANGES)  # ("a", "b", "c", "d", "q")
+_LOWER = np.array([QUASI_STATIC_RANGES[k][0] for k in PARAMETERS]) + np.array([1e-9, 0, 0, 0, 0])  # a > 0
+_UPPER = np.array([QUASI_STATIC_RANGES[k][1] for k in PARAMETERS])
 
 
 @dataclass(frozen=True)

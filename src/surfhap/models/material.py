@@ -18,7 +18,9 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from surfhap.models.friction import CoulombLaw, QuasiStaticLaw
+from pydantic.dataclasses import dataclass as pydantic_dataclass
+
+from surfhap.models.friction import LAW_CONFIG, CoulombLaw, QuasiStaticLaw
 from surfhap.models.texture import ARModel, TextureBank
 from surfhap.signal.ar import ar_is_stable
 
@@ -68,19 +70,17 @@ class Provenance(_Strict):
         return self
 
 
-class CoulombSpec(_Strict):
-    mu0: float = Field(ge=0, le=5, description="kinetic coefficient of friction")
+@pydantic_dataclass(frozen=True, config=LAW_CONFIG, kw_only=True)
+class CoulombSpec(CoulombLaw):
+    """The Coulomb law (its ranges) with its provenance."""
+
     provenance: Provenance
 
 
-class QuasiStaticSpec(_Strict):
-    """mu_p(fn, v) = a fn^b (1 + d v^q) / (1 + c v); fn in N, v in m/s."""
+@pydantic_dataclass(frozen=True, config=LAW_CONFIG, kw_only=True)
+class QuasiStaticSpec(QuasiStaticLaw):
+    """The quasi-static law (its ranges) with standard errors and provenance."""
 
-    a: float = Field(ge=0, le=5)
-    b: float = Field(ge=-2, le=2)
-    c: float = Field(ge=0)
-    d: float = Field(ge=0)
-    q: float = Field(ge=0, le=1)
     standard_errors: dict[str, float] | None = None
     provenance: Provenance
 
@@ -247,9 +247,7 @@ class Material:
     @classmethod
     def from_spec(cls, spec: MaterialFile) -> "Material":
         fr = spec.friction
-        coulomb = CoulombLaw(fr.coulomb.mu0) if fr.coulomb else None
-        qs = fr.quasi_static
-        quasi = QuasiStaticLaw(qs.a, qs.b, qs.c, qs.d, qs.q) if qs else None
+        coulomb, quasi = fr.coulomb, fr.quasi_static  # the laws themselves (with their provenance)
         texture = None
         if isinstance(spec.texture, InterpolatedTextureSpec):
             from surfhap.models.interpolated import InterpolatedARMABank
