@@ -114,10 +114,11 @@ class DriveBlock(NamedTuple):
 class LowBand:
     """The low-band part of a drive law's target force: ``mu_low(fn, v)`` (``law.coefficient``)
     times the load the law uses, the measured load or, for Zhao, ``constant_load`` while
-    touching. A :class:`DriveLaw` computes its target with it; the figure's law line, the
-    expected spectrum and the fidelity metrics take it from there (``RenderResult.low_band``).
-    The square baseline's low band is its own mean, ``constant_force`` N while touching (it
-    follows neither the load nor the speed)."""
+    touching, for a block's ``mu_low``: the figure's law line, the texture share and the
+    fidelity metrics take it from there (``RenderResult.low_band``); ``drive_law`` is the law
+    it belongs to (the expected spectrum asks it for its force per texture unit). The square
+    baseline's low band is its own mean, ``constant_force`` N while touching (it follows
+    neither the load nor the speed)."""
 
     law: object  # a friction law with coefficient(load, speed), or None (a material without one)
     constant_load: float | None = None
@@ -248,11 +249,12 @@ class _FrictionTexture(DriveLaw):
         else:
             texture = (k.TEXTURE_ACCELERATION, g * p.effective_mass)
         self._args = (*friction, *texture, float(p.beta if self.textured else 0.0), float(p.alpha))
+        self._kernel = k.friction_texture_law
 
     def _evaluate(self, speed, load, texture, start):
         n = load.shape[0]
         mu_low, mu_tex, target, voltage = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-        clipped, touching = self._kernels.friction_texture_law(load, speed, texture, *self._args, mu_low, mu_tex, target, voltage)
+        clipped, touching = self._kernel(load, speed, texture, *self._args, mu_low, mu_tex, target, voltage)
         return DriveBlock(voltage, target, mu_low, mu_tex), clipped, touching
 
 
@@ -306,11 +308,12 @@ class Zhao(DriveLaw):
         scale = p.texture_gain * p.effective_mass if self._quantity == "acceleration" else p.texture_gain
         fn_c = -1.0 if p.constant_load is None else float(p.constant_load)
         self._args = (float(self.friction_law.mu0), fn_c, self._texture_mode(), float(scale), float(p.alpha))
+        self._kernel = self._kernels.zhao_law
 
     def _evaluate(self, speed, load, texture, start):
         n = load.shape[0]
         mu_low, mu_tex, target, voltage = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-        clipped, touching = self._kernels.zhao_law(load, texture, *self._args, mu_low, mu_tex, target, voltage)
+        clipped, touching = self._kernel(load, texture, *self._args, mu_low, mu_tex, target, voltage)
         return DriveBlock(voltage, target, mu_low, mu_tex), clipped, touching
 
 
