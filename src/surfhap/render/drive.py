@@ -179,18 +179,14 @@ class DriveLaw:
         self.low_band = LowBand(self.friction_law, drive_law=self)
         self.reset()
 
-    @staticmethod
-    def friction_law_of(material: Material):
-        """The richest friction law available (quasi-static before Coulomb)."""
+    @classmethod
+    def friction_law_of(cls, material: Material):
+        """The method's low-band law; here the richest available (quasi-static before Coulomb)."""
         return material.low_frequency_law
 
     @property
     def uses_texture(self) -> bool:
         return self.textured and self._quantity is not None
-
-    def _texture_mode(self) -> int:
-        return self._kernels.TEXTURE_NONE if not self.uses_texture else (
-            self._kernels.TEXTURE_ACCELERATION if self._quantity == "acceleration" else self._kernels.TEXTURE_COF)
 
     def reset(self) -> None:
         self._n = 0
@@ -198,8 +194,12 @@ class DriveLaw:
         self.touching = 0
 
     def _evaluate(self, speed: np.ndarray, load: np.ndarray, texture: np.ndarray, start: int):
-        """The law over contiguous float64 (n,) arrays from sample ``start``: (DriveBlock, clipped, touching)."""
-        raise NotImplementedError
+        """The law over contiguous float64 (n,) arrays from sample ``start``: (DriveBlock, clipped,
+        touching), by the subclass's ``_kernel(load, speed, texture, *_args, outputs...)``."""
+        n = load.shape[0]
+        mu_low, mu_tex, target, voltage = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+        clipped, touching = self._kernel(load, speed, texture, *self._args, mu_low, mu_tex, target, voltage)
+        return DriveBlock(voltage, target, mu_low, mu_tex), clipped, touching
 
     def process(self, speed: np.ndarray, load: np.ndarray, texture: np.ndarray) -> DriveBlock:
         """speed, load, texture: (n,) float (m/s, N, texture quantity) -> a DriveBlock of (n,)."""
@@ -251,35 +251,33 @@ class _FrictionTexture(DriveLaw):
         self._args = (*friction, *texture, float(p.beta if self.textured else 0.0), float(p.alpha))
         self._kernel = k.friction_texture_law
 
-    def _evaluate(self, speed, load, texture, start):
-        n = load.shape[0]
-        mu_low, mu_tex, target, voltage = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-        clipped, touching = self._kernel(load, speed, texture, *self._args, mu_low, mu_tex, target, voltage)
-        return DriveBlock(voltage, target, mu_low, mu_tex), clipped, touching
-
 
 class Otake2022(_FrictionTexture):
     """003 eq. 6: ``F = (mu_p(fn, v) + beta mu_t) fn`` with the quasi-static law mu_p (eq. 3)."""
 
     method = "otake2022"
 
-    @staticmethod
-    def friction_law_of(material: Material):
+    @classmethod
+    def friction_law_of(cls, material: Material):
         if material.quasi_static is None:
             raise ConfigError(f"material {material.name!r} has no quasi-static friction law, which otake2022 needs; try otake2021", field="method")
         return material.quasi_static
 
 
-class Otake2021(_FrictionTexture):
+class _Coulomb:
+    """A method on Coulomb's mu0 (otake2021, zhao)."""
+
+    @classmethod
+    def friction_law_of(cls, material: Material):
+        if material.coulomb is None:
+            raise ConfigError(f"material {material.name!r} has no Coulomb mu0, which {cls.method} needs; try otake2022", field="method")
+        return material.coulomb
+
+
+class Otake2021(_Coulomb, _FrictionTexture):
     """001 eq. 5: ``F = (mu0 + beta mu_t) fn``."""
 
     method = "otake2021"
-
-    @staticmethod
-    def friction_law_of(material: Material):
-        if material.coulomb is None:
-            raise ConfigError(f"material {material.name!r} has no Coulomb mu0, which otake2021 needs; try otake2022", field="method")
-        return material.coulomb
 
 
 class FrictionOnly(_FrictionTexture):
@@ -289,32 +287,25 @@ class FrictionOnly(_FrictionTexture):
     textured = False
 
 
-class Zhao(DriveLaw):
+class Zhao(_Coulomb, DriveLaw):
     """000 eq. 3-4: ``F = mu0 fn_c + m_eff acc`` (``mu_t fn_c`` for a CoF bank), ``fn_c`` =
     ``constant_load`` (1.6 N) while touching, or the measured load when it is None."""
 
     method = "zhao"
 
-    @staticmethod
-    def friction_law_of(material: Material):
-        if material.coulomb is None:
-            raise ConfigError(f"material {material.name!r} has no Coulomb mu0, which zhao needs; try otake2022", field="method")
-        return material.coulomb
-
     def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None):
         super().__init__(material, params, sample_rate)
-        self.low_band = LowBand(self.friction_law, params.constant_load, drive_law=self)
-        p = params
-        scale = p.texture_gain * p.effective_mass if self._quantity == "acceleration" else p.texture_gain
+        p, k = params, self._kernels
+        self.low_band = LowBand(self.friction_law, p.constant_load, drive_law=self)
+        if not self.uses_texture:
+            texture = (k.TEXTURE_NONE, 0.0)
+        elif self._quantity == "acceleration":
+            texture = (k.TEXTURE_ACCELERATION, p.texture_gain * p.effective_mass)
+        else:
+            texture = (k.TEXTURE_COF, p.texture_gain)
         fn_c = -1.0 if p.constant_load is None else float(p.constant_load)
-        self._args = (float(self.friction_law.mu0), fn_c, self._texture_mode(), float(scale), float(p.alpha))
-        self._kernel = self._kernels.zhao_law
-
-    def _evaluate(self, speed, load, texture, start):
-        n = load.shape[0]
-        mu_low, mu_tex, target, voltage = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-        clipped, touching = self._kernel(load, texture, *self._args, mu_low, mu_tex, target, voltage)
-        return DriveBlock(voltage, target, mu_low, mu_tex), clipped, touching
+        self._args = (float(self.friction_law.mu0), fn_c, *texture, float(p.alpha))
+        self._kernel = k.zhao_law
 
 
 class Square(DriveLaw):

@@ -87,13 +87,13 @@ def friction_texture_law(load, speed, texture, quasi, a, b, c, d, q, mu0, textur
 
 
 @numba.njit(cache=True, nogil=True)
-def zhao_law(load, texture, mu0, constant_load, texture_mode, scale, alpha, mu_low, mu_tex, target, voltage):
+def zhao_law(load, speed, texture, mu0, constant_load, texture_mode, scale, alpha, mu_low, mu_tex, target, voltage):
     """Zhao et al. (000 eq. 3-4): ``F = mu0 fn_c + f_t`` with ``fn_c`` = ``constant_load`` N while
     touching (the measured load when ``constant_load`` <= 0) and ``f_t = scale x`` for an
     acceleration bank (``scale`` = gain m_eff), ``scale x fn_c`` for a CoF bank (``scale`` =
     gain), 0 for TEXTURE_NONE or without contact; ``V = alpha sqrt(max(F, 0))``.
 
-    load, texture: (n,) float. Writes the (n,) outputs mu_low (= mu0), mu_tex (f_t / fn_c),
+    load, speed (unused: Zhao's law does not follow the speed), texture: (n,) float. Writes the (n,) outputs mu_low (= mu0), mu_tex (f_t / fn_c),
     target (N) and voltage (V); returns (clipped, touching) as :func:`target_to_voltage`.
     """
     clipped = 0
