@@ -197,13 +197,17 @@ class InterpolatedTextureSpec(_Strict):
         k = len(self.models)
         if any(not 0 <= i < k for t in self.triangles for i in t):
             raise ValueError(f"triangle indices must be within 0..{k - 1}")
+        self.bank()  # the domain checks (degenerate triangles ...), reported as a schema error
+        return self
+
+    def bank(self) -> "InterpolatedARMABank":
+        """The texture model this entry describes."""
         from surfhap.models.interpolated import InterpolatedARMABank
 
-        InterpolatedARMABank(  # the domain checks (degenerate triangles ...), reported as a schema error
-            self.quantity, self.sample_rate, [m.speed for m in self.models], [m.force for m in self.models],
-            [m.ar_lsf for m in self.models], [m.ma_lsf for m in self.models], [m.variance for m in self.models],
-            [m.gain for m in self.models], [list(t) for t in self.triangles], self.max_speed, self.max_force)
-        return self
+        m = self.models
+        return InterpolatedARMABank(self.quantity, self.sample_rate, [x.speed for x in m], [x.force for x in m],
+                                    [x.ar_lsf for x in m], [x.ma_lsf for x in m], [x.variance for x in m],
+                                    [x.gain for x in m], [list(t) for t in self.triangles], self.max_speed, self.max_force)
 
 
 class MaterialFile(_Strict):
@@ -250,14 +254,7 @@ class Material:
         coulomb, quasi = fr.coulomb, fr.quasi_static  # the laws themselves (with their provenance)
         texture = None
         if isinstance(spec.texture, InterpolatedTextureSpec):
-            from surfhap.models.interpolated import InterpolatedARMABank
-
-            t = spec.texture
-            texture = InterpolatedARMABank(
-                t.quantity, t.sample_rate, [m.speed for m in t.models], [m.force for m in t.models],
-                [m.ar_lsf for m in t.models], [m.ma_lsf for m in t.models], [m.variance for m in t.models],
-                [m.gain for m in t.models], [list(tri) for tri in t.triangles], t.max_speed, t.max_force,
-            )
+            texture = spec.texture.bank()
         elif spec.texture is not None:
             t = spec.texture
             texture = TextureBank(
