@@ -114,7 +114,7 @@ LAW_MODULES = {"render/drive.py", "render/drive_kernel.py", "models/friction_ker
 # texture calibration computes relative_scale = r^2 / (beta sd): not the drive law
 CALIBRATION = {"models/texture_calibration.py", "models/material.py"}
 PATTERNS = {
-    "rendering gain (alpha / alpha_calibrated)^2": (r"alpha_calibrated\s*\)\s*\*\*\s*2", set()),
+    "rendering gain (alpha / alpha_calibrated)^2": (r"alpha_cal\w*\s*\)\s*\*\*\s*2", set()),
     "eq. 3 numerator a fn^b": (r"\*\*\s*(\w+\.)?b\b|power\s*\(\s*[\w.]+\s*,\s*(\w+\.)?b\s*\)", set()),
     "beta times the textural CoF": (r"\bbeta\s*\*|\*\s*(\w+\.)?beta\b", CALIBRATION),
     "Zhao's m_eff acc": (r"\b(effective_mass|m_eff)\s*\*|\*\s*(\w+\.)?(effective_mass|m_eff)\b", set()),
