@@ -22,13 +22,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from surfhap.models.friction import CoulombLaw, QuasiStaticLaw
+from surfhap.models.friction import QUASI_STATIC_RANGES, CoulombLaw, QuasiStaticLaw
 
 __all__ = ["PARAMETERS", "CoulombFit", "QuasiStaticFit", "fit_coulomb", "coulomb_from_sums", "fit_quasi_static", "summarize_fits", "quasi_static_model"]
 
-PARAMETERS = ("a", "b", "c", "d", "q")
-_LOWER = np.array([1e-9, -2.0, 0.0, 0.0, 0.0])
-_UPPER = np.array([5.0, 2.0, np.inf, np.inf, 1.0])
+PARAMETERS = tuple(QUASI_STATIC_RANGES)  # ("a", "b", "c", "d", "q")
+_LOWER = np.array([QUASI_STATIC_RANGES[k][0] for k in PARAMETERS]) + np.array([1e-9, 0, 0, 0, 0])  # a > 0
+_UPPER = np.array([QUASI_STATIC_RANGES[k][1] for k in PARAMETERS])
 
 
 @dataclass(frozen=True)
@@ -62,26 +62,25 @@ def coulomb_from_sums(shear_sum: float, normal_sum: float, n: int, label: str = 
 
 
 def quasi_static_model(theta: np.ndarray, fn: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """mu_p for theta = (a, b, c, d, q), fn (n,) N > 0, v (n,) m/s >= 0 -> (n,)."""
-    a, b, c, d, q = theta
-    return a * np.power(fn, b) * (1.0 + d * np.power(v, q)) / (1.0 + c * v)
+    """mu_p for theta = (a, b, c, d, q), fn (n,) N > 0, v (n,) m/s >= 0 -> (n,): the one
+    evaluation of eq. 3 (:meth:`QuasiStaticLaw.coefficient`)."""
+    return QuasiStaticLaw(*map(float, theta)).coefficient(fn, v)
 
 
 def _jacobian(theta, fn, v):
+    """d mu_p / d(a, b, c, d, q), written with mu_p itself (``quasi_static_model``)."""
     a, b, c, d, q = theta
-    fb = np.power(fn, b)
+    mu = quasi_static_model(theta, fn, v)
     vq = np.power(v, q)
-    num = 1.0 + d * vq
-    den = 1.0 + c * v
-    mu = a * fb * num / den
     with np.errstate(divide="ignore", invalid="ignore"):
         logv = np.where(v > 0, np.log(np.where(v > 0, v, 1.0)), 0.0)
+    dlog_num = vq / (1.0 + d * vq)  # d log(1 + d v^q) / dd
     J = np.empty((fn.size, 5))
-    J[:, 0] = fb * num / den
+    J[:, 0] = mu / a
     J[:, 1] = mu * np.log(fn)
-    J[:, 2] = -mu * v / den
-    J[:, 3] = a * fb * vq / den
-    J[:, 4] = a * fb * d * vq * logv / den
+    J[:, 2] = -mu * v / (1.0 + c * v)
+    J[:, 3] = mu * dlog_num
+    J[:, 4] = mu * d * dlog_num * logv
     return J
 
 

@@ -96,6 +96,7 @@ def compare_materials(refs: Sequence[str], *, speed: float = 0.1, load: float = 
     from surfhap.exchange.materials import load_material
     from surfhap.models.trajectory import strokes
     from surfhap.render.chain import ChainConfig
+    from surfhap.render.drive import DriveParams, make_drive_law
     from surfhap.render.offline import render
     from surfhap.render.safety import SafetyLimits
 
@@ -108,9 +109,9 @@ def compare_materials(refs: Sequence[str], *, speed: float = 0.1, load: float = 
     out = []
     for ref in refs:
         mat = load_material(ref)
-        law = mat.low_frequency_law
-        mu_v = law.coefficient(np.full(speeds.size, load), speeds)
-        f_l = law.coefficient(loads, np.full(loads.size, speed)) * loads
+        low = make_drive_law("friction-only", mat, DriveParams(alpha=1.0))  # mu_low(fn, v) fn, whatever alpha
+        mu_v = low.friction_law.coefficient(np.full(speeds.size, load), speeds)
+        f_l = low.low_force(speed, loads)
         res = render(mat, traj, ChainConfig(seed=seed, limits=SafetyLimits(v_max=v_max)))
         added = res.added_friction
         touching = res.load > 0

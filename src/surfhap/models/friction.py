@@ -4,26 +4,36 @@
 * Quasi-static (Otake et al. 2022, eq. 3): ``mu_p(fn, v) = a fn^b (1 + d v^q) / (1 + c v)``
   with ``c, d >= 0`` and ``0 <= q <= 1``. Table I of that paper is consistent with fn in N
   and v in m/s: at fn = 1 N, v = 0.1 m/s it orders leather > cork > denim > wood.
+
+The laws are pydantic dataclasses: their ranges are checked once, here, and the material file's
+:class:`~surfhap.models.material.CoulombSpec` / ``QuasiStaticSpec`` are these laws plus provenance.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
+from pydantic import ConfigDict, Field
+from pydantic.dataclasses import dataclass
 
-__all__ = ["CoulombLaw", "QuasiStaticLaw", "FrictionLaw"]
+__all__ = ["CoulombLaw", "QuasiStaticLaw", "FrictionLaw", "LAW_CONFIG", "QUASI_STATIC_RANGES"]
+
+LAW_CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False)
+# (low, high) of each quasi-static parameter: the law's validation and the fit's bounds
+QUASI_STATIC_RANGES = {"a": (0.0, 5.0), "b": (-2.0, 2.0), "c": (0.0, float("inf")), "d": (0.0, float("inf")), "q": (0.0, 1.0)}
 
 
-@dataclass(frozen=True)
+def _range(name: str) -> Field:
+    lo, hi = QUASI_STATIC_RANGES[name]
+    return Field(ge=lo, le=hi if np.isfinite(hi) else None)
+
+
+@dataclass(frozen=True, config=LAW_CONFIG)
 class CoulombLaw:
-    """Constant coefficient of friction ``mu0`` (dimensionless)."""
+    """Constant coefficient of friction ``mu0`` (dimensionless, 0-5)."""
 
-    mu0: float
-
-    def __post_init__(self):
-        if not (np.isfinite(self.mu0) and self.mu0 >= 0):
-            raise ValueError(f"mu0 must be finite and >= 0, got {self.mu0}")
+    mu0: Annotated[float, Field(ge=0, le=5, description="kinetic coefficient of friction")]
 
     def coefficient(self, load: np.ndarray, speed: np.ndarray) -> np.ndarray:
         """CoF for load (n,) N and speed (n,) m/s; returns (n,) float."""
@@ -31,22 +41,16 @@ class CoulombLaw:
         return np.full(np.broadcast(load, np.asarray(speed)).shape, self.mu0)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=LAW_CONFIG)
 class QuasiStaticLaw:
-    """``mu_p(fn, v) = a fn^b (1 + d v^q) / (1 + c v)`` (Otake et al. 2022, eq. 3)."""
+    """``mu_p(fn, v) = a fn^b (1 + d v^q) / (1 + c v)`` (Otake et al. 2022, eq. 3), fn in N and
+    v in m/s, with 0 <= a <= 5, -2 <= b <= 2, c, d >= 0 and 0 <= q <= 1 (finite)."""
 
-    a: float
-    b: float
-    c: float
-    d: float
-    q: float
-
-    def __post_init__(self):
-        vals = (self.a, self.b, self.c, self.d, self.q)
-        if not all(np.isfinite(v) for v in vals):
-            raise ValueError("quasi-static parameters must be finite")
-        if self.a < 0 or self.c < 0 or self.d < 0 or not 0 <= self.q <= 1:
-            raise ValueError("quasi-static law needs a >= 0, c >= 0, d >= 0 and 0 <= q <= 1")
+    a: Annotated[float, _range("a")]
+    b: Annotated[float, _range("b")]
+    c: Annotated[float, _range("c")]
+    d: Annotated[float, _range("d")]
+    q: Annotated[float, _range("q")]
 
     def coefficient(self, load: np.ndarray, speed: np.ndarray) -> np.ndarray:
         """CoF for load (n,) N and speed (n,) m/s; returns (n,) float (arrays of another

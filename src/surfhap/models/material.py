@@ -18,7 +18,9 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from surfhap.models.friction import CoulombLaw, QuasiStaticLaw
+from pydantic.dataclasses import dataclass as pydantic_dataclass
+
+from surfhap.models.friction import LAW_CONFIG, CoulombLaw, QuasiStaticLaw
 from surfhap.models.texture import ARModel, TextureBank
 from surfhap.signal.ar import ar_is_stable
 
@@ -68,19 +70,17 @@ class Provenance(_Strict):
         return self
 
 
-class CoulombSpec(_Strict):
-    mu0: float = Field(ge=0, le=5, description="kinetic coefficient of friction")
+@pydantic_dataclass(frozen=True, config=LAW_CONFIG, kw_only=True)
+class CoulombSpec(CoulombLaw):
+    """The Coulomb law (its ranges) with its provenance."""
+
     provenance: Provenance
 
 
-class QuasiStaticSpec(_Strict):
-    """mu_p(fn, v) = a fn^b (1 + d v^q) / (1 + c v); fn in N, v in m/s."""
+@pydantic_dataclass(frozen=True, config=LAW_CONFIG, kw_only=True)
+class QuasiStaticSpec(QuasiStaticLaw):
+    """The quasi-static law (its ranges) with standard errors and provenance."""
 
-    a: float = Field(ge=0, le=5)
-    b: float = Field(ge=-2, le=2)
-    c: float = Field(ge=0)
-    d: float = Field(ge=0)
-    q: float = Field(ge=0, le=1)
     standard_errors: dict[str, float] | None = None
     provenance: Provenance
 
@@ -197,13 +197,17 @@ class InterpolatedTextureSpec(_Strict):
         k = len(self.models)
         if any(not 0 <= i < k for t in self.triangles for i in t):
             raise ValueError(f"triangle indices must be within 0..{k - 1}")
+        self.bank()  # the domain checks (degenerate triangles ...), reported as a schema error
+        return self
+
+    def bank(self) -> "InterpolatedARMABank":
+        """The texture model this entry describes."""
         from surfhap.models.interpolated import InterpolatedARMABank
 
-        InterpolatedARMABank(  # the domain checks (degenerate triangles ...), reported as a schema error
-            self.quantity, self.sample_rate, [m.speed for m in self.models], [m.force for m in self.models],
-            [m.ar_lsf for m in self.models], [m.ma_lsf for m in self.models], [m.variance for m in self.models],
-            [m.gain for m in self.models], [list(t) for t in self.triangles], self.max_speed, self.max_force)
-        return self
+        m = self.models
+        return InterpolatedARMABank(self.quantity, self.sample_rate, [x.speed for x in m], [x.force for x in m],
+                                    [x.ar_lsf for x in m], [x.ma_lsf for x in m], [x.variance for x in m],
+                                    [x.gain for x in m], [list(t) for t in self.triangles], self.max_speed, self.max_force)
 
 
 class MaterialFile(_Strict):
@@ -247,19 +251,10 @@ class Material:
     @classmethod
     def from_spec(cls, spec: MaterialFile) -> "Material":
         fr = spec.friction
-        coulomb = CoulombLaw(fr.coulomb.mu0) if fr.coulomb else None
-        qs = fr.quasi_static
-        quasi = QuasiStaticLaw(qs.a, qs.b, qs.c, qs.d, qs.q) if qs else None
+        coulomb, quasi = fr.coulomb, fr.quasi_static  # the laws themselves (with their provenance)
         texture = None
         if isinstance(spec.texture, InterpolatedTextureSpec):
-            from surfhap.models.interpolated import InterpolatedARMABank
-
-            t = spec.texture
-            texture = InterpolatedARMABank(
-                t.quantity, t.sample_rate, [m.speed for m in t.models], [m.force for m in t.models],
-                [m.ar_lsf for m in t.models], [m.ma_lsf for m in t.models], [m.variance for m in t.models],
-                [m.gain for m in t.models], [list(tri) for tri in t.triangles], t.max_speed, t.max_force,
-            )
+            texture = spec.texture.bank()
         elif spec.texture is not None:
             t = spec.texture
             texture = TextureBank(

@@ -31,12 +31,17 @@ fixed voltage: ``V_sq = alpha sqrt(2 F_ref)`` with ``F_ref = mu_low(fn_ref, v_re
 reference load and speed (default 0.5 N, 0.1 m/s), so its mean added friction equals the
 friction-only mean there. It does not follow the instantaneous load or speed; a lifted finger
 still gets 0 V from the safety stage.
+
+One class per method (:data:`LAWS`), each with one vectorised evaluation, its compiled kernel
+in :mod:`surfhap.render.drive_kernel`: rendering (``process``), gain planning
+(``low_force``, ``texture_force_per_unit``), the expected spectrum and ``compare`` all call it,
+so each equation is written once. :func:`rendering_gain` is the one ``(alpha / alpha_cal)^2``.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 
@@ -44,10 +49,13 @@ from surfhap.errors import ConfigError
 from surfhap.models.friction import QuasiStaticLaw
 from surfhap.models.material import Material
 
-__all__ = ["DriveParams", "DriveBlock", "DriveLaw", "LowBand", "METHODS", "make_drive_law", "default_method",
-           "friction_law_for", "texture_force"]
+__all__ = ["DriveParams", "DriveBlock", "DriveLaw", "Otake2022", "Otake2021", "Zhao", "FrictionOnly", "Square",
+           "LAWS", "LowBand", "METHODS", "make_drive_law", "default_method", "rendering_gain"]
 
-METHODS = ("otake2022", "otake2021", "zhao", "friction-only", "square")
+
+def rendering_gain(alpha: float, alpha_calibrated: float) -> float:
+    """``G = (alpha / alpha_calibrated)^2``: the display adds G times the law's target force."""
+    return float((alpha / alpha_calibrated) ** 2)
 
 
 @dataclass(frozen=True)
@@ -106,14 +114,16 @@ class DriveBlock(NamedTuple):
 class LowBand:
     """The low-band part of a drive law's target force: ``mu_low(fn, v)`` (``law.coefficient``)
     times the load the law uses, the measured load or, for Zhao, ``constant_load`` while
-    touching. A :class:`DriveLaw` computes its target with it; the figure's law line, the
-    expected spectrum and the fidelity metrics take it from there (``RenderResult.low_band``).
-    The square baseline's low band is its own mean, ``constant_force`` N while touching (it
-    follows neither the load nor the speed)."""
+    touching, for a block's ``mu_low``: the figure's law line, the texture share and the
+    fidelity metrics take it from there (``RenderResult.low_band``); ``drive_law`` is the law
+    it belongs to (the expected spectrum asks it for its force per texture unit). The square
+    baseline's low band is its own mean, ``constant_force`` N while touching (it follows
+    neither the load nor the speed)."""
 
     law: object  # a friction law with coefficient(load, speed), or None (a material without one)
     constant_load: float | None = None
     constant_force: float | None = None
+    drive_law: "DriveLaw | None" = None  # the law whose low band this is (its texture_force_per_unit ...)
 
     def load(self, load: np.ndarray) -> np.ndarray:
         """(n,) N: the load the law multiplies the CoF with (0 where lifted)."""
@@ -129,158 +139,218 @@ class LowBand:
         return np.asarray(mu_low, dtype=float) * self.load(load)
 
 
-def friction_law_for(material: Material, method: str):
-    """The low-band friction law ``method`` uses: quasi-static for otake2022, Coulomb's mu0 for
-    otake2021 and zhao, the richest available for friction-only and square (None if missing)."""
-    if method == "otake2022":
-        return material.quasi_static
-    if method in ("otake2021", "zhao"):
-        return material.coulomb
-    return material.low_frequency_law
-
-
-def texture_force(quantity: str, relative_scale: float | None, method: str, x: float, fn: float, mu_low: float,
-                  beta: float, texture_gain: float, effective_mass: float, fn_c: float) -> float:
-    """Textural part of the target force (N) for a texture amount ``x`` (its unit; an sd, or 1
-    for the force per unit) at load ``fn`` N, low-band CoF ``mu_low`` and Zhao's load ``fn_c`` N:
-    zhao ``g m_eff x`` or ``g x fn_c``; the Otake laws ``beta g mu_t fn`` with mu_t as in the
-    module docstring (relative scale, CoF bank or acceleration bank)."""
-    if x == 0.0:
-        return 0.0
-    if method == "zhao":
-        return texture_gain * (effective_mass * x if quantity == "acceleration" else x * fn_c)
-    if relative_scale is not None:
-        mu_t = relative_scale * mu_low * x
-    elif quantity == "cof":
-        mu_t = x
-    else:
-        mu_t = effective_mass * x / fn
-    return beta * texture_gain * mu_t * fn
-
-
 def default_method(material: Material) -> str:
     """otake2022 when the material has the quasi-static law, else otake2021."""
     return "otake2022" if material.quasi_static is not None else "otake2021"
 
 
+def _vectors(speed, load) -> tuple[np.ndarray, np.ndarray]:
+    """Contiguous float64 (n,) speed and load from scalars or arrays (broadcast)."""
+    s, f = np.broadcast_arrays(np.atleast_1d(np.asarray(speed, dtype=np.float64)),
+                               np.atleast_1d(np.asarray(load, dtype=np.float64)))
+    return np.ascontiguousarray(s.ravel()), np.ascontiguousarray(f.ravel())
+
+
 class DriveLaw:
-    """Stateful drive-law processor: ``process(speed, load, texture) -> DriveBlock``.
+    """One drive method (a subclass per method, :data:`LAWS`): ``process(speed, load, texture)
+    -> DriveBlock`` renders it block by block; ``low_force`` and ``texture_force_per_unit``
+    evaluate the same law (one compiled kernel) for planning and expected spectra.
 
     speed (n,) m/s, load (n,) N, texture (n,) in the material's texture quantity (zeros for a
     friction-only material). ``clipped`` counts samples whose target was negative while the
-    finger touched.
+    finger touched. ``sample_rate`` (Hz) is needed to render the square baseline only.
     """
 
-    def __init__(self, method: str, material: Material, params: DriveParams, sample_rate: float):
-        # the compiled tail, imported here (numba) rather than at module import or per block
+    method: ClassVar[str]
+    textured: ClassVar[bool] = True  # whether the method renders the material's texture
+
+    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None):
+        # the compiled kernels, imported here (numba) rather than at module import or per block
         from surfhap.render import drive_kernel
 
-        self._to_voltage = drive_kernel.target_to_voltage
-        self._friction_texture = drive_kernel.friction_texture_law
-        if method not in METHODS:
-            raise ConfigError(f"unknown method {method!r} (choose from {', '.join(METHODS)})", field="method")
-        if method == "otake2022" and material.quasi_static is None:
-            raise ConfigError(f"material {material.name!r} has no quasi-static friction law, which otake2022 needs; try otake2021", field="method")
-        if method in ("otake2021", "zhao") and material.coulomb is None:
-            raise ConfigError(f"material {material.name!r} has no Coulomb mu0, which {method} needs; try otake2022", field="method")
-        self.method = method
+        self._kernels = drive_kernel
+        self.friction_law = self.friction_law_of(material)  # the low-band law of the method
         self.material = material
         self.params = params
-        self.sample_rate = float(sample_rate)
-        if method == "square" and params.square_frequency >= self.sample_rate / 2:
-            raise ConfigError(f"square frequency must be below half the model rate ({self.sample_rate / 2:g} Hz)", field="square_frequency")
+        self.sample_rate = None if sample_rate is None else float(sample_rate)
         self._quantity = None if material.texture is None else material.texture.quantity
         self._relative = material.texture_relative_scale
-        self.friction_law = friction_law_for(material, method)  # the low-band law of the method
         self.square_amplitude = None
-        if method == "square":
-            self.square_amplitude = self._square_amplitude()
-        self.low_band = LowBand(self.friction_law, params.constant_load if method == "zhao" else None,
-                                0.5 * (self.square_amplitude / params.alpha) ** 2 if method == "square" else None)
-        self._kernel_args = self._friction_texture_args(drive_kernel)
+        self.low_band = LowBand(self.friction_law, drive_law=self)
         self.reset()
 
-    def _friction_texture_args(self, kernel) -> tuple:
-        """The law and texture parameters of ``friction_texture_law`` (Otake laws, friction-only)."""
-        law, p = self.friction_law, self.params
-        if isinstance(law, QuasiStaticLaw):
-            friction = (True, law.a, law.b, law.c, law.d, law.q, 0.0)
-        else:
-            friction = (False, 0.0, 0.0, 0.0, 0.0, 0.0, float(law.mu0))
-        g = p.texture_gain
-        if not self.uses_texture or self.method == "friction-only":
-            texture = (kernel.TEXTURE_NONE, 0.0)
-        elif self._relative is not None:
-            texture = (kernel.TEXTURE_RELATIVE, g * self._relative)
-        elif self._quantity == "cof":
-            texture = (kernel.TEXTURE_COF, g)
-        else:
-            texture = (kernel.TEXTURE_ACCELERATION, g * p.effective_mass)
-        beta = p.beta if self.method != "friction-only" else 0.0
-        return (*friction, *texture, float(beta), float(p.alpha))
-
-    def _square_amplitude(self) -> float:
-        """V: the fixed square amplitude (000 Sec. 3), matched to the friction-only mean at the
-        reference load and speed unless given."""
-        p = self.params
-        if p.square_amplitude is not None:
-            return float(p.square_amplitude)
-        fr, vr = p.square_reference_load, p.square_reference_speed
-        f_ref = float(self.friction_law.coefficient(np.array([fr]), np.array([vr]))[0]) * fr
-        return float(p.alpha * np.sqrt(2.0 * f_ref))
+    @classmethod
+    def friction_law_of(cls, material: Material):
+        """The method's low-band law; here the richest available (quasi-static before Coulomb)."""
+        return material.low_frequency_law
 
     @property
     def uses_texture(self) -> bool:
-        return self.method in ("otake2022", "otake2021", "zhao") and self._quantity is not None
+        return self.textured and self._quantity is not None
 
     def reset(self) -> None:
         self._n = 0
         self.clipped = 0
         self.touching = 0
 
+    def _evaluate(self, speed: np.ndarray, load: np.ndarray, texture: np.ndarray, start: int):
+        """The law over contiguous float64 (n,) arrays from sample ``start``: (DriveBlock, clipped,
+        touching), by the subclass's ``_kernel(load, speed, texture, *_args, outputs...)``."""
+        n = load.shape[0]
+        mu_low, mu_tex, target, voltage = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+        clipped, touching = self._kernel(load, speed, texture, *self._args, mu_low, mu_tex, target, voltage)
+        return DriveBlock(voltage, target, mu_low, mu_tex), clipped, touching
+
     def process(self, speed: np.ndarray, load: np.ndarray, texture: np.ndarray) -> DriveBlock:
         """speed, load, texture: (n,) float (m/s, N, texture quantity) -> a DriveBlock of (n,)."""
-        p = self.params
         speed = np.ascontiguousarray(speed, dtype=np.float64)
         load = np.ascontiguousarray(load, dtype=np.float64)
         texture = np.ascontiguousarray(texture, dtype=np.float64)
         n = load.shape[0]
         if not (load.ndim == 1 and speed.shape == texture.shape == (n,)):
             raise ValueError("speed, load and texture must be (n,) arrays of one length")
-        m = self.method
-        if m not in ("zhao", "square"):  # the Otake laws and friction-only: one compiled pass
-            mu_low, mu_tex, target, voltage = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-            clipped, touching = self._friction_texture(load, speed, texture, *self._kernel_args,
-                                                       mu_low, mu_tex, target, voltage)
-        else:
-            mu_low = self.friction_law.coefficient(load, speed)
-            if m == "zhao":
-                fn = self.low_band.load(load)
-                if not self.uses_texture:
-                    f_tex = np.zeros_like(load)
-                elif self._quantity == "acceleration":
-                    f_tex = (p.texture_gain * p.effective_mass) * texture
-                else:
-                    f_tex = p.texture_gain * texture * fn
-                f_tex = np.where(load > 0, f_tex, 0.0)
-                target = self.low_band.force(load, mu_low) + f_tex
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    mu_tex = np.where(fn > 0, f_tex / fn, 0.0)
-            else:  # square
-                mu_tex = np.zeros_like(load)
-                phase = ((self._n + np.arange(n)) * (p.square_frequency / self.sample_rate)) % 1.0
-                target = ((self.square_amplitude / p.alpha) ** 2) * (phase < 0.5).astype(float)
-            target = np.ascontiguousarray(target, dtype=np.float64)
-            voltage = np.empty(n)
-            clipped, touching = self._to_voltage(target, load, float(p.alpha), voltage)
+        block, clipped, touching = self._evaluate(speed, load, texture, self._n)
         self.clipped += clipped
         self.touching += touching
         self._n += n
-        return DriveBlock(voltage, target, mu_low, mu_tex)
+        return block
+
+    def low_force(self, speed, load) -> np.ndarray:
+        """(n,) N: the law's target without texture at speed (m/s) and load (N), arrays or
+        scalars broadcast to (n,) (the square baseline: its mean while touching)."""
+        speed, load = _vectors(speed, load)
+        return self._evaluate(speed, load, np.zeros(load.shape[0]), 0)[0].target
+
+    def texture_force_per_unit(self, speed, load) -> np.ndarray:
+        """(n,) N of target force per unit of texture at speed (m/s) and load (N): the law is
+        linear in the texture, so this is its target at texture 1 minus its target at 0."""
+        speed, load = _vectors(speed, load)
+        n = load.shape[0]
+        return self._evaluate(speed, load, np.ones(n), 0)[0].target - self._evaluate(speed, load, np.zeros(n), 0)[0].target
 
 
-def make_drive_law(method: str, material: Material, params: DriveParams, sample_rate: float) -> DriveLaw:
-    """Build the processor for ``method`` ("auto" picks :func:`default_method`)."""
+class _FrictionTexture(DriveLaw):
+    """``F = (mu_low(fn, v) + beta mu_t) fn`` (``friction_texture_law``)."""
+
+    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None):
+        super().__init__(material, params, sample_rate)
+        law, p, k = self.friction_law, params, self._kernels
+        if isinstance(law, QuasiStaticLaw):
+            friction = (True, law.a, law.b, law.c, law.d, law.q, 0.0)
+        else:
+            friction = (False, 0.0, 0.0, 0.0, 0.0, 0.0, float(law.mu0))
+        g = p.texture_gain
+        if not self.uses_texture:
+            texture = (k.TEXTURE_NONE, 0.0)
+        elif self._relative is not None:
+            texture = (k.TEXTURE_RELATIVE, g * self._relative)
+        elif self._quantity == "cof":
+            texture = (k.TEXTURE_COF, g)
+        else:
+            texture = (k.TEXTURE_ACCELERATION, g * p.effective_mass)
+        self._args = (*friction, *texture, float(p.beta if self.textured else 0.0), float(p.alpha))
+        self._kernel = k.friction_texture_law
+
+
+class Otake2022(_FrictionTexture):
+    """003 eq. 6: ``F = (mu_p(fn, v) + beta mu_t) fn`` with the quasi-static law mu_p (eq. 3)."""
+
+    method = "otake2022"
+
+    @classmethod
+    def friction_law_of(cls, material: Material):
+        if material.quasi_static is None:
+            raise ConfigError(f"material {material.name!r} has no quasi-static friction law, which otake2022 needs; try otake2021", field="method")
+        return material.quasi_static
+
+
+class _Coulomb:
+    """A method on Coulomb's mu0 (otake2021, zhao)."""
+
+    @classmethod
+    def friction_law_of(cls, material: Material):
+        if material.coulomb is None:
+            raise ConfigError(f"material {material.name!r} has no Coulomb mu0, which {cls.method} needs; try otake2022", field="method")
+        return material.coulomb
+
+
+class Otake2021(_Coulomb, _FrictionTexture):
+    """001 eq. 5: ``F = (mu0 + beta mu_t) fn``."""
+
+    method = "otake2021"
+
+
+class FrictionOnly(_FrictionTexture):
+    """003 Sec. IV-B: ``F = mu_low(fn, v) fn``, no texture."""
+
+    method = "friction-only"
+    textured = False
+
+
+class Zhao(_Coulomb, DriveLaw):
+    """000 eq. 3-4: ``F = mu0 fn_c + m_eff acc`` (``mu_t fn_c`` for a CoF bank), ``fn_c`` =
+    ``constant_load`` (1.6 N) while touching, or the measured load when it is None."""
+
+    method = "zhao"
+
+    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None):
+        super().__init__(material, params, sample_rate)
+        p, k = params, self._kernels
+        self.low_band = LowBand(self.friction_law, p.constant_load, drive_law=self)
+        if not self.uses_texture:
+            texture = (k.TEXTURE_NONE, 0.0)
+        elif self._quantity == "acceleration":
+            texture = (k.TEXTURE_ACCELERATION, p.texture_gain * p.effective_mass)
+        else:
+            texture = (k.TEXTURE_COF, p.texture_gain)
+        fn_c = -1.0 if p.constant_load is None else float(p.constant_load)
+        self._args = (float(self.friction_law.mu0), fn_c, *texture, float(p.alpha))
+        self._kernel = k.zhao_law
+
+
+class Square(DriveLaw):
+    """000 Sec. 3: a 50 % square wave of constant ``V_sq``, ``V_sq^2 = alpha^2 2 F_ref`` with
+    ``F_ref`` the friction-only target at the reference load and speed (unless
+    ``square_amplitude`` is given). ``on_force`` = (V_sq / alpha)^2 N; its mean is half that."""
+
+    method = "square"
+    textured = False
+
+    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None):
+        super().__init__(material, params, sample_rate)
+        if self.sample_rate is not None and params.square_frequency >= self.sample_rate / 2:
+            raise ConfigError(f"square frequency must be below half the model rate ({self.sample_rate / 2:g} Hz)", field="square_frequency")
+        p = params
+        if p.square_amplitude is not None:
+            self.square_amplitude = float(p.square_amplitude)
+        else:  # matched to the friction-only mean at the reference load and speed
+            f_ref = float(FrictionOnly(material, p).low_force(p.square_reference_speed, p.square_reference_load)[0])
+            self.square_amplitude = float(p.alpha * np.sqrt(2.0 * f_ref))
+        self.on_force = float((self.square_amplitude / p.alpha) ** 2)
+        self.low_band = LowBand(self.friction_law, None, 0.5 * self.on_force, drive_law=self)
+        self._step = np.nan if self.sample_rate is None else p.square_frequency / self.sample_rate
+
+    def low_force(self, speed, load) -> np.ndarray:
+        speed, load = _vectors(speed, load)
+        return self.low_band.force(load, np.zeros(load.shape[0]))
+
+    def _evaluate(self, speed, load, texture, start):
+        if self.sample_rate is None:
+            raise ConfigError("the square baseline needs the model rate to render", field="sample_rate")
+        n = load.shape[0]
+        target, voltage = np.empty(n), np.empty(n)
+        clipped, touching = self._kernels.square_law(start, self._step, self.on_force, load, float(self.params.alpha), target, voltage)
+        return DriveBlock(voltage, target, self.friction_law.coefficient(load, speed), np.zeros(n)), clipped, touching
+
+
+LAWS: dict[str, type[DriveLaw]] = {cls.method: cls for cls in (Otake2022, Otake2021, Zhao, FrictionOnly, Square)}
+METHODS = tuple(LAWS)
+
+
+def make_drive_law(method: str, material: Material, params: DriveParams, sample_rate: float | None = None) -> DriveLaw:
+    """The law object of ``method`` ("auto" picks :func:`default_method`)."""
     if method == "auto":
         method = default_method(material)
-    return DriveLaw(method, material, params, sample_rate)
+    if method not in LAWS:
+        raise ConfigError(f"unknown method {method!r} (choose from {', '.join(METHODS)})", field="method")
+    return LAWS[method](material, params, sample_rate)

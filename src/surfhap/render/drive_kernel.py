@@ -1,9 +1,13 @@
 """The compiled parts of the drive laws (:class:`surfhap.render.drive.DriveLaw`), kept apart so
 that listing materials and methods does not import numba.
 
-``target_to_voltage`` is the tail every law shares; ``friction_texture_law`` is the whole of
-the Otake laws and friction-only (003 eq. 6, 001 eq. 5) in one pass, for the live engine's
-few samples per block, where numpy's per-operation overhead costs more than the arithmetic.
+Each drive law's equation is written here once, as the one vectorised evaluation its law object
+(:mod:`surfhap.render.drive`) runs for rendering, gain planning, the expected spectrum and
+``compare``: ``friction_texture_law`` is the whole of the Otake laws and friction-only (003 eq. 6,
+001 eq. 5), ``zhao_law`` Zhao's (000 eq. 3-4), ``square_law`` the square baseline (000 Sec. 3);
+``target_to_voltage`` is the tail they share (``_to_voltage``: ``V = alpha sqrt(max(F, 0))``).
+Compiled, one pass each: the live engine runs a few samples per block, where numpy's
+per-operation overhead costs more than the arithmetic; njit functions take arrays of any length.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ import numba
 
 from surfhap.models.friction_kernel import quasi_static_cof
 
-__all__ = ["target_to_voltage", "friction_texture_law", "TEXTURE_NONE", "TEXTURE_RELATIVE", "TEXTURE_COF", "TEXTURE_ACCELERATION"]
+__all__ = ["target_to_voltage", "friction_texture_law", "zhao_law", "square_law", "TEXTURE_NONE", "TEXTURE_RELATIVE", "TEXTURE_COF", "TEXTURE_ACCELERATION"]
 
 # how a texture sample x becomes the textural CoF mu_t (``scale`` = texture_gain times ...)
 TEXTURE_NONE = 0  # mu_t = 0
@@ -80,3 +84,47 @@ def friction_texture_law(load, speed, texture, quasi, a, b, c, d, q, mu0, textur
                 clipped += 1
         voltage[i] = _to_voltage(f, alpha)
     return clipped, touching
+
+
+@numba.njit(cache=True, nogil=True)
+def zhao_law(load, speed, texture, mu0, constant_load, texture_mode, scale, alpha, mu_low, mu_tex, target, voltage):
+    """Zhao et al. (000 eq. 3-4): ``F = mu0 fn_c + f_t`` with ``fn_c`` = ``constant_load`` N while
+    touching (the measured load when ``constant_load`` <= 0) and ``f_t = scale x`` for an
+    acceleration bank (``scale`` = gain m_eff), ``scale x fn_c`` for a CoF bank (``scale`` =
+    gain), 0 for TEXTURE_NONE or without contact; ``V = alpha sqrt(max(F, 0))``.
+
+    load, speed (unused: Zhao's law does not follow the speed), texture: (n,) float. Writes the (n,) outputs mu_low (= mu0), mu_tex (f_t / fn_c),
+    target (N) and voltage (V); returns (clipped, touching) as :func:`target_to_voltage`.
+    """
+    clipped = 0
+    touching = 0
+    for i in range(load.shape[0]):
+        ld = load[i]
+        fn = 0.0
+        ft = 0.0
+        if ld > 0.0:
+            touching += 1
+            fn = constant_load if constant_load > 0.0 else ld
+            if texture_mode == TEXTURE_ACCELERATION:
+                ft = scale * texture[i]
+            elif texture_mode == TEXTURE_COF:
+                ft = scale * texture[i] * fn
+        f = mu0 * fn + ft
+        mu_low[i] = mu0
+        mu_tex[i] = ft / fn if fn > 0.0 else 0.0
+        target[i] = f
+        if ld > 0.0 and f < 0.0:
+            clipped += 1
+        voltage[i] = _to_voltage(f, alpha)
+    return clipped, touching
+
+
+@numba.njit(cache=True, nogil=True)
+def square_law(start, cycles_per_sample, on_force, load, alpha, target, voltage):
+    """The square baseline (000 Sec. 3): ``F = on_force`` N in the first half of each period and
+    0 in the second, sample ``start + i`` at ``cycles_per_sample`` (= f_sq / rate) periods per
+    sample, whatever the load and speed; ``V = alpha sqrt(F)`` (the constant V_sq). Writes
+    target (n,) N and voltage (n,) V; returns (clipped, touching) as :func:`target_to_voltage`."""
+    for i in range(target.shape[0]):
+        target[i] = on_force if ((start + i) * cycles_per_sample) % 1.0 < 0.5 else 0.0
+    return target_to_voltage(target, load, alpha, voltage)

@@ -32,13 +32,14 @@ from scipy.stats import norm
 from surfhap.errors import ConfigError
 from surfhap.models.material import Material
 from surfhap.models.panel import DisplayModel
-from surfhap.render.drive import friction_law_for, texture_force
+from surfhap.render.drive import DriveParams, Square, make_drive_law, rendering_gain
 from surfhap.render.safety import SafetyLimits
 
 __all__ = ["OperatingRange", "GainPlan", "plan_gains", "texture_moments", "PLAN_PERCENTILE", "PLAN_FILL"]
 
 PLAN_PERCENTILE = 99.9
 PLAN_FILL = 0.95
+_DEFAULTS = DriveParams(alpha=1.0)  # the drive laws' defaults (beta, m_eff, Zhao's constant load ...)
 
 
 @dataclass(frozen=True)
@@ -151,33 +152,32 @@ def texture_moments(material: Material, speed: float, load: float) -> tuple[floa
 
 def plan_gains(material: Material, method: str, display: DisplayModel | None = None,
                operating_range: OperatingRange | None = None, limits: SafetyLimits | None = None, *,
-               beta: float = 1.8, texture_gain: float = 1.0, effective_mass: float = 0.05,
-               constant_load: float | None = 1.6,
-               square_reference: tuple[float, float] = (0.5, 0.1), fill: float = PLAN_FILL,
-               percentile: float = PLAN_PERCENTILE) -> GainPlan:
+               beta: float = _DEFAULTS.beta, texture_gain: float = _DEFAULTS.texture_gain,
+               effective_mass: float = _DEFAULTS.effective_mass, constant_load: float | None = _DEFAULTS.constant_load,
+               square_reference: tuple[float, float] = (_DEFAULTS.square_reference_load, _DEFAULTS.square_reference_speed),
+               fill: float = PLAN_FILL, percentile: float = PLAN_PERCENTILE) -> GainPlan:
     """Plan alpha for ``material`` rendered by ``method`` (a resolved method name, not "auto").
 
-    Pure function of its arguments; see the module docstring for the rule. The square baseline's
-    on-level is ``2 mu_low(fn_ref, v_ref) fn_ref`` at ``square_reference`` = (fn_ref N, v_ref m/s).
+    Pure function of its arguments; see the module docstring for the rule. The forces are the
+    drive law's own (:meth:`~surfhap.render.drive.DriveLaw.low_force` and
+    ``texture_force_per_unit``, which do not depend on alpha); the square baseline's on-level is
+    ``2 mu_low(fn_ref, v_ref) fn_ref`` at ``square_reference`` = (fn_ref N, v_ref m/s).
     """
     display = display or DisplayModel()
     rng = operating_range or OperatingRange()
     limits = limits or SafetyLimits()
     if not 0 < fill <= 1:
         raise ConfigError("must be in (0, 1]", field="fill")
-    law = friction_law_for(material, method)
-    uses_texture = method in ("otake2022", "otake2021", "zhao") and material.texture is not None
+    law = make_drive_law(method, material, DriveParams(
+        alpha=1.0, beta=beta, effective_mass=effective_mass, constant_load=constant_load, texture_gain=texture_gain,
+        square_reference_load=square_reference[0], square_reference_speed=square_reference[1]))
     z = float(norm.ppf(percentile / 100.0))
     loads, speeds = rng.grid()
+    fn, v = (a.ravel() for a in np.meshgrid(loads, speeds, indexing="ij"))  # (L*S,) grid points
     alpha_cal = float(display.calibrated_alpha)
-    f_low = np.zeros((loads.size, speeds.size))
-    f_999 = np.zeros_like(f_low)
-    slope_999 = np.zeros_like(f_low)  # 99.9th percentile |dF/dt|, N/s
-    f_trough = np.zeros_like(f_low)  # N, a low force (2 sd below the law) where dV/dF is steep
+    shape = (loads.size, speeds.size)
+    f_low = law.low_force(v, fn).reshape(shape)
     sq_amp_force = None
-    if method == "square":
-        fr, vr = square_reference
-        sq_amp_force = 2.0 * float(law.coefficient(np.array([fr]), np.array([vr]))[0]) * fr
     memo: dict = {}
 
     def moments(v, fn):
@@ -187,29 +187,19 @@ def plan_gains(material: Material, method: str, display: DisplayModel | None = N
             memo[key] = texture_moments(material, v, fn)
         return memo[key]
 
-    for i, fn in enumerate(loads):
-        for j, v in enumerate(speeds):
-            mu = float(law.coefficient(np.array([fn]), np.array([v]))[0])
-            if method == "zhao":
-                fn_c = fn if constant_load is None else constant_load
-                f = mu * fn_c
-            else:
-                fn_c = fn
-                f = mu * fn
-            if method == "square":
-                f_low[i, j] = 0.5 * sq_amp_force
-                f_999[i, j] = sq_amp_force
-                continue
-            f_low[i, j] = f
-            sd_tex = slope = 0.0
-            if uses_texture:
-                sd_x, sd_dx = moments(v, fn)
-                tex = (material.texture.quantity, material.texture_relative_scale, method)
-                sd_tex = texture_force(*tex, sd_x, fn, mu, beta, texture_gain, effective_mass, fn_c)
-                slope = texture_force(*tex, sd_dx, fn, mu, beta, texture_gain, effective_mass, fn_c)
-            f_999[i, j] = f + z * sd_tex
-            slope_999[i, j] = z * slope
-            f_trough[i, j] = max(f - 2.0 * sd_tex, 0.25 * f)
+    if isinstance(law, Square):
+        sq_amp_force = law.on_force
+        f_999 = np.full(shape, sq_amp_force)
+        slope_999 = f_trough = np.zeros(shape)
+    else:
+        sd_x = sd_dx = np.zeros(fn.size)
+        if law.uses_texture:
+            sd_x, sd_dx = np.array([moments(a, b) for a, b in zip(v, fn)]).T
+        per_unit = law.texture_force_per_unit(v, fn)  # N per texture unit
+        sd_tex = (per_unit * sd_x).reshape(shape)
+        f_999 = f_low + z * sd_tex
+        slope_999 = (z * per_unit * sd_dx).reshape(shape)  # 99.9th percentile |dF/dt|, N/s
+        f_trough = np.maximum(f_low - 2.0 * sd_tex, 0.25 * f_low)  # N, a low force (2 sd below the law) where dV/dF is steep
     peak_f = float(np.max(f_999))
     candidates = {"calibration": alpha_cal}
     if peak_f > 0:
@@ -222,7 +212,7 @@ def plan_gains(material: Material, method: str, display: DisplayModel | None = N
         candidates["rise"] = fill * limits.rise_rate / float(np.max(k_slope))
     binding = min(candidates, key=candidates.get)
     alpha = float(candidates[binding])
-    gain = (alpha / alpha_cal) ** 2
+    gain = rendering_gain(alpha, alpha_cal)
     peak_v = alpha * np.sqrt(np.max(f_999, axis=1))
     return GainPlan(
         method=method, alpha=alpha, alpha_calibrated=alpha_cal, rendering_gain=float(gain), texture_gain=float(texture_gain),

@@ -19,7 +19,7 @@ from surfhap.models.material import Material
 from surfhap.models.panel import SimulatedDisplay
 from surfhap.models.trajectory import Trajectory
 from surfhap.render.chain import ChainConfig, TextureChain
-from surfhap.render.drive import LowBand
+from surfhap.render.drive import LowBand, rendering_gain
 from surfhap.render.expected import expected_texture_psd
 from surfhap.render.kinematics import Kinematics
 from surfhap.render.safety import SafetyCounters
@@ -139,7 +139,7 @@ class RenderResult:
     @property
     def rendering_gain(self) -> float:
         """(alpha / alpha_calibrated)^2: the added friction is this times the target force."""
-        return float((self.alpha / self.alpha_calibrated) ** 2)
+        return rendering_gain(self.alpha, self.alpha_calibrated)
 
     @property
     def added_friction(self) -> np.ndarray:
@@ -233,7 +233,7 @@ def summary_dict(r, stats: RenderStats) -> dict:
     s = r.safety
     clipped = r.clipped / r.touching if r.touching else 0.0
     saturated = s.clamped / s.samples if s.samples else 0.0
-    gain = float((r.alpha / r.alpha_calibrated) ** 2)
+    gain = rendering_gain(r.alpha, r.alpha_calibrated)
     return {
         "material": r.material,
         "method": r.method,

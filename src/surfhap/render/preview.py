@@ -17,6 +17,8 @@ from typing import Callable
 
 import numpy as np
 
+from surfhap.render.drive import rendering_gain
+
 __all__ = ["PreviewRecorder", "RenderPreview", "preview_of"]
 
 SETTLE_S = 0.5  # s skipped before the spectrum (filter start-up)
@@ -171,7 +173,7 @@ class PreviewRecorder:
 
         k = len(wt)
         return RenderPreview(
-            material=m.material, method=m.method, carrier=m.carrier, rendering_gain=float((m.alpha / m.alpha_calibrated) ** 2),
+            material=m.material, method=m.method, carrier=m.carrier, rendering_gain=rendering_gain(m.alpha, m.alpha_calibrated),
             mu_panel=m.mu_panel, model_rate=self.fm, texture_rate=m.texture_rate, span=self.span, window=self.window,
             win_t=wt, win_friction=fr, win_target=self._win["target"].buf[:k], win_mu_low=self._win["mu_low"].buf[:k],
             win_load=self._win["load"].buf[:k], win_low=self._win["low"].buf[:k], drv_t=di / self.fd, drv=dv, env_t=ei / self.fm, env=ev,
