@@ -262,12 +262,6 @@ class InterpolatedARMABank:
 
     # ---- TextureModel (shared with TextureBank) -------------------------------------------
     @property
-    def models(self) -> tuple:
-        """Empty: interpolated models have no reference-speed list (renderers that look for
-        ``models`` treat the bank as having no fixed-speed model)."""
-        return ()
-
-    @property
     def ar_order(self) -> int:
         return int(self.ar_lsf.shape[1])
 
