@@ -87,8 +87,8 @@ def test_no_false_low_frequency_rise_at_the_ends_of_a_noisy_offset():
 def test_band_split_rejects_a_cutoff_above_nyquist():
     with pytest.raises(ValueError, match="cutoff"):
         BandSplit(cutoff=60.0).low(np.zeros(100), 100.0)
-    with pytest.raises(ValueError):
-        BandSplit(cutoff=-1.0)
+    with pytest.raises(ValueError, match="cutoff"):
+        BandSplit(cutoff=-1.0).high(np.zeros(100), 100.0)
 
 
 # ---------------------------------------------------------------- the AR spectrum

@@ -52,7 +52,7 @@ class BandSplit:
     is mirrored, and there is no step. Signals shorter than the pad use their own length.
     """
 
-    cutoff: float = Field(3.5, gt=0, allow_inf_nan=False)
+    cutoff: float = 3.5  # Hz, within (0, fs / 2): checked against the sample rate of each call
     order: int = Field(4, ge=1, le=12)
     pad_periods: float = Field(2.0, gt=0, allow_inf_nan=False)
     pivot_periods: float = Field(0.5, gt=0, allow_inf_nan=False)
