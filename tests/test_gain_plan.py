@@ -14,7 +14,7 @@ from surfhap.errors import ConfigError
 from surfhap.exchange.display_file import load_display, read_display_json
 from surfhap.models.electrostatics import ElectrostaticStack
 from surfhap.models.panel import DisplayModel
-from surfhap.models.texture_calibration import ar_stationary_std, relative_scale, texture_band_std
+from surfhap.models.texture_calibration import relative_scale, texture_band_std
 from surfhap.render.chain import TextureChain
 from surfhap.render.gain_plan import OperatingRange, plan_gains
 from surfhap.render.safety import SafetyLimits
@@ -197,7 +197,6 @@ def test_toml_config_display_section(tmp_path, capsys):
 def test_stationary_std_matches_statsmodels():
     phi = load_material("leather").texture.models[0]
     ref = np.sqrt(arma_acovf(np.r_[1.0, -phi.coefficients], np.array([1.0]), nobs=1, sigma2=phi.variance)[0])
-    assert ar_stationary_std(phi.coefficients, phi.variance) == pytest.approx(ref, rel=1e-9)
     assert texture_band_std(phi.coefficients, phi.variance, 100.0, 0.0) == pytest.approx(ref, rel=1e-6)
     assert texture_band_std(phi.coefficients, phi.variance, 100.0, 3.5) < ref
 

@@ -28,8 +28,7 @@ from surfhap.fit.friction import CoulombFit, coulomb_from_sums
 from surfhap.fit.material_fit import _map
 from surfhap.models.interpolated import InterpolatedARMABank
 from surfhap.signal.ar import information_criteria, levinson_durbin
-from surfhap.signal.bands import highpass_gain
-from surfhap.signal.filters import zero_phase_lowpass
+from surfhap.signal.bands import BandSplit
 from surfhap.signal.lsf import ar_to_lsf
 from surfhap.signal.segmentation import Segmentation, segment_ar
 from surfhap.signal.spectra import average_spectra
@@ -153,7 +152,7 @@ def _resample_slow(x: np.ndarray, fs: float, target: float, n_out: int) -> np.nd
     slow, exact path is the right one."""
     if abs(fs - target) < 1e-9 * target:
         return x
-    y = zero_phase_lowpass(x, fs, 0.45 * min(fs, target)) if x.size > 2 else x
+    y = BandSplit(cutoff=0.45 * min(fs, target)).low(x, fs) if x.size > 2 else x
     return np.interp(np.arange(n_out) / target, np.arange(x.size) / fs, y)
 
 
@@ -165,14 +164,14 @@ def _segment_recording(rec: Recording, model_rate, highpass, max_order, min_segm
     acc = _resample(rec.get("acceleration"), fs, model_rate)
     speed = np.abs(_resample_slow(rec.get("speed"), fs, model_rate, acc.size))
     force = _resample_slow(rec.get("normal_force"), fs, model_rate, acc.size)
-    if highpass and highpass > 0:
+    comp = {}
+    if highpass and highpass > 0:  # HaTT's pre-filter against hand motion and gravity (not the band split)
         if not highpass < model_rate / 2:
             raise ConfigError(f"must be below {model_rate / 2:g} Hz", source="--highpass")
-        sos = butter(4, highpass, btype="high", fs=model_rate, output="sos")
-        acc = sosfiltfilt(sos, acc)
-    comp = {}
-    if highpass and highpass > 0:
-        comp = {"fill_below": HIGHPASS_FILL * highpass, "gain": lambda f: highpass_gain(f, model_rate, highpass)}
+        acc = sosfiltfilt(butter(4, highpass, btype="high", fs=model_rate, output="sos"), acc)
+        # a Butterworth high-pass and low-pass of one corner are power complementary: its gain
+        # |H_hp|^4 is the texture band's gain (1 - |H_lp|^2)^2 of the band split at that corner
+        comp = {"fill_below": HIGHPASS_FILL * highpass, "gain": lambda f: BandSplit(cutoff=highpass).high_gain(f, model_rate)}
     seg = segment_ar(acc, max_order=max_order, min_length=int(min_segment * model_rate), step=max(1, int(step * model_rate)),
                      max_length=None if not max_segment else int(max_segment * model_rate))
     pieces = []

@@ -2,7 +2,7 @@
 
 Steps (the acceleration route of Zhao et al. / HaTT, with the band split of Otake et al.
 2022): combine the three axes with DFT321, keep the part above the cut-off (3.5 Hz,
-zero-phase Butterworth), then fit an AR model by Yule–Walker with the order chosen by AIC
+zero-phase Butterworth, :class:`~surfhap.signal.bands.BandSplit`), then fit an AR model by Yule–Walker with the order chosen by AIC
 (or fixed, e.g. to the order Otake et al. 2021 report in Table II). The result is a
 single-model acceleration :class:`~surfhap.models.texture.TextureBank` at the recording rate.
 
@@ -23,7 +23,8 @@ import numpy as np
 
 from surfhap.models.texture import ARModel, TextureBank
 from surfhap.signal.ar import OrderSelection, autocovariance, information_criteria, levinson_durbin
-from surfhap.signal.filters import band_split, dft321
+from surfhap.signal.bands import BandSplit
+from surfhap.signal.filters import dft321
 from surfhap.signal.spectra import average_spectra
 
 __all__ = ["ImuTextureFit", "fit_imu_texture"]
@@ -63,7 +64,7 @@ def fit_imu_texture(accel: np.ndarray, sample_rate: float, *, cutoff: float = 3.
     """accel (n, 3) m/s^2 at ``sample_rate`` Hz -> :class:`ImuTextureFit`."""
     accel = np.asarray(accel, dtype=float)
     combined = dft321(accel)
-    _, high = band_split(combined, sample_rate, cutoff)
+    high = BandSplit(cutoff=cutoff).high(combined, sample_rate)
     top = max(max_order, order or 0)
     criterion = criterion.lower()
     if criterion not in ("aic", "bic"):

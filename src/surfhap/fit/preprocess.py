@@ -4,7 +4,7 @@ Only the instants where both the normal and the shear force exceed 0.05 N are ke
 finger is clearly sliding on the material); CoF = shear / normal. Each continuous contact
 run is split at the cut-off frequency by a zero-phase 4th-order Butterworth filter (2.5 Hz in
 the 2021 paper, 3.5 Hz in 2022; at the run edges an odd extension through a least-squares
-line over two cut-off periods, :func:`surfhap.signal.filters.zero_phase_lowpass`, so that
+line over two cut-off periods, :class:`surfhap.signal.bands.BandSplit`, so that
 no step enters the filter): the low band is the quasi-static friction, the high band the
 textural CoF mu_t. Filtering run by run keeps the non-contact gaps (where the CoF is
 undefined) out of the filter. Normal force and speed are low-passed the same way, as
@@ -19,7 +19,7 @@ import numpy as np
 
 from surfhap.errors import RecordingFormatError
 from surfhap.exchange.recordings import Recording
-from surfhap.signal.filters import zero_phase_lowpass
+from surfhap.signal.bands import BandSplit
 from surfhap.signal.splice import true_runs
 
 __all__ = ["PreparedRecording", "prepare_friction_recording", "CONTACT_THRESHOLD"]
@@ -88,15 +88,13 @@ def prepare_friction_recording(rec: Recording, cutoff: float = 3.5, min_run: flo
     if runs.shape[0] == 0:
         raise RecordingFormatError(f"no contact run of {min_run * 1000:.0f} ms or longer with normal and shear force above "
                                    f"{threshold} N", source=rec.source, field="normal_force")
+    split = BandSplit(cutoff=cutoff)
     parts = {k: [] for k in ("normal", "speed", "cof_low", "cof_high", "normal_low", "speed_low")}
     out_runs = np.empty_like(runs)
     pos = 0
     for r, (a, b) in enumerate(runs):
         cof = fsh[a:b] / fn[a:b]
-        # scipy's odd extension through the edge sample put a step of ~2 noise std into the
-        # filter and a transient lasting a cut-off period into the high band (a false rise
-        # below ~20 Hz); the line-through extension does not (docs/fitting.md)
-        low, nlow, vlow = zero_phase_lowpass(np.stack([cof, fn[a:b], v[a:b]]), fs, cutoff)
+        low, nlow, vlow = split.low(np.stack([cof, fn[a:b], v[a:b]]), fs)  # no edge step (BandSplit)
         high = cof - low
         for key, val in (("normal", fn[a:b]), ("speed", v[a:b]), ("cof_low", low), ("cof_high", high),
                          ("normal_low", nlow), ("speed_low", np.abs(vlow))):

@@ -17,9 +17,9 @@ per texture and only swaps the coefficients). A query outside every triangle (po
 the hull is not a rectangle) uses the nearest vertex's model; degenerate triangles (collinear
 vertices) are ignored.
 
-The bank provides the texture protocol of :class:`surfhap.models.material.Material`:
-``quantity``, ``sample_rate`` and ``synthesizer(seed)`` whose ``process(speed, load)``
-takes speed (m/s) and normal force (N) blocks.
+The bank is a :class:`surfhap.models.texture.TextureModel` (the texture interface of a
+Material): ``synthesizer(seed)`` whose ``process(speed, load)`` takes speed (m/s) and normal
+force (N) blocks, and ``psd_at`` / ``moments_at`` of the model at a (speed, force).
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from surfhap.signal.ar import ar_moments, ar_psd
 from surfhap.signal.lsf import _lsf_to_poly_into, lsf_is_valid, lsf_to_poly
 
 __all__ = ["InterpolatedARMABank", "InterpolatedModel", "InterpolatedSynthesizer", "MIN_SPEED", "MIN_FORCE"]
@@ -54,12 +55,15 @@ class InterpolatedModel:
     vertices: np.ndarray
     weights: np.ndarray
 
+    def _arma(self) -> tuple[np.ndarray, float, np.ndarray]:
+        """(phi, innovation variance, theta) of :func:`~surfhap.signal.ar.ar_psd`: the output
+        is gain (e + sum b_j e[n-j]), so the innovation is gain e."""
+        return -self.ar_poly[1:], self.variance * self.gain**2, self.ma_poly[1:]
+
     def psd(self, sample_rate: float, freqs: np.ndarray) -> np.ndarray:
         """One-sided PSD: 2 var gain^2 |B|^2 / |A|^2 / fs at freqs (m,) Hz."""
-        z = np.exp(-2j * np.pi * np.asarray(freqs, dtype=float) / sample_rate)
-        A = np.polyval(self.ar_poly[::-1], z)
-        B = np.polyval(self.ma_poly[::-1], z)
-        return 2.0 * self.variance * self.gain**2 * np.abs(B) ** 2 / np.abs(A) ** 2 / sample_rate
+        phi, var, theta = self._arma()
+        return ar_psd(phi, var, sample_rate, freqs, theta)
 
 
 def _triangle_transforms(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -256,13 +260,7 @@ class InterpolatedARMABank:
         object.__setattr__(self, "_pts", np.ascontiguousarray(pts))
         object.__setattr__(self, "_inv", np.ascontiguousarray(inv))
 
-    # ---- protocol shared with TextureBank -------------------------------------------------
-    @property
-    def models(self) -> tuple:
-        """Empty: interpolated models have no reference-speed list (renderers that look for
-        ``models`` treat the bank as having no fixed-speed model)."""
-        return ()
-
+    # ---- TextureModel (shared with TextureBank) -------------------------------------------
     @property
     def ar_order(self) -> int:
         return int(self.ar_lsf.shape[1])
@@ -309,9 +307,14 @@ class InterpolatedARMABank:
         return InterpolatedModel(lsf_to_poly(ar), lsf_to_poly(ma), float(w @ self.variances[idx]), float(w @ self.gains[idx]),
                                  int(k), idx, w)
 
-    def psd(self, speed: float, force: float, freqs: np.ndarray) -> np.ndarray:
-        """One-sided PSD (quantity^2/Hz) of the interpolated model at (speed, force)."""
-        return self.interpolate(speed, force).psd(self.sample_rate, freqs)
+    def psd_at(self, speed: float, load: float, freqs: np.ndarray) -> np.ndarray:
+        """One-sided PSD (quantity^2/Hz) of the interpolated model at (speed, force)
+        (:class:`~surfhap.models.texture.TextureModel`)."""
+        return self.interpolate(speed, load).psd(self.sample_rate, freqs)
+
+    def moments_at(self, speed: float, load: float) -> tuple[float, float]:
+        phi, var, theta = self.interpolate(speed, load)._arma()
+        return ar_moments(phi, var, self.sample_rate, theta)
 
     @classmethod
     def from_models(cls, quantity, sample_rate, speeds, forces, ar_lsf, variances, ma_lsf=None, gains=None,

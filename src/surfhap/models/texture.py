@@ -3,19 +3,55 @@
 A :class:`TextureBank` holds AR models of one quantity (``"cof"``, the textural coefficient
 of friction mu_t, or ``"acceleration"`` in m/s^2) at one model rate. Live rendering picks
 the model whose reference speed is nearest the finger speed (Otake et al. 2022, Sec. III-B).
+
+:class:`TextureModel` is the interface every texture a Material can hold provides (this
+speed-selected bank and :class:`surfhap.models.interpolated.InterpolatedARMABank`): renderers,
+the gain plan and the expected spectrum ask it for its model at a (speed, load), never which
+kind it is.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
-from surfhap.signal.ar import ar_is_stable, ar_psd
+from surfhap.signal.ar import ar_is_stable, ar_moments, ar_psd
 
-__all__ = ["ARModel", "TextureBank", "TEXTURE_QUANTITIES"]
+__all__ = ["ARModel", "TextureBank", "TextureModel", "TextureSynthesizer", "TEXTURE_QUANTITIES"]
 
 TEXTURE_QUANTITIES = ("cof", "acceleration")
+
+
+class TextureSynthesizer(Protocol):
+    """Streaming synthesis at the texture's model rate: speed (n,) m/s, load (n,) N -> (n,)."""
+
+    def process(self, speed: np.ndarray, load: np.ndarray | None = None) -> np.ndarray: ...
+
+    def reset(self) -> None: ...
+
+
+class TextureModel(Protocol):
+    """A texture of one quantity ("cof" or "acceleration") at ``sample_rate`` Hz whose model
+    depends on the scan speed (m/s) and load (N)."""
+
+    quantity: str
+    sample_rate: float
+
+    @property
+    def max_order(self) -> int: ...
+
+    def synthesizer(self, seed=0) -> TextureSynthesizer: ...
+
+    def psd_at(self, speed: float, load: float, freqs: np.ndarray) -> np.ndarray:
+        """One-sided PSD (quantity^2/Hz) at freqs (m,) Hz of the model used at (speed, load)."""
+        ...
+
+    def moments_at(self, speed: float, load: float) -> tuple[float, float]:
+        """Standard deviation (quantity) and that of the rate of change (quantity/s) of the
+        model used at (speed, load), as a band-limited signal at ``sample_rate``."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -48,20 +84,12 @@ class ARModel:
         return ar_psd(self.coefficients, self.variance, sample_rate, freqs)
 
     def moments(self, sample_rate: float) -> tuple[float, float]:
-        """Standard deviation of the process (units) and of its rate of change (units/s) at
-        ``sample_rate`` Hz, as a band-limited signal: sqrt of the integrals of the PSD and of
-        (2 pi f)^2 PSD over 0 to Nyquist (16385 points). Computed once per rate (the model is
-        frozen); the gain plan of every render asks for it."""
+        """:func:`~surfhap.signal.ar.ar_moments` at ``sample_rate`` Hz, computed once per rate
+        (the model is frozen; the gain plan of every render asks for it)."""
         cache = self.__dict__.setdefault("_moments", {})
         rate = float(sample_rate)
         if rate not in cache:
-            from scipy.signal import freqz
-
-            f, h = freqz([1.0], np.concatenate(([1.0], -self.coefficients)), worN=1 << 14, fs=rate, include_nyquist=True)
-            psd = 2.0 * self.variance * np.abs(h) ** 2 / rate
-            var = float(np.trapezoid(psd, f))
-            slope_var = float(np.trapezoid(psd * (2 * np.pi * f) ** 2, f))
-            cache[rate] = (float(np.sqrt(max(var, 0.0))), float(np.sqrt(max(slope_var, 0.0))))
+            cache[rate] = ar_moments(self.coefficients, self.variance, rate)
         return cache[rate]
 
 
@@ -110,12 +138,21 @@ class TextureBank:
     def synthesizer(self, seed=0):
         """A fresh streaming synthesiser for this bank (see :class:`surfhap.models.synth.ARSynthesizer`).
 
-        Every texture kind a Material can hold provides ``quantity``, ``sample_rate`` and
-        ``synthesizer(seed)``; the synthesiser's ``process(speed, load)`` returns (n,) samples.
+        (:class:`TextureModel`: the synthesiser's ``process(speed, load)`` returns (n,) samples.)
         """
         from surfhap.models.synth import ARSynthesizer
 
         return ARSynthesizer(self, seed=seed)
+
+    def psd_at(self, speed: float, load: float, freqs: np.ndarray) -> np.ndarray:
+        """PSD of the model nearest ``speed`` (the load does not select; :class:`TextureModel`)."""
+        return self._at(speed).psd(self.sample_rate, freqs)
+
+    def moments_at(self, speed: float, load: float) -> tuple[float, float]:
+        return self._at(speed).moments(self.sample_rate)
+
+    def _at(self, speed: float) -> ARModel:
+        return self.models[int(self.select(np.array([speed]))[0])]
 
     def select(self, speed: np.ndarray) -> np.ndarray:
         """Index of the nearest-reference-speed model for each speed (n,) m/s -> (n,) int."""

@@ -29,16 +29,18 @@ A calibrated texture enters the Otake laws as ``mu_t = s mu_low(fn, v) x`` with 
 texture in its own unit and ``s = r^2 / (beta sd(x))``, so ``beta sd(mu_t) / mu_low = r^2`` at
 every load and speed. ``sd(x)`` is the standard deviation of the model's output above the band
 split (3.5 Hz): the papers' mu_t is by definition the component above the split (003 Sec. II),
-and the measurement splits there too (:func:`texture_band_std`).
+and the measurement splits there too, with the same :class:`~surfhap.signal.bands.BandSplit`
+(:func:`texture_band_std` weights the model's PSD by the split's power gain).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import freqz, lfilter
 
-__all__ = ["PAPER_VOLTAGE_RATIOS", "RATIO_REFERENCE", "ar_stationary_std", "texture_band_std", "relative_scale",
-           "voltage_ratio"]
+from surfhap.signal.ar import ar_psd
+from surfhap.signal.bands import BandSplit
+
+__all__ = ["PAPER_VOLTAGE_RATIOS", "RATIO_REFERENCE", "texture_band_std", "relative_scale", "voltage_ratio"]
 
 RATIO_REFERENCE = ("Otake et al. 2022 (shared/papers/003_1a15d13042f9a763.txt), Sec. IV-D: approximate ratios "
                    "(friction component : textural component) of the applied voltages")
@@ -47,37 +49,17 @@ RATIO_REFERENCE = ("Otake et al. 2022 (shared/papers/003_1a15d13042f9a763.txt), 
 PAPER_VOLTAGE_RATIOS = {"leather": 0.3, "cork": 0.6, "denim": 0.6, "wood": 0.4}
 
 
-def ar_stationary_std(coefficients, variance: float, tol: float = 1e-12, max_len: int = 1_000_000) -> float:
-    """Stationary standard deviation of ``x[n] = sum phi_j x[n-j] + w[n]``, ``var(w) = variance``.
-
-    Computed as ``sqrt(variance * sum h_k^2)`` from the impulse response h of 1/A(z), extended
-    until its tail energy is below ``tol`` relative (stable models only).
-    """
-    phi = np.asarray(coefficients, dtype=float).reshape(-1)
-    a = np.concatenate(([1.0], -phi))
-    n = 4096
-    while True:
-        imp = np.zeros(n)
-        imp[0] = 1.0
-        h = lfilter([1.0], a, imp)
-        energy = float(np.sum(h * h))
-        tail = float(np.sum(h[n // 2:] ** 2))
-        if tail <= tol * energy or n >= max_len:
-            return float(np.sqrt(variance * energy))
-        n *= 4
-
-
 def texture_band_std(coefficients, variance: float, sample_rate: float, cutoff: float = 3.5, n: int = 1 << 18) -> float:
-    """Standard deviation of the AR model's output in the band ``[cutoff, sample_rate/2]`` Hz.
-
-    Integrates the one-sided PSD ``2 variance / (fs |A(e^{j 2 pi f/fs})|^2)`` over the band on a
-    grid of ``n`` points from 0 to fs/2 (trapezoid rule); with ``cutoff = 0`` it equals :func:`ar_stationary_std`.
-    """
-    phi = np.asarray(coefficients, dtype=float).reshape(-1)
-    f, h = freqz([1.0], np.concatenate(([1.0], -phi)), worN=n, fs=sample_rate, include_nyquist=True)
-    psd = 2.0 * variance * np.abs(h) ** 2 / sample_rate
-    band = f >= cutoff
-    return float(np.sqrt(np.trapezoid(psd[band], f[band])))
+    """Standard deviation of the AR model's output in the texture band of the band split at
+    ``cutoff`` Hz (:class:`~surfhap.signal.bands.BandSplit`, the split the fidelity metrics
+    measure with): the square root of the integral of the AR PSD times the split's power gain
+    over 0 to fs/2, on ``n`` + 1 points (trapezoid rule). ``cutoff = 0``: no split, the
+    stationary standard deviation."""
+    f = np.linspace(0.0, sample_rate / 2, n + 1)
+    psd = ar_psd(coefficients, variance, sample_rate, f)
+    if cutoff > 0:
+        psd = psd * BandSplit(cutoff=cutoff).high_gain(f, sample_rate)
+    return float(np.sqrt(np.trapezoid(psd, f)))
 
 
 def relative_scale(ratio: float, beta: float, reference_std: float) -> float:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 
 from surfhap.render.drive import rendering_gain
-from surfhap.signal.ar import ar_psd
 
 __all__ = ["expected_texture_psd"]
 
@@ -23,11 +22,6 @@ def expected_texture_psd(r, freqs: np.ndarray, v: float, fn: float) -> np.ndarra
         return None
     rate = r.texture_rate or r.model_rate
     f = np.asarray(freqs, dtype=float)
-    if hasattr(bank, "interpolate"):  # a bank interpolated over (speed, force), e.g. HaTT
-        psd = bank.interpolate(v, fn).psd(rate, f)
-    else:
-        model = bank.models[int(bank.select(np.array([v]))[0])]
-        psd = ar_psd(model.coefficients, model.variance, rate, f)
-    psd = np.where(f < rate / 2, psd, 0.0)
+    psd = np.where(f < rate / 2, bank.psd_at(v, fn, f), 0.0)  # the TextureModel at (v, fn)
     per_unit = float(r.low_band.drive_law.texture_force_per_unit(v, fn)[0])  # N of target force per unit of texture
     return psd * (per_unit * rendering_gain(r.alpha, r.alpha_calibrated)) ** 2

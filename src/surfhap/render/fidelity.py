@@ -2,7 +2,7 @@
 
 For a constant scan (one load fn, one speed v) rendered at rendering gain G
 (``RenderResult.rendering_gain``), with the added friction ``f_add = friction_sim - mu_panel fn``
-(N, model rate) and a 4th-order zero-phase Butterworth split at ``cutoff`` (3.5 Hz, 003 Sec. II):
+(N, model rate) and the band split at ``cutoff`` (3.5 Hz, 003 Sec. II; :class:`~surfhap.signal.bands.BandSplit`):
 
 saturated_fraction
     drive samples the safety stage clamped to v_max, over all drive samples.
@@ -26,7 +26,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy.signal import butter, sosfiltfilt
+
+from surfhap.signal.bands import BandSplit
 
 __all__ = ["FidelityMetrics", "fidelity_metrics"]
 
@@ -60,12 +61,6 @@ class FidelityMetrics:
         return d
 
 
-def _split(x: np.ndarray, rate: float, cutoff: float) -> tuple[np.ndarray, np.ndarray]:
-    sos_lo = butter(4, cutoff, btype="lowpass", fs=rate, output="sos")
-    sos_hi = butter(4, cutoff, btype="highpass", fs=rate, output="sos")
-    return sosfiltfilt(sos_lo, x), sosfiltfilt(sos_hi, x)
-
-
 def fidelity_metrics(result, cutoff: float = 3.5, warmup: float = 0.5, target_voltage_ratio: float | None = None) -> FidelityMetrics:
     """Metrics of a RenderResult of a constant scan; ``target_voltage_ratio`` defaults to the
     material file's calibration when the caller passes the material's value."""
@@ -76,7 +71,8 @@ def fidelity_metrics(result, cutoff: float = 3.5, warmup: float = 0.5, target_vo
     v = float(np.median(r.speed[touching])) if np.any(touching) else 0.0
     g = r.rendering_gain
     f_add = r.added_friction
-    lo, hi = _split(f_add, rate, cutoff)
+    split = BandSplit(cutoff=cutoff)
+    lo, hi = split.split(f_add, rate)
     steady = (r.t >= warmup) & touching
     law_force = r.low_band.force(r.load, r.mu_low)  # the drive law's low band (Zhao: its constant load)
     law = g * float(np.mean(law_force[steady]))
@@ -86,7 +82,7 @@ def fidelity_metrics(result, cutoff: float = 3.5, warmup: float = 0.5, target_vo
     corr = None
     tex_force = g * (r.target - law_force)
     if r.texture_model is not None and r.method not in ("friction-only", "square") and np.any(tex_force != 0):
-        _, tex_hi = _split(tex_force, rate, cutoff)
+        tex_hi = split.high(tex_force, rate)
         d = int(round((r.latency + r.display_latency) * rate))
         a = hi[d:]
         b = tex_hi[: tex_hi.size - d]

@@ -11,25 +11,24 @@ from matplotlib.figure import Figure
 from scipy.signal import welch
 
 from surfhap.report.axes import plain_log_ticks
-from surfhap.signal.bands import band_split_high_gain
-from surfhap.signal.filters import band_split
+from surfhap.signal.bands import BandSplit
 
 __all__ = ["plot_render", "plot_order_selection", "plot_imu_fit", "render_spectrum", "spectrum_of", "law_line"]
 
-_CUTOFF = 3.5  # Hz, band split of Otake et al. 2022
+_SPLIT = BandSplit()  # 3.5 Hz, the band split of Otake et al. 2022
 
 
 def spectrum_of(added: np.ndarray, fs: float, expected_psd) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Welch PSD of the high band of ``added`` (n,) N at ``fs`` Hz and the model's expectation
     ``expected_psd(freqs)`` (or None) through the same band split: freqs, measured, expected."""
-    if added.size < 64 or _CUTOFF >= fs / 2:
+    if added.size < 64 or _SPLIT.cutoff >= fs / 2:
         return np.zeros(0), np.zeros(0), None
-    _, high = band_split(added, fs, _CUTOFF)
+    high = _SPLIT.high(added, fs)
     nper = int(min(2048, 2 ** np.floor(np.log2(added.size // 4 or 1)) if added.size >= 256 else added.size))
     f, p = welch(high, fs=fs, nperseg=max(16, nper))
     expected = expected_psd(f)
     if expected is not None:
-        expected = expected * band_split_high_gain(f, fs, _CUTOFF)
+        expected = expected * _SPLIT.high_gain(f, fs)
     return f, p, expected
 
 
@@ -78,7 +77,7 @@ def plot_render(pv, fig: Figure | None = None) -> Figure:
     f, p, e = spectrum_of(pv.spec_added, pv.model_rate, pv.expected_psd)
     if f.size:
         top = 0.4 * (pv.texture_rate or pv.model_rate)  # the resamplers roll off above 0.45 fs
-        band = (f >= _CUTOFF) & (f <= top)
+        band = (f >= _SPLIT.cutoff) & (f <= top)
         ax.loglog(f[band], p[band], lw=0.8, label="simulated (high band, Welch)")
         if e is not None:
             ax.loglog(f[band], e[band], lw=1.5, color="k", ls="--", label="AR model")
@@ -114,7 +113,7 @@ def plot_imu_fit(fit, fig: Figure | None = None) -> Figure:
     fig = fig or Figure(figsize=(10, 4), layout="constrained")
     a, b = fig.subplots(1, 2)
     f, p = welch(fit.signal, fs=fit.sample_rate, nperseg=min(512, fit.signal.size))
-    model = fit.bank.models[0].psd(fit.sample_rate, f) * band_split_high_gain(f, fit.sample_rate, fit.cutoff)
+    model = fit.bank.models[0].psd(fit.sample_rate, f) * BandSplit(cutoff=fit.cutoff).high_gain(f, fit.sample_rate)
     sel = f > 0
     a.loglog(f[sel], p[sel], lw=0.8, label="recording (DFT321, high band)")
     a.loglog(f[sel], model[sel], "k--", lw=1.5, label=f"AR({fit.order})")

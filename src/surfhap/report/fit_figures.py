@@ -172,7 +172,7 @@ def plot_accel_models(fit, fig: Figure | None = None) -> Figure:
     a.set(xlabel="speed (mm/s)", ylabel="normal force (N)", title="models and Delaunay triangles (grey: zero-variance edge)")
     f = np.linspace(1, fit.sample_rate / 2 * 0.98, 300)
     for s in fit.segments:
-        b.semilogy(f, bank.psd(s.speed, s.force, f), lw=0.8, label=f"{s.speed * 1e3:.0f} mm/s, {s.force:.2f} N")
+        b.semilogy(f, bank.psd_at(s.speed, s.force, f), lw=0.8, label=f"{s.speed * 1e3:.0f} mm/s, {s.force:.2f} N")
     b.set(xlabel="frequency (Hz)", ylabel="PSD ((m/s²)²/Hz)", title=f"segment models, AR({fit.order})")
     if len(fit.segments) <= 10:
         b.legend(fontsize=7)

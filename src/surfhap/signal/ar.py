@@ -27,6 +27,7 @@ __all__ = [
     "information_criteria",
     "select_order",
     "OrderSelection",
+    "ar_moments",
     "ar_psd",
     "ar_is_stable",
 ]
@@ -193,18 +194,34 @@ def select_order(
     return OrderSelection(order, phi, var, np.arange(min_order, max_order + 1), aic[sl], bic[sl], criterion, x.size)
 
 
-def ar_psd(coefficients: np.ndarray, variance: float, sample_rate: float, freqs: np.ndarray) -> np.ndarray:
-    """One-sided power spectral density of an AR process, in units^2/Hz.
+def ar_psd(coefficients: np.ndarray, variance: float, sample_rate: float, freqs: np.ndarray,
+           ma: np.ndarray = ()) -> np.ndarray:
+    """One-sided power spectral density of an AR (ARMA) process, in units^2/Hz: the one AR
+    spectrum of surfhap (AR banks, interpolated ARMA banks, calibration, gain planning).
 
-    ``S(f) = 2 sigma2 / fs / |1 - sum_j phi_j exp(-i 2 pi f j / fs)|^2`` (the one-sided
-    convention of ``scipy.signal.welch``; the factor 2 is dropped at 0 and Nyquist by
-    Welch, so compare away from those edges). freqs : (m,) Hz. Returns (m,) float.
+    ``x[n] = sum_j phi_j x[n-j] + w[n] + sum_k theta_k w[n-k]``, ``var(w) = variance``;
+    ``S(f) = 2 sigma2 / fs |1 + sum_k theta_k z^k|^2 / |1 - sum_j phi_j z^j|^2`` with
+    ``z = exp(-i 2 pi f / fs)`` (the one-sided convention of ``scipy.signal.welch``; the factor
+    2 is dropped at 0 and Nyquist by Welch, so compare away from those edges).
+    coefficients phi (p,), ma theta (q,), freqs (m,) Hz. Returns (m,) float.
     """
-    phi = np.asarray(coefficients, dtype=float)
-    f = np.asarray(freqs, dtype=float)
-    j = np.arange(1, phi.size + 1)
-    denom = 1.0 - np.exp(-2j * np.pi * np.outer(f / sample_rate, j)) @ phi
-    return 2.0 * variance / sample_rate / np.abs(denom) ** 2
+    z = np.exp(-2j * np.pi * np.asarray(freqs, dtype=float) / sample_rate)
+    a = np.polyval(np.concatenate(([1.0], -np.asarray(coefficients, dtype=float).reshape(-1)))[::-1], z)
+    psd = 2.0 * variance / sample_rate / np.abs(a) ** 2
+    ma = np.asarray(ma, dtype=float).reshape(-1)
+    return psd * np.abs(np.polyval(np.concatenate(([1.0], ma))[::-1], z)) ** 2 if ma.size else psd
+
+
+def ar_moments(coefficients: np.ndarray, variance: float, sample_rate: float, ma: np.ndarray = (),
+               n: int = 1 << 14) -> tuple[float, float]:
+    """Standard deviation of the process (units) and of its rate of change (units/s) as a
+    band-limited signal at ``sample_rate`` Hz: square roots of the integrals of :func:`ar_psd`
+    and of ``(2 pi f)^2`` times it over 0 to Nyquist (``n`` points, trapezoid rule)."""
+    f = np.linspace(0.0, sample_rate / 2, n)
+    psd = ar_psd(coefficients, variance, sample_rate, f, ma)
+    var = float(np.trapezoid(psd, f))
+    slope_var = float(np.trapezoid(psd * (2 * np.pi * f) ** 2, f))
+    return float(np.sqrt(max(var, 0.0))), float(np.sqrt(max(slope_var, 0.0)))
 
 
 def ar_is_stable(coefficients: np.ndarray) -> bool:
