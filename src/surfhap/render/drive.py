@@ -36,13 +36,16 @@ still gets 0 V from the safety stage.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.models.friction import QuasiStaticLaw
 from surfhap.models.material import Material
+
+if TYPE_CHECKING:
+    from surfhap.models.panel import DisplayModel
 
 __all__ = ["DriveParams", "DriveBlock", "DriveLaw", "LowBand", "METHODS", "make_drive_law", "default_method",
            "friction_law_for", "texture_force"]
@@ -168,10 +171,13 @@ class DriveLaw:
 
     speed (n,) m/s, load (n,) N, texture (n,) in the material's texture quantity (zeros for a
     friction-only material). ``clipped`` counts samples whose target was negative while the
-    finger touched.
+    finger touched. ``display`` with a measured device curve: the voltage is the display's map
+    of the target (:meth:`~surfhap.models.panel.DisplayModel.voltage_for_force`, scaled by the
+    rendering gain (alpha / alpha_cal)^2, ``v_max`` V = intensity 1), else ``alpha sqrt(F)``.
     """
 
-    def __init__(self, method: str, material: Material, params: DriveParams, sample_rate: float):
+    def __init__(self, method: str, material: Material, params: DriveParams, sample_rate: float, *,
+                 display: DisplayModel | None = None, v_max: float = 250.0):
         # the compiled tail, imported here (numba) rather than at module import or per block
         from surfhap.render import drive_kernel
 
@@ -198,6 +204,9 @@ class DriveLaw:
         self.low_band = LowBand(self.friction_law, params.constant_load if method == "zhao" else None,
                                 0.5 * (self.square_amplitude / params.alpha) ** 2 if method == "square" else None)
         self._kernel_args = self._friction_texture_args(drive_kernel)
+        self._display = display if display is not None and display.device_curve is not None else None
+        self._v_max = float(v_max)
+        self._gain = 1.0 if display is None else float((params.alpha / display.calibrated_alpha) ** 2)
         self.reset()
 
     def _friction_texture_args(self, kernel) -> tuple:
@@ -273,14 +282,17 @@ class DriveLaw:
             target = np.ascontiguousarray(target, dtype=np.float64)
             voltage = np.empty(n)
             clipped, touching = self._to_voltage(target, load, float(p.alpha), voltage)
+        if self._display is not None:  # a measured device curve: the display's force -> voltage map
+            voltage = self._display.voltage_for_force(self._gain * target, self._v_max)
         self.clipped += clipped
         self.touching += touching
         self._n += n
         return DriveBlock(voltage, target, mu_low, mu_tex)
 
 
-def make_drive_law(method: str, material: Material, params: DriveParams, sample_rate: float) -> DriveLaw:
+def make_drive_law(method: str, material: Material, params: DriveParams, sample_rate: float, *,
+                   display: DisplayModel | None = None, v_max: float = 250.0) -> DriveLaw:
     """Build the processor for ``method`` ("auto" picks :func:`default_method`)."""
     if method == "auto":
         method = default_method(material)
-    return DriveLaw(method, material, params, sample_rate)
+    return DriveLaw(method, material, params, sample_rate, display=display, v_max=v_max)
