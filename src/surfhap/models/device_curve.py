@@ -136,10 +136,6 @@ class DeviceCurve(BaseModel):
         return cls(input=input, coefficients=(0.0, 0.0, float(max_force) / top ** 2), input_max=input_max,
                    source=f"square law, {max_force:.4g} N at {input} {top:g}")
 
-    def describe(self) -> dict:
-        """JSON-ready: input, coefficients (ascending), input_max, source."""
-        return self.model_dump()
-
     def plot(self, fig=None):
         from surfhap.report.shape_figures import plot_device_curve
 

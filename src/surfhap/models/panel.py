@@ -70,7 +70,7 @@ class DisplayModel(BaseModel):
         return {"k_n_per_v2": self.k, "mu_panel": self.mu_panel, "area_m2": self.area,
                 "leakage_time_constant_s": self.leakage_time_constant,
                 "k_from": "measured" if self.k_measured is not None else "eq. 1 of the stack",
-                "device_curve": None if self.device_curve is None else self.device_curve.describe(),
+                "device_curve": None if self.device_curve is None else self.device_curve.model_dump(),
                 "source": self.source}
 
     @property
