@@ -138,3 +138,17 @@ def test_study_stimuli_and_mesh_sessions_use_the_display(tmp_path, panels):
     trimesh.Trimesh(verts, np.array(faces), process=False).export(mesh)
     live = build_session(output="sim", mesh=mesh, display=disp)
     assert live.engine.renderer.config.display == disp
+
+
+def test_the_writer_refuses_a_display_file_the_reader_would_refuse(tmp_path):
+    from surfhap.errors import ConfigError
+    from surfhap.exchange.display_file import read_display_json, write_display_json
+
+    doc = {"format": "surfhap-display", "version": 1, "k": K, "mu_panel": MU, "provenance": {"source": "test"},
+           "device_curve": {"input": "voltage", "coefficients": [C0, C1, C2], "input_max": 300.0}}
+    back = read_display_json(write_display_json(doc, tmp_path / "ok.json"))
+    assert back.device_curve.coefficients == (C0, C1, C2) and back.device_curve.u_max == 300.0
+    doc["device_curve"]["coefficients"] = [0.1, 0.0, -1e-6]  # never rises: no inverse
+    with pytest.raises(ConfigError) as err:
+        write_display_json(doc, tmp_path / "bad.json")
+    assert err.value.field == "device_curve" and not (tmp_path / "bad.json").exists()

@@ -17,12 +17,12 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from surfhap.errors import ConfigError
-from surfhap.exchange.files import read_text
+from surfhap.exchange.files import read_text, write_text
 from surfhap.models.device_curve import DeviceCurve
 from surfhap.models.display import DisplayFile
 from surfhap.models.panel import DisplayModel
 
-__all__ = ["read_display_json", "parse_display_option", "load_display", "display_from_values"]
+__all__ = ["read_display_json", "write_display_json", "parse_display_option", "load_display", "display_from_values"]
 
 _KEYS = ("k", "mu_panel", "area", "leakage")
 
@@ -39,6 +39,23 @@ def display_from_values(k: float | None = None, mu_panel: float | None = None, a
                         device_curve=device_curve if device_curve is not None else base.device_curve, source=source)
 
 
+def _validate(raw: dict, src: str) -> DisplayFile:
+    try:
+        return DisplayFile.model_validate(raw)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        field = ".".join(str(p) for p in first.get("loc", ())) or None
+        raise ConfigError(first.get("msg", "invalid value"), source=src, field=field) from None
+
+
+def write_display_json(doc: dict, path: str | Path) -> Path:
+    """Write a display file (``doc`` as :meth:`surfhap.lab.calibration.Calibration.to_display_json`
+    makes it) after validating it as the reader will: a file the renderers refuse is never written."""
+    _validate(doc, str(path))
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    return write_text(path, json.dumps(doc, indent=2) + "\n")
+
+
 def read_display_json(path: str | Path) -> DisplayModel:
     """Read and validate a display file; raises ConfigError(source=file, field=...) on any problem."""
     path = Path(path)
@@ -50,12 +67,7 @@ def read_display_json(path: str | Path) -> DisplayModel:
         raise ConfigError(f"malformed JSON ({exc})", source=src) from None
     if not isinstance(raw, dict):
         raise ConfigError("top level must be a JSON object", source=src)
-    try:
-        spec = DisplayFile.model_validate(raw)
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        field = ".".join(str(p) for p in first.get("loc", ())) or None
-        raise ConfigError(first.get("msg", "invalid value"), source=src, field=field) from None
+    spec = _validate(raw, src)
     source = f"{path.name} ({spec.provenance.source})"
     if spec.k is None:
         source += "; k not measured: the assumed stack value"
