@@ -150,7 +150,7 @@ def test_display_file_and_inline_values(tmp_path):
     d = read_display_json(f)
     assert d.k == 8e-6 and d.mu_panel == 0.4 and d.leakage_time_constant == 0.02
     assert d.calibrated_alpha == pytest.approx(1 / np.sqrt(0.4 * 8e-6))
-    assert d.device_curve == ("voltage", (0.0, 0.0, 3.2e-6))
+    assert d.device_curve.input == "voltage" and d.device_curve.coefficients == (0.0, 0.0, 3.2e-6)
     r = render(load_material("wood"), constant_scan(0.1, 0.5, 1.0), ChainConfig(display=d))
     assert r.k == 8e-6 and r.summary()["display"]["source"].startswith("panel.json")
     # inline: area alone rescales k of eq. 1 (k proportional to A)

@@ -8,7 +8,8 @@ import pytest
 from surfhap.cli import main
 from surfhap.errors import RecordingFormatError
 from surfhap.exchange.tribometer import read_tribometer, write_tribometer_csv, write_tribometer_npz
-from surfhap.lab.calibration import calibrate, invert_curve
+from surfhap.lab.calibration import calibrate
+from surfhap.models.device_curve import DeviceCurve
 from surfhap.lab.tribometer_synth import synthetic_tribometer
 from surfhap.signal.tribometer import fit_quadratic
 from live_support.figures import assert_png_drawn
@@ -73,8 +74,8 @@ def test_fit_quadratic_matches_numpy_polyfit():
     assert np.allclose(fit.residuals, y - np.polyval(np.polyfit(x, y, 2), x))
 
 
-def test_invert_curve_monotone_and_clipped():
-    lv = invert_curve([0.05, 0.0, 0.2], np.array([0.0, 0.05, 0.1, 0.25, 1.0]), 1.0)
+def test_device_curve_inverse_monotone_and_clipped():
+    lv = DeviceCurve(input="intensity", coefficients=(0.05, 0.0, 0.2)).drive_for_force(np.array([0.0, 0.05, 0.1, 0.25, 1.0]))
     assert lv[0] == 0.0 and lv[1] == 0.0
     assert lv[2] == pytest.approx(np.sqrt(0.05 / 0.2), abs=1e-3)
     assert lv[3] == pytest.approx(1.0, abs=1e-3) and lv[4] == 1.0
@@ -167,7 +168,7 @@ def test_calibration_file_is_what_the_renderers_read(tmp_path):
     assert disp.k == pytest.approx(k, rel=0.02)
     assert disp.mu_panel == pytest.approx(mu, rel=0.01)
     assert disp.calibrated_alpha == pytest.approx(1 / np.sqrt(mu * k), rel=0.02)
-    assert disp.device_curve[0] == "voltage"
+    assert disp.device_curve.input == "voltage"
 
 
 def test_intensity_calibration_without_k_loads_with_the_assumed_k(tmp_path):
@@ -182,4 +183,4 @@ def test_intensity_calibration_without_k_loads_with_the_assumed_k(tmp_path):
     assert disp.k == pytest.approx(DisplayModel().k)  # not measured: the documented assumption
     assert "k not measured" in disp.source
     assert disp.mu_panel == pytest.approx(0.45, abs=2e-3)
-    assert disp.device_curve[0] == "intensity"
+    assert disp.device_curve.input == "intensity"

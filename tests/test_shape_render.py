@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 
 from surfhap.errors import ConfigError
 from surfhap.models.trajectory import Trajectory
-from surfhap.render.grains import TICK_WIDTH, DeviceCurve, GrainPlayer, grain_name
+from surfhap.models.device_curve import DeviceCurve
+from surfhap.render.grains import TICK_WIDTH, GrainPlayer, grain_name
 from surfhap.render.shape_renderer import ShapeConfig, display_device_curve, render_shape
 from surfhap.shape.calibration import ShapeCalibration
 from surfhap.shape.scan import straight_scan
@@ -77,16 +78,7 @@ def test_grain_player_blocks_and_seed():
     assert np.all(GrainPlayer("area-even", 20000, dev).process(np.zeros(10), np.zeros(10)) == 0)
 
 
-def test_device_curves():
-    k = DeviceCurve.kim2017()
-    np.testing.assert_allclose(k.force(np.array([0.1, 0.7, 1.0])), [0.075, 0.16, 0.25], atol=1e-6)
-    i = np.linspace(0.1, 1.0, 10)
-    fit = DeviceCurve.fit(i, 0.2 * i**2 + 0.01 * i + 0.05)
-    assert (fit.a, fit.b, fit.c) == pytest.approx((0.2, 0.01, 0.05))
-    with pytest.raises(ConfigError):
-        DeviceCurve(-1.0)
-    with pytest.raises(ConfigError):
-        DeviceCurve.fit([0.1, 0.2], [0.1, 0.2])
+def test_grain_names():
     assert grain_name("grainy") == "area-grainy"
     with pytest.raises(ConfigError):
         grain_name("wobbly")
@@ -109,21 +101,6 @@ def test_drive_never_exceeds_safety_limits(xs, seed):
     assert np.all(np.abs(res.drive) <= cfg.limits.v_max + 1e-9)
     assert np.all((res.intensity >= 0.3) & (res.intensity <= 1.0))
     assert np.all((res.edge == 0) | ((res.edge >= 0.3) & (res.edge <= 1.0)))
-
-
-def test_device_curve_from_simulated_tribometer():
-    # bursts of a 150 Hz tangential force whose amplitude is quadratic in the intensity
-    fs = 10_000
-    t = np.arange(2 * fs) / fs
-    rng = np.random.default_rng(0)
-    recs = {}
-    for i in np.round(np.arange(0.1, 1.01, 0.1), 2):
-        amp = 0.18 * i**2 + 0.07  # peak-to-peak, N
-        gate = (np.sin(2 * np.pi * 3 * t) > 0.5).astype(float)
-        recs[i] = 0.5 * amp * np.sin(2 * np.pi * 150 * t) * gate + 0.002 * rng.standard_normal(t.size) + 0.3
-    curve = DeviceCurve.from_tribometer(recs, fs)
-    i = np.linspace(0.1, 1.0, 10)
-    np.testing.assert_allclose(curve.force(i), 0.18 * i**2 + 0.07, rtol=0.05)
 
 
 def test_grain_params_shape_the_waveforms():

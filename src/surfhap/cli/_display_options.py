@@ -14,10 +14,12 @@ from pathlib import Path
 
 from surfhap.errors import ConfigError
 
-__all__ = ["DISPLAY_HELP", "LOAD_RANGE_HELP", "SPEED_RANGE_HELP", "CONFIG_HELP", "resolve_display_and_range", "parse_range"]
+__all__ = ["DISPLAY_HELP", "LOAD_RANGE_HELP", "SPEED_RANGE_HELP", "CONFIG_HELP", "resolve_display_and_range",
+           "resolve_display", "parse_range"]
 
-DISPLAY_HELP = ("Your display: 'k=N/V^2,mu_panel=..,area=m^2[,leakage=s]' or a surfhap-display JSON file "
-                "(default: the documented assumptions, docs/texture.md).")
+DISPLAY_HELP = ("Your display: 'k=N/V^2,mu_panel=..,area=m^2[,leakage=s]' or a surfhap-display JSON file; "
+                "a measured device curve in the file maps forces to voltages (default: the documented "
+                "assumptions, docs/texture.md).")
 LOAD_RANGE_HELP = "Loads the gain plan must serve, 'LOW,HIGH' in N (default 0.1,1.0)."
 SPEED_RANGE_HELP = "Speeds the gain plan must serve, 'LOW,HIGH' in m/s (default 0.02,0.3)."
 CONFIG_HELP = "TOML file with a \\[display] section (file, k, mu_panel, area, leakage_time_constant, load_range, speed_range)."
@@ -85,3 +87,8 @@ def resolve_display_and_range(display: str | None, load_range: str | None, speed
         opt = "--load-range" if exc.field == "load_range" else "--speed-range"
         raise ConfigError(exc.message, source=opt if (load_range or speed_range) else (src or opt)) from None
     return model, rng
+
+
+def resolve_display(display: str | None, config: Path | None = None):
+    """The DisplayModel of ``--display`` / ``--config`` (the documented assumptions without either)."""
+    return resolve_display_and_range(display, None, None, config)[0]

@@ -11,7 +11,6 @@ Writes the display file (``surfhap-display`` version 1) that ``surfhap render/se
 
 from __future__ import annotations
 
-import json
 import shlex
 from pathlib import Path
 from typing import Optional
@@ -45,6 +44,7 @@ def tribometer(
     plot: Optional[Path] = typer.Option(None, "--plot", help="Also save a figure of the fits (PNG/PDF/SVG)."),
 ) -> None:
     """Fit the device curve and k, mu_panel from tribometer recordings; write CAL.json."""
+    from surfhap.exchange.display_file import write_display_json
     from surfhap.exchange.tribometer import read_tribometer
     from surfhap.lab.calibration import calibrate
 
@@ -57,8 +57,7 @@ def tribometer(
     command = ("surfhap calibrate tribometer " + " ".join(shlex.quote(str(p)) for p in recordings)
                + f" --out {shlex.quote(str(out))}" + opts)
     doc = cal.to_display_json(source=", ".join(p.name for p in recordings), command=command)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    write_display_json(doc, out)
     c0, c1, c2 = cal.device_fit.coefficients
     stdout.print(f"{len(recs)} recordings, {cal.input} levels {cal.levels.min():g}..{cal.levels.max():g}")
     stdout.print(f"device curve ({cal.curve}): F = {c0:.4g} + {c1:.4g} L + {c2:.4g} L^2  "

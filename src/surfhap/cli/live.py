@@ -19,7 +19,7 @@ from typing import List, Optional
 import typer
 
 from surfhap.cli._common import parse_key_values, require_modules, stderr, stdout
-from surfhap.cli._display_options import resolve_display_and_range
+from surfhap.cli._display_options import resolve_display
 from surfhap.cli._options import ConfigOption, DisplayOption, LiveAmpGainOption, SeedOption
 from surfhap.cli._signals import StopSignals
 from surfhap.errors import ConfigError
@@ -137,7 +137,7 @@ def serve_cmd(
     from surfhap.live.webproc import WebProcess
 
     _setup_logging(verbose)
-    disp = None if display is None and config is None else resolve_display_and_range(display, None, None, config)[0]
+    disp = resolve_display(display, config)
     if mesh is not None:
         if material is not None:
             raise ConfigError("give --material or --mesh, not both", source="--mesh")
@@ -230,7 +230,7 @@ def play_cmd(
     from surfhap.live.session import build_session
     from surfhap.models.trajectory import constant_scan, strokes
 
-    disp = None if display is None and config is None else resolve_display_and_range(display, None, None, config)[0]
+    disp = resolve_display(display, config)
     kv = parse_key_values(scan, "--scan", {"speed": None, "load": None, "duration": None, "length": 0.0, "rate": 125.0})
     if not 0 < kv["duration"] <= 600:
         raise ConfigError("must be within (0, 600] s", source="--scan", field="duration")

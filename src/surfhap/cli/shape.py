@@ -20,7 +20,8 @@ import typer
 from typer.core import TyperGroup
 
 from surfhap.cli._common import figure_path, progress_bar, stdout
-from surfhap.cli._options import FigureOption, TrajectoryOption
+from surfhap.cli._display_options import resolve_display
+from surfhap.cli._options import ConfigOption, DisplayOption, FigureOption, TrajectoryOption
 from surfhap.errors import ConfigError, MeshFormatError, writing
 
 __all__ = ["register", "load_surface"]
@@ -118,6 +119,8 @@ def render_cmd(
     drive_rate: int = typer.Option(20000, "--drive-rate", help="DAC rate, Hz (2000-48000)."),
     carrier: float = typer.Option(2000.0, "--carrier", help="Polarity carrier, Hz (2000-20000; 0 = off)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the grainy grain."),
+    display: DisplayOption = None,
+    config: ConfigOption = None,
     figure: FigureOption = True,
 ) -> None:
     """Render a scan over MESH on the simulated display (also: surfhap shape MESH ...)."""
@@ -129,7 +132,7 @@ def render_cmd(
     if (scan is None) == (trajectory is None):
         raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")
     cfg = ShapeConfig(fz=fz, grain=grain, edges=edges, edge_threshold_deg=edge_threshold, edge_walk=edge_walk, drive_rate=drive_rate,
-                      carrier=carrier, seed=seed)
+                      carrier=carrier, seed=seed, display=resolve_display(display, config))
     traj = parse_scan(scan, rate=rate, load=load) if scan is not None else read_trajectory_csv(trajectory)
     surf = load_surface(mesh, up=up, scale=scale, size=size, resolution=resolution, pixel_size=pixel_size, height=height)
     if calibration is None and Path(mesh).is_file() and default_calibration_path(mesh).is_file():

@@ -22,6 +22,8 @@ from typing import Optional
 import typer
 
 from surfhap.cli._common import stderr, stdout
+from surfhap.cli._display_options import resolve_display
+from surfhap.cli._options import ConfigOption, DisplayOption
 from surfhap.cli._signals import StopSignals
 from surfhap.errors import ConfigError
 
@@ -128,6 +130,8 @@ def run(
                                                              "of sound-card full scale (as 'surfhap serve')."),
     lsl: bool = typer.Option(False, "--lsl", help="Push Lab Streaming Layer markers (stimulus on/off, touch, "
                                                   "answer); needs the 'lsl' extra (pylsl)."),
+    display: DisplayOption = None,
+    config: ConfigOption = None,
 ) -> None:
     """Run (or resume) one participant: the page shows the trials, the terminal the progress.
 
@@ -136,6 +140,7 @@ def run(
     from surfhap.lab.comfort import required_comfort_voltage
     from surfhap.lab.session import SessionRunner
 
+    disp = None if display is None and config is None else resolve_display(display, config)
     measured = None
     if comfort_voltage is None:
         from surfhap.lab.schema import load_study
@@ -153,7 +158,7 @@ def run(
             stderr.print(f"no comfort voltage measured for {pid} ('study comfort'): session limit is the safety "
                          "limit")
     runner = SessionRunner(study, participant, gain=gain, comfort_voltage=comfort_voltage,
-                           mode="simulated" if simulate is not None else "page",
+                           mode="simulated" if simulate is not None else "page", display=disp,
                            extra_config={"comfort_voltage_from": "study comfort" if measured is not None else
                                          ("--comfort-voltage" if comfort_voltage is not None else None)})
     try:
@@ -197,8 +202,8 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
     if output is not None:
         from surfhap.live.session import build_session
 
-        session = build_session(_first_material(runner), output, amp_gain=amp_gain)
-        player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max)
+        session = build_session(_first_material(runner), output, amp_gain=amp_gain, display=runner.display)
+        player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max, display=runner.display)
         player.mute()
         session.start()
     try:

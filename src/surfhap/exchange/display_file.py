@@ -11,32 +11,49 @@ area (k of eq. 1 is proportional to it). Any problem raises
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 
 from pydantic import ValidationError
 
 from surfhap.errors import ConfigError
-from surfhap.exchange.files import read_text
+from surfhap.exchange.files import read_text, write_text
+from surfhap.models.device_curve import DeviceCurve
 from surfhap.models.display import DisplayFile
 from surfhap.models.panel import DisplayModel
 
-__all__ = ["read_display_json", "parse_display_option", "load_display", "display_from_values"]
+__all__ = ["read_display_json", "write_display_json", "parse_display_option", "load_display", "display_from_values"]
 
 _KEYS = ("k", "mu_panel", "area", "leakage")
 
 
 def display_from_values(k: float | None = None, mu_panel: float | None = None, area: float | None = None,
-                        leakage: float | None = None, device_curve: tuple | None = None,
+                        leakage: float | None = None, device_curve: DeviceCurve | None = None,
                         source: str = "command line", base: DisplayModel | None = None) -> DisplayModel:
     """A DisplayModel from the given values over ``base`` (default: the documented assumptions)."""
     base = base or DisplayModel()
-    stack = base.stack if area is None else dataclasses.replace(base.stack, contact_area=float(area))
+    stack = base.stack if area is None else base.stack.model_validate({**base.stack.model_dump(), "contact_area": area})
     return DisplayModel(mu_panel=base.mu_panel if mu_panel is None else float(mu_panel), stack=stack,
                         leakage_time_constant=base.leakage_time_constant if leakage is None else float(leakage),
                         k_measured=base.k_measured if k is None else float(k),
                         device_curve=device_curve if device_curve is not None else base.device_curve, source=source)
+
+
+def _validate(raw: dict, src: str) -> DisplayFile:
+    try:
+        return DisplayFile.model_validate(raw)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        field = ".".join(str(p) for p in first.get("loc", ())) or None
+        raise ConfigError(first.get("msg", "invalid value"), source=src, field=field) from None
+
+
+def write_display_json(doc: dict, path: str | Path) -> Path:
+    """Write a display file (``doc`` as :meth:`surfhap.lab.calibration.Calibration.to_display_json`
+    makes it) after validating it as the reader will: a file the renderers refuse is never written."""
+    _validate(doc, str(path))
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    return write_text(path, json.dumps(doc, indent=2) + "\n")
 
 
 def read_display_json(path: str | Path) -> DisplayModel:
@@ -50,17 +67,12 @@ def read_display_json(path: str | Path) -> DisplayModel:
         raise ConfigError(f"malformed JSON ({exc})", source=src) from None
     if not isinstance(raw, dict):
         raise ConfigError("top level must be a JSON object", source=src)
-    try:
-        spec = DisplayFile.model_validate(raw)
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        field = ".".join(str(p) for p in first.get("loc", ())) or None
-        raise ConfigError(first.get("msg", "invalid value"), source=src, field=field) from None
-    curve = None if spec.device_curve is None else (spec.device_curve.input, tuple(spec.device_curve.coefficients))
+    spec = _validate(raw, src)
     source = f"{path.name} ({spec.provenance.source})"
     if spec.k is None:
         source += "; k not measured: the assumed stack value"
-    return display_from_values(spec.k, spec.mu_panel, spec.area, spec.leakage_time_constant, curve, source=source)
+    return display_from_values(spec.k, spec.mu_panel, spec.area, spec.leakage_time_constant, spec.device_curve,
+                              source=source)
 
 
 def parse_display_option(text: str, option: str = "--display") -> DisplayModel:

@@ -30,14 +30,13 @@ import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.exchange.tribometer import TribometerRecording
+from surfhap.models.device_curve import DeviceCurve
+from surfhap.models.display import DISPLAY_FORMAT, DISPLAY_VERSION
 from surfhap.signal.tribometer import QuadraticFit, fit_quadratic, tribometer_amplitude
 
-__all__ = ["LevelMeasure", "Calibration", "measure_recording", "calibrate", "calibrate_display", "invert_curve", "CURVES",
-           "DISPLAY_FORMAT", "DISPLAY_VERSION"]
+__all__ = ["LevelMeasure", "Calibration", "measure_recording", "calibrate", "calibrate_display", "CURVES"]
 
 CURVES = ("static", "amplitude")
-DISPLAY_FORMAT = "surfhap-display"
-DISPLAY_VERSION = 1
 GUARD = 0.1  # s excluded after each on/off switch: the 10 Hz band-pass settles in ~2 time constants
 # of its 2nd-order high-pass run forward and backward (design choice; the paper is silent)
 
@@ -98,22 +97,6 @@ def measure_recording(rec: TribometerRecording, guard: float = GUARD) -> LevelMe
     return LevelMeasure(rec.drive_level, amp, f_off, f_on, n_off, n_on, mu, f_on - mu * n_on, rec.source)
 
 
-def invert_curve(coefficients: Sequence[float], force: np.ndarray, level_max: float) -> np.ndarray:
-    """Inverse device map: the smallest level in [0, level_max] whose curve value reaches ``force``.
-
-    coefficients : [c0, c1, c2] of ``F = c0 + c1 L + c2 L^2``; force (m,) N. The curve is made
-    non-decreasing (running maximum) on a fine grid, so the inverse is monotone; forces at or
-    below ``F(0)`` give 0, above the largest value give ``level_max``.
-    """
-    c0, c1, c2 = (float(c) for c in coefficients)
-    grid = np.linspace(0.0, float(level_max), 4097)
-    curve = np.maximum.accumulate((c2 * grid + c1) * grid + c0)
-    f = np.asarray(force, dtype=float)
-    # np.interp needs increasing x: drop flat stretches (keep their first level)
-    keep = np.concatenate([[True], np.diff(curve) > 0])
-    return np.interp(f, curve[keep], grid[keep], left=0.0, right=float(level_max))
-
-
 @dataclass(frozen=True)
 class Calibration:
     """A display calibration.
@@ -145,19 +128,26 @@ class Calibration:
 
     @property
     def device_fit(self) -> QuadraticFit:
+        """The fit statistics of the device curve (residuals, rmse, r2)."""
         return self.static_fit if self.curve == "static" else self.amplitude_fit
 
     @property
     def level_max(self) -> float:
         return 1.0 if self.input == "intensity" else float(self.levels.max())
 
+    @property
+    def device_curve(self) -> DeviceCurve:
+        """The measured device curve over [0, level_max] (what the display file carries)."""
+        return DeviceCurve.of(self.input, self.device_fit.coefficients, self.level_max,
+                              f"{self.curve} fit of {len(self.levels)} tribometer recordings")
+
     def force(self, level: np.ndarray) -> np.ndarray:
         """Device curve: force (N) at level (m,)."""
-        return self.device_fit(level)
+        return self.device_curve.force(level)
 
     def inverse(self, force: np.ndarray) -> np.ndarray:
-        """Level (m,) that makes the device curve give ``force`` (m,) N; see :func:`invert_curve`."""
-        return invert_curve(self.device_fit.coefficients, force, self.level_max)
+        """Level (m,) that makes the device curve give ``force`` (m,) N (its inverse on the rising branch)."""
+        return self.device_curve.drive_for_force(force)
 
     def to_display_json(self, source: str, command: str) -> dict:
         """The display file (``surfhap-display`` version 1) as a JSON-ready dict."""
@@ -166,7 +156,7 @@ class Calibration:
             "version": DISPLAY_VERSION,
             "k": self.k,
             "mu_panel": self.mu_panel,
-            "device_curve": {"input": self.input, "coefficients": list(self.device_fit.coefficients)},
+            "device_curve": self.device_curve.model_dump(),
             "provenance": {"source": source, "command": command},
             "calibration": {
                 "method": "Kim et al. 2017 Sec. 2.2 (10-500 Hz band-pass, mean of the 50 largest peak-to-peak "

@@ -19,9 +19,14 @@ import threading
 import time
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 from surfhap.errors import ConfigError, StudyFormatError
 from surfhap.lab.schema import Study, Trial, load_study
 from surfhap.lab.triallog import TrialLog, now_iso
+
+if TYPE_CHECKING:
+    from surfhap.models.panel import DisplayModel
 
 __all__ = ["SessionRunner", "check_answer", "SAFETY_V_MAX", "MAX_GAIN"]
 
@@ -60,7 +65,8 @@ class SessionRunner:
     """One participant's session over ``study_dir`` (holding ``study.json``)."""
 
     def __init__(self, study_dir: str | Path, participant: str, *, gain: float | None = None,
-                 comfort_voltage: float | None = None, mode: str = "page", extra_config: dict | None = None):
+                 comfort_voltage: float | None = None, mode: str = "page", extra_config: dict | None = None,
+                 display: DisplayModel | None = None):
         self.dir = Path(study_dir)
         self.study: Study = load_study(self.dir)
         self.plan = self.study.participant(participant)
@@ -75,12 +81,14 @@ class SessionRunner:
                                   field="v_max")
             v_max = min(v_max, float(comfort_voltage))
         self.v_max = v_max
+        self.display = display  # the panel the stimuli are rendered for (--display; None: the assumptions)
         study_file = self.dir / "study.json" if self.dir.is_dir() else self.dir
         from surfhap import __version__
 
         config = {"study": str(study_file), "study_sha256": hashlib.sha256(study_file.read_bytes()).hexdigest(),
                   "design": self.study.design.name, "kind": self.study.design.kind, "participant": self.plan.id,
                   "group": self.plan.group, "gain": self.gain, "v_max": self.v_max, "mode": mode,
+                  "display": None if display is None else display.describe(),
                   "host": platform.node(), "python": platform.python_version(), **(extra_config or {})}
         self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}.jsonl", config=config, software_version=__version__)
         self._lock = threading.Lock()

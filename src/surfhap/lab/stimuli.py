@@ -64,9 +64,13 @@ class StimulusPlayer:
     """Plays a trial's stimuli through a live session (engine + backend).
 
     ``session``: a started :class:`surfhap.live.session.LiveSession`; ``gain``: multiplier of
-    the calibrated drive gain alpha; ``v_max``: the session's safety limit (V)."""
+    the calibrated drive gain alpha; ``v_max``: the session's safety limit (V); ``display``: the
+    DisplayModel rendered for (None: the documented assumptions)."""
 
-    def __init__(self, session, *, gain: float = 1.0, v_max: float = 250.0, seed: int = 0):
+    def __init__(self, session, *, gain: float = 1.0, v_max: float = 250.0, seed: int = 0, display=None):
+        from surfhap.models.panel import DisplayModel
+
+        self.display = display or DisplayModel()  # the panel rendered for (study run --display)
         self.session = session
         self.gain = float(gain)
         self.v_max = float(v_max)
@@ -91,7 +95,7 @@ class StimulusPlayer:
                     kw[key] = float(render[key])
             mat = load_material(str(render["material"]))
             cfg = ChainConfig(method=str(render.get("method", "auto")), drive_rate=rate, seed=self.seed,
-                              limits=limits, **kw)
+                              limits=limits, display=self.display, **kw)
             chain = TextureChain(mat, cfg)  # the law's own alpha (calibrated; Zhao's load scaling)
             if self.gain != 1.0:
                 from dataclasses import replace
@@ -110,7 +114,6 @@ class StimulusPlayer:
         """A built-in shape or scene (in its physical size, centred on the touch surface) or a
         mesh file (scaled as by 'surfhap serve --mesh')."""
         from surfhap.live.shape_live import LiveShapeRenderer
-        from surfhap.models.panel import DisplayModel
         from surfhap.render.shape_renderer import ShapeConfig
         from surfhap.shape.calibration import calibrate
         from surfhap.shape.scenes import builtin_shape
@@ -121,11 +124,11 @@ class StimulusPlayer:
         if surface is None:  # a mesh file, scaled as by 'surfhap serve --mesh'
             surface = TopSurface.from_file(name, size=0.9 * min(sp.width, sp.height))
         cfg = ShapeConfig(drive_rate=rate, seed=self.seed, grain=grain, limits=limits,
-                          alpha=self.gain * DisplayModel().calibrated_alpha)
+                          display=self.display,
+                          alpha=self.gain * self.display.calibrated_alpha)
         return LiveShapeRenderer(surface, calibrate(surface, fz=cfg.fz), cfg, surface_size=(sp.width, sp.height))
 
     def _profile_chain(self, shape: str, mapping: str, rate: int, limits, grain: str):
-        from surfhap.models.panel import DisplayModel
         from surfhap.render.shape_renderer import ShapeConfig
         from surfhap.shape.calibration import calibrate
         from surfhap.shape.scenes import builtin_shape
@@ -133,7 +136,8 @@ class StimulusPlayer:
         sp = self.session.space
         surface = builtin_shape("gaussian-bump")  # carries the renderer's geometry; the profile sets the intensity
         cfg = ShapeConfig(drive_rate=rate, seed=self.seed, grain=grain, limits=limits, edges=False,
-                          alpha=self.gain * DisplayModel().calibrated_alpha)
+                          display=self.display,
+                          alpha=self.gain * self.display.calibrated_alpha)
         return make_profile_renderer(shape, mapping, surface, calibrate(surface, fz=cfg.fz), cfg, (sp.width, sp.height))
 
     def select(self, render: dict) -> str:

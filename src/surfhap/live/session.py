@@ -116,7 +116,7 @@ def build_session(material: str = "cork", output: str = "sim", *, drive_rate: in
     if mesh is not None:
         from surfhap.live.shape_live import load_live_shape, shape_preview
 
-        chain, title = load_live_shape(mesh, rate, (space.width, space.height), seed=seed)
+        chain, title = load_live_shape(mesh, rate, (space.width, space.height), seed=seed, display=display)
         preview = shape_preview(chain.surface, (space.width, space.height))
         display_model = chain.config.display
     else:

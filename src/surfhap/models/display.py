@@ -9,17 +9,18 @@ reads it into a :class:`surfhap.models.panel.DisplayModel`::
      "mu_panel": 0.5,                  # panel friction coefficient (Otake et al. 2022 eq. 5)
      "leakage_time_constant": 0.05,    # s, optional
      "area": 1e-4,                     # m^2, optional contact area
-     "device_curve": {"input": "voltage", "coefficients": [c0, c1, c2]},   # optional
+     "device_curve": {"input": "voltage", "coefficients": [c0, c1, c2], "input_max": 240},  # optional
      "provenance": {"source": "...", "command": "..."},
      "calibration": {...}}             # optional: what `surfhap calibrate tribometer` measured
 
 ``k`` may be null when the calibration did not measure it (a device curve over intensity):
 the renderers then use the assumed stack value and say so in the display's source.
 
-``device_curve`` is the measured lateral force ``F = c0 + c1 u + c2 u^2`` (N) over the drive
-``u`` ("intensity" or "voltage"), as the calibration of Kim et al. produces. The texture drive
-laws use ``k`` and ``mu_panel`` (eq. 5); the curve is validated and carried for the tools that
-use it, not used to render textures.
+``device_curve`` is the measured lateral force ``F = c0 + c1 u + c2 u^2`` (N, ascending
+coefficients) over the drive ``u`` ("intensity" or "voltage") up to ``input_max`` (optional),
+as the calibration of Kim et al. produces: a :class:`surfhap.models.device_curve.DeviceCurve`.
+When present, every renderer turns its target force into the drive through the curve's inverse
+(:meth:`surfhap.models.panel.DisplayModel.voltage_for_force`) instead of ``V = sqrt(F / (mu_panel k))``.
 """
 
 from __future__ import annotations
@@ -28,7 +29,9 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-__all__ = ["DISPLAY_FORMAT", "DISPLAY_VERSION", "DeviceCurveSpec", "DisplayProvenance", "DisplayFile"]
+from surfhap.models.device_curve import DeviceCurve
+
+__all__ = ["DISPLAY_FORMAT", "DISPLAY_VERSION", "DisplayProvenance", "DisplayFile"]
 
 DISPLAY_FORMAT = "surfhap-display"
 DISPLAY_VERSION = 1
@@ -36,13 +39,6 @@ DISPLAY_VERSION = 1
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-
-class DeviceCurveSpec(_Strict):
-    """Lateral force N = c0 + c1 u + c2 u^2 over the drive u ("intensity" in [0, 1] or "voltage" in V)."""
-
-    input: Literal["intensity", "voltage"]
-    coefficients: tuple[float, float, float]
 
 
 class DisplayProvenance(_Strict):
@@ -63,7 +59,7 @@ class DisplayFile(_Strict):
     mu_panel: float = Field(gt=0, le=5, description="panel friction coefficient")
     leakage_time_constant: float | None = Field(default=None, gt=0, le=100, description="s")
     area: float | None = Field(default=None, gt=0, le=1e-2, description="m^2 contact area")
-    device_curve: DeviceCurveSpec | None = None
+    device_curve: DeviceCurve | None = None
     provenance: DisplayProvenance
     calibration: dict | None = Field(default=None, description="details of the calibration that wrote the file "
                                                                "(levels, amplitudes, residuals); not read by the renderers")

@@ -11,17 +11,15 @@ fingertip on glass. Measure your own display (force vs voltage) and pass its ``k
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 __all__ = ["EPSILON_0", "ElectrostaticStack", "electrostatic_constant", "electrostatic_force"]
 
 EPSILON_0 = 8.8541878128e-12  # F/m, vacuum permittivity (CODATA 2018)
 
 
-@dataclass(frozen=True)
-class ElectrostaticStack:
+class ElectrostaticStack(BaseModel):
     """Finger / insulator stack of eq. 1 (SI).
 
     contact_area               : m^2, apparent finger contact area A.
@@ -31,16 +29,13 @@ class ElectrostaticStack:
     stratum_corneum_permittivity : relative permittivity eps_sc.
     """
 
-    contact_area: float = 1.0e-4
-    insulator_thickness: float = 8.0e-6
-    insulator_permittivity: float = 3.2
-    stratum_corneum_thickness: float = 20.0e-6
-    stratum_corneum_permittivity: float = 40.0
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    def __post_init__(self):
-        for name, val in self.__dict__.items():
-            if not (np.isfinite(val) and val > 0):
-                raise ValueError(f"{name} must be finite and > 0, got {val}")
+    contact_area: float = Field(1.0e-4, gt=0)
+    insulator_thickness: float = Field(8.0e-6, gt=0)
+    insulator_permittivity: float = Field(3.2, gt=0)
+    stratum_corneum_thickness: float = Field(20.0e-6, gt=0)
+    stratum_corneum_permittivity: float = Field(40.0, gt=0)
 
     @property
     def k(self) -> float:

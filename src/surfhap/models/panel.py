@@ -4,6 +4,8 @@ From drive voltage (drive rate) and finger load to the lateral friction force::
 
     f_s = mu_panel (fn + k V_eff^2)          (Otake et al. 2022, eq. 5)
 
+or, for a display with a measured device curve ``F(u)``, ``mu_panel fn + F(|V_eff|)``.
+
 ``V_eff`` is the voltage that still attracts the finger. Charge leaks through the skin, so
 the finger/insulator stack behaves as a first-order high-pass with time constant
 ``leakage_time_constant``: a DC drive fades (the residual-charge problem that makes Otake et
@@ -20,44 +22,38 @@ measured ``k_measured`` is given (``--display k=...`` or a display file,
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numba
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
+from surfhap.models.device_curve import DeviceCurve
 from surfhap.models.electrostatics import ElectrostaticStack
 from surfhap.signal.resample import RationalResampler
 
 __all__ = ["DisplayModel", "SimulatedDisplay"]
 
 
-@dataclass(frozen=True)
-class DisplayModel:
+class DisplayModel(BaseModel):
     """Parameters of the panel the drive laws render for and the simulator simulates (SI).
 
     mu_panel              : panel friction coefficient (assumed 0.5 by default).
     stack                 : finger/insulator stack giving k by eq. 1 (assumed values).
     leakage_time_constant : s, charge leakage of the simulated finger (assumed 50 ms).
     k_measured            : N/V^2, a measured electrostatic constant; overrides the stack's.
-    device_curve          : optional measured (input, (c0, c1, c2)) lateral-force curve, carried
-                            from a display file (not used by the texture drive laws).
+    device_curve          : optional measured :class:`~surfhap.models.device_curve.DeviceCurve`
+                            (from a display file); when present it is the force -> drive map of
+                            every renderer (:meth:`voltage_for_force`).
     source                : where the numbers come from ("assumed defaults", a file, ...).
     """
 
-    mu_panel: float = 0.5
-    stack: ElectrostaticStack = field(default_factory=ElectrostaticStack)
-    leakage_time_constant: float = 0.050
-    k_measured: float | None = None
-    device_curve: tuple | None = None
-    source: str = "assumed defaults (docs/texture.md)"
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    def __post_init__(self):
-        if not (np.isfinite(self.mu_panel) and self.mu_panel > 0):
-            raise ValueError("mu_panel must be > 0")
-        if not (np.isfinite(self.leakage_time_constant) and self.leakage_time_constant > 0):
-            raise ValueError("leakage_time_constant must be > 0 s")
-        if self.k_measured is not None and not (np.isfinite(self.k_measured) and self.k_measured > 0):
-            raise ValueError("k must be > 0 N/V^2")
+    mu_panel: float = Field(0.5, gt=0)
+    stack: ElectrostaticStack = ElectrostaticStack()
+    leakage_time_constant: float = Field(0.050, gt=0)
+    k_measured: float | None = Field(None, gt=0)
+    device_curve: DeviceCurve | None = None
+    source: str = "assumed defaults (docs/texture.md)"
 
     @property
     def k(self) -> float:
@@ -74,8 +70,7 @@ class DisplayModel:
         return {"k_n_per_v2": self.k, "mu_panel": self.mu_panel, "area_m2": self.area,
                 "leakage_time_constant_s": self.leakage_time_constant,
                 "k_from": "measured" if self.k_measured is not None else "eq. 1 of the stack",
-                "device_curve": None if self.device_curve is None else
-                {"input": self.device_curve[0], "coefficients": list(self.device_curve[1])},
+                "device_curve": None if self.device_curve is None else self.device_curve.model_dump(),
                 "source": self.source}
 
     @property
@@ -83,10 +78,31 @@ class DisplayModel:
         """Gain V/sqrt(N) for which the added friction equals the target: 1/sqrt(mu_panel k)."""
         return 1.0 / np.sqrt(self.mu_panel * self.k)
 
+    @property
+    def curve(self) -> DeviceCurve:
+        """The force -> drive relation renderers invert: the measured :attr:`device_curve`, else
+        the square law of eq. 5 over voltage, ``F = mu_panel k V^2``."""
+        if self.device_curve is not None:
+            return self.device_curve
+        return DeviceCurve(input="voltage", coefficients=(0.0, 0.0, self.mu_panel * self.k),
+                           source="f = mu_panel k V^2 (Otake et al. 2022 eq. 5)")
+
+    def voltage_for_force(self, force: np.ndarray, v_max: float) -> np.ndarray:
+        """The display's one force -> voltage map: the drive (n,) V that adds ``force`` (n,) N.
+
+        The inverse of :attr:`curve`: without a measured curve ``alpha sqrt(max(F, 0))`` with
+        alpha = :attr:`calibrated_alpha` (the drive laws' compiled tail computes the same); an
+        intensity curve's inverse is scaled by ``v_max`` (intensity 1 = the largest drive, V).
+        A NaN force stays NaN for the safety stage to catch."""
+        curve = self.curve
+        u = curve.drive_for_force(force)
+        return u if curve.input == "voltage" else u * float(v_max)
+
 
 @numba.njit(cache=True, nogil=True)
-def _display_kernel(drive, load, state, a, mu, k, out):
-    # state: [previous drive, previous V_eff]
+def _display_kernel(drive, load, state, a, mu, c0, c1, c2, scale, top, out):
+    # state: [previous drive, previous V_eff]; added friction: the display's curve at
+    # u = min(|V_eff| scale, top) while driven (c0 + c1 u + c2 u^2; default 0, 0, mu k)
     pv = state[0]
     ve = state[1]
     for i in range(drive.shape[0]):
@@ -94,7 +110,9 @@ def _display_kernel(drive, load, state, a, mu, k, out):
         ve = a * (ve + v - pv)
         pv = v
         fn = load[i]
-        out[i] = mu * (fn + k * ve * ve) if fn > 0.0 else 0.0
+        u = min(abs(ve) * scale, top)
+        added = (c2 * u + c1) * u + c0 if u > 0.0 else 0.0
+        out[i] = mu * fn + added if fn > 0.0 else 0.0
     state[0] = pv
     state[1] = ve
 
@@ -104,17 +122,20 @@ class SimulatedDisplay:
 
     drive (m,) V and load (m,) N at the drive rate; returns the friction force (N) low-passed
     and decimated to ``model_rate``. ``last_friction_drive_rate`` keeps the undecimated force of
-    the last block and ``last_v_eff`` the effective voltage, for inspection.
+    the last block and ``last_v_eff`` the effective voltage, for inspection. The added friction
+    is the display's :attr:`DisplayModel.curve` at ``|V_eff|`` (``mu_panel k V_eff^2`` without a
+    measured curve; an intensity curve at ``|V_eff| / v_max``), 0 without drive.
     """
 
-    def __init__(self, model: DisplayModel, drive_rate: int, model_rate: int):
+    def __init__(self, model: DisplayModel, drive_rate: int, model_rate: int, v_max: float = 250.0):
         self.model = model
         self.drive_rate = int(drive_rate)
         self.model_rate = int(model_rate)
         dt = 1.0 / self.drive_rate
         tau = model.leakage_time_constant
         self._a = tau / (tau + dt)
-        self._k = model.k
+        curve = model.curve
+        self._curve = (*curve.coefficients, 1.0 if curve.input == "voltage" else 1.0 / float(v_max), curve.u_max)
         self._state = np.zeros(2)
         self._down = RationalResampler(self.drive_rate, self.model_rate)
         self.delay = self._down.delay
@@ -128,6 +149,6 @@ class SimulatedDisplay:
         drive = np.ascontiguousarray(drive, dtype=np.float64)
         load = np.ascontiguousarray(load, dtype=np.float64)
         force = np.empty_like(drive)
-        _display_kernel(drive, load, self._state, self._a, self.model.mu_panel, self._k, force)
+        _display_kernel(drive, load, self._state, self._a, self.model.mu_panel, *self._curve, force)
         self.last_friction_drive_rate = force
         return self._down.process(force)

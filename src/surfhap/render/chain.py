@@ -182,7 +182,8 @@ class TextureChain:
             self.model_rate = max(self.model_rate, self.texture_rate)
         if self.model_rate > cfg.drive_rate:
             raise ConfigError(f"drive rate {cfg.drive_rate} Hz is below the model rate {self.model_rate} Hz", field="drive_rate")
-        self.law = make_drive_law(self.method, material, self.params, self.model_rate)
+        self.law = make_drive_law(self.method, material, self.params, self.model_rate, display=cfg.display,
+                                  v_max=cfg.limits.v_max)
         self.synth = TextureSource(material.texture, self.model_rate, seed=cfg.seed) if self.law.uses_texture else None
         self.upsampler = RationalResampler(self.model_rate, int(cfg.drive_rate))
         self.carrier = PolarityCarrier(self.carrier_hz, cfg.drive_rate)

@@ -41,13 +41,16 @@ so each equation is written once. :func:`rendering_gain` is the one ``(alpha / a
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar, NamedTuple
+from typing import TYPE_CHECKING, ClassVar, NamedTuple
 
 import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.models.friction import QuasiStaticLaw
 from surfhap.models.material import Material
+
+if TYPE_CHECKING:
+    from surfhap.models.panel import DisplayModel
 
 __all__ = ["DriveParams", "DriveBlock", "DriveLaw", "Otake2022", "Otake2021", "Zhao", "FrictionOnly", "Square",
            "LAWS", "LowBand", "METHODS", "make_drive_law", "default_method", "rendering_gain"]
@@ -159,12 +162,16 @@ class DriveLaw:
     speed (n,) m/s, load (n,) N, texture (n,) in the material's texture quantity (zeros for a
     friction-only material). ``clipped`` counts samples whose target was negative while the
     finger touched. ``sample_rate`` (Hz) is needed to render the square baseline only.
+    ``display`` with a measured device curve: the voltage is the display's map of the target
+    (:meth:`~surfhap.models.panel.DisplayModel.voltage_for_force`, scaled by the rendering gain
+    (alpha / alpha_cal)^2, ``v_max`` V = intensity 1), else ``alpha sqrt(F)``.
     """
 
     method: ClassVar[str]
     textured: ClassVar[bool] = True  # whether the method renders the material's texture
 
-    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None):
+    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None, *,
+                 display: DisplayModel | None = None, v_max: float = 250.0):
         # the compiled kernels, imported here (numba) rather than at module import or per block
         from surfhap.render import drive_kernel
 
@@ -177,6 +184,9 @@ class DriveLaw:
         self._relative = material.texture_relative_scale
         self.square_amplitude = None
         self.low_band = LowBand(self.friction_law, drive_law=self)
+        self._display = display if display is not None and display.device_curve is not None else None
+        self._v_max = float(v_max)
+        self._gain = 1.0 if display is None else rendering_gain(params.alpha, display.calibrated_alpha)
         self.reset()
 
     @classmethod
@@ -210,6 +220,8 @@ class DriveLaw:
         if not (load.ndim == 1 and speed.shape == texture.shape == (n,)):
             raise ValueError("speed, load and texture must be (n,) arrays of one length")
         block, clipped, touching = self._evaluate(speed, load, texture, self._n)
+        if self._display is not None:  # a measured device curve: the display's force -> voltage map
+            block = block._replace(voltage=self._display.voltage_for_force(self._gain * block.target, self._v_max))
         self.clipped += clipped
         self.touching += touching
         self._n += n
@@ -232,8 +244,9 @@ class DriveLaw:
 class _FrictionTexture(DriveLaw):
     """``F = (mu_low(fn, v) + beta mu_t) fn`` (``friction_texture_law``)."""
 
-    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None):
-        super().__init__(material, params, sample_rate)
+    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None, *,
+                 display: DisplayModel | None = None, v_max: float = 250.0):
+        super().__init__(material, params, sample_rate, display=display, v_max=v_max)
         law, p, k = self.friction_law, params, self._kernels
         if isinstance(law, QuasiStaticLaw):
             friction = (True, law.a, law.b, law.c, law.d, law.q, 0.0)
@@ -293,8 +306,9 @@ class Zhao(_Coulomb, DriveLaw):
 
     method = "zhao"
 
-    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None):
-        super().__init__(material, params, sample_rate)
+    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None, *,
+                 display: DisplayModel | None = None, v_max: float = 250.0):
+        super().__init__(material, params, sample_rate, display=display, v_max=v_max)
         p, k = params, self._kernels
         self.low_band = LowBand(self.friction_law, p.constant_load, drive_law=self)
         if not self.uses_texture:
@@ -316,8 +330,9 @@ class Square(DriveLaw):
     method = "square"
     textured = False
 
-    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None):
-        super().__init__(material, params, sample_rate)
+    def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None, *,
+                 display: DisplayModel | None = None, v_max: float = 250.0):
+        super().__init__(material, params, sample_rate, display=display, v_max=v_max)
         if self.sample_rate is not None and params.square_frequency >= self.sample_rate / 2:
             raise ConfigError(f"square frequency must be below half the model rate ({self.sample_rate / 2:g} Hz)", field="square_frequency")
         p = params
@@ -347,10 +362,11 @@ LAWS: dict[str, type[DriveLaw]] = {cls.method: cls for cls in (Otake2022, Otake2
 METHODS = tuple(LAWS)
 
 
-def make_drive_law(method: str, material: Material, params: DriveParams, sample_rate: float | None = None) -> DriveLaw:
+def make_drive_law(method: str, material: Material, params: DriveParams, sample_rate: float | None = None, *,
+                   display: DisplayModel | None = None, v_max: float = 250.0) -> DriveLaw:
     """The law object of ``method`` ("auto" picks :func:`default_method`)."""
     if method == "auto":
         method = default_method(material)
     if method not in LAWS:
         raise ConfigError(f"unknown method {method!r} (choose from {', '.join(METHODS)})", field="method")
-    return LAWS[method](material, params, sample_rate)
+    return LAWS[method](material, params, sample_rate, display=display, v_max=v_max)

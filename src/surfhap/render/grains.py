@@ -22,11 +22,10 @@ edge-tick    short tick   one raised-cosine pulse of 10 ms per edge crossing
 as on the Feelscreen).
 
 Device curve: the paper measured a quadratic relation between grain intensity and friction
-force (Fig. 2c, 3c). :meth:`DeviceCurve.fit` fits ``F = a I^2 + b I + c`` to tribometer data;
-:meth:`DeviceCurve.kim2017` passes through the three points the paper quotes for EDGE-SOFT
-(Sec. 3.1.2): about 0.075 N at the lowest measured intensity 0.1, the median 0.16 N at 0.7,
-0.25 N at 1.0. On the simulated display the default is :meth:`DeviceCurve.square_law` with the
-display's largest force (intensity 1 = the safety limit's voltage), so nothing saturates.
+force (Fig. 2c, 3c): :class:`surfhap.models.device_curve.DeviceCurve` (``F = c0 + c1 I + c2 I^2``,
+with :meth:`~surfhap.models.device_curve.DeviceCurve.kim2017` through the three points the paper
+quotes for EDGE-SOFT). The shape renderer's default is the square law of the display's model,
+``F = mu_panel k (I v_max)^2`` (intensity 1 = the safety limit's voltage), so nothing saturates.
 """
 
 from __future__ import annotations
@@ -37,9 +36,9 @@ import numba
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.signal.tribometer import TRIBOMETER_BAND, TRIBOMETER_LARGEST, fit_quadratic, tribometer_amplitude  # noqa: F401 (re-exported)
+from surfhap.models.device_curve import DeviceCurve
 
-__all__ = ["GrainParams", "GRAINS", "AREA_GRAINS", "DeviceCurve", "GrainPlayer", "grain_name", "hann_pulse", "tribometer_amplitude"]
+__all__ = ["GrainParams", "GRAINS", "AREA_GRAINS", "GrainPlayer", "grain_name", "hann_pulse"]
 
 GRAINS = ("area-even", "area-grainy", "edge-tick")
 AREA_GRAINS = ("area-even", "area-grainy")
@@ -89,75 +88,6 @@ def hann_pulse(width: float, rate: float) -> np.ndarray:
     return 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(1, k + 1) / (k + 1))
 
 
-@dataclass(frozen=True)
-class DeviceCurve:
-    """Grain force (N) versus intensity: ``F(I) = a I^2 + b I + c``.
-
-    :meth:`kim2017` is the curve the paper quotes for the Feelscreen; :meth:`square_law` is a
-    display whose voltage is proportional to the intensity (the paper's assumption of a
-    constant amplifier gain, Sec. 2.2), so that ``F = F_max I^2``.
-    """
-
-    a: float
-    b: float = 0.0
-    c: float = 0.0
-    source: str = ""
-
-    def __post_init__(self):
-        if not all(np.isfinite(v) for v in (self.a, self.b, self.c)):
-            raise ConfigError("coefficients must be finite", field="device")
-        i = np.linspace(0.0, 1.0, 101)
-        f = self.force(i, clip=False)
-        if np.any(f < -1e-12) or np.any(np.diff(f) < -1e-12):
-            raise ConfigError("the intensity -> force curve must be >= 0 and non-decreasing on [0, 1]", field="device")
-
-    @classmethod
-    def kim2017(cls) -> "DeviceCurve":
-        """The quadratic through the points Kim et al. quote for EDGE-SOFT (Sec. 3.1.2, Fig. 2c):
-        0.075 N at intensity 0.1 (the lowest measured), 0.16 N at 0.7, 0.25 N at 1.0."""
-        return cls(0.17592593, 0.00092593, 0.07314815,
-                   source="Kim et al. 2017 Sec. 3.1.2 / Fig. 2c (EDGE-SOFT): 0.075 N @ 0.1, 0.16 N @ 0.7, 0.25 N @ 1.0")
-
-    @classmethod
-    def square_law(cls, max_force: float) -> "DeviceCurve":
-        """``F = max_force I^2``: voltage proportional to intensity, force to voltage squared."""
-        if not (np.isfinite(max_force) and max_force > 0):
-            raise ConfigError("must be > 0 N", field="max_force")
-        return cls(float(max_force), 0.0, 0.0, source=f"square law, {max_force:.4g} N at intensity 1")
-
-    def force(self, intensity: np.ndarray, clip: bool = True) -> np.ndarray:
-        """F (N) at intensity (n,) in [0, 1] (clipped to that range when ``clip``)."""
-        i = np.asarray(intensity, dtype=float)
-        if clip:
-            i = np.clip(i, 0.0, 1.0)
-        return (self.a * i + self.b) * i + self.c
-
-    @classmethod
-    def fit(cls, intensity: np.ndarray, force: np.ndarray, source: str = "fit") -> "DeviceCurve":
-        """Least-squares quadratic through (intensity (n,), force (n,) N) pairs, n >= 3."""
-        i = np.asarray(intensity, dtype=float)
-        f = np.asarray(force, dtype=float)
-        if i.shape != f.shape or i.ndim != 1 or i.size < 3:
-            raise ConfigError("need at least three (intensity, force) pairs", field="device")
-        c, b, a = fit_quadratic(i, f).coefficients
-        return cls(a, b, c, source=source)
-
-    @classmethod
-    def from_tribometer(cls, recordings: dict, fs: float, source: str = "tribometer") -> "DeviceCurve":
-        """Fit from tribometer recordings ``{intensity: force (n,) N}`` at ``fs`` Hz: each
-        recording's :func:`tribometer_amplitude`, then the quadratic fit (Sec. 2.2, Fig. 2c)."""
-        if len(recordings) < 3:
-            raise ConfigError("need recordings at three intensities or more", field="device")
-        inten = np.array(sorted(float(k) for k in recordings))
-        amp = np.array([tribometer_amplitude(recordings[k], fs) for k in sorted(recordings, key=float)])
-        return cls.fit(inten, amp, source=source)
-
-    def plot(self, fig=None):
-        from surfhap.report.shape_figures import plot_device_curve
-
-        return plot_device_curve(self, fig=fig)
-
-
 class GrainPlayer:
     """Stateful grain synthesiser at the drive rate.
 
@@ -172,6 +102,8 @@ class GrainPlayer:
         self.grain = grain_name(grain)
         if self.grain not in AREA_GRAINS:
             raise ConfigError(f"{self.grain} is not an area grain ({', '.join(AREA_GRAINS)})", field="grain")
+        if device.input != "intensity":
+            raise ConfigError("a grain's device curve is over intensity", field="device")
         if not (np.isfinite(drive_rate) and drive_rate >= 1000):
             raise ConfigError("drive rate must be >= 1000 Hz", field="drive_rate")
         self.drive_rate = float(drive_rate)
@@ -208,26 +140,27 @@ class GrainPlayer:
         even = self.grain == "area-even"
         env = inten if even else self._area_envelope(m)  # not read when even
         out = np.empty(m)
-        d = self.device
-        self._tick_left, self._tick_amp = _grain_kernel(inten, tick, env, even, float(d.a), float(d.b), float(d.c),
+        c0, c1, c2 = self.device.coefficients
+        self._tick_left, self._tick_amp = _grain_kernel(inten, tick, env, even, c0, c1, c2, self.device.u_max,
                                                         self._tick_pulse, int(self._tick_left), float(self._tick_amp), out)
         return out
 
 
 @numba.njit(cache=True, nogil=True)
-def _device_force(i, a, b, c):
-    i = min(max(i, 0.0), 1.0)
-    return (a * i + b) * i + c
+def _device_force(i, c0, c1, c2, top):
+    # DeviceCurve.force for one intensity (ascending coefficients, clipped to [0, top])
+    i = min(max(i, 0.0), top)
+    return (c2 * i + c1) * i + c0
 
 
 @numba.njit(cache=True, nogil=True)
-def _grain_kernel(inten, tick, env, even, a, b, c, pulse, tick_left, tick_amp, out):
+def _grain_kernel(inten, tick, env, even, c0, c1, c2, top, pulse, tick_left, tick_amp, out):
     # area grain: device force of the held intensity (times the grainy envelope), 0 where silent
     m = inten.shape[0]
     for i in range(m):
         v = inten[i]
         if v > 0.0 and np.isfinite(v):
-            f = _device_force(v, a, b, c)
+            f = _device_force(v, c0, c1, c2, top)
             out[i] = f if even else f * env[i]
         else:
             out[i] = 0.0
@@ -247,7 +180,7 @@ def _grain_kernel(inten, tick, env, even, a, b, c, pulse, tick_left, tick_amp, o
         tick_left -= n
     s = first
     while s >= 0:
-        amp = _device_force(tick[s], a, b, c)
+        amp = _device_force(tick[s], c0, c1, c2, top)
         nxt = m
         for i in range(s + 1, m):
             if tick[i] > 0.0 and np.isfinite(tick[i]):

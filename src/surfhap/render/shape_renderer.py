@@ -8,8 +8,10 @@ Two stateful processors, one per rate:
   the edge ticks from the dihedral angle between the previous and current hit faces
   (eq. 10-11).
 * :class:`ShapeDrive` (drive rate): grain synthesis (area grain at the held intensity, edge
-  ticks), device curve intensity -> force, voltage ``V = alpha sqrt(F)`` so the simulated
-  display adds the grain's force, polarity carrier, and the safety stage last.
+  ticks), device curve intensity -> force, the display's force -> voltage map
+  (:meth:`~surfhap.models.panel.DisplayModel.voltage_for_force`: ``V = alpha sqrt(F)``, or the
+  inverse of a measured device curve) so the display adds the grain's force, polarity carrier,
+  and the safety stage last.
 
 :func:`render_shape` runs both over a whole trajectory on the simulated display and returns a
 :class:`ShapeResult` (named arrays, ``summary()``, ``plot()``).
@@ -28,7 +30,8 @@ from surfhap.models.trajectory import Trajectory
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive_kernel import target_to_voltage
 from surfhap.render.hold import hold_latest
-from surfhap.render.grains import DeviceCurve, GrainParams, GrainPlayer, grain_name
+from surfhap.models.device_curve import DeviceCurve
+from surfhap.render.grains import GrainParams, GrainPlayer, grain_name
 from surfhap.render.safety import SafetyCounters, SafetyLimits, SafetyStage
 from surfhap.shape.calibration import ShapeCalibration, calibrate
 from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks_walk, walk_spacing
@@ -53,10 +56,13 @@ class ShapeConfig:
     drive_rate         : Hz, DAC rate (2-48 kHz).
     carrier            : Hz, polarity carrier (0 = off, else 2-20 kHz).
     model_rate         : Hz, rate of the simulated display's friction output.
-    alpha              : V/sqrt(N); None = calibrated to the simulated display.
+    alpha              : V/sqrt(N); None = calibrated to the display (a given alpha scales the
+                         target force by (alpha / calibrated alpha)^2 before the display's map).
     seed               : seed of the grainy grain.
-    device             : intensity -> force curve; None = the simulated display's square law
-                         (intensity 1 = v_max), see :func:`display_device_curve`.
+    device             : intensity -> target force curve; None = the square law of the display's
+                         model (intensity 1 = v_max), see :func:`display_device_curve`.
+    display            : the display rendered for: its force -> voltage map (a measured device
+                         curve when it has one) and the simulated panel.
     grain_params       : waveform parameters of the grains.
     """
 
@@ -93,7 +99,7 @@ class ShapeConfig:
 
 
 def display_device_curve(config: "ShapeConfig") -> DeviceCurve:
-    """The device curve of the simulated display: ``F = mu_panel k (I v_max)^2``."""
+    """The default target curve: the display model's square law ``F = mu_panel k (I v_max)^2``."""
     d = config.display
     return DeviceCurve.square_law(d.mu_panel * d.k * config.limits.v_max ** 2)
 
@@ -167,6 +173,7 @@ class ShapeDrive:
         self.config = cfg
         self.drive_rate = int(cfg.drive_rate)
         self.alpha = float(cfg.alpha if cfg.alpha is not None else cfg.display.calibrated_alpha)
+        self._gain = (self.alpha / cfg.display.calibrated_alpha) ** 2  # rendering gain on the target force
         self.device = cfg.device if cfg.device is not None else display_device_curve(cfg)
         self.grains = GrainPlayer(cfg.grain, self.drive_rate, self.device, seed=cfg.seed, params=cfg.grain_params)
         self.carrier = PolarityCarrier(cfg.carrier, self.drive_rate)
@@ -181,8 +188,12 @@ class ShapeDrive:
     def process(self, intensity, tick, load, touch_age):
         target = self.grains.process(intensity, tick)
         load = np.ascontiguousarray(load, dtype=np.float64)
-        envelope = np.empty(target.shape[0])
-        target_to_voltage(target, load, self.alpha, envelope)  # the drive laws' tail: alpha sqrt(max(F, 0))
+        disp = self.config.display
+        if disp.device_curve is None:  # the compiled form of the display's map: alpha sqrt(max(F, 0))
+            envelope = np.empty(target.shape[0])
+            target_to_voltage(target, load, self.alpha, envelope)
+        else:
+            envelope = disp.voltage_for_force(self._gain * target, self.config.limits.v_max)
         drive = self.safety.process(self.carrier.process(envelope), load, touch_age)
         return drive, target
 
@@ -277,7 +288,7 @@ def render_shape(surface: TopSurface, trajectory: Trajectory, calibration: Shape
     cal = calibration if calibration is not None else calibrate(surface, fz=cfg.fz)
     renderer = ShapeRenderer(surface, cal, cfg)
     drive_proc = ShapeDrive(cfg)
-    display = SimulatedDisplay(cfg.display, cfg.drive_rate, cfg.model_rate)
+    display = SimulatedDisplay(cfg.display, cfg.drive_rate, cfg.model_rate, v_max=cfg.limits.v_max)
     t = trajectory.t - trajectory.t[0]
     touching = trajectory.load > cfg.limits.lift_threshold
     # touch rate, in blocks (as a live loop would deliver them)
