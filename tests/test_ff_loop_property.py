@@ -89,6 +89,12 @@ class Adversary:
     def stop(self) -> None:
         pass
 
+    def press(self, load: float) -> None:
+        self.inner.press(load)
+
+    def info(self) -> dict:
+        return {"name": self.name}
+
     def read(self, t: float):
         px, py, pz, _ = self.inner.read(t)
         k = self.kind

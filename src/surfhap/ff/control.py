@@ -60,7 +60,7 @@ class ControlLaw:
         self.h_lim = device.workspace[2]
         self.out = np.zeros(3)
         self.mask = 0
-        self._calls = [(e.terms, bool(getattr(e, "vibration", False))) for e in self.effects]
+        self._calls = [(e.terms, e.vibration) for e in self.effects]
         self.ref_step = device.ref_speed / rate
         self.reset()
 
