@@ -32,6 +32,7 @@ touch sources use (:class:`surfhap.live.sources.OscTouchSource`, ``ReplaySource`
 
 from __future__ import annotations
 
+import gc
 import logging
 import math
 import sys
@@ -120,6 +121,10 @@ class FFLoop:
         # switch interval (process-wide; restored on stop) bounds how long it waits
         self._switch = sys.getswitchinterval()
         sys.setswitchinterval(min(self._switch, 0.0002))
+        # the objects alive now (modules, numpy, numba: ~10^5) are never scanned again by the
+        # cyclic collector: a full collection over them stalls whichever thread runs it for
+        # 50-100 ms, the haptic thread included (unfrozen on stop)
+        gc.freeze()
         self.engine.reset()
         self._stop_left = None
         self.backend.start()
@@ -144,6 +149,7 @@ class FFLoop:
         self.backend.stop()
         if self._switch is not None:
             sys.setswitchinterval(self._switch)
+            gc.unfreeze()
             self._switch = None
 
     # ------------------------------------------------------------- threads
