@@ -201,8 +201,7 @@ class FFEngine:
         s = self.state
         saf = self.safety
         if saf.observe(t, t_pos, px, py, pz):
-            s.px, s.py, s.pz = saf.p
-            s.vx, s.vy, s.vz = saf.v
+            s.px, s.py, s.pz, s.vx, s.vy, s.vz = saf.state[:6].tolist()
         c = saf.now
         s.t = c
         j = self._hist_k % self._hist_n
@@ -239,16 +238,17 @@ class FFEngine:
         else:
             s.fvx = s.fvy = s.speed = 0.0
         s.touched = touched
-        f0 = f1 = f2 = 0.0
         if self.error is None:
             try:
-                f0, f1, f2 = self.law.compute_xyz(s)
+                terms = self.law.merge(s)
                 if self.button_presses.buttons:
                     self.button = self.button_presses.update(touched, s.fx, s.fy, s.pz)
+                # the control law's arithmetic and the safety stage (last): one compiled call
+                return saf.law_limit(self.law, terms, self.stopping)
             except Exception as exc:  # noqa: BLE001 - kept for the caller; the safety stage ramps down
                 self.error = exc
                 self.stopping = True
-        return saf.limit(f0, f1, f2, self.stopping)
+        return saf.limit(0.0, 0.0, 0.0, self.stopping)
 
     # ----------------------------------------------------------------- outputs
     @property

@@ -41,6 +41,7 @@ import threading
 import numpy as np
 
 from surfhap.ff.engine import FFEngine
+from surfhap.ff.tick_kernel import warm_up
 from surfhap.live.clock import STALE, arrival_stamp, now, sleep_until
 from surfhap.live.ff_devices import FFDevice
 from surfhap.live.pacing import SPIN, Pacer, enter_realtime
@@ -125,6 +126,7 @@ class FFLoop:
         # cyclic collector: a full collection over them stalls whichever thread runs it for
         # 50-100 ms, the haptic thread included (unfrozen on stop)
         gc.freeze()
+        warm_up()  # the compiled tick, before the first deadline
         self.engine.reset()
         self._stop_left = None
         self.backend.start()
@@ -172,8 +174,8 @@ class FFLoop:
         self._stop.set()
 
     def tick_once(self, t: float) -> bool:
-        """One haptic tick at time ``t`` (s, :func:`now` clock): drain the touches, read the
-        device, tick the engine (its safety stage runs on every tick, also after an exception)
+        """One haptic tick at time ``t`` (s, the loop's ``clock``): drain the touches, read the
+        device (its stamp through :func:`arrival_stamp`), tick the engine (its safety stage runs on every tick, also after an exception)
         and write the force. False once a stop has ramped to zero (or used its
         ``stop_timeout`` worth of ticks: counted in ticks, so a stalled loop still ramps). The
         thread calls it on its deadlines; tests call it directly with a simulated clock."""
@@ -187,6 +189,9 @@ class FFLoop:
             px, py, pz, t_pos = be.read(t)
         except Exception as exc:  # noqa: BLE001 - no position: the safety stage ramps to zero
             self._fail(exc)
+        # the one arrival law (live/clock.py), as for touches: the device's stamp may only make
+        # the position older than its hand-over; a future or non-finite one is STALE
+        t_pos = arrival_stamp(t_pos, self.clock())
         if self._stop.is_set() and self._stop_left is None:
             eng.stop()
             self._stop_left = math.ceil(self.stop_timeout * self.rate)
