@@ -9,7 +9,7 @@ thread of :mod:`surfhap.live.ff_loop`, or the offline loop of :mod:`surfhap.sim.
   (m, relative to X0) and its time; returns the safe force (3,) N in the device frame.
 
 Screen -> world: the touch position is on the moving screen; the content is drawn
-compensated (shifted by ``-X_t``, :meth:`content_offset`) so that it stays still in the
+compensated (shifted by ``-X_t``, the live loop's feedback) so that it stays still in the
 world. The finger's world (= content) position is therefore ``f_screen + X_t,xy``, with
 ``X_t`` taken *when the touch was sampled*: ``touch_latency`` s before the sample arrived
 (the engine keeps the last 0.5 s of device positions). Prediction then runs on the world
@@ -252,15 +252,6 @@ class FFEngine:
 
     # ----------------------------------------------------------------- outputs
     @property
-    def failed(self) -> bool:
-        """True once an effect or the control law raised (see ``error``)."""
-        return self.error is not None
-
-    @property
     def mask(self) -> int:
         """Bit mask of the effects active on the last tick (0 = idle)."""
         return self.law.mask
-
-    def content_offset(self) -> tuple[float, float]:
-        """m, shift to draw the content by so it stays still in the world (``-X_t,xy``)."""
-        return -self.state.px, -self.state.py

@@ -118,13 +118,8 @@ class ForceSafety:
 
     def process(self, force, t: float, t_pos: float, px: float, py: float, pz: float, stop: bool = False) -> np.ndarray:
         """Safe force (3,) N (a view of ``self.out``) for the requested ``force`` (3,)."""
-        return self.process_xyz(float(force[0]), float(force[1]), float(force[2]), t, t_pos, px, py, pz, stop)
-
-    def process_xyz(self, f0: float, f1: float, f2: float, t: float, t_pos: float, px: float, py: float, pz: float,
-                    stop: bool = False) -> np.ndarray:
-        """:meth:`process` with the force as three floats."""
         self.observe(t, t_pos, px, py, pz)
-        return self.limit(f0, f1, f2, stop)
+        return self.limit(force[0], force[1], force[2], stop)
 
     def observe(self, t: float, t_pos: float, px: float, py: float, pz: float) -> bool:
         """Advance the clock one tick and take the device position if it is plausible;

@@ -46,26 +46,13 @@ _TICKS, _CLAMPED, _SLEWED, _FAULTS, _LOST, _WS_N, _STOPPED, _STALE, _REJECTED, _
 
 
 def safety_params(device, rate: float, velocity_cutoff: float) -> np.ndarray:
-    """The ``P`` array of ``device`` (a DeviceParams) at ``rate`` Hz."""
-    p = np.zeros(_P_SIZE)
-    p[_FMAX:_FMAX + 3] = device.f_max
-    p[_WS:_WS + 3] = device.workspace
-    p[_BOUND:_BOUND + 3] = device.position_bound
-    p[_GRAV:_GRAV + 3] = (0.0, 0.0, device.weight)  # N the weight compensation provides per axis
-    p[_PERIOD] = 1.0 / rate
-    p[_STEP] = device.slew / rate
-    p[_WALL_K] = device.wall_k
-    p[_TIMEOUT] = device.device_timeout
-    p[_TAU] = 1.0 / (2.0 * math.pi * velocity_cutoff)
-    p[_MAX_SPEED] = device.max_speed
-    p[_LAND_TIME] = device.land_time
-    p[_LAND_DAMP] = device.land_damping
-    p[_WALL_DAMP] = device.wall_damping
-    p[_DECEL] = device.brake_decel
-    p[_BRAKE_GAIN] = device.brake_gain
-    p[_MARGIN] = device.brake_margin
-    p[_MASS] = device.moving_mass if device.moving_mass > 0.0 else 1.0
-    p[_SLEW] = device.slew
+    """The ``P`` array of ``device`` (a DeviceParams) at ``rate`` Hz (in the order of the indices above)."""
+    d = device
+    p = np.array([*d.f_max, *d.workspace, *d.position_bound, 0.0, 0.0, d.weight,  # weight: N per axis
+                  1.0 / rate, d.slew / rate, d.wall_k, d.device_timeout, 1.0 / (2.0 * math.pi * velocity_cutoff),
+                  d.max_speed, d.land_time, d.land_damping, d.wall_damping, d.brake_decel, d.brake_gain,
+                  d.brake_margin, d.moving_mass if d.moving_mass > 0.0 else 1.0, d.slew], dtype=float)
+    assert p.shape == (_P_SIZE,)
     return p
 
 
