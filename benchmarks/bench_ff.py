@@ -5,8 +5,9 @@
   costs; on a loaded machine wall time also counts preemption by other processes, so the
   wall-time distribution is reported alongside).
 * ``ff_loop_1khz``: the live haptic loop with the simulated device and a replayed finger for
-  ``--seconds`` (default 60); targets p99 period error <= 0.2 ms; missed ticks are reported
-  (counted, and their fraction is part of the figure), not hidden.
+  ``--seconds`` (default 60); targets p99 period error <= 0.2 ms and <= 1 % missed ticks
+  (issue 20, also beside a CPU-bound process); ``scheduling`` is the class the OS granted the
+  haptic thread (``fifo`` where real-time scheduling is allowed).
 """
 
 from __future__ import annotations
@@ -85,13 +86,14 @@ def bench_loop(seconds: float) -> bool:
     st = loop.stats()
     p99 = st["period_error_ms"]["p99"]
     expected = int(seconds * 1000)
-    ok = p99 <= 0.2 and st["error"] is None
+    missed = st["missed"] / max(1, expected)
+    ok = p99 <= 0.2 and missed <= 0.01 and st["error"] is None
     report("ff_loop_1khz", {"seconds": seconds, "ticks": st["ticks"], "expected_ticks": expected,
-                            "missed": st["missed"], "missed_fraction": round(st["missed"] / max(1, expected), 5),
+                            "missed": st["missed"], "missed_fraction": round(missed, 5), "scheduling": st["scheduling"],
                             "p50_ms": round(st["period_error_ms"]["p50"], 4), "p99_ms": round(p99, 4),
                             "p999_ms": round(st["period_error_ms"]["p999"], 4),
                             "max_ms": round(st["period_error_ms"]["max"], 3), "safety": st["safety"]},
-           0.2 / max(p99, 1e-4), "p99 period error <= 0.2 ms (ratio = 0.2 / p99 >= 1; missed ticks reported)", ok)
+           0.2 / max(p99, 1e-4), "p99 period error <= 0.2 ms (ratio = 0.2 / p99 >= 1) and missed ticks <= 1 %", ok)
     return ok
 
 

@@ -110,12 +110,41 @@ def test_bad_trajectory_and_options_exit_2(tmp_path, capsys):
     bad.write_text("time,x,y\n0,0,0\n1,0,0\n")
     code, _, err = run(capsys, "ff", "simulate", "follow", "--trajectory", str(bad), "--out", str(tmp_path / "o"))
     assert code == 2 and "load" in err
-    code, _, err = run(capsys, "ff", "simulate", "follow", "--alpha", "0", "--out", str(tmp_path / "o"))
-    assert code == 2 and "--alpha" in err
+    code, _, err = run(capsys, "ff", "simulate", "follow", "--smoothing", "0", "--out", str(tmp_path / "o"))
+    assert code == 2 and "--smoothing" in err
     code, _, err = run(capsys, "ff", "run", "follow", "--device", "serial:/dev/x", "--duration", "1")
     assert code == 2 and "--device" in err
     code, _, err = run(capsys, "ff", "simulate", "no-such-scene", "--out", str(tmp_path / "o"))
     assert code == 2 and "no-such-scene" in err
+
+
+def test_old_alpha_option_is_one_line_naming_the_new_one(tmp_path, capsys):
+    """``--alpha`` is V/sqrt(N) in render; ff's smoothing factor is ``--smoothing`` (issue 20)."""
+    code, _, err = run(capsys, "ff", "simulate", "follow", "--alpha", "0.15", "--out", str(tmp_path / "o"))
+    assert code == 2 and "--alpha" in err and "--smoothing" in err and "Traceback" not in err
+
+
+def test_touch_page_keeps_its_address_with_an_osc_device(monkeypatch, capsys):
+    """``--device osc://... --touch web`` served the page on the device's address (issue 20)."""
+    import surfhap.cli.ff as ff_cli
+
+    served = []
+
+    class FakePage:
+        def __init__(self, scene, loop, dev, host, port):
+            served.append((host, port))
+
+        def start(self):
+            pass
+
+        def stop(self):
+            pass
+
+    monkeypatch.setattr(ff_cli, "_WebSource", FakePage)
+    code, _, err = run(capsys, "ff", "run", "follow", "--device", "osc://127.0.0.1:9", "--device-listen", "127.0.0.1:0",
+                       "--touch", "web", "--host", "127.0.0.1", "--port", "8799", "--duration", "0.1")
+    assert code == 0, err
+    assert served == [("127.0.0.1", 8799)]
 
 
 def test_run_with_sim_device_and_replay(tmp_path, capsys):

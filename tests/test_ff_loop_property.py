@@ -89,6 +89,12 @@ class Adversary:
     def stop(self) -> None:
         pass
 
+    def press(self, load: float) -> None:
+        self.inner.press(load)
+
+    def info(self) -> dict:
+        return {"name": self.name}
+
     def read(self, t: float):
         px, py, pz, _ = self.inner.read(t)
         k = self.kind
@@ -274,3 +280,27 @@ def test_huge_touch_cannot_crash_or_freeze_the_roughness_phase():
     before = r.phase
     r.terms(s)
     assert r.phase != before  # a NaN speed did not freeze it
+
+
+def test_device_position_stamps_pass_the_one_arrival_law():
+    """Issue 20: the loop hands a device position's stamp through live/clock.arrival_stamp, the
+    law touches pass: a stamp after the hand-over (even within one period) or non-finite is
+    stale and never refreshes the watchdog; one at or before it is taken."""
+    from surfhap.live.clock import STALE, arrival_stamp
+
+    period = 1.0 / RATE
+    for offset in (-3 * period, 0.0, 0.5 * period, 0.99 * period, 2 * period, math.inf, math.nan):
+        clock = Clock()
+        eng = FFEngine([Stiffness(300.0)], FALCON, TouchPredictor(), rate=RATE)
+        be = Adversary(FALCON)
+        loop = FFLoop(eng, be, clock=clock)
+        eng.reset()
+        be.start()
+        be.kind = "stamp"
+        for _ in range(20):
+            clock.t += period
+            be.value = clock.t + offset
+            loop.tick_once(clock.t)
+        stale = eng.safety.counters.stale
+        assert (stale == 20) == (arrival_stamp(clock.t + offset, clock.t) == STALE), (offset, stale)
+        assert stale in (0, 20)

@@ -223,3 +223,34 @@ def test_feedback_thread_sends_position_offset_and_force(tmp_path):
     assert screen.shape[1] == 3 and offset.shape[1] == 2
     n = min(len(screen), len(offset))
     np.testing.assert_allclose(offset[:n], -screen[:n, :2], atol=1e-6)  # content drawn still in the world
+
+
+def test_bridge_check_and_the_osc_device_accept_the_same_positions():
+    """Issue 20: ``ff bridge-check`` and the OSC device backend share one position receiver:
+    the same datagrams are taken or dropped, for the same reasons."""
+    from surfhap.live.ff_bridge_check import BridgeCheck
+    from surfhap.live.ff_bridge_wire import encode_position
+
+    bridge, other = ("127.0.0.1", 9), ("127.0.0.1", 10)
+    cases = [  # (datagram, sender, taken by the contract)
+        (encode_position(777, 1, 0.001, 0.0, 0.0, 0.0, 0.0, 0.0), bridge, True),
+        (encode_position(777, 2, 0.001, 0.0, 0.0, 0.0, 0.0, 0.0), other, False),  # another process
+        (encode_position(778, 3, 0.001, 0.0, 0.0, 0.0, 0.0, 0.0), bridge, False),  # another session
+        (encode_position(777, 4, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0), bridge, False),  # not metres
+        (b"/surfhap/ff/position\0\0\0\0,fff\0\0\0\0" + bytes(12), bridge, False),  # another layout
+        (encode_position(777, 5, 0.002, 0.0, 0.0, 0.0, 0.0, 0.0), bridge, True),
+    ]
+    check = BridgeCheck("127.0.0.1", 9, listen=("127.0.0.1", 0), token=777)
+    be = OscDeviceBackend("127.0.0.1", 9, FALCON.gain, listen=("127.0.0.1", 0), token=777)
+    check.receiver.open(0.0)
+    be.start()
+    try:
+        got_check = [check.receiver.accept(d, a) is not None for d, a, _ in cases]
+        got_device = [be.accept(d, a) for d, a, _ in cases]
+    finally:
+        check.receiver.close()
+        be.stop()
+    assert got_check == got_device == [ok for _, _, ok in cases]
+    rx = check.receiver
+    assert (rx.dropped_sender, rx.dropped_token, rx.rejected) == (be.dropped_sender, be.dropped_token, be.rejected) \
+        == (1, 1, 2)

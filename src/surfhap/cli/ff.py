@@ -38,20 +38,24 @@ def _device(gain: Optional[float], slew: Optional[float], f_max: Optional[float]
         raise ConfigError(exc.message, source=f"--{(exc.field or 'device').replace('_', '-')}") from None
 
 
-def _predictor(predict: bool, latency_ms: float, k_pred: Optional[float], alpha: float, velocity_alpha: float):
+def _predictor(predict: bool, latency_ms: float, k_pred: Optional[float], smoothing: float, velocity_alpha: float,
+               old_alpha: Optional[float] = None):
     from surfhap.live.prediction import TouchPredictor
 
+    if old_alpha is not None:
+        raise ConfigError("renamed --smoothing (the position smoothing of eq. 7); --alpha is the V/sqrt(N) gain "
+                          "of render and play", source="--alpha")
     if not 0.0 <= latency_ms <= 200.0:
         raise ConfigError("must be within 0-200 ms", source="--touch-latency-ms")
-    if not 0.0 < alpha <= 1.0:
-        raise ConfigError("must be in (0, 1]", source="--alpha")
+    if not 0.0 < smoothing <= 1.0:
+        raise ConfigError("must be in (0, 1]", source="--smoothing")
     if not 0.0 < velocity_alpha <= 1.0:
         raise ConfigError("must be in (0, 1]", source="--velocity-alpha")
     if k_pred is not None and not 0.0 <= k_pred <= 100.0:
         raise ConfigError("must be within 0-100", source="--k-pred")
     if not predict:
         return TouchPredictor(velocity_alpha=velocity_alpha)
-    return TouchPredictor(latency=latency_ms * 1e-3, alpha=alpha, k_pred=k_pred, velocity_alpha=velocity_alpha)
+    return TouchPredictor(latency=latency_ms * 1e-3, alpha=smoothing, k_pred=k_pred, velocity_alpha=velocity_alpha)
 
 
 def _default_strokes(size):
@@ -84,7 +88,8 @@ def _default_pushes(buttons):
 _LAT = typer.Option(None, "--touch-latency-ms", help="Touch latency of the touch path, ms (default 40, the KinesTouch tablet's 'few dozens of ms'; 0 for a trajectory replay).")
 _PRED = typer.Option(True, "--predict/--no-predict", help="Compensate the touch latency by prediction (004 eq. 6-7).")
 _KPRED = typer.Option(None, "--k-pred", help="Fixed prediction gain of eq. 6 (paper: 8 at 60 Hz); default: derived from the latency.")
-_ALPHA = typer.Option(0.15, "--alpha", help="Position smoothing of eq. 7, (0, 1] (paper: 0.15).")
+_SMOOTH = typer.Option(0.15, "--smoothing", help="Position smoothing of eq. 7 (the paper's alpha), (0, 1] (paper: 0.15).")
+_OLD_ALPHA = typer.Option(None, "--alpha", hidden=True, help="Renamed --smoothing (an error naming the new option).")
 _VALPHA = typer.Option(0.45, "--velocity-alpha", help="Velocity smoothing per touch sample, (0, 1] (paper: 0.45).")
 _GAIN = typer.Option(None, "--gain", help="Device units per newton (default 4.5: a Falcon through CHAI3D, 004 Sec. 4.3).")
 _SLEW = typer.Option(None, "--slew", help="Largest force change per axis, N/s (default 400).")
@@ -107,8 +112,8 @@ def simulate_cmd(
     touch_rate: float = typer.Option(60.0, "--touch-rate", help="Touch report rate of the simulated tablet, Hz (paper: 60)."),
     mu: float = typer.Option(0.0, "--mu", help="Finger-screen Coulomb friction coefficient of the simulated finger (0 = none)."),
     touch_latency_ms: Optional[float] = _LAT, predict: bool = _PRED, k_pred: Optional[float] = _KPRED,
-    alpha: float = _ALPHA, velocity_alpha: float = _VALPHA, gain: Optional[float] = _GAIN,
-    slew: Optional[float] = _SLEW, f_max: Optional[float] = _FMAX,
+    smoothing: float = _SMOOTH, velocity_alpha: float = _VALPHA, gain: Optional[float] = _GAIN,
+    slew: Optional[float] = _SLEW, f_max: Optional[float] = _FMAX, old_alpha: Optional[float] = _OLD_ALPHA,
     figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
 ) -> None:
     """Simulate SCENE on a simulated device with a simulated finger: forces, screen motion,
@@ -136,7 +141,7 @@ def simulate_cmd(
             raise ConfigError("longer than 600 s", source=str(trajectory), field="time")
     else:
         tr = _default_pushes(sc.buttons) if sc.buttons else _default_strokes(sc.size)
-    pred = _predictor(predict, touch_latency_ms, k_pred, alpha, velocity_alpha)
+    pred = _predictor(predict, touch_latency_ms, k_pred, smoothing, velocity_alpha, old_alpha)
     lat = touch_latency_ms * 1e-3
     eng = FFEngine(sc.effects, dev, pred, touch_latency=lat, buttons=sc.buttons)
     res = simulate_ff(eng, SimFinger(tr, touch_rate=touch_rate, latency=lat, mu=mu), SimDevice(gain=dev.gain),
@@ -175,8 +180,8 @@ def run_cmd(
     feedback: Optional[str] = typer.Option(None, "--feedback", help="osc://HOST:PORT of the tablet: 60 Hz /surfhap/ff/screen, /offset, /force, and /button on GUI button presses."),
     duration: float = typer.Option(0.0, "--duration", help="Stop after this many seconds (0 = until Ctrl-C / SIGTERM)."),
     touch_latency_ms: Optional[float] = _LAT, predict: bool = _PRED, k_pred: Optional[float] = _KPRED,
-    alpha: float = _ALPHA, velocity_alpha: float = _VALPHA, gain: Optional[float] = _GAIN,
-    slew: Optional[float] = _SLEW, f_max: Optional[float] = _FMAX,
+    smoothing: float = _SMOOTH, velocity_alpha: float = _VALPHA, gain: Optional[float] = _GAIN,
+    slew: Optional[float] = _SLEW, f_max: Optional[float] = _FMAX, old_alpha: Optional[float] = _OLD_ALPHA,
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Log at INFO."),
 ) -> None:
     """Run SCENE live: a 1 kHz haptic thread driving the device and a 60 Hz position-feedback
@@ -203,29 +208,32 @@ def run_cmd(
         from surfhap.sim.ff_device import SimDevice
 
         backend = SimDeviceBackend(SimDevice(gain=dev.gain), dev.gain)
-    else:
-        host, port = parse_osc_url(device, "--device")
-        backend = OscDeviceBackend(host, port, dev.gain, listen=parse_host_port(device_listen, "--device-listen", listen=True))
+    else:  # the bridge's address: its own names (host and port are the touch page's)
+        bridge_host, bridge_port = parse_osc_url(device, "--device")
+        backend = OscDeviceBackend(bridge_host, bridge_port, dev.gain,
+                                   listen=parse_host_port(device_listen, "--device-listen", listen=True))
     fb = None
     if feedback is not None:
         fb = OscFeedback(*parse_osc_url(feedback, "--feedback"))
-    pred = _predictor(predict, touch_latency_ms, k_pred, alpha, velocity_alpha)
+    pred = _predictor(predict, touch_latency_ms, k_pred, smoothing, velocity_alpha, old_alpha)
     eng = FFEngine(sc.effects, dev, pred, touch_latency=touch_latency_ms * 1e-3, buttons=sc.buttons)
     if fb is not None:
         fb.engine = eng  # button press / release events
     loop = FFLoop(eng, backend, feedback=fb)
+    replay_done = None  # a replay that ends (without --duration) ends the run
     if touch.startswith("trajectory:"):
         from surfhap.exchange.trajectory_csv import read_trajectory_csv
         from surfhap.live.sources import ReplaySource
 
         source = ReplaySource(WorldTouchAdapter(loop, backend), read_trajectory_csv(touch[len("trajectory:"):]),
                               loop=duration > 0)
+        replay_done = source.done if duration == 0 else None
     elif touch.startswith("osc://"):
         from surfhap.live.sources import OscTouchSource, TouchSpace
 
-        host, port = parse_osc_url(touch, "--touch", listen=True)
+        touch_host, touch_port = parse_osc_url(touch, "--touch", listen=True)
         w, h = sc.size
-        source = OscTouchSource(loop, host=host, port=port, space=TouchSpace(width=w, height=h))
+        source = OscTouchSource(loop, host=touch_host, port=touch_port, space=TouchSpace(width=w, height=h))
     elif touch == "web":
         source = _WebSource(sc, loop, dev, host, port)
     else:
@@ -250,7 +258,7 @@ def run_cmd(
                 if end is not None and time.monotonic() >= end:
                     loop.request_stop()
                     end = None
-                if getattr(source, "done", None) is not None and source.done.is_set() and duration == 0:
+                if replay_done is not None and replay_done.is_set():
                     loop.request_stop()
                 if guard.wait(0.05):  # on_stop requested the ramp: wait for the loop to finish it
                     loop.done.wait(0.05)

@@ -27,6 +27,10 @@ with K from Table 2 for the effect in use. Fixed here as the physics means it (s
 
 Not touched (or a stale touch stream): Idle (eq. 5) only. Force jumps at switches are
 bounded by the safety stage's slew limit, which is the last stage before the device.
+
+The effects' terms are merged here (:meth:`ControlLaw.merge`, Python: effects read maps); the
+arithmetic after them is compiled (:func:`surfhap.ff.tick_kernel.law`), and the engine runs it
+together with the safety stage in one call (:meth:`surfhap.ff.safety.ForceSafety.law_limit`).
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ import math
 
 import numpy as np
 
+from surfhap.ff import tick_kernel as kernel
 from surfhap.ff.effects import Effect, TickState
 from surfhap.ff.params import DeviceParams
 
@@ -54,14 +59,14 @@ class ControlLaw:
         if len(self.effects) > 30:
             raise ValueError("at most 30 effects per scene")
         self.device = device
-        self.k_max = device.k_max
-        self.damping = device.damping
-        self.weight = device.weight
-        self.h_lim = device.workspace[2]
+        self.k_max = float(device.k_max)
         self.out = np.zeros(3)
         self.mask = 0
-        self._calls = [(e.terms, bool(getattr(e, "vibration", False))) for e in self.effects]
-        self.ref_step = device.ref_speed / rate
+        self._calls = [(e.terms, e.vibration) for e in self.effects]
+        # kernel parameters: k_max, damping, weight, h_lim, ref_step; reference: rx, ry, rz, fresh
+        self.params = np.array([device.k_max, device.damping, device.weight, device.workspace[2],
+                                device.ref_speed / rate])
+        self.ref = np.array([0.0, 0.0, 0.0, 1.0])
         self.reset()
 
     def reset(self) -> None:
@@ -69,19 +74,20 @@ class ControlLaw:
             e.reset()
         self.mask = 0
         self.out[:] = 0.0
-        self.rx = self.ry = self.rz = 0.0  # reference position (m, relative to X0)
-        self._fresh = True
+        self.ref[:] = (0.0, 0.0, 0.0, 1.0)  # the reference starts at the screen on the next tick
 
     def compute(self, s: TickState) -> np.ndarray:
         """The merged force (3,) N, device frame (a view of ``self.out``)."""
-        out = self.out
-        out[0], out[1], out[2] = self.compute_xyz(s)
-        return out
+        kx, ky, kz, h, hv, fx, fy, fz = self.merge(s)
+        kernel.law(self.ref, self.params, s.px, s.py, s.pz, s.vx, s.vy, s.vz, kx, ky, kz, h, hv, fx, fy, fz,
+                   self.out)
+        return self.out
 
-    def compute_xyz(self, s: TickState) -> tuple[float, float, float]:
-        """The merged force as three floats (N): the allocation-free path of the engine."""
-        km = self.k_max
-        kx = ky = kz = km
+    def merge(self, s: TickState) -> tuple[float, float, float, float, float, float, float, float]:
+        """The active effects' terms merged (sets ``mask``): ``(kx, ky, kz, h, hv, fx, fy, fz)``
+        -- per axis the most compliant stiffness, the summed normal offsets (``hv`` the
+        vibrations') and the summed feed-forward forces."""
+        kx = ky = kz = self.k_max
         h = hv = fx = fy = fz = 0.0
         mask = 0
         if s.touched:
@@ -106,26 +112,7 @@ class ControlLaw:
                     fz += w
                 bit <<= 1
         self.mask = mask
-        lim = self.h_lim
-        if h > lim:
-            h = lim
-        elif h < -lim:
-            h = -lim
-        # bumpless reference: free axes track the screen, held axes approach the target at ref_speed
-        st = self.ref_step
-        if self._fresh:
-            self.rx, self.ry, self.rz = s.px, s.py, s.pz
-            self._fresh = False
-        rx = s.px if kx <= 0.0 else self.rx + max(-st, min(st, -self.rx))
-        ry = s.py if ky <= 0.0 else self.ry + max(-st, min(st, -self.ry))
-        rz = s.pz if kz <= 0.0 else self.rz + max(-st, min(st, h - self.rz))
-        self.rx, self.ry, self.rz = rx, ry, rz
-        d = self.damping
-        dx = d if kx == km else (0.0 if kx <= 0.0 else d * math.sqrt(kx / km))
-        dy = d if ky == km else (0.0 if ky <= 0.0 else d * math.sqrt(ky / km))
-        dz = d if kz == km else (0.0 if kz <= 0.0 else d * math.sqrt(kz / km))
-        return (fx + kx * (rx - s.px) - dx * s.vx, fy + ky * (ry - s.py) - dy * s.vy,
-                self.weight + fz + kz * (rz + hv - s.pz) - dz * s.vz)
+        return float(kx), float(ky), float(kz), float(h), float(hv), float(fx), float(fy), float(fz)
 
     def active_names(self, mask: int | None = None) -> list[str]:
         """Names of the effects in ``mask`` (default: the last tick's); [] = idle."""

@@ -60,9 +60,11 @@ def _field(v) -> Field:
 
 
 class Effect(ABC):
-    """Base class; subclasses set ``name`` and implement ``update``."""
+    """Base class; subclasses set ``name`` and implement ``update``. ``vibration``: the
+    effect's offset ``h`` is a vibration that bypasses the reference rate limit (Roughness)."""
 
     name = "effect"
+    vibration = False
 
     def __init__(self, k_max: float = K_MAX):
         self.k_max = float(k_max)

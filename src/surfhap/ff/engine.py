@@ -9,7 +9,7 @@ thread of :mod:`surfhap.live.ff_loop`, or the offline loop of :mod:`surfhap.sim.
   (m, relative to X0) and its time; returns the safe force (3,) N in the device frame.
 
 Screen -> world: the touch position is on the moving screen; the content is drawn
-compensated (shifted by ``-X_t``, :meth:`content_offset`) so that it stays still in the
+compensated (shifted by ``-X_t``, the live loop's feedback) so that it stays still in the
 world. The finger's world (= content) position is therefore ``f_screen + X_t,xy``, with
 ``X_t`` taken *when the touch was sampled*: ``touch_latency`` s before the sample arrived
 (the engine keeps the last 0.5 s of device positions). Prediction then runs on the world
@@ -29,8 +29,9 @@ safety stage's own clock (:class:`surfhap.ff.safety.ForceSafety`): a caller's ti
 orders samples and can only make them older. A touch stamp older than the previous one,
 non-finite or in the future (beyond one period after the next tick) is stale: rejected, or
 (future) the finger counts as lifted. Touch positions beyond ``TOUCH_BOUND``, loads beyond
-``LOAD_BOUND`` and samples implying a finger faster than ``FINGER_SPEED`` are rejected too
-(counted in ``touch_rejected``); the finger's acceleration is bounded by ``FINGER_ACCEL``.
+``MAX_LOAD`` and samples implying a finger faster than ``MAX_SPEED`` are rejected too
+(counted in ``touch_rejected``); the finger's acceleration is bounded by ``MAX_ACCELERATION``
+(the finger bounds of :mod:`surfhap.models.finger`, the ones trajectory files are held to).
 
 Failure: an exception in an effect or the control law is kept in ``error`` and turns the
 tick into a stop: the safety stage still runs on every tick and ramps the force down (and
@@ -51,13 +52,11 @@ from surfhap.ff.control import ControlLaw
 from surfhap.ff.effects import Effect, TickState
 from surfhap.ff.params import DeviceParams
 from surfhap.ff.safety import ForceSafety
+from surfhap.models.finger import MAX_ACCELERATION, MAX_LOAD, MAX_SPEED
 
-__all__ = ["FFEngine", "TOUCH_BOUND", "LOAD_BOUND", "FINGER_SPEED", "FINGER_ACCEL"]
+__all__ = ["FFEngine", "TOUCH_BOUND"]
 
 TOUCH_BOUND = 1.0  # m, no tablet is larger: touch coordinates beyond are garbage (rejected)
-LOAD_BOUND = 100.0  # N, a finger (or a hand) does not press harder: larger loads are garbage
-FINGER_SPEED = 5.0  # m/s, CHOICE: fast flicks reach ~2-3 m/s; faster = a jump, the filter restarts
-FINGER_ACCEL = 50.0  # m/s^2, CHOICE: ~5 g, bound of the (derived) finger acceleration
 
 
 class FFEngine:
@@ -142,7 +141,7 @@ class FFEngine:
         (s, engine clock; orders samples) and optionally the source's own time stamp ``t_event``
         (s, its own clock; used by the prediction filter when finite)."""
         if not (t == t and abs(t) != math.inf and t >= self._stamp and abs(x) <= TOUCH_BOUND
-                and abs(y) <= TOUCH_BOUND and abs(load) <= LOAD_BOUND):  # also NaN
+                and abs(y) <= TOUCH_BOUND and abs(load) <= MAX_LOAD):  # also NaN
             self.touch_rejected += 1
             return
         self._stamp = t
@@ -159,7 +158,7 @@ class FFEngine:
         te = t_event if (t_event == t_event and abs(t_event) < 1e12) else t
         pr = self.predictor
         pr.update(te, x + sx, y + sy)
-        if not pr.vx * pr.vx + pr.vy * pr.vy <= FINGER_SPEED * FINGER_SPEED:  # a jump: restart the filter here
+        if not pr.vx * pr.vx + pr.vy * pr.vy <= MAX_SPEED * MAX_SPEED:  # a jump: restart the filter here
             self.touch_rejected += 1
             pr.reset()
             pr.update(te, x + sx, y + sy)
@@ -171,9 +170,9 @@ class FFEngine:
             st.fax += g * ((pr.vx - self._pvx) / h - st.fax)
             st.fay += g * ((pr.vy - self._pvy) / h - st.fay)
             a = math.hypot(st.fax, st.fay)
-            if a > FINGER_ACCEL:
-                st.fax *= FINGER_ACCEL / a
-                st.fay *= FINGER_ACCEL / a
+            if a > MAX_ACCELERATION:
+                st.fax *= MAX_ACCELERATION / a
+                st.fay *= MAX_ACCELERATION / a
         else:
             st.fax = st.fay = 0.0
         self._pt, self._pvx, self._pvy = te, pr.vx, pr.vy
@@ -202,8 +201,7 @@ class FFEngine:
         s = self.state
         saf = self.safety
         if saf.observe(t, t_pos, px, py, pz):
-            s.px, s.py, s.pz = saf.p
-            s.vx, s.vy, s.vz = saf.v
+            s.px, s.py, s.pz, s.vx, s.vy, s.vz = saf.state[:6].tolist()
         c = saf.now
         s.t = c
         j = self._hist_k % self._hist_n
@@ -240,28 +238,20 @@ class FFEngine:
         else:
             s.fvx = s.fvy = s.speed = 0.0
         s.touched = touched
-        f0 = f1 = f2 = 0.0
         if self.error is None:
             try:
-                f0, f1, f2 = self.law.compute_xyz(s)
+                terms = self.law.merge(s)
                 if self.button_presses.buttons:
                     self.button = self.button_presses.update(touched, s.fx, s.fy, s.pz)
+                # the control law's arithmetic and the safety stage (last): one compiled call
+                return saf.law_limit(self.law, terms, self.stopping)
             except Exception as exc:  # noqa: BLE001 - kept for the caller; the safety stage ramps down
                 self.error = exc
                 self.stopping = True
-        return saf.limit(f0, f1, f2, self.stopping)
+        return saf.limit(0.0, 0.0, 0.0, self.stopping)
 
     # ----------------------------------------------------------------- outputs
-    @property
-    def failed(self) -> bool:
-        """True once an effect or the control law raised (see ``error``)."""
-        return self.error is not None
-
     @property
     def mask(self) -> int:
         """Bit mask of the effects active on the last tick (0 = idle)."""
         return self.law.mask
-
-    def content_offset(self) -> tuple[float, float]:
-        """m, shift to draw the content by so it stays still in the world (``-X_t,xy``)."""
-        return -self.state.px, -self.state.py

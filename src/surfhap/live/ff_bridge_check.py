@@ -27,11 +27,10 @@ positions arrive; ``tolerance`` (s) is added to the 20 ms for the delivery on a 
 from __future__ import annotations
 
 import math
-import socket
 from dataclasses import dataclass, field
 
 from surfhap.live.clock import now, sleep_until
-from surfhap.live.ff_bridge_wire import (BRIDGE_WATCHDOG_S, MIN_POSITION_RATE_HZ, decode_position, encode_force,
+from surfhap.live.ff_bridge_wire import (BRIDGE_WATCHDOG_S, MIN_POSITION_RATE_HZ, PositionReceiver, encode_force,
                                          new_token)
 
 __all__ = ["CheckRow", "BridgeCheck", "check_bridge"]
@@ -78,47 +77,29 @@ class BridgeCheck:
 
     def __post_init__(self):
         self._seq = 0
-        self._sock = None
-        self._bridge = set()
+        self.receiver = PositionReceiver(self.host, self.port, self.listen, self.token)
         self.log: list[_Received] = []
-        self.foreign = self.wrong_token = self.malformed = 0
 
     # --------------------------------------------------------------- wire
-    def _open(self) -> None:
-        family = socket.AF_INET6 if ":" in self.listen[0] else socket.AF_INET
-        self._bridge = {(a[4][0], a[4][1]) for a in socket.getaddrinfo(self.host, self.port, family, socket.SOCK_DGRAM)}
-        self._sock = socket.socket(family, socket.SOCK_DGRAM)
-        self._sock.bind(self.listen)
-        self._sock.setblocking(False)
-
     def _send(self, f, seq: int | None = None) -> None:
         if seq is None:
             seq, self._seq = self._seq, self._seq + 1
         try:
-            self._sock.sendto(encode_force(self.token, seq, *f), (self.host, self.port))
+            self.receiver.sock.sendto(encode_force(self.token, seq, *f), (self.host, self.port))
         except OSError:
             pass
 
     def _drain(self) -> None:
+        rx = self.receiver
         while True:
             try:
-                data, addr = self._sock.recvfrom(1024)
-            except (BlockingIOError, InterruptedError):
-                return
-            except OSError:
+                data, addr = rx.sock.recvfrom(1024)
+            except OSError:  # nothing more (non-blocking), or the socket failed
                 return
             t = now()
-            if (addr[0], addr[1]) not in self._bridge:
-                self.foreign += 1
-                continue
-            msg = decode_position(data)
-            if msg is None:
-                self.malformed += 1
-                continue
-            if msg[0] != self.token:
-                self.wrong_token += 1
-                continue
-            self.log.append(_Received(t, msg[1], tuple(msg[2:5]), tuple(msg[5:8])))
+            msg = rx.accept(data, addr)
+            if msg is not None:
+                self.log.append(_Received(t, msg[1], tuple(msg[2:5]), tuple(msg[5:8])))
 
     def _stream(self, f, seconds: float, min_positions: int = 0, max_seconds: float = 0.5) -> tuple[int, float]:
         """Send ``f`` every ms for ``seconds`` and on (up to ``max_seconds``) until
@@ -146,27 +127,29 @@ class BridgeCheck:
 
     # --------------------------------------------------------------- rows
     def run(self) -> list[CheckRow]:
-        self._open()
+        self.receiver.open(0.0)
         try:
             return self._rows()
         finally:
             self._send((0.0, 0.0, 0.0))
-            self._sock.close()
+            self.receiver.close()
 
     def _rows(self) -> list[CheckRow]:
         rows = []
         self._stream((0.0, 0.0, 0.0), 0.5)
         got = list(self.log)
+        rx = self.receiver
         if not got:
-            why = (f"{self.wrong_token} with a wrong token, " if self.wrong_token else "") + \
-                  (f"{self.malformed} malformed, " if self.malformed else "") + \
-                  (f"{self.foreign} from another address than {self.host}:{self.port}, " if self.foreign else "")
+            why = (f"{rx.dropped_token} with a wrong token, " if rx.dropped_token else "") + \
+                  (f"{rx.rejected} malformed, " if rx.rejected else "") + \
+                  (f"{rx.dropped_sender} from another address than {self.host}:{self.port}, " if rx.dropped_sender
+                   else "")
             rows.append(CheckRow("reply", False, f"no valid position in 0.5 s on {self.listen[0]}:{self.listen[1]} "
                                  f"({why or 'nothing received'}); nothing else can be checked"))
             return rows
-        rows.append(CheckRow("reply", not (self.foreign or self.malformed or self.wrong_token),
-                             f"{len(got)} positions; {self.foreign} from another address, {self.malformed} malformed, "
-                             f"{self.wrong_token} with a wrong token"))
+        rows.append(CheckRow("reply", not (rx.dropped_sender or rx.rejected or rx.dropped_token),
+                             f"{len(got)} positions; {rx.dropped_sender} from another address, {rx.rejected} malformed, "
+                             f"{rx.dropped_token} with a wrong token"))
         gaps = [b.t - a.t for a, b in zip(got, got[1:])]
         span = got[-1].t - got[0].t
         rate = (len(got) - 1) / span if span > 0 else 0.0
@@ -229,10 +212,10 @@ class BridgeCheck:
                         "on that axis alone")
 
     def _nonfinite_row(self) -> CheckRow:
-        m0 = self.malformed
+        m0 = self.receiver.rejected
         start, _ = self._stream((math.nan, math.nan, math.nan), 0.03, min_positions=5)
         seen = [r.a for r in self.log[start:]]
-        ok = bool(seen) and all(v == 0.0 for v in seen[-1]) and self.malformed == m0
+        ok = bool(seen) and all(v == 0.0 for v in seen[-1]) and self.receiver.rejected == m0
         self._stream((0.0, 0.0, 0.0), 0.03)
         return CheckRow("nonfinite", ok, f"NaN applied as {'zero' if ok else 'non-zero or not reported'}")
 

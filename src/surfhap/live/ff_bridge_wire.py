@@ -19,17 +19,20 @@ bridge -> host, >= 500 Hz (1 kHz recommended)    ``/surfhap/ff/position ,iifffff
   clamp and watchdog): zero within 20 ms of the last force message.
 
 Both messages are decoded by exact layout (address, type tags, size): anything else is not
-the contract. Used by :class:`surfhap.live.ff_devices.OscDeviceBackend` (host side) and
-:mod:`surfhap.live.ff_bridge_check` (the bridge's test).
+the contract. :class:`PositionReceiver` is the one acceptance of a position datagram (the
+bridge's own address, the contract's layout, this session's token), used by
+:class:`surfhap.live.ff_devices.OscDeviceBackend` (host side, which adds the sequence rule)
+and :mod:`surfhap.live.ff_bridge_check` (the bridge's test, which checks the sequence itself).
 """
 
 from __future__ import annotations
 
 import math
+import socket
 import struct
 
 __all__ = ["FORCE_ADDRESS", "POSITION_ADDRESS", "BRIDGE_WATCHDOG_S", "MIN_POSITION_RATE_HZ", "MAX_POSITION_M",
-           "SEQ_LIMIT", "encode_force", "decode_force", "encode_position", "decode_position", "new_token"]
+           "SEQ_LIMIT", "PositionReceiver", "encode_force", "decode_force", "encode_position", "decode_position", "new_token"]
 
 FORCE_ADDRESS = "/surfhap/ff/force"
 POSITION_ADDRESS = "/surfhap/ff/position"
@@ -84,3 +87,52 @@ def decode_position(data: bytes):
     if v[1] < 0 or not all(math.isfinite(a) for a in v[2:]) or not all(abs(a) <= MAX_POSITION_M for a in v[2:5]):
         return None
     return v
+
+
+class PositionReceiver:
+    """A UDP socket bound on ``listen`` taking ``/surfhap/ff/position`` from the bridge at
+    ``host:port`` for the session ``token``.
+
+    :meth:`accept` returns the decoded message, or None for a datagram from another address
+    (``dropped_sender``), one not in the contract's layout or range (``rejected``) or with
+    another session's token (``dropped_token``); ``last_drop`` says why the last one was dropped.
+    """
+
+    def __init__(self, host: str, port: int, listen: tuple[str, int], token: int):
+        self.host, self.port, self.listen, self.token = host, int(port), listen, int(token)
+        self.sock: socket.socket | None = None
+        self.bridge: set[tuple[str, int]] = set()
+        self.dropped_sender = self.rejected = self.dropped_token = 0
+        self.last_drop = ""
+
+    def open(self, timeout: float | None) -> int:
+        """Resolve the bridge's address (once: positions from anywhere else are not the bridge's)
+        and bind the socket (``timeout`` s per receive, 0 = non-blocking); returns the bound port."""
+        family = socket.AF_INET6 if ":" in self.listen[0] else socket.AF_INET
+        self.bridge = {(a[4][0], a[4][1]) for a in socket.getaddrinfo(self.host, self.port, family,
+                                                                        socket.SOCK_DGRAM)}
+        self.sock = socket.socket(family, socket.SOCK_DGRAM)
+        self.sock.bind(self.listen)
+        self.sock.settimeout(timeout)
+        return self.sock.getsockname()[1]
+
+    def close(self) -> None:
+        if self.sock is not None:
+            self.sock.close()
+
+    def accept(self, data: bytes, addr: tuple):
+        """``(token, seq, x, y, z, ax, ay, az)`` of a position of the contract from the bridge, or None."""
+        if (addr[0], addr[1]) not in self.bridge:
+            self.dropped_sender += 1
+            self.last_drop = f"not the bridge ({self.host}:{self.port})"
+            return None
+        msg = decode_position(data)
+        if msg is None:
+            self.rejected += 1
+            self.last_drop = "not /surfhap/ff/position ,iiffffff with finite values in range"
+            return None
+        if msg[0] != self.token:
+            self.dropped_token += 1
+            self.last_drop = "wrong session token"
+            return None
+        return msg

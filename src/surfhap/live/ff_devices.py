@@ -1,8 +1,10 @@
 """Device backends of the force-feedback loop: the small protocol and its two implementations.
 
-Protocol (called from the haptic thread only, once per tick, never blocking):
+Protocol :class:`FFDevice` (called from the haptic thread only, once per tick, never blocking):
 
-* ``start()`` / ``stop()``;
+* ``start()`` / ``stop()``; ``info()`` a small dict for the statistics;
+* ``press(load)``: the finger's load (N) as the touch source reported it (the simulated
+  device presses it on the screen; a real device feels the real finger and ignores it);
 * ``read(t) -> (px, py, pz, t_pos)``: freshest screen position (m, device frame relative to
   X0, see :mod:`surfhap.ff.params`) and the engine-clock time it was measured;
 * ``write(force, t)``: the safe force (3,) N; the backend converts it into device units
@@ -18,7 +20,8 @@ under the bridge contract (:mod:`surfhap.live.ff_bridge_wire`, docs/forcefeedbac
 ``/surfhap/ff/force token seq fx fy fz`` every tick (device units = gain x N), and
 ``/surfhap/ff/position token seq x y z ax ay az`` back (m, relative to X0). A position is
 used only when it comes from the bridge's own address (the host and port of ``--device``),
-carries this session's token and a sequence number above the last one accepted; anything
+carries this session's token (:class:`surfhap.live.ff_bridge_wire.PositionReceiver`, shared
+with ``ff bridge-check``) and a sequence number above the last one accepted; anything
 else is dropped and counted (``dropped_sender``, ``dropped_token``, ``dropped_sequence``,
 ``rejected`` for a malformed message), so no other local process can move the device's
 idea of where the screen is.
@@ -30,15 +33,34 @@ import logging
 import math
 import socket
 import threading
+from typing import Protocol
 
 import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.live.clock import now
-from surfhap.live.ff_bridge_wire import decode_position, encode_force, new_token
+from surfhap.live.ff_bridge_wire import PositionReceiver, encode_force, new_token
 from surfhap.live.netaddr import parse_osc_address
 
-__all__ = ["SimDeviceBackend", "OscDeviceBackend", "parse_osc_url"]
+__all__ = ["FFDevice", "SimDeviceBackend", "OscDeviceBackend", "parse_osc_url"]
+
+
+class FFDevice(Protocol):
+    """A device backend of the force-feedback loop (see the module docstring)."""
+
+    name: str
+
+    def start(self) -> None: ...
+
+    def stop(self) -> None: ...
+
+    def read(self, t: float) -> tuple[float, float, float, float]: ...
+
+    def write(self, force, t: float) -> None: ...
+
+    def press(self, load: float) -> None: ...
+
+    def info(self) -> dict: ...
 
 log = logging.getLogger("surfhap.live")
 
@@ -72,6 +94,9 @@ class SimDeviceBackend:
 
     def stop(self) -> None:
         pass
+
+    def press(self, load: float) -> None:
+        self.finger_load = load
 
     def read(self, t: float):
         p = self.device.p
@@ -111,28 +136,24 @@ class OscDeviceBackend:
         self.listen = listen
         self.listen_port = None
         self.token = new_token() if token is None else int(token)
+        self.receiver = PositionReceiver(host, port, listen, self.token)
         self._seq_out = 0
         self._seq_in = -1
-        self._bridge: set[tuple[str, int]] = set()
         self._pos = (0.0, 0.0, 0.0, -math.inf)
         self._sock_out = None
-        self._sock_in = None
         self._thread = None
         self._run = False
-        self.sent = self.received = self.errors = 0
-        self.rejected = self.dropped_sender = self.dropped_token = self.dropped_sequence = 0
+        self.sent = self.received = self.errors = self.dropped_sequence = 0
+
+    # the receiver's drop counters, under the names of info()
+    dropped_sender = property(lambda self: self.receiver.dropped_sender)
+    dropped_token = property(lambda self: self.receiver.dropped_token)
+    rejected = property(lambda self: self.receiver.rejected)
 
     def start(self) -> None:
-        family = socket.AF_INET6 if ":" in self.host else socket.AF_INET
-        # the bridge's address, resolved once: positions from anywhere else are not the bridge's
-        self._bridge = {(a[4][0], a[4][1]) for a in socket.getaddrinfo(self.host, self.port, family,
-                                                                         socket.SOCK_DGRAM)}
-        self._sock_out = socket.socket(family, socket.SOCK_DGRAM)
+        self.listen_port = self.receiver.open(0.1)
+        self._sock_out = socket.socket(socket.AF_INET6 if ":" in self.host else socket.AF_INET, socket.SOCK_DGRAM)
         self._sock_out.setblocking(False)
-        self._sock_in = socket.socket(socket.AF_INET6 if ":" in self.listen[0] else socket.AF_INET, socket.SOCK_DGRAM)
-        self._sock_in.bind(self.listen)
-        self._sock_in.settimeout(0.1)
-        self.listen_port = self._sock_in.getsockname()[1]
         self._run = True
         self._thread = threading.Thread(target=self._receive, name="surfhap-ff-osc-in", daemon=True)
         self._thread.start()
@@ -143,39 +164,37 @@ class OscDeviceBackend:
         self._run = False
         if self._thread is not None:
             self._thread.join(1.0)
-        for s in (self._sock_in, self._sock_out):
-            if s is not None:
-                s.close()
+        self.receiver.close()
+        if self._sock_out is not None:
+            self._sock_out.close()
 
-    def _drop(self, counter: str, peer, why: str) -> None:
-        setattr(self, counter, getattr(self, counter) + 1)
+    def press(self, load: float) -> None:
+        pass  # the real finger presses on the real screen
+
+    def _drop(self, peer, why: str) -> None:
         n = self.rejected + self.dropped_sender + self.dropped_token + self.dropped_sequence
         if n <= 5 or n % 1000 == 0:
             log.warning("ff osc device: dropped a position from %s: %s (%d dropped so far)", peer, why, n)
 
     def _receive(self) -> None:
+        sock = self.receiver.sock
         while self._run:
             try:
-                data, addr = self._sock_in.recvfrom(1024)
+                data, addr = sock.recvfrom(1024)
             except (socket.timeout, OSError):
                 continue
             self.accept(data, addr)
 
     def accept(self, data: bytes, addr: tuple) -> bool:
         """Check one datagram from ``addr`` against the contract; True when its position was taken."""
-        if (addr[0], addr[1]) not in self._bridge:
-            self._drop("dropped_sender", addr[:2], f"not the bridge ({self.host}:{self.port})")
-            return False
-        msg = decode_position(data)
+        msg = self.receiver.accept(data, addr)
         if msg is None:
-            self._drop("rejected", addr[:2], "not /surfhap/ff/position ,iiffffff with finite values in range")
+            self._drop(addr[:2], self.receiver.last_drop)
             return False
-        token, seq, x, y, z = msg[:5]
-        if token != self.token:
-            self._drop("dropped_token", addr[:2], "wrong session token")
-            return False
+        seq, x, y, z = msg[1:5]
         if seq <= self._seq_in:
-            self._drop("dropped_sequence", addr[:2], f"sequence number {seq} not above {self._seq_in}")
+            self.dropped_sequence += 1
+            self._drop(addr[:2], f"sequence number {seq} not above {self._seq_in}")
             return False
         self._seq_in = seq
         self._pos = (x, y, z, now())  # one tuple store: atomic

@@ -7,8 +7,11 @@ Real-time contract of the haptic thread (004 Sec. 4.2: "a haptic thread running 
   run :class:`surfhap.ff.engine.FFEngine` (kinematics, effects, control law, safety stage)
   and write the force to the device backend. Nothing in a tick sleeps, logs, allocates
   arrays or takes a lock that a producer holds for long;
-* ticks are scheduled on absolute deadlines (no drift); a tick that starts more than one
-  period late counts the periods it skipped as *missed* and re-anchors the schedule;
+* ticks are scheduled on absolute deadlines by :class:`surfhap.live.pacing.Pacer` (sleep to
+  just before the deadline, spin the rest; no drift); a tick that starts more than one period
+  late counts the periods it skipped as *missed* and re-anchors the schedule. The thread asks
+  for ``SCHED_FIFO`` (:func:`surfhap.live.pacing.enter_realtime`; the mode granted is in
+  :meth:`FFLoop.stats` as ``scheduling``, a refusal is logged once);
 * the period error (start time minus deadline) of every tick is kept in a preallocated
   ring for the statistics (:meth:`FFLoop.stats`);
 * stop (Ctrl-C, SIGTERM, ``request_stop``): the safety stage ramps the lateral force to zero at
@@ -29,13 +32,19 @@ touch sources use (:class:`surfhap.live.sources.OscTouchSource`, ``ReplaySource`
 
 from __future__ import annotations
 
+import gc
 import logging
 import math
+import sys
 import threading
 
 import numpy as np
 
+from surfhap.ff.engine import FFEngine
+from surfhap.ff.tick_kernel import warm_up
 from surfhap.live.clock import STALE, arrival_stamp, now, sleep_until
+from surfhap.live.ff_devices import FFDevice
+from surfhap.live.pacing import SPIN, Pacer, enter_realtime
 from surfhap.live.queues import TouchRing
 
 __all__ = ["FFLoop", "OscFeedback", "FFLoopStats", "WorldTouchAdapter"]
@@ -51,16 +60,18 @@ class FFLoop:
     """Run ``engine`` against ``backend`` at ``rate`` Hz in a thread.
 
     engine        : :class:`surfhap.ff.engine.FFEngine`.
-    backend       : device backend (:mod:`surfhap.live.ff_devices`).
+    backend       : device backend (:class:`surfhap.live.ff_devices.FFDevice`).
     feedback      : callable ``(t, px, py, pz, dx, dy, fx, fy, fz)`` at ``feedback_rate`` Hz, or None.
     stop_timeout  : s, longest ramp-down on stop (default: the safety stage's landing and ramp).
     history       : ticks of period error kept for the statistics.
     clock         : the time base of touch arrival stamps (default :func:`now`; tests driving
                     :meth:`tick_once` pass their simulated clock).
+    realtime      : ask for real-time scheduling of the haptic thread (see :mod:`surfhap.live.pacing`).
     """
 
-    def __init__(self, engine, backend, *, feedback=None, feedback_rate: float = 60.0,
-                 stop_timeout: float | None = None, history: int = 1 << 17, spin: float = 0.0003, clock=now):
+    def __init__(self, engine: FFEngine, backend: FFDevice, *, feedback=None, feedback_rate: float = 60.0,
+                 stop_timeout: float | None = None, history: int = 1 << 17, spin: float = SPIN, clock=now,
+                 realtime: bool = True):
         self.engine = engine
         self.clock = clock
         self.backend = backend
@@ -71,6 +82,9 @@ class FFLoop:
         # long enough for the safety stage to put the tablet down and ramp to zero
         self.stop_timeout = engine.safety.stop_duration + 0.1 if stop_timeout is None else float(stop_timeout)
         self.spin = float(spin)
+        self.realtime = bool(realtime)
+        self.scheduling = "not started"
+        self._switch: float | None = None
         self.touches = TouchRing(1024)
         self.touches_stale = 0
         self._buf = np.zeros((64, 6))
@@ -104,12 +118,15 @@ class FFLoop:
 
     # ------------------------------------------------------------- control
     def start(self) -> None:
-        import sys
-
         # the haptic thread competes for the GIL with the touch and feedback threads: a short
         # switch interval (process-wide; restored on stop) bounds how long it waits
         self._switch = sys.getswitchinterval()
         sys.setswitchinterval(min(self._switch, 0.0002))
+        # the objects alive now (modules, numpy, numba: ~10^5) are never scanned again by the
+        # cyclic collector: a full collection over them stalls whichever thread runs it for
+        # 50-100 ms, the haptic thread included (unfrozen on stop)
+        gc.freeze()
+        warm_up()  # the compiled tick, before the first deadline
         self.engine.reset()
         self._stop_left = None
         self.backend.start()
@@ -132,10 +149,9 @@ class FFLoop:
         if self._fb_thread is not None:
             self._fb_thread.join(timeout)
         self.backend.stop()
-        if getattr(self, "_switch", None) is not None:
-            import sys
-
+        if self._switch is not None:
             sys.setswitchinterval(self._switch)
+            gc.unfreeze()
             self._switch = None
 
     # ------------------------------------------------------------- threads
@@ -147,8 +163,7 @@ class FFLoop:
         for i in range(n):
             r = buf[i]
             eng.touch(float(r[2]), float(r[3]), float(r[4]), float(r[5]), t_event=float(r[1]))
-            if hasattr(be, "finger_load"):
-                be.finger_load = float(r[5])
+            be.press(float(r[5]))
 
     def _fail(self, exc: BaseException) -> None:
         """Keep the first failure (one log line, no traceback on stderr); the tick goes on
@@ -159,8 +174,8 @@ class FFLoop:
         self._stop.set()
 
     def tick_once(self, t: float) -> bool:
-        """One haptic tick at time ``t`` (s, :func:`now` clock): drain the touches, read the
-        device, tick the engine (its safety stage runs on every tick, also after an exception)
+        """One haptic tick at time ``t`` (s, the loop's ``clock``): drain the touches, read the
+        device (its stamp through :func:`arrival_stamp`), tick the engine (its safety stage runs on every tick, also after an exception)
         and write the force. False once a stop has ramped to zero (or used its
         ``stop_timeout`` worth of ticks: counted in ticks, so a stalled loop still ramps). The
         thread calls it on its deadlines; tests call it directly with a simulated clock."""
@@ -174,6 +189,9 @@ class FFLoop:
             px, py, pz, t_pos = be.read(t)
         except Exception as exc:  # noqa: BLE001 - no position: the safety stage ramps to zero
             self._fail(exc)
+        # the one arrival law (live/clock.py), as for touches: the device's stamp may only make
+        # the position older than its hand-over; a future or non-finite one is STALE
+        t_pos = arrival_stamp(t_pos, self.clock())
         if self._stop.is_set() and self._stop_left is None:
             eng.stop()
             self._stop_left = math.ceil(self.stop_timeout * self.rate)
@@ -196,8 +214,7 @@ class FFLoop:
             be.write(f, t)
         except Exception as exc:  # noqa: BLE001
             self._fail(exc)
-        self._last = (px, py, pz, float(f[0]), float(f[1]), float(f[2]), int(eng.mask),
-                      int(getattr(eng, "button", -1)))
+        self._last = (px, py, pz, float(f[0]), float(f[1]), float(f[2]), int(eng.mask), eng.button)
         if self._stop_left is not None:
             self._stop_left -= 1
             if (f[0] == 0.0 and f[1] == 0.0 and f[2] == 0.0) or self._stop_left <= 0:
@@ -205,22 +222,17 @@ class FFLoop:
         return True
 
     def _run(self) -> None:
-        period = self.period
+        self.scheduling = enter_realtime() if self.realtime else "normal"
         err, n_err = self._err, self._err.shape[0]
+        pacer = Pacer(self.period, spin=self.spin)
         try:
-            deadline = now() + period
             go = True
             while go:
-                t = sleep_until(deadline, self.spin)
-                late = t - deadline
+                t, late, skipped = pacer.wait()
                 err[self.ticks % n_err] = late
                 self.ticks += 1
-                if late > period:
-                    skipped = int(late / period)
-                    self.missed += skipped
-                    deadline += skipped * period
+                self.missed += skipped
                 go = self.tick_once(t)
-                deadline += period
         except Exception as exc:  # noqa: BLE001 - the safety stage itself failed: last resort below
             self._fail(exc)
         finally:
@@ -261,7 +273,7 @@ class FFLoop:
             safety={"clamped": c.clamped, "slew_limited": c.slew_limited, "faults": c.faults,
                     "device_lost": c.device_lost, "workspace": c.workspace, "stopped": c.stopped,
                     "stale": c.stale, "rejected": c.rejected, "braked": c.braked},
-            device=self.backend.info() if hasattr(self.backend, "info") else {},
+            device=self.backend.info(), scheduling=self.scheduling,
             error=None if self.error is None else repr(self.error),
         )
 
@@ -313,7 +325,7 @@ class WorldTouchAdapter:
     behaves like a real one (it stays put in the world while the screen moves under it).
     """
 
-    def __init__(self, loop: FFLoop, backend):
+    def __init__(self, loop: FFLoop, backend: FFDevice):
         self.loop = loop
         self.backend = backend
 

@@ -12,20 +12,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from surfhap.errors import ConfigError
+# the plausibility bounds of a finger (one definition, shared with the force-feedback engine)
+from surfhap.models.finger import ACCELERATION_WINDOW, MAX_ACCELERATION, MAX_LOAD, MAX_SPEED
 
 __all__ = ["Trajectory", "constant_scan", "strokes", "DEFAULT_SENSOR_RATE", "MAX_SPEED", "MAX_LOAD", "MAX_ACCELERATION",
            "ACCELERATION_WINDOW", "Implausible", "implausible"]
 
 DEFAULT_SENSOR_RATE = 125.0  # Hz, the force-sensor rate of Otake et al. 2021 (Sec. II)
-
-# Plausibility bounds of a finger on a touch panel: the one definition that ``--scan`` and every
-# trajectory file (``render --trajectory``, ``play``, ``ff run/simulate``, ``shape``) are checked
-# against. A value beyond them is a unit mistake far more often than a real finger.
-MAX_SPEED = 2.0  # m/s; a fast swipe is ~1 m/s
-MAX_LOAD = 20.0  # N; touch loads are 0.1-5 N
-ACCELERATION_WINDOW = 0.02  # s, time base of velocities and accelerations (hand motion lies below a few Hz)
-MAX_ACCELERATION = 100.0  # m/s^2 (~10 g) over that window; back-and-forth strokes reach 2 v / window (1 m/s: 100)
-
 
 @dataclass(frozen=True)
 class Trajectory:

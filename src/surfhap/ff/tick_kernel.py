@@ -1,0 +1,248 @@
+"""The compiled per-tick arithmetic of the force loop: the safety stage's per-axis work and the
+control law's merged eq. 8, in numba kernels over small arrays (as :mod:`surfhap.render.drive_kernel`
+does for the texture laws).
+
+The effects' terms (Python objects reading maps) are merged by :class:`surfhap.ff.control.ControlLaw`;
+everything after them runs here, in one call per tick: :func:`force` is the control law's tail
+(bumpless reference, damping, eq. 8) followed by :func:`limit`, the safety stage's output
+(workspace brake and wall, stop landing, clamp, slew) -- the safety limits still applied last.
+:func:`observe` takes the device position (clock, stamp, plausibility, velocity filter).
+The semantics are documented in :mod:`surfhap.ff.safety` and :mod:`surfhap.ff.control`.
+
+Layouts (float64 arrays, indices below):
+
+* ``S`` safety state: p (0:3) m, v (3:6) m/s, prev (6:9) N, then the own clock and stamps;
+* ``P`` safety parameters, from :class:`surfhap.ff.params.DeviceParams` (:func:`safety_params`);
+* ``N`` int64 counters (:data:`COUNTERS` order);
+* ``R`` control-law reference: rx, ry, rz (m), fresh (1 = take the screen's position);
+* ``L`` control-law parameters: k_max, damping, weight, h_lim, ref_step.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+__all__ = ["observe", "limit", "law", "force", "safety_params", "new_state", "warm_up", "COUNTERS", "MAX_STEP"]
+
+MAX_STEP = 1.0  # s, largest clock advance per tick (a stall beyond this is past every timeout anyway)
+_EPS = 1e-9  # s, rounding of the watchdog comparison
+
+# S: state
+_P, _V, _PREV = 0, 3, 6
+_NOW, _RAW, _STAMP, _POS_AT, _P_AT, _ZERO, _STOP_AT = 9, 10, 11, 12, 13, 14, 15
+_S_SIZE = 16
+# P: parameters
+_FMAX, _WS, _BOUND, _GRAV = 0, 3, 6, 9
+(_PERIOD, _STEP, _WALL_K, _TIMEOUT, _TAU, _MAX_SPEED, _LAND_TIME, _LAND_DAMP, _WALL_DAMP, _DECEL, _BRAKE_GAIN,
+ _MARGIN, _MASS, _SLEW) = range(12, 26)
+_P_SIZE = 26
+# N: counters
+COUNTERS = ("ticks", "clamped", "slew_limited", "faults", "device_lost", "workspace", "stopped", "stale", "rejected",
+            "braked")
+_TICKS, _CLAMPED, _SLEWED, _FAULTS, _LOST, _WS_N, _STOPPED, _STALE, _REJECTED, _BRAKED = range(10)
+
+
+def safety_params(device, rate: float, velocity_cutoff: float) -> np.ndarray:
+    """The ``P`` array of ``device`` (a DeviceParams) at ``rate`` Hz (in the order of the indices above)."""
+    d = device
+    p = np.array([*d.f_max, *d.workspace, *d.position_bound, 0.0, 0.0, d.weight,  # weight: N per axis
+                  1.0 / rate, d.slew / rate, d.wall_k, d.device_timeout, 1.0 / (2.0 * math.pi * velocity_cutoff),
+                  d.max_speed, d.land_time, d.land_damping, d.wall_damping, d.brake_decel, d.brake_gain,
+                  d.brake_margin, d.moving_mass if d.moving_mass > 0.0 else 1.0, d.slew], dtype=float)
+    assert p.shape == (_P_SIZE,)
+    return p
+
+
+def new_state() -> np.ndarray:
+    """A reset ``S``: at rest at X0, clock 0, no stamp yet, no stop."""
+    s = np.zeros(_S_SIZE)
+    s[_RAW] = math.nan  # last finite caller time
+    s[_STAMP] = s[_POS_AT] = s[_P_AT] = -math.inf
+    s[_ZERO] = 1.0
+    s[_STOP_AT] = math.inf
+    return s
+
+
+@numba.njit(cache=True, inline="always")
+def _finite(x):
+    return x == x and abs(x) != math.inf
+
+
+@numba.njit(cache=True)
+def observe(S, P, N, t, t_pos, px, py, pz):
+    """Advance the own clock one tick and take the device position if plausible; True when
+    accepted (p, v updated). ``t_pos`` has passed the arrival law upstream: a non-finite one
+    (STALE) or one older than the last is stale; a later one than ``t`` counts as arriving now."""
+    N[_TICKS] += 1
+    period = P[_PERIOD]
+    raw = S[_RAW]
+    dt = t - raw if (_finite(t) and raw == raw) else period
+    if not dt >= period:  # stopped, backwards or first tick
+        dt = period
+    elif dt > MAX_STEP:
+        dt = MAX_STEP
+    if _finite(t):
+        S[_RAW] = t
+    else:
+        N[_FAULTS] += 1
+    c = S[_NOW] + dt
+    S[_NOW] = c
+    S[_ZERO] = 1.0
+    if not (_finite(t_pos) and t == t and t_pos >= S[_STAMP]):
+        N[_STALE] += 1
+        return False
+    if not (abs(px) <= P[_BOUND] and abs(py) <= P[_BOUND + 1] and abs(pz) <= P[_BOUND + 2]):  # also NaN
+        N[_FAULTS] += 1
+        return False
+    h = c - S[_P_AT]
+    if h <= P[_TIMEOUT]:
+        d = max(abs(px - S[_P]), abs(py - S[_P + 1]), abs(pz - S[_P + 2]))
+        if d > P[_MAX_SPEED] * h:
+            N[_REJECTED] += 1
+            return False
+        g = h / (P[_TAU] + h)
+        S[_V] += g * ((px - S[_P]) / h - S[_V])
+        S[_V + 1] += g * ((py - S[_P + 1]) / h - S[_V + 1])
+        S[_V + 2] += g * ((pz - S[_P + 2]) / h - S[_V + 2])
+    else:  # first position, or after a gap: no difference to take
+        S[_V] = S[_V + 1] = S[_V + 2] = 0.0
+    S[_P], S[_P + 1], S[_P + 2] = px, py, pz
+    S[_P_AT] = c
+    if t_pos > S[_STAMP]:
+        S[_STAMP] = t_pos
+        age = t - t_pos
+        S[_POS_AT] = c - (age if age > 0.0 else 0.0)
+    if c - S[_POS_AT] <= P[_TIMEOUT] + _EPS:
+        S[_ZERO] = 0.0
+    else:
+        N[_LOST] += 1
+    return True
+
+
+@numba.njit(cache=True, inline="always")
+def _wall(S, P, N, i, f):
+    """Brake towards the wall of axis i, and the damped wall beyond it."""
+    p, v, w = S[_P + i], S[_V + i], P[_WS + i]
+    if p > w:
+        N[_WS_N] += 1
+        return min(f, 0.0) - P[_WALL_K] * (p - w) - P[_WALL_DAMP] * v
+    if p < -w:
+        N[_WS_N] += 1
+        return max(f, 0.0) + P[_WALL_K] * (-w - p) - P[_WALL_DAMP] * v
+    s = 1.0 if v > 0.0 else -1.0
+    a, slew, m, grav = P[_DECEL], P[_SLEW], P[_MASS], P[_GRAV + i]
+    # the output turns at the slew rate: project the motion over the time the net force needs
+    # to go from its present value (along the motion) to braking at m a
+    f_net = s * (S[_PREV + i] - grav)
+    turn = (f_net + m * a) / slew if f_net + m * a > 0.0 else 0.0
+    dv = (f_net * turn - 0.5 * slew * turn * turn) / m
+    d = w - s * p - P[_MARGIN] - (s * v * turn + 0.5 * dv * turn)  # distance left once braking
+    v_lim = math.sqrt(2.0 * a * d) if d > 0.0 else 0.0
+    excess = s * v + (dv if dv > 0.0 else 0.0) - v_lim
+    if excess > 0.0:
+        # along the motion at most: brake B x excess (the weight compensation counted on z)
+        cap = s * grav - P[_BRAKE_GAIN] * excess
+        if s * f > cap:
+            N[_BRAKED] += 1
+            return s * cap
+    return f
+
+
+@numba.njit(cache=True)
+def limit(S, P, N, f0, f1, f2, stop, out):
+    """The safe force (into ``out`` (3,) N) for the requested one, given this tick's :func:`observe`."""
+    zero = S[_ZERO] != 0.0
+    if not (_finite(f0) and _finite(f1) and _finite(f2)):
+        N[_FAULTS] += 1
+        zero = True
+    now = S[_NOW]
+    if stop:
+        N[_STOPPED] += 1
+        if S[_STOP_AT] == math.inf:
+            S[_STOP_AT] = now
+    if zero:
+        f0 = f1 = f2 = 0.0
+    elif stop:
+        f0 = f1 = 0.0
+        land = P[_LAND_TIME]
+        left = 1.0 - (now - S[_STOP_AT]) / land if land > 0 else 0.0
+        f2 = P[_GRAV + 2] * left - P[_LAND_DAMP] * S[_V + 2] if left > 0.0 else 0.0
+    else:
+        f0 = _wall(S, P, N, 0, f0)
+        f1 = _wall(S, P, N, 1, f1)
+        f2 = _wall(S, P, N, 2, f2)
+    step = P[_STEP]
+    clamped = slewed = False
+    for i in range(3):  # clamp to +-f_max, then limit the change
+        f = f0 if i == 0 else (f1 if i == 1 else f2)
+        m = P[_FMAX + i]
+        if f > m:
+            f = m
+            clamped = True
+        elif f < -m:
+            f = -m
+            clamped = True
+        prev = S[_PREV + i]
+        if f > prev + step:
+            f = prev + step
+            slewed = True
+        elif f < prev - step:
+            f = prev - step
+            slewed = True
+        S[_PREV + i] = f
+        out[i] = f
+    if clamped:
+        N[_CLAMPED] += 1
+    if slewed:
+        N[_SLEWED] += 1
+
+
+@numba.njit(cache=True, inline="always")
+def _damping(k, km, d):
+    return d if k == km else (0.0 if k <= 0.0 else d * math.sqrt(k / km))
+
+
+@numba.njit(cache=True)
+def law(R, L, px, py, pz, vx, vy, vz, kx, ky, kz, h, hv, fx, fy, fz, out):
+    """Eq. 8 of the merged terms at screen position p, velocity v (into ``out`` (3,) N): the
+    bumpless reference (free axes track the screen, held ones approach the target at ref_step
+    per tick) and the damping on held axes."""
+    km, d, weight, lim, st = L[0], L[1], L[2], L[3], L[4]
+    if h > lim:
+        h = lim
+    elif h < -lim:
+        h = -lim
+    if R[3] != 0.0:
+        R[0], R[1], R[2] = px, py, pz
+        R[3] = 0.0
+    rx = px if kx <= 0.0 else R[0] + max(-st, min(st, -R[0]))
+    ry = py if ky <= 0.0 else R[1] + max(-st, min(st, -R[1]))
+    rz = pz if kz <= 0.0 else R[2] + max(-st, min(st, h - R[2]))
+    R[0], R[1], R[2] = rx, ry, rz
+    out[0] = fx + kx * (rx - px) - _damping(kx, km, d) * vx
+    out[1] = fy + ky * (ry - py) - _damping(ky, km, d) * vy
+    out[2] = weight + fz + kz * (rz + hv - pz) - _damping(kz, km, d) * vz
+
+
+@numba.njit(cache=True)
+def force(S, P, N, R, L, kx, ky, kz, h, hv, fx, fy, fz, stop, out):
+    """One tick's force after :func:`observe`: the control law of the merged terms at the
+    accepted position, then the safety stage's :func:`limit` (last) -- into ``out`` (3,) N."""
+    law(R, L, S[_P], S[_P + 1], S[_P + 2], S[_V], S[_V + 1], S[_V + 2], kx, ky, kz, h, hv, fx, fy, fz, out)
+    limit(S, P, N, out[0], out[1], out[2], stop, out)
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every kernel now, on scratch arrays, so that no
+    real-time tick pays for it (call before starting a haptic thread)."""
+    from surfhap.ff.params import DeviceParams
+
+    S, P, N = new_state(), safety_params(DeviceParams(), 1000.0, 100.0), np.zeros(len(COUNTERS), dtype=np.int64)
+    R, L, out = np.array([0.0, 0.0, 0.0, 1.0]), np.array([1000.0, 10.0, 3.8, 0.04, 2e-4]), np.zeros(3)
+    observe(S, P, N, 0.0, 0.0, 0.0, 0.0, 0.0)
+    force(S, P, N, R, L, 1000.0, 1000.0, 1000.0, 0.0, 0.0, 0.0, 0.0, 0.0, False, out)
+    limit(S, P, N, 0.0, 0.0, 0.0, True, out)
+    law(R, L, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1000.0, 1000.0, 1000.0, 0.0, 0.0, 0.0, 0.0, 0.0, out)
