@@ -35,7 +35,6 @@ together with the safety stage in one call (:meth:`surfhap.ff.safety.ForceSafety
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
