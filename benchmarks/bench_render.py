@@ -12,7 +12,8 @@ import dataclasses
 import numpy as np
 from _common import best_time, report, run
 
-from surfhap import ChainConfig, load_material, render, strokes
+from surfhap import ChainConfig, load_material, strokes
+from surfhap.texture import render
 from surfhap.models.texture import ARModel, TextureBank
 from surfhap.signal.ar import yule_walker
 

@@ -8,7 +8,8 @@ Otake et al. 2022 (003) Table I (quasi-static law), eq. 3; Otake et al. 2021 (00
 import numpy as np
 import pytest
 
-from surfhap import ChainConfig, constant_scan, load_material, render
+from surfhap import ChainConfig, constant_scan, load_material
+from surfhap.texture import render
 from surfhap.render.fidelity import fidelity_metrics
 
 # 003 Table I means: a, b, c, d, q (fn in N, v in m/s: assumed, the paper gives no units)

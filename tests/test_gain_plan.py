@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from statsmodels.tsa.arima_process import arma_acovf
 
-from surfhap import ChainConfig, constant_scan, load_material, render
+from surfhap import ChainConfig, constant_scan, load_material
+from surfhap.texture import render
 from surfhap.cli import main
 from surfhap.errors import ConfigError
 from surfhap.exchange.display_file import load_display, read_display_json

@@ -5,7 +5,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from surfhap import ChainConfig, constant_scan, load_material, render, strokes
+from surfhap import ChainConfig, constant_scan, load_material, strokes
+from surfhap.texture import render
 from surfhap.models.texture import ARModel, TextureBank
 from surfhap.report.figures import render_spectrum
 from surfhap.signal.bands import spectral_deviation_db

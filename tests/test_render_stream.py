@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from surfhap import ChainConfig, constant_scan, load_material, render, strokes
+from surfhap import ChainConfig, constant_scan, load_material, strokes
+from surfhap.texture import render
 from surfhap.cli import main
 from surfhap.errors import ConfigError
 from surfhap.exchange.render_files import write_render

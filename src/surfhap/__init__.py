@@ -4,10 +4,16 @@ Public API (see the README for a tour)::
 
     import surfhap as sh
     cork = sh.load_material("cork")
-    result = sh.render(cork, sh.constant_scan(speed=0.1, load=0.5, duration=5.0))
+    result = sh.texture.render(cork, sh.constant_scan(speed=0.1, load=0.5, duration=5.0))
     result.plot()
 
-Plotting and file I/O are separate calls (``result.plot()``, ``sh.write_render``).
+Plotting and file I/O are separate calls (``result.plot()``, ``sh.io.write_render``).
+
+Namespaces: ``sh.texture`` (render materials: the texture pipeline), ``sh.shape`` (3-D shapes),
+``sh.ff`` (force feedback), ``sh.lab`` (calibration, studies, staircases) and ``sh.io`` (every
+file format, readers beside writers). The most used names are also at the top level. No
+public name shadows a subpackage: the texture renderer is ``sh.texture.render``, and
+``sh.render`` is the package :mod:`surfhap.render`.
 
 ``import surfhap`` is cheap: every public name except the exceptions is loaded from its
 module on first use (numba, scipy, trimesh and matplotlib are imported only when a name
@@ -16,9 +22,9 @@ that needs them is touched), so the command line starts quickly.
 
 from __future__ import annotations
 
-import sys as _sys
-import types as _types
 from importlib import import_module as _import_module
+
+from surfhap._lazy import lazy_names as _lazy_names
 
 from surfhap.errors import (
     ConfigError,
@@ -41,6 +47,7 @@ _LAZY_MODULES = {
     "surfhap.exchange.mesh": ("read_mesh",),
     "surfhap.exchange.recordings": ("read_recording", "read_recordings", "Recording"),
     "surfhap.exchange.render_files": ("write_render",),
+    "surfhap.exchange.render_store": ("read_render",),
     "surfhap.exchange.shape_files": ("read_calibration", "write_calibration", "write_shape"),
     "surfhap.exchange.trajectory_csv": ("read_trajectory_csv", "write_trajectory_csv"),
     "surfhap.fit.accel": ("AccelFit", "fit_accel"),
@@ -55,7 +62,7 @@ _LAZY_MODULES = {
     "surfhap.render.gain_plan": ("GainPlan", "OperatingRange", "plan_gains"),
     "surfhap.render.grains": ("GrainParams",),
     "surfhap.models.device_curve": ("DeviceCurve",),
-    "surfhap.render.offline": ("render", "RenderResult"),
+    "surfhap.render.offline": ("RenderResult",),
     "surfhap.render.safety": ("SafetyLimits", "SafetyStage"),
     "surfhap.render.shape_renderer": ("render_shape", "ShapeConfig", "ShapeResult"),
     "surfhap.shape": ("all_scenes", "builtin_shape", "calibrate", "formative_profile", "get_scene",
@@ -76,11 +83,12 @@ _LAZY_MODULES = {
     "surfhap.sim.ff_sim": ("simulate_ff",),
     "surfhap.sim.ff_device": ("SimDevice", "SimFinger"),
 }
-_LAZY = {name: module for module, names in _LAZY_MODULES.items() for name in names}
+# the namespaces (subpackages and facade modules), imported on first attribute access
+_NAMESPACES = ("texture", "io", "shape", "ff", "lab", "fit")
+_lazy_getattr, _lazy_dir = _lazy_names(__name__, _LAZY_MODULES, globals())
 
 
 def _package_version() -> str:
-    """The installed distribution's version (importlib.metadata is slow to import: on demand)."""
     from importlib.metadata import PackageNotFoundError, version
 
     try:
@@ -93,30 +101,14 @@ def __getattr__(name: str):
     if name == "__version__":
         globals()[name] = value = _package_version()
         return value
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'surfhap' has no attribute {name!r}")
-    value = getattr(_import_module(module), name)
-    globals()[name] = value
-    return value
+    if name in _NAMESPACES:
+        return _import_module(f"{__name__}.{name}")
+    return _lazy_getattr(name)
 
 
 def __dir__():
-    return sorted(set(globals()) | set(_LAZY) | {"__version__"})
+    return sorted(set(_lazy_dir()) | set(_NAMESPACES) | {"__version__"})
 
-
-class _SurfhapModule(_types.ModuleType):
-    """``surfhap.render`` is the function :func:`surfhap.render.offline.render`, as it was
-    when everything was imported eagerly: importing the subpackage ``surfhap.render`` must
-    not rebind the name to the package (the import system sets it on the parent)."""
-
-    def __setattr__(self, name: str, value) -> None:
-        if name in _LAZY and isinstance(value, _types.ModuleType):
-            return
-        super().__setattr__(name, value)
-
-
-_sys.modules[__name__].__class__ = _SurfhapModule
 
 __all__ = [
     "AccelFit",
@@ -173,7 +165,7 @@ __all__ = [
     "read_trajectory_csv",
     "Recording",
     "RecordingFormatError",
-    "render",
+    "read_render",
     "render_shape",
     "RenderResult",
     "SafetyLimits",
