@@ -116,5 +116,5 @@ def test_grain_params_shape_the_waveforms():
     env = g.process(np.ones(10 * fs), np.zeros(10 * fs))
     # mean of a sparse raised-cosine pulse train: rate * width * 1/2
     assert np.mean(env) == pytest.approx(50 * 0.002 * 0.5, rel=0.15)
-    with pytest.raises(ConfigError):
+    with pytest.raises(ValueError, match="tick_width"):
         GrainParams(tick_width=0.0)

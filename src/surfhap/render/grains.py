@@ -30,10 +30,9 @@ quotes for EDGE-SOFT). The shape renderer's default is the square law of the dis
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numba
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from surfhap.errors import ConfigError
 from surfhap.models.device_curve import DeviceCurve
@@ -50,26 +49,19 @@ GRAINY_WIDTH = 0.004  # s (design choice)
 TICK_WIDTH = 0.010  # s (design choice)
 
 
-@dataclass(frozen=True)
-class GrainParams:
+class GrainParams(BaseModel):
     """Parameters of the grain waveforms (design choices, see the module docstring).
 
-    grainy_rate  : grains per second of area-grainy (mean of a Poisson process).
-    grainy_width : s, duration of one raised-cosine grain of area-grainy.
-    tick_width   : s, duration of the edge tick's raised-cosine pulse.
+    grainy_rate  : grains per second of area-grainy (mean of a Poisson process), (0, 2000].
+    grainy_width : s, duration of one raised-cosine grain of area-grainy, 0.5 ms to 0.5 s.
+    tick_width   : s, duration of the edge tick's raised-cosine pulse, 0.5 ms to 0.5 s.
     """
 
-    grainy_rate: float = GRAINY_RATE
-    grainy_width: float = GRAINY_WIDTH
-    tick_width: float = TICK_WIDTH
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    def __post_init__(self):
-        if not (np.isfinite(self.grainy_rate) and 0 < self.grainy_rate <= 2000):
-            raise ConfigError("must be in (0, 2000] per second", field="grainy_rate")
-        for name in ("grainy_width", "tick_width"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and 0.0005 <= v <= 0.5):
-                raise ConfigError("must be within 0.5 ms and 0.5 s", field=name)
+    grainy_rate: float = Field(GRAINY_RATE, gt=0, le=2000)
+    grainy_width: float = Field(GRAINY_WIDTH, ge=0.0005, le=0.5)
+    tick_width: float = Field(TICK_WIDTH, ge=0.0005, le=0.5)
 
 
 def grain_name(name: str) -> str:
