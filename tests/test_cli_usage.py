@@ -166,11 +166,16 @@ def test_import_surfhap_is_lazy_but_complete():
         import surfhap as sh
         loaded = sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY!r}))
         assert not loaded, loaded
-        import surfhap.render.chain  # the subpackage must not shadow the function sh.render
-        assert callable(sh.render) and sh.render.__module__ == "surfhap.render.offline", sh.render
-        for name in sh.__all__:
-            getattr(sh, name)
-        assert set(sh.__all__) <= set(dir(sh))
+        import surfhap.render.chain
+        # no public name shadows a subpackage: sh.render is the package, the renderer is sh.texture.render
+        assert sh.render is sys.modules["surfhap.render"]
+        assert sh.texture.render.__module__ == "surfhap.render.offline"
+        for ns in (sh, sh.texture, sh.io, sh.lab):
+            for name in ns.__all__:
+                getattr(ns, name)
+            assert set(ns.__all__) <= set(dir(ns))
+        subpackages = {{m.split(".")[1] for m in sys.modules if m.startswith("surfhap.")}}
+        assert not subpackages & set(sh.__all__), subpackages & set(sh.__all__)
         print("ok")
     """))
     assert proc.returncode == 0 and proc.stdout.strip() == "ok", proc.stderr
@@ -200,3 +205,28 @@ def test_missing_live_extra_is_one_line_exit_2(args, extra):
     assert proc.returncode == 2, proc.stderr
     line = one_error_line(proc.stderr)
     assert f"pip install 'surfhap[{extra}]'" in line
+
+
+def test_a_pydantic_validation_error_from_a_parameter_type_is_one_line(capsys):
+    """A parameter type validated by pydantic and built straight from an option (here the grain
+    parameters of a shape render, through a bad edge gain) reports its first error as one
+    ``field: message`` line, exit 2, not pydantic's multi-line dump."""
+    from pydantic import BaseModel, ValidationError, field_validator
+
+    from surfhap.cli._common import _error_text
+
+    class P(BaseModel):
+        x: float
+
+        @field_validator("x")
+        @classmethod
+        def positive(cls, v):
+            if v <= 0:
+                raise ValueError("must be > 0")
+            return v
+
+    try:
+        P(x=-1)
+    except ValidationError as exc:
+        line = _error_text(exc)
+    assert line == "x: must be > 0"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import sys
 import warnings
 from contextlib import contextmanager
 
@@ -105,6 +106,17 @@ def _usage_line(exc: typer.TyperException) -> str:
     return f"{message} (try '{ctx.command_path} --help')"
 
 
+def _error_text(exc: BaseException) -> str:
+    """The one line of an input error; a pydantic ``ValidationError`` (a ``ValueError``, raised
+    by a parameter type built directly from options) is its first error's ``field: message``."""
+    pydantic = sys.modules.get("pydantic")  # not imported: the error cannot be pydantic's
+    if pydantic is not None and isinstance(exc, pydantic.ValidationError):
+        from surfhap.checked import first_error
+
+        return ": ".join(first_error(exc))
+    return str(exc)
+
+
 def run_guarded(app: typer.Typer, argv: list[str]) -> int:
     """Run the typer app and return its exit code.
 
@@ -134,7 +146,7 @@ def run_guarded(app: typer.Typer, argv: list[str]) -> int:
                    f"pip install 'surfhap[{extra}]'")
         return 2
     except (SurfhapError, ValueError, OSError) as exc:
-        error_line(str(exc))
+        error_line(_error_text(exc))
         return 2
     # standalone_mode=False: typer returns the code of a typer.Exit, or the command's value
     return code if isinstance(code, int) and not isinstance(code, bool) else 0
