@@ -35,7 +35,7 @@ from surfhap.models.panel import DisplayModel
 from surfhap.render.drive import DriveParams, Square, make_drive_law, rendering_gain
 from surfhap.render.safety import SafetyLimits
 
-__all__ = ["OperatingRange", "GainPlan", "plan_gains", "texture_moments", "PLAN_PERCENTILE", "PLAN_FILL"]
+__all__ = ["OperatingRange", "GainPlan", "plan_gains", "PLAN_PERCENTILE", "PLAN_FILL"]
 
 PLAN_PERCENTILE = 99.9
 PLAN_FILL = 0.95
@@ -133,23 +133,6 @@ class GainPlan:
         return plot_gain_plan(self, fig=fig)
 
 
-def texture_moments(material: Material, speed: float, load: float) -> tuple[float, float]:
-    """Standard deviation of the texture (its own unit) and of its rate of change (unit/s)
-    at ``speed`` (m/s) and ``load`` (N), from the model the renderer would use there."""
-    bank = material.texture
-    if bank is None:
-        return 0.0, 0.0
-    rate = float(bank.sample_rate)
-    if hasattr(bank, "interpolate"):
-        f = np.linspace(0.0, rate / 2, 4097)
-        psd = bank.interpolate(speed, load).psd(rate, f)
-        var = float(np.trapezoid(psd, f))
-        slope_var = float(np.trapezoid(psd * (2 * np.pi * f) ** 2, f))
-        return float(np.sqrt(max(var, 0.0))), float(np.sqrt(max(slope_var, 0.0)))
-    # the texture is resampled up as a band-limited signal: its slope is sqrt(int (2 pi f)^2 PSD df)
-    return bank.models[int(bank.select(np.array([speed]))[0])].moments(rate)
-
-
 def plan_gains(material: Material, method: str, display: DisplayModel | None = None,
                operating_range: OperatingRange | None = None, limits: SafetyLimits | None = None, *,
                beta: float = _DEFAULTS.beta, texture_gain: float = _DEFAULTS.texture_gain,
@@ -180,12 +163,10 @@ def plan_gains(material: Material, method: str, display: DisplayModel | None = N
     sq_amp_force = None
     memo: dict = {}
 
-    def moments(v, fn):
-        bank = material.texture
-        key = (v, fn) if hasattr(bank, "interpolate") else int(bank.select(np.array([v]))[0])
-        if key not in memo:
-            memo[key] = texture_moments(material, v, fn)
-        return memo[key]
+    def moments(v, fn):  # the texture's sd and slope sd at (v, fn): the model the renderer would use there
+        if (v, fn) not in memo:
+            memo[(v, fn)] = material.texture.moments_at(v, fn)
+        return memo[(v, fn)]
 
     if isinstance(law, Square):
         sq_amp_force = law.on_force

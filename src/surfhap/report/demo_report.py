@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from matplotlib.figure import Figure
 
+from surfhap.models.texture import TextureBank
 from surfhap.report.axes import plain_log_ticks
 from surfhap.report.figures import render_spectrum
 from surfhap.report.html import Page
@@ -51,7 +52,7 @@ def _speed_figure(name: str, runs) -> Figure:
         b.text(0.5, 0.5, "friction-only:\nno texture to compare", ha="center", va="center", transform=b.transAxes)
         b.set_xticks([])
         b.set_yticks([])
-    elif len(getattr(runs[0].texture_model, "models", ())) == 1:
+    elif isinstance(runs[0].texture_model, TextureBank) and len(runs[0].texture_model.models) == 1:
         b.set_title("high band (one speed-independent model:\nthe speeds overlap)")
     c.set(title="drive after safety, 10 ms", xlabel="ms", ylabel="V")
     for ax in (a, b, c):
