@@ -12,11 +12,16 @@ error with :func:`first_error`.
 
 from __future__ import annotations
 
+import functools
+
 from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic.dataclasses import dataclass as _pydantic_dataclass
 
 from surfhap.errors import ConfigError
 
-__all__ = ["Checked", "first_error"]
+__all__ = ["Checked", "checked_dataclass", "first_error"]
+
+_CONFIG = ConfigDict(extra="forbid", arbitrary_types_allowed=True)
 
 
 def first_error(exc: ValidationError) -> tuple[str, str]:
@@ -31,7 +36,7 @@ def first_error(exc: ValidationError) -> tuple[str, str]:
 class Checked(BaseModel):
     """Frozen, validated parameters: keyword construction, unknown fields refused."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid", arbitrary_types_allowed=True)
+    model_config = ConfigDict(frozen=True, **_CONFIG)
 
     def __init__(self, /, **data):
         try:
@@ -39,3 +44,22 @@ class Checked(BaseModel):
         except ValidationError as exc:
             field, msg = first_error(exc)
             raise ConfigError(msg, field=field) from None
+
+
+def checked_dataclass(cls):
+    """Class decorator: ``cls`` as a frozen pydantic dataclass (positional construction,
+    ``dataclasses.replace`` work as for a dataclass) whose bad value is one
+    :class:`~surfhap.errors.ConfigError` naming the field, as :class:`Checked`."""
+    dc = _pydantic_dataclass(frozen=True, config=_CONFIG)(cls)
+    validate = dc.__init__
+
+    @functools.wraps(validate)
+    def __init__(self, *args, **kwargs):
+        try:
+            validate(self, *args, **kwargs)
+        except ValidationError as exc:
+            field, msg = first_error(exc)
+            raise ConfigError(msg, field=field) from None
+
+    dc.__init__ = __init__
+    return dc

@@ -41,10 +41,12 @@ so each equation is written once. :func:`rendering_gain` is the one ``(alpha / a
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar, NamedTuple
+from typing import TYPE_CHECKING, Annotated, ClassVar, NamedTuple
 
 import numpy as np
+from pydantic import Field
 
+from surfhap.checked import checked_dataclass
 from surfhap.errors import ConfigError
 from surfhap.models.friction import QuasiStaticLaw
 from surfhap.models.material import Material
@@ -61,7 +63,7 @@ def rendering_gain(alpha: float, alpha_calibrated: float) -> float:
     return float((alpha / alpha_calibrated) ** 2)
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class DriveParams:
     """Parameters shared by the drive laws (SI).
 
@@ -75,33 +77,15 @@ class DriveParams:
     texture_gain     : multiplier on the texture (1 = the material's calibrated strength).
     """
 
-    alpha: float
-    beta: float = 1.8
-    effective_mass: float = 0.05
-    constant_load: float | None = 1.6
-    square_frequency: float = 100.0
-    square_amplitude: float | None = None
-    square_reference_load: float = 0.5
-    square_reference_speed: float = 0.1
-    texture_gain: float = 1.0
-
-    def __post_init__(self):
-        if not (np.isfinite(self.alpha) and self.alpha > 0):
-            raise ConfigError(f"must be > 0, got {self.alpha}", field="alpha")
-        if not (np.isfinite(self.beta) and self.beta >= 0):
-            raise ConfigError(f"must be >= 0, got {self.beta}", field="beta")
-        if not 30.0 <= self.square_frequency <= 300.0:
-            raise ConfigError(f"must be within 30-300 Hz, got {self.square_frequency}", field="square_frequency")
-        if self.constant_load is not None and not self.constant_load > 0:
-            raise ConfigError("must be > 0", field="constant_load")
-        if self.square_amplitude is not None and not self.square_amplitude >= 0:
-            raise ConfigError("must be >= 0", field="square_amplitude")
-        if not (np.isfinite(self.square_reference_load) and 0 < self.square_reference_load <= 50):
-            raise ConfigError("must be within (0, 50] N", field="square_reference_load")
-        if not (np.isfinite(self.square_reference_speed) and 0 <= self.square_reference_speed <= 10):
-            raise ConfigError("must be within [0, 10] m/s", field="square_reference_speed")
-        if not (np.isfinite(self.texture_gain) and self.texture_gain >= 0):
-            raise ConfigError("must be >= 0", field="texture_gain")
+    alpha: Annotated[float, Field(gt=0, allow_inf_nan=False)]
+    beta: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 1.8
+    effective_mass: Annotated[float, Field(gt=0, allow_inf_nan=False)] = 0.05
+    constant_load: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = 1.6
+    square_frequency: Annotated[float, Field(ge=30.0, le=300.0)] = 100.0
+    square_amplitude: Annotated[float, Field(ge=0, allow_inf_nan=False)] | None = None
+    square_reference_load: Annotated[float, Field(gt=0, le=50)] = 0.5
+    square_reference_speed: Annotated[float, Field(ge=0, le=10)] = 0.1
+    texture_gain: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 1.0
 
 
 class DriveBlock(NamedTuple):
