@@ -82,10 +82,12 @@ def test_rise_limit_binds_and_holds():
 
 
 def test_bad_ranges_are_config_errors():
-    with pytest.raises(ConfigError, match="load_range"):
+    with pytest.raises(ConfigError, match="loads: needs low <= high"):
         OperatingRange(loads=(1.0, 0.1))
-    with pytest.raises(ConfigError, match="speed_range"):
+    with pytest.raises(ConfigError, match="speeds.0"):
         OperatingRange(speeds=(-1.0, 0.1))
+    with pytest.raises(ConfigError, match="n_loads"):
+        OperatingRange(n_loads=1)
 
 
 # ---------------------------------------------------------------- square baseline (000 Sec. 3)

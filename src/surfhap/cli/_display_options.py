@@ -84,7 +84,7 @@ def resolve_display_and_range(display: str | None, load_range: str | None, speed
     try:
         rng = OperatingRange(loads=loads, speeds=speeds)
     except ConfigError as exc:
-        opt = "--load-range" if exc.field == "load_range" else "--speed-range"
+        opt = "--load-range" if (exc.field or "").startswith("loads") else "--speed-range"
         raise ConfigError(exc.message, source=opt if (load_range or speed_range) else (src or opt)) from None
     return model, rng
 

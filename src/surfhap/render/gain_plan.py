@@ -25,10 +25,13 @@ The result is a :class:`GainPlan` with named fields and ``.plot()``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Annotated
 
 import numpy as np
+from pydantic import Field, field_validator
 from scipy.stats import norm
 
+from surfhap.checked import checked_dataclass
 from surfhap.errors import ConfigError
 from surfhap.models.material import Material
 from surfhap.models.panel import DisplayModel
@@ -42,24 +45,21 @@ PLAN_FILL = 0.95
 _DEFAULTS = DriveParams(alpha=1.0)  # the drive laws' defaults (beta, m_eff, Zhao's constant load ...)
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class OperatingRange:
     """Loads (N) and speeds (m/s) a rendering must serve, as (low, high) pairs, and grid sizes."""
 
-    loads: tuple[float, float] = (0.1, 1.0)
-    speeds: tuple[float, float] = (0.02, 0.3)
-    n_loads: int = 19
-    n_speeds: int = 15
+    loads: tuple[Annotated[float, Field(gt=0, le=50.0)], Annotated[float, Field(gt=0, le=50.0)]] = (0.1, 1.0)
+    speeds: tuple[Annotated[float, Field(ge=0, le=10.0)], Annotated[float, Field(ge=0, le=10.0)]] = (0.02, 0.3)
+    n_loads: Annotated[int, Field(ge=2)] = 19
+    n_speeds: Annotated[int, Field(ge=2)] = 15
 
-    def __post_init__(self):
-        lo, hi = (float(x) for x in self.loads)
-        if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi <= 50.0):
-            raise ConfigError(f"needs 0 < low <= high <= 50 N, got {lo:g},{hi:g}", field="load_range")
-        slo, shi = (float(x) for x in self.speeds)
-        if not (np.isfinite(slo) and np.isfinite(shi) and 0 <= slo <= shi <= 10.0):
-            raise ConfigError(f"needs 0 <= low <= high <= 10 m/s, got {slo:g},{shi:g}", field="speed_range")
-        if self.n_loads < 2 or self.n_speeds < 2:
-            raise ConfigError("grids need at least 2 points", field="operating_range")
+    @field_validator("loads", "speeds")
+    @classmethod
+    def _low_before_high(cls, pair):
+        if pair[0] > pair[1]:
+            raise ValueError(f"needs low <= high, got {pair[0]:g},{pair[1]:g}")
+        return pair
 
     def grid(self) -> tuple[np.ndarray, np.ndarray]:
         """(n_loads,) N and (n_speeds,) m/s, both including the ends."""
