@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from surfhap.render.block import RenderBlock, Renderer
+from surfhap.render.block import RenderBlock
+from surfhap.runtime.protocols import Renderer
 from surfhap.render.hold import hold_latest
 from surfhap.render.shape_chain import ShapeChain
 from surfhap.render.shape_renderer import ShapeConfig, ShapeRenderer, render_shape

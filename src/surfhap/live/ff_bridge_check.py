@@ -30,7 +30,7 @@ import math
 import socket
 from dataclasses import dataclass, field
 
-from surfhap.live.clock import now, sleep_until
+from surfhap.runtime.clock import now, sleep_until
 from surfhap.live.ff_bridge_wire import (BRIDGE_WATCHDOG_S, MIN_POSITION_RATE_HZ, decode_position, encode_force,
                                          new_token)
 

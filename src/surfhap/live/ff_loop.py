@@ -35,7 +35,7 @@ import threading
 
 import numpy as np
 
-from surfhap.live.clock import STALE, arrival_stamp, now, sleep_until
+from surfhap.runtime.clock import STALE, arrival_stamp, now, sleep_until
 from surfhap.live.queues import TouchRing
 
 __all__ = ["FFLoop", "OscFeedback", "FFLoopStats", "WorldTouchAdapter"]
@@ -93,7 +93,7 @@ class FFLoop:
         """Hand one validated touch sample to the loop (any thread). x, y m; load N (0 = lifted).
 
         The loop stamps the arrival itself on its clock; a caller's ``t_arrival`` can only make
-        the sample older (:func:`surfhap.live.clock.arrival_stamp`, the law the texture engine
+        the sample older (:func:`surfhap.runtime.clock.arrival_stamp`, the law the texture engine
         uses too). A future or non-finite ``t_arrival`` is stale: counted in ``touches_stale``
         and dropped."""
         ta = arrival_stamp(t_arrival, self.clock())

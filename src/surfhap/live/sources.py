@@ -29,7 +29,7 @@ import threading
 from dataclasses import dataclass
 
 from surfhap.errors import ConfigError
-from surfhap.live.clock import now, sleep_until
+from surfhap.runtime.clock import now, sleep_until
 from surfhap.live.udpguard import UdpListener
 
 __all__ = ["TouchSpace", "RateLimiter", "RejectLog", "OscTouchSource", "ReplaySource", "OSC_ADDRESSES",
