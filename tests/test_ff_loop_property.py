@@ -35,7 +35,7 @@ from hypothesis import HealthCheck, event as tally, given, settings, strategies 
 from surfhap.ff import FALCON, DeviceParams, Effect, FFEngine, RectsField, Roughness, Shape, Sliding, Stiffness
 from surfhap.live.ff_devices import SimDeviceBackend
 from surfhap.live.ff_loop import FFLoop
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.sim.ff_device import SimDevice
 
 RATE = 1000.0

@@ -12,7 +12,7 @@ from surfhap.exchange.materials import load_material
 from surfhap.live.audit import audit_drive
 from surfhap.live.engine import LiveEngine
 from surfhap.live.engine_config import EngineConfig
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing
 from surfhap.render.chain import ChainConfig, TextureChain
 from surfhap.render.safety import SafetyLimits

@@ -23,8 +23,17 @@ def _jittered(speed: float, load: float, duration: float, seed: int) -> Trajecto
     """A recording-like finger: irregular sensor stamps (90-160 Hz), a back-and-forth stroke."""
     rng = np.random.default_rng(seed)
     t = np.concatenate([[0.0], np.cumsum(rng.uniform(1 / 160, 1 / 90, int(duration * 130)))])
-    x = 0.02 + 0.04 * (1 - np.cos(speed * t / 0.04)) / 2 * 2
+    x = 0.02 + 0.04 * (1 - np.cos(speed * t / 0.04))
     return Trajectory(t, x, np.full(t.size, 0.03), np.full(t.size, load), name="jittered")
+
+
+def _lifts(speed: float, load: float, duration: float) -> Trajectory:
+    """Slides with lifts and a 0.2 s gap: the finger leaves and comes back elsewhere."""
+    t = np.arange(0.0, duration, 1 / 125)
+    t = np.concatenate([t[t < 0.3], t[t >= 0.5]])  # no samples for 0.2 s
+    x = 0.02 + speed * t
+    load_n = np.where((t > 0.6) & (t < 0.75), 0.0, load)
+    return Trajectory(t, x, np.full(t.size, 0.03), load_n, name="lifts")
 
 
 CASES = [  # (trajectory, material, drive rate)
@@ -33,6 +42,7 @@ CASES = [  # (trajectory, material, drive rate)
     (lambda: strokes(1.0, 0.6, 0.6, length=0.1), "denim", 20000),
     (lambda: _jittered(0.2, 0.96, 0.7, 3), "leather", 48000),
     (lambda: _jittered(0.8, 0.26, 0.5, 4), "denim", 32000),
+    (lambda: _lifts(0.3, 0.7, 1.2), "leather", 20000),
 ]
 
 

@@ -39,7 +39,7 @@ def _device(gain: Optional[float], slew: Optional[float], f_max: Optional[float]
 
 
 def _predictor(predict: bool, latency_ms: float, k_pred: Optional[float], alpha: float, velocity_alpha: float):
-    from surfhap.live.prediction import TouchPredictor
+    from surfhap.render.kinematics import TouchPredictor
 
     if not 0.0 <= latency_ms <= 200.0:
         raise ConfigError("must be within 0-200 ms", source="--touch-latency-ms")

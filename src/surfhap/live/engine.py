@@ -30,7 +30,7 @@ Touch samples are time-stamped at arrival by the engine itself, on its own clock
 :meth:`LiveEngine.push_touch`. A caller's stamp (``t_arrival``, e.g. the web process's
 arrival time) may only make a sample older, never extend its life
 (:func:`surfhap.runtime.clock.arrival_stamp`). Each sample is in force from the model
-sample at its stamp on (:class:`surfhap.runtime.hold.TouchHold`: arbitration, stale and
+sample at its stamp on (:class:`surfhap.render.hold.TouchHold`: arbitration, stale and
 non-monotonic stamps, lift, prediction), and the renderer's watchdog (touch older than
 50 ms -> ramp to zero within 5 ms) sees the stamp on the chain's clock, so it knows how old
 the finger data really is. A stamp is never refreshed: data that waited during a stall
@@ -53,11 +53,11 @@ from surfhap.errors import ConfigError
 from surfhap.runtime.clock import arrival_stamp, now as clock_now
 from surfhap.live.engine_config import EngineConfig
 from surfhap.live.fifo_kernels import fifo_read, fifo_write_peak, mean_or_nan, write_trace_row
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing, ring_rows_since, ring_stats
+from surfhap.render.hold import NO_LIFT, TouchHold
 from surfhap.render.safety import OutputSafety
 from surfhap.runtime.commands import Command, SetGain, Stop, SwapRenderer
-from surfhap.runtime.hold import NO_LIFT, TouchHold
 from surfhap.runtime.protocols import Renderer
 
 __all__ = ["LiveEngine", "TRACE_FIELDS"]
@@ -93,7 +93,7 @@ class LiveEngine:
         self.commands = CommandQueue(64)
         self.predictor = TouchPredictor(cfg.touch_latency, cfg.smoothing, cfg.k_pred, cfg.speed_cutoff)
         self.counters: dict = {}
-        self.hold = TouchHold(self.predictor, cfg.takeover, self.counters)
+        self.hold = TouchHold(self.touches, self.predictor, cfg.takeover, self.counters)
         mb = int(cfg.max_block_frames)
         self._max_frames = mb
         self._max_model = int(math.ceil(mb * self.model_rate / self.drive_rate)) + 2
@@ -211,7 +211,7 @@ class LiveEngine:
         out = self.out[:frames]
         try:
             self._commands()
-            self.hold.take(self.touches, now, self._n_model / self.model_rate)
+            self.hold.take(now, self._n_model / self.model_rate)
             self._produce(frames, now)
             fifo_read(self._fifo, self._fifo_mask, self._fifo_r, out)
             self._fifo_r += frames

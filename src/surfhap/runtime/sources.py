@@ -13,12 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from surfhap.render.offline import model_samples
+
 __all__ = ["TrajectorySource", "model_samples", "drive_frames"]
-
-
-def model_samples(trajectory, model_rate: float) -> int:
-    """Number of model-rate samples a render of ``trajectory`` has (from its first stamp to its last)."""
-    return int(np.floor((trajectory.t[-1] - trajectory.t[0]) * model_rate + 1e-9)) + 1
 
 
 def drive_frames(n_model: int, model_rate: int, drive_rate: int) -> int:
