@@ -19,7 +19,8 @@ it holds until the next one. Offline (``surfhap render``) the samples of a traje
 at their stamps; live they arrive when the sensor delivers them, stamped by the engine
 (:func:`surfhap.runtime.clock.arrival_stamp`). Both go through this one hold, so a simulated
 run on a trajectory and its offline render give the same drive (tests/test_play_render_equality.py); the offline render
-(:func:`sample_trajectory`) feeds it a trajectory's rows directly.
+(:func:`surfhap.render.offline.render_blocks`) and the offline shape render feed it a
+trajectory's rows directly (:class:`TrajectoryRows`).
 
 Chain clock: model sample ``k`` of the renderer is at ``anchor + k / model_rate`` on the
 engine clock. ``anchor`` follows the emission time: at each block it is raised so that the
@@ -44,7 +45,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["hold_latest", "model_times", "TouchHold", "NO_TOUCH_TIME", "NO_LIFT"]
+__all__ = ["hold_latest", "model_times", "TouchHold", "TrajectoryRows", "NO_TOUCH_TIME", "NO_LIFT"]
 
 NO_TOUCH_TIME = -1.0e6  # "touched long ago": the watchdog holds the output at zero
 NO_LIFT = 1 << 62  # TouchHold.fill(): no late lift in this chunk
@@ -215,3 +216,19 @@ class TouchHold:
         else:
             pred.update(t_arr, x, y)
         return NO_LIFT
+
+
+class TrajectoryRows:
+    """A trajectory's samples as touch rows (source, stamp, stamp, x, y, load), stamps in s
+    from its first sample, popped in order (the ring of an offline :class:`TouchHold`)."""
+
+    def __init__(self, trajectory):
+        t = trajectory.t - trajectory.t[0]
+        self.rows = np.column_stack([np.ones(t.size), t, t, trajectory.x, trajectory.y, trajectory.load])
+        self.i = 0
+
+    def pop_into(self, out: np.ndarray) -> int:
+        k = min(out.shape[0], self.rows.shape[0] - self.i)
+        out[:k] = self.rows[self.i:self.i + k]
+        self.i += k
+        return k

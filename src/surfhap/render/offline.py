@@ -21,7 +21,7 @@ from surfhap.models.trajectory import Trajectory
 from surfhap.render.chain import ChainConfig, TextureChain
 from surfhap.render.drive import LowBand
 from surfhap.render.expected import expected_texture_psd
-from surfhap.render.hold import TouchHold
+from surfhap.render.hold import TouchHold, TrajectoryRows
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.render.safety import SafetyCounters
 
@@ -315,22 +315,6 @@ def fault_error(r, threshold: float = MAX_FAULT_FRACTION) -> str | None:
             f"check the trajectory's units and --alpha")
 
 
-class _TrajectoryRows:
-    """A trajectory's samples as touch rows (source, stamp, stamp, x, y, load), stamps in s
-    from its first sample, popped in order (the ring of an offline :class:`TouchHold`)."""
-
-    def __init__(self, trajectory: Trajectory):
-        t = trajectory.t - trajectory.t[0]
-        self.rows = np.column_stack([np.ones(t.size), t, t, trajectory.x, trajectory.y, trajectory.load])
-        self.i = 0
-
-    def pop_into(self, out: np.ndarray) -> int:
-        k = min(out.shape[0], self.rows.shape[0] - self.i)
-        out[:k] = self.rows[self.i:self.i + k]
-        self.i += k
-        return k
-
-
 def render_blocks(chain, trajectory: Trajectory, display: SimulatedDisplay, *, block_seconds: float = 1.0,
                   stop: Callable[[], bool] | None = None):
     """The offline block loop: the trajectory's samples in force from the model sample at their
@@ -341,7 +325,7 @@ def render_blocks(chain, trajectory: Trajectory, display: SimulatedDisplay, *, b
     ``stop()`` is True. :func:`render` and :func:`surfhap.render.stream.stream_render` consume it."""
     fm = chain.model_rate
     n = model_samples(trajectory, fm)
-    hold = TouchHold(_TrajectoryRows(trajectory), TouchPredictor(), 0.05,
+    hold = TouchHold(TrajectoryRows(trajectory), TouchPredictor(), 0.05,
                      {"touches": 0, "touches_ignored": 0, "stale_stamps": 0})
     hold.take(0.0, 0.0)  # the chain's model sample 0 is the trajectory's first stamp
     block = max(1, int(round(block_seconds * fm)))
