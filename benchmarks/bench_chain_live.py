@@ -17,14 +17,14 @@ from bench_render import bank
 
 from surfhap import ChainConfig, TextureChain, load_material
 from surfhap.models.panel import SimulatedDisplay
-from surfhap.render.kinematics import Kinematics
+from surfhap.render.kinematics import TouchPredictor
 
 
 def main():
     material = dataclasses.replace(load_material("leather"), texture=bank())
     chain = TextureChain(material, ChainConfig(drive_rate=20000))
     display = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.model_rate)
-    kin = Kinematics()
+    kin = TouchPredictor()
     per_block = chain.model_rate // 1000
     n_blocks = 20000
     times = np.empty(n_blocks)
@@ -40,7 +40,8 @@ def main():
         t0 = time.thread_time_ns()
         if b % 8 == 0:
             x = 0.1 * now
-            v = kin.process(np.array([now]), np.array([x]), np.array([0.0]))[0]
+            kin.update(now, x, 0.0)
+            v = kin.speed
             last_touch = now
         speed[:] = v
         touch[:] = last_touch

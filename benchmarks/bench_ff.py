@@ -22,7 +22,7 @@ import numpy as np  # noqa: E402
 
 def all_active_engine():
     from surfhap.ff import FALCON, Attraction, FFEngine, GridField, Roughness, Shape, Sliding, Stiffness
-    from surfhap.live.prediction import TouchPredictor
+    from surfhap.render.kinematics import TouchPredictor
 
     h = GridField(np.outer(np.hanning(64), np.hanning(48)).T * 0.02, 0.0, 0.0, 0.197, 0.148)
     effects = [Stiffness(300.0), Shape(h), Roughness(2e-4, 1.5e-3), Sliding(0.5, mass=FALCON.moving_mass),

@@ -85,7 +85,7 @@ def bench_clients(seconds: float, n_clients: int = 50, rate: float = 120.0) -> N
     from surfhap.live.webproc import WebProcess
 
     tmp = tempfile.mkdtemp(prefix="surfhap-bench-")
-    session = build_session("cork", f"file:{tmp}/drive.npz", backend_options={"max_seconds": seconds + 60})
+    session = build_session("cork", f"file:{tmp}/drive.npz", max_seconds=seconds + 60)
     session.start()
     web = WebProcess(session, ServerConfig(port=0, max_clients=n_clients + 8)).start()
     pids = {"engine": "self", "web": str(web.proc.pid)}

@@ -17,7 +17,7 @@ SRC = REPO / "src" / "surfhap"
 LINT = Path(sys.executable).parent / "lint-imports"
 
 # top to bottom, as in pyproject.toml and docs/architecture.md
-LAYERS = ["cli | texture | io", "report", "lab | (batch)", "fit | live", "sim", "render | ff", "shape", "exchange", "models", "signal"]
+LAYERS = ["cli | texture | io", "report", "lab | (batch)", "fit | live", "sim | runtime", "render | ff", "shape", "exchange", "models", "signal"]
 
 
 def _contracts() -> dict[str, dict]:
@@ -62,6 +62,13 @@ def test_an_upward_import_breaks_the_layers(tmp_path):
     res = _broken_copy(tmp_path, "models/texture.py", "from surfhap.render.chain import TextureChain")
     assert res.returncode == 1, res.stdout + res.stderr
     assert "surfhap.models.texture -> surfhap.render.chain" in res.stdout
+
+
+def test_the_renderers_below_the_runtime_cannot_import_it(tmp_path):
+    # issue 20: the runtime sits above render|ff; nothing below it imports it
+    res = _broken_copy(tmp_path, "render/chain.py", "from surfhap.runtime.loop import run")
+    assert res.returncode == 1, res.stdout + res.stderr
+    assert "surfhap.render.chain -> surfhap.runtime.loop" in res.stdout
 
 
 def test_report_importing_a_fit_breaks_its_contract(tmp_path):

@@ -11,7 +11,7 @@ from surfhap.errors import SceneFormatError
 from surfhap.ff import FALCON, FFEngine
 from surfhap.ff.buttons import Button, ButtonPresses
 from surfhap.ff.scene import load_scene
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.sim.ff_device import SimDevice
 from surfhap.sim.ff_sim import SimFinger, simulate_ff
 from surfhap.models.trajectory import Trajectory

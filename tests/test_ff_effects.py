@@ -8,7 +8,7 @@ import pytest
 from surfhap.ff import FALCON, FFEngine, GridField, Idle, RectsField, Roughness, Shape, Sliding, Stiffness
 from surfhap.ff.control import ControlLaw
 from surfhap.ff.effects import TickState
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.models.trajectory import Trajectory, constant_scan
 from surfhap.sim.ff_device import SimDevice, SimFinger
 from surfhap.sim.ff_sim import simulate_ff

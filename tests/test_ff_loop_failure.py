@@ -12,7 +12,7 @@ from surfhap.exchange.trajectory_csv import write_trajectory_csv
 from surfhap.ff import FALCON, FFEngine, Sliding, Stiffness
 from surfhap.live.ff_devices import SimDeviceBackend
 from surfhap.live.ff_loop import FFLoop
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.models.trajectory import Trajectory
 from surfhap.sim.ff_device import SimDevice
 

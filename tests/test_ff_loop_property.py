@@ -35,7 +35,7 @@ from hypothesis import HealthCheck, event as tally, given, settings, strategies 
 from surfhap.ff import FALCON, DeviceParams, Effect, FFEngine, RectsField, Roughness, Shape, Sliding, Stiffness
 from surfhap.live.ff_devices import SimDeviceBackend
 from surfhap.live.ff_loop import FFLoop
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.sim.ff_device import SimDevice
 
 RATE = 1000.0
@@ -283,10 +283,10 @@ def test_huge_touch_cannot_crash_or_freeze_the_roughness_phase():
 
 
 def test_device_position_stamps_pass_the_one_arrival_law():
-    """Issue 20: the loop hands a device position's stamp through live/clock.arrival_stamp, the
+    """Issue 20: the loop hands a device position's stamp through runtime/clock.arrival_stamp, the
     law touches pass: a stamp after the hand-over (even within one period) or non-finite is
     stale and never refreshes the watchdog; one at or before it is taken."""
-    from surfhap.live.clock import STALE, arrival_stamp
+    from surfhap.runtime.clock import STALE, arrival_stamp
 
     period = 1.0 / RATE
     for offset in (-3 * period, 0.0, 0.5 * period, 0.99 * period, 2 * period, math.inf, math.nan):

@@ -18,7 +18,7 @@ from surfhap.ff import FALCON, FFEngine
 from surfhap.ff.scene import load_scene
 from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend
 from surfhap.live.ff_loop import FFLoop, OscFeedback
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.live.sources import OscTouchSource, TouchSpace
 from surfhap.sim.ff_device import SimDevice
 

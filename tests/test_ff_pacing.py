@@ -9,7 +9,7 @@ import threading
 import pytest
 
 from surfhap.live import pacing
-from surfhap.live.clock import now
+from surfhap.runtime.clock import now
 
 
 def test_a_late_wait_counts_the_skipped_periods_and_keeps_the_phase():

@@ -16,7 +16,7 @@ from surfhap.ff.scene import load_scene
 from surfhap.live.ff_devices import SimDeviceBackend
 from surfhap.live.ff_loop import FFLoop
 from surfhap.live.ff_web import build_ff_session
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.sim.ff_device import SimDevice
 
 

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from surfhap.ff import FALCON, Attraction, DeviceParams, FFEngine, ForceSafety, GridField, RectsField, Roughness, Shape, Sliding, Stiffness
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.sim.ff_device import SimDevice
 
 RATE = 1000.0

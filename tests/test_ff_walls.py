@@ -13,7 +13,7 @@ import pytest
 from surfhap.ff import FALCON, FFEngine
 from surfhap.ff.params import GRAVITY
 from surfhap.ff.scene import builtin_scene_names, load_scene
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.models.trajectory import Trajectory
 from surfhap.sim.ff_device import SimDevice, SimFinger
 from surfhap.sim.ff_sim import simulate_ff

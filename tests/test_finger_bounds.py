@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from surfhap.ff import FALCON, FFEngine, Stiffness
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.models import finger
 from surfhap.models.trajectory import implausible
 

@@ -47,7 +47,7 @@ from surfhap.lab.session import SessionRunner
 from surfhap.lab.stimuli import StimulusPlayer
 from surfhap.lab.triallog import read_log
 from surfhap.live.audit import audit_drive
-from surfhap.live.clock import now
+from surfhap.runtime.clock import now
 from surfhap.live.engine import LiveEngine
 from surfhap.live.engine_config import EngineConfig
 from surfhap.live.session import LiveSession

@@ -5,6 +5,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from surfhap.lab.page import StimulusPlayer
+from surfhap.runtime.commands import SetGain
 
 
 class _Engine:
@@ -13,7 +14,7 @@ class _Engine:
     def __init__(self):
         self.sent = []
 
-    def send(self, *cmd):
+    def send(self, cmd):
         self.sent.append(cmd)
         return True
 
@@ -56,7 +57,7 @@ def test_real_samples_and_visual_only_scenes_mute():
     assert player.select({"real": "cork"}) == "muted"
     assert player.select({"scene": "gaussian-1B3H-spot", "haptic": False}) == "muted"
     assert player.select({"effect": "follow"}) == "muted"
-    assert ("gain", 0.0) in s.engine.sent
+    assert SetGain(0.0) in s.engine.sent
 
 
 def test_scene_stimulus_renders_the_scene_shape_and_picture():

@@ -111,7 +111,7 @@ def test_ff_page_panel_shows_device_position_force_and_button_press():
     from surfhap.live.ff_devices import SimDeviceBackend
     from surfhap.live.ff_loop import FFLoop
     from surfhap.live.ff_web import build_ff_session
-    from surfhap.live.prediction import TouchPredictor
+    from surfhap.render.kinematics import TouchPredictor
     from surfhap.live.app import create_app
     from surfhap.live.config import ServerConfig
     from surfhap.live.serverthread import ServerThread

@@ -12,10 +12,12 @@ from surfhap.exchange.materials import load_material
 from surfhap.live.audit import audit_drive
 from surfhap.live.engine import LiveEngine
 from surfhap.live.engine_config import EngineConfig
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing
 from surfhap.render.chain import ChainConfig, TextureChain
 from surfhap.render.safety import SafetyLimits
+from surfhap.runtime.clock import SimClock
+from surfhap.runtime.commands import SetGain, Stop, SwapRenderer
 
 
 def make_engine(material="cork", drive_rate=20000, **cfg):
@@ -238,7 +240,7 @@ def test_file_backend_records_what_the_engine_rendered(tmp_path, suffix):
     e = make_engine()
     e.warm_up()
     path = tmp_path / f"drive{suffix}"
-    b = open_backend(f"file:{path}", amp_gain=250.0)
+    b = open_backend(f"file:{path}")
     b.start(e)
     pushed = push_and_wait(e, time.perf_counter())
     b.stop()
@@ -271,7 +273,7 @@ def test_renderer_swap_keeps_rendering():
     e = make_engine()
     run(e, 0.0, 0.1, touch=stroke)
     new = TextureChain(load_material("leather"), ChainConfig(drive_rate=20000))
-    assert e.send("renderer", new)
+    assert e.send(SwapRenderer(new))
     out = run(e, 0.1, 0.2, touch=stroke)
     assert e.renderer is new and e.counters["errors"] == 0
     assert np.abs(out[-e.drive_rate // 50 :]).max() > 50
@@ -314,21 +316,6 @@ def test_the_engine_stamps_arrival_on_its_own_clock():
     assert list(buf[:3, 2]) == [5.0, 4.9, -math.inf]
 
 
-class _SimClock:
-    """A simulated engine clock for the paced backends: sleeping jumps to the deadline."""
-
-    def __init__(self, t=100.0):
-        self.t = t
-
-    def now(self):
-        return self.t
-
-    def sleep_until(self, deadline, spin=0.0):
-        if deadline > self.t:
-            self.t = deadline
-        return self.t
-
-
 def _touching_file_backend(path, **kw):
     """A file backend whose blocks are followed by a firm, moving touch (the finger stays on)."""
     from surfhap.live.backends.file import FileBackend
@@ -348,9 +335,9 @@ def _run_file_backend(monkeypatch, b, seconds, rate=20000, block=0.005):
 
     import surfhap.live.backends.base as base
 
-    sim = _SimClock()
-    monkeypatch.setattr(base, "now", sim.now)
-    monkeypatch.setattr(base, "sleep_until", sim.sleep_until)
+    sim = SimClock(100.0)
+    monkeypatch.setattr(base, "now", sim.now)  # the stall watch's clock
+    b.clock = sim
     e = LiveEngine(TextureChain(load_material("cork"), ChainConfig(drive_rate=rate)), EngineConfig(block_seconds=block),
                    clock=sim.now)
     t0 = sim.t
@@ -418,3 +405,20 @@ def test_file_output_cap_option_is_checked(tmp_path):
     for bad in (0.0, -1.0, math.nan, math.inf, 0.01):
         with pytest.raises(ConfigError, match="--max-seconds"):
             FileBackend(tmp_path / "x.wav", max_seconds=bad)
+
+
+def test_engine_commands_are_typed_and_an_unknown_one_is_an_error():
+    # issue 20: commands were tuples and an unknown one was silently ignored
+    from surfhap.errors import ConfigError
+
+    e = make_engine()
+    for bad in (("gain", 0.5), "stop", ("stop",), None, 0.5):
+        with pytest.raises(TypeError):
+            e.send(bad)
+    for g in (float("nan"), -0.1, 1.5, True, "1"):
+        with pytest.raises(ConfigError):
+            SetGain(g)
+    assert e.commands.get_nowait() is None  # nothing reached the queue
+    assert e.send(SetGain(0.25)) and e.send(Stop())
+    e.render(e.block_frames, 0.0)
+    assert e._gain == 0.25 and e.stopping

@@ -35,7 +35,9 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from surfhap.exchange.materials import load_material
 from surfhap.live.audit import audit_drive
+from surfhap.errors import ConfigError
 from surfhap.live.engine import LiveEngine
+from surfhap.runtime.commands import SetGain, SwapRenderer
 from surfhap.live.engine_config import EngineConfig
 from surfhap.render.chain import ChainConfig, TextureChain
 
@@ -161,10 +163,13 @@ class Harness:
                 self.push(src, x, y, ld, self.t)
             self.blocks(n)
         elif kind == "gain":
-            self.e.send("gain", value)
+            try:  # an invalid gain (NaN, out of range, not a number) is refused before the engine
+                self.e.send(SetGain(value))
+            except ConfigError:
+                pass
             self.blocks(n, touch)
         elif kind == "renderer":
-            self.e.send("renderer", self.rends[int(value) % len(self.rends)] if isinstance(value, int) else self.rends[0])
+            self.e.send(SwapRenderer(self.rends[int(value) % len(self.rends)] if isinstance(value, int) else self.rends[0]))
             self.blocks(n, touch)
         elif kind == "stall":
             dt = float(value) if isinstance(value, float) and 0 < value <= 3 else 2.7

@@ -15,11 +15,12 @@ import numpy as np
 import pytest
 
 from surfhap.exchange.materials import load_material
-from surfhap.live.clock import now as clock_now
+from surfhap.runtime.clock import now as clock_now
 from surfhap.live.audit import audit_drive
 from surfhap.live.engine import LiveEngine
 from surfhap.live.engine_config import EngineConfig
 from surfhap.render.chain import ChainConfig, TextureChain
+from surfhap.runtime.commands import SetGain, SwapRenderer
 
 LOAD = 2.0  # N: a firm press drives cork to the 250 V limit
 
@@ -66,10 +67,10 @@ def test_lift_and_retouch_in_one_block_keep_the_rise_limit(rate, block):
 @pytest.mark.parametrize("rate,block", [(44100, 0.001), (20000, 0.00025)])
 def test_gain_zero_to_one_keeps_the_rise_limit(rate, block):
     r = Run(engine(rate, block))
-    r.e.send("gain", 0.0)
+    r.e.send(SetGain(0.0))
     r.blocks(100)
     assert not np.any(np.concatenate(r.out))
-    r.e.send("gain", 1.0)
+    r.e.send(SetGain(1.0))
     r.blocks(20)
     a, d = r.audit()
     assert a["violations"] == 0, a
@@ -82,9 +83,9 @@ def test_renderer_switch_back_and_forth_keeps_the_rise_limit():
     b_chain = TextureChain(load_material("cork"), ChainConfig(drive_rate=44100, alpha=1.0))  # a faint renderer
     r = Run(e)
     r.blocks(100)
-    e.send("renderer", b_chain)
+    e.send(SwapRenderer(b_chain))
     r.blocks(30)
-    e.send("renderer", a_chain)  # its own safety stage still remembers 250 V
+    e.send(SwapRenderer(a_chain))  # its own safety stage still remembers 250 V
     r.blocks(30)
     a, _ = r.audit()
     assert a["violations"] == 0, a

@@ -165,7 +165,7 @@ def test_fifty_clients_and_a_hostile_one_do_not_stall_each_other(tmp_path):
     from surfhap.live.audit import audit_drive
     from surfhap.live.webproc import WebProcess
 
-    session = build_session("cork", f"file:{tmp_path / 'drive.npz'}", backend_options={"max_seconds": 60})
+    session = build_session("cork", f"file:{tmp_path / 'drive.npz'}", max_seconds=60)
     session.start()
     web = WebProcess(session, ServerConfig(port=0)).start()
     try:

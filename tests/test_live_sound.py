@@ -152,7 +152,9 @@ def test_watchdog_ramp_is_complete_at_the_dac_not_one_latency_later(monkeypatch)
 def test_dac_time_falls_back_to_the_nominal_latency():
     from types import SimpleNamespace
 
-    from surfhap.live.backends.sound import dac_time
+    from surfhap.runtime.clock import AudioClock
+
+    dac_time = AudioClock.dac_time
 
     assert dac_time(5.0, SimpleNamespace(currentTime=10.0, outputBufferDacTime=10.02), 0.1) == pytest.approx(5.02)
     for cur, d in [(0.0, 0.0), (10.0, 9.0), (10.0, 20.0), (float("nan"), 1.0), (1.0, float("inf"))]:

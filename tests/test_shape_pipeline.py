@@ -12,10 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from surfhap.render.block import RenderBlock, Renderer
+from surfhap.render.block import RenderBlock
+from surfhap.runtime.protocols import Renderer
 from surfhap.render.hold import hold_latest
 from surfhap.render.shape_chain import ShapeChain
-from surfhap.render.shape_renderer import ShapeConfig, ShapeRenderer, render_shape
+from surfhap.render.shape_chain import render_shape
+from surfhap.render.shape_renderer import ShapeConfig, ShapeRenderer
 from surfhap.shape.calibration import ScanPlan, ShapeCalibration, scan_fsq, scan_lines
 from surfhap.shape.gradient import gradient_block
 from surfhap.shape.scenes import builtin_shape

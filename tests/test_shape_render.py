@@ -11,7 +11,8 @@ from surfhap.errors import ConfigError
 from surfhap.models.trajectory import Trajectory
 from surfhap.models.device_curve import DeviceCurve
 from surfhap.render.grains import TICK_WIDTH, GrainPlayer, grain_name
-from surfhap.render.shape_renderer import ShapeConfig, display_device_curve, render_shape
+from surfhap.render.shape_chain import render_shape
+from surfhap.render.shape_renderer import ShapeConfig, display_device_curve
 from surfhap.shape.calibration import ShapeCalibration
 from surfhap.shape.scan import straight_scan
 from surfhap.shape.scenes import builtin_shape

@@ -112,7 +112,7 @@ def test_heightmap_renders_like_the_mesh(tmp_path):
 
 
 def test_figures_draw(tmp_path):
-    from surfhap.render.shape_renderer import render_shape
+    from surfhap.render.shape_chain import render_shape
 
     res = render_shape(builtin_shape("frustum-bump"), straight_scan(-0.03, 0.0, 0.03, 0.0, 0.1),
                        ShapeCalibration.manual(-1, 1))

@@ -40,7 +40,7 @@ def _device(gain: Optional[float], slew: Optional[float], f_max: Optional[float]
 
 def _predictor(predict: bool, latency_ms: float, k_pred: Optional[float], smoothing: float, velocity_alpha: float,
                old_alpha: Optional[float] = None):
-    from surfhap.live.prediction import TouchPredictor
+    from surfhap.render.kinematics import TouchPredictor
 
     if old_alpha is not None:
         raise ConfigError("renamed --smoothing (the position smoothing of eq. 7); --alpha is the V/sqrt(N) gain "

@@ -18,9 +18,9 @@ from typing import List, Optional
 
 import typer
 
-from surfhap.cli._common import parse_key_values, require_modules, stderr, stdout
+from surfhap.cli._common import require_modules, stderr, stdout
 from surfhap.cli._display_options import resolve_display
-from surfhap.cli._options import ConfigOption, DisplayOption, LiveAmpGainOption, SeedOption
+from surfhap.cli._options import ConfigOption, DisplayOption, LiveAmpGainOption, SeedOption, TrajectoryOption
 from surfhap.cli._signals import StopSignals
 from surfhap.errors import ConfigError
 
@@ -28,16 +28,39 @@ __all__ = ["register"]
 
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
 EXIT_BACKEND_FAILED = 3
+DEFAULT_SCAN = "speed=0.1,load=0.5,duration=3,length=0.08"
+ClockOption = typer.Option("wall", "--clock", help="wall: real time | sim: as fast as possible, the --trajectory's "
+                           "samples arriving at their stamps (the drive equals `surfhap render` on it; no page).")
 
 
-def _finish(engine, guard: StopSignals) -> None:
+def _clock(name: str):
+    from surfhap.runtime.clock import SimClock, WallClock
+
+    if name not in ("sim", "wall"):
+        raise ConfigError(f"must be sim or wall, got {name!r}", source="--clock")
+    return SimClock() if name == "sim" else WallClock()
+
+
+def _run_simulated(session, traj, output: str, clock) -> None:
+    """``--clock sim``: the trajectory through the engine into the output, as fast as possible;
+    prints the status as JSON."""
+    n = session.run_simulated(traj, clock)
+    st = session.engine.status()
+    typer.echo(json.dumps({"material": session.title, "output": output, "clock": "sim", "frames": n,
+                           "touches": session.replay_sent, "counters": st["counters"], "safety": st["safety"],
+                           "output_safety": st["output_safety"], "stopped": st["stopped"], "failure": st["failure"]},
+                          default=float))
+
+
+def _finish(engine, guard: StopSignals | None) -> None:
     """Exit 3 (after the status was printed) when the output backend failed, else 130 when a
-    signal stopped the command."""
+    signal stopped the command (``guard``; None for a simulated run)."""
     if engine.failure is not None:
         stderr.print(f"[bold red]error:[/] {engine.failure}; the output was halted at 0 V", markup=True,
                      soft_wrap=True)
         raise typer.Exit(EXIT_BACKEND_FAILED)
-    guard.finish("the output ramped to 0 V, status above")
+    if guard is not None:
+        guard.finish("the output ramped to 0 V, status above")
 
 
 def _engine_config(block_ms: float, touch_latency_ms: float, smoothing: float):
@@ -46,26 +69,17 @@ def _engine_config(block_ms: float, touch_latency_ms: float, smoothing: float):
     return EngineConfig(block_seconds=block_ms * 1e-3, touch_latency=touch_latency_ms * 1e-3, smoothing=smoothing)
 
 
-def _channel_options(text: str | None, output: str) -> dict:
+def _channels(text: str | None) -> tuple[int, ...] | None:
+    """``--channels`` '0,2' -> (0, 2)."""
     if text is None:
-        return {}
-    if not output.startswith("sound"):
-        raise ConfigError("only applies to sound outputs", source="--channels")
+        return None
     try:
         chans = tuple(int(c) for c in text.split(",") if c.strip())
     except ValueError:
         raise ConfigError(f"expected 0-based channel numbers like 0,2, got {text!r}", source="--channels") from None
     if not chans or any(c < 0 or c > 255 for c in chans):
         raise ConfigError("channels must be within 0-255", source="--channels")
-    return {"channels": chans, "n_channels": max(chans) + 1}
-
-
-def _file_options(max_seconds: float | None, output: str) -> dict:
-    if max_seconds is None:
-        return {}
-    if not output.startswith("file:"):
-        raise ConfigError("only applies to file outputs", source="--max-seconds")
-    return {"max_seconds": max_seconds}
+    return chans
 
 
 def _setup_logging(verbose: bool) -> None:
@@ -110,6 +124,8 @@ def serve_cmd(
     allow_host: List[str] = typer.Option([], "--allow-host", help="Host name the page may be opened by (repeatable or comma-separated, *.domain allowed). Required when --host is not loopback; other Host headers are refused (DNS rebinding)."),
     osc_in: Optional[str] = typer.Option(None, "--osc-in", help="Also accept OSC touch messages on HOST:PORT (UDP), e.g. 127.0.0.1:9000."),
     replay: Optional[Path] = typer.Option(None, "--replay", help="Also replay a trajectory CSV (time, x, y, load) as a touch source."),
+    trajectory: TrajectoryOption = None,
+    clock: str = ClockOption,
     drive_rate: Optional[int] = typer.Option(None, "--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000)."),
     amp_gain: LiveAmpGainOption = 250.0,
     channels: Optional[str] = typer.Option(None, "--channels", help="Sound output: 0-based channels that carry the drive, e.g. '0' or '0,2' (default: all)."),
@@ -162,16 +178,22 @@ def serve_cmd(
     if osc is not None and osc[0] not in LOOPBACK:
         stderr.print(f"[yellow]warning:[/] --osc-in binds {osc[0]}: OSC touch input is reachable from your "
                      "network; anyone who can send it a datagram can drive the display", markup=True, soft_wrap=True)
-    traj = None
-    if replay is not None:
-        from surfhap.exchange.trajectory_csv import read_trajectory_csv
+    from surfhap.exchange.trajectory_csv import read_trajectory_csv
 
-        traj = read_trajectory_csv(replay)
+    clk = _clock(clock)
+    if clk.simulated and trajectory is None:
+        raise ConfigError("a simulated clock needs --trajectory FILE (there is no page to touch)", source="--clock")
+    if trajectory is not None and replay is not None:
+        raise ConfigError("give --trajectory or --replay, not both", source="--trajectory")
+    traj = read_trajectory_csv(trajectory or replay) if (trajectory or replay) is not None else None
     session = build_session(material or "cork", output, drive_rate=drive_rate, amp_gain=amp_gain,
                             engine_config=_engine_config(block_ms, touch_latency_ms, smoothing),
-                            osc_in=osc, replay=traj, replay_loop=True, seed=seed, mesh=mesh,
-                            backend_options={**_channel_options(channels, output), **_file_options(max_seconds, output)},
-                            display=disp)
+                            osc_in=osc, replay=None if clk.simulated else traj, replay_loop=replay is not None,
+                            seed=seed, mesh=mesh, channels=_channels(channels), max_seconds=max_seconds,
+                            display=disp, clock=clk)
+    if clk.simulated:
+        _run_simulated(session, traj, output, clk)
+        return _finish(session.engine, None)
     cfg = ServerConfig(host=host, port=port, allowed_origins=tuple(allow_origin), allowed_hosts=allowed_hosts)
     server = None
     with StopSignals() as guard:
@@ -213,8 +235,10 @@ def devices_cmd() -> None:
 def play_cmd(
     material: str = typer.Argument(..., help="Built-in material name or material file."),
     output: str = typer.Option("sim", "--output", help="sound[:DEVICE] | sim | file:PATH.wav|.npz | osc://HOST:PORT."),
-    scan: str = typer.Option("speed=0.1,load=0.5,duration=3,length=0.08", "--scan",
-                             help="Scripted strokes: 'speed=M/S,load=N,duration=S[,length=M][,rate=HZ]'."),
+    scan: Optional[str] = typer.Option(None, "--scan", help="Scripted strokes: 'speed=M/S,load=N,duration=S[,length=M][,rate=HZ]' "
+                                       f"(default {DEFAULT_SCAN})."),
+    trajectory: TrajectoryOption = None,
+    clock: str = ClockOption,
     drive_rate: Optional[int] = typer.Option(None, "--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000)."),
     amp_gain: LiveAmpGainOption = 250.0,
     channels: Optional[str] = typer.Option(None, "--channels", help="Sound output: 0-based channels that carry the drive (default: all)."),
@@ -227,23 +251,25 @@ def play_cmd(
 
     Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
     (exit 130); exit 3 when the output backend failed."""
+    from surfhap.cli._scan import trajectory_from_options
     from surfhap.live.session import build_session
-    from surfhap.models.trajectory import constant_scan, strokes
 
     disp = resolve_display(display, config)
-    kv = parse_key_values(scan, "--scan", {"speed": None, "load": None, "duration": None, "length": 0.0, "rate": 125.0})
-    if not 0 < kv["duration"] <= 600:
-        raise ConfigError("must be within (0, 600] s", source="--scan", field="duration")
-    traj = (strokes(kv["speed"], kv["load"], kv["duration"], length=kv["length"], sensor_rate=kv["rate"])
-            if kv["length"] > 0 else constant_scan(kv["speed"], kv["load"], kv["duration"], sensor_rate=kv["rate"]))
+    clk = _clock(clock)
+    traj = trajectory_from_options(scan if scan is not None or trajectory is not None else DEFAULT_SCAN, trajectory)
+    if not clk.simulated and not traj.duration <= 600:
+        raise ConfigError("must be within (0, 600] s on a wall clock", source="--scan/--trajectory", field="duration")
     session = build_session(material, output, drive_rate=drive_rate, amp_gain=amp_gain,
-                            engine_config=_engine_config(block_ms, 0.0, 1.0), replay=traj, seed=seed,
-                            backend_options=_channel_options(channels, output), display=disp)
+                            engine_config=_engine_config(block_ms, 0.0, 1.0), replay=None if clk.simulated else traj,
+                            seed=seed, channels=_channels(channels), display=disp, clock=clk)
+    if clk.simulated:
+        _run_simulated(session, traj, output, clk)
+        return _finish(session.engine, None)
     replay = session.sources[0]
     with StopSignals() as guard:
         try:
             session.start()
-            end = time.monotonic() + kv["duration"] + 5.0
+            end = time.monotonic() + traj.duration + 5.0
             while (not replay.done.is_set() and time.monotonic() < end and session.engine.failure is None
                    and not guard.wait(0.05)):
                 pass

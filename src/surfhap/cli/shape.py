@@ -126,7 +126,8 @@ def render_cmd(
     """Render a scan over MESH on the simulated display (also: surfhap shape MESH ...)."""
     from surfhap.exchange.shape_files import default_calibration_path, read_calibration, write_shape
     from surfhap.exchange.trajectory_csv import read_trajectory_csv
-    from surfhap.render.shape_renderer import ShapeConfig, render_shape
+    from surfhap.render.shape_chain import render_shape
+    from surfhap.render.shape_renderer import ShapeConfig
     from surfhap.shape.scan import parse_scan
 
     if (scan is None) == (trajectory is None):

@@ -19,7 +19,7 @@ latency, and makes the Sliding effect unstable (delayed velocity feedback with g
 nu * latency / m > pi / 2 for the paper's numbers). Between touch samples the predicted
 position is extrapolated with the predicted velocity (for at most ``max_extrapolate``).
 
-Prediction: ``predictor`` is the live side's :class:`surfhap.live.prediction.TouchPredictor`
+Prediction: ``predictor`` is the live side's :class:`surfhap.render.kinematics.TouchPredictor`
 (or any object with ``reset()``, ``update(t, x, y)`` and ``x``, ``y``, ``vx``, ``vy``
 attributes); it is passed in because this layer does not import the live package.
 

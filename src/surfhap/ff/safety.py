@@ -20,7 +20,7 @@ whole loop in ``tests/test_ff_loop_property.py``) guarantees:
 Clock and stamps. The stage keeps its own clock: it advances by the caller's tick interval,
 but by at least one period per tick and at most ``MAX_STEP`` (a stopped, backwards, non-finite
 or runaway caller clock cannot stop it). A position's stamp ``t_pos`` (caller clock) has been
-through the arrival law upstream (:func:`surfhap.live.clock.arrival_stamp`, applied by the
+through the arrival law upstream (:func:`surfhap.runtime.clock.arrival_stamp`, applied by the
 live loop; a future or non-finite stamp becomes ``STALE`` = -inf). Here it only orders
 samples and can only make a sample *older*: a new stamp is taken as arriving on this tick,
 aged by ``t - t_pos`` when that is positive (never younger than this tick, so no stamp can

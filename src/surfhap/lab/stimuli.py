@@ -17,6 +17,8 @@ import math
 
 import numpy as np
 
+from surfhap.runtime.commands import SetGain, SwapRenderer
+
 __all__ = ["StimulusPlayer", "make_profile_renderer", "scene_picture"]
 
 CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres
@@ -148,19 +150,19 @@ class StimulusPlayer:
         chain, positions = self._cache[key]
         eng = self.session.engine
         if chain is None:
-            eng.send("gain", 0.0)
+            eng.send(SetGain(0.0))
             self.current = None
             return "muted"
         if chain is not self.current:
             chain.reset()
-            eng.send("renderer", chain)
+            eng.send(SwapRenderer(chain))
             self.current = chain
         self.positions = positions
-        eng.send("gain", 1.0)
+        eng.send(SetGain(1.0))
         return key
 
     def mute(self) -> None:
-        self.session.engine.send("gain", 0.0)
+        self.session.engine.send(SetGain(0.0))
         self.current = None
 
     def touch(self, client: int, x: float, y: float, p: float, t_ms: float, w_px: float, h_px: float) -> None:

@@ -7,7 +7,7 @@ server (FastAPI, uvicorn) are imported only when used.
 from surfhap.live.audit import audit_drive
 from surfhap.live.engine import LiveEngine
 from surfhap.live.engine_config import EngineConfig
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing
 
 __all__ = ["EngineConfig", "LiveEngine", "audit_drive", "TouchPredictor", "TouchRing", "CommandQueue"]

@@ -26,18 +26,16 @@ and renderer switches) and the watchdog on each sample's emission time. ``fail(r
 halts the engine at 0 V (a backend that raised or stalled).
 
 Touch samples are time-stamped at arrival by the engine itself, on its own clock
-(:func:`surfhap.live.clock.now`, or the ``clock`` given to the constructor), in
+(:func:`surfhap.runtime.clock.now`, or the ``clock`` given to the constructor), in
 :meth:`LiveEngine.push_touch`. A caller's stamp (``t_arrival``, e.g. the web process's
 arrival time) may only make a sample older, never extend its life
-(:func:`surfhap.live.clock.arrival_stamp`): a stamp from the future, NaN or +-inf, and a
-stamp earlier than the previous one of the same source (non-monotonic), makes the sample
-stale, counted in ``counters['stale_stamps']``; a stale sample never refreshes the
-watchdog (its position is not used; a stale lift still lifts). At each block the freshest
-sample is mapped onto the chain's sample clock as ``chain_time - (now - t_arrival)``, so
-the watchdog of the safety stage (touch older than 50 ms -> ramp to zero within 5 ms) sees
-how old the finger data really is. A stamp is never refreshed: data that waited during a
-stall stays stale. ``now`` given to :meth:`LiveEngine.render` is the backend's emission
-time of the block on the same clock (the backend owns the clock; it is not caller input).
+(:func:`surfhap.runtime.clock.arrival_stamp`). Each sample is in force from the model
+sample at its stamp on (:class:`surfhap.render.hold.TouchHold`: arbitration, stale and
+non-monotonic stamps, lift, prediction), and the renderer's watchdog (touch older than
+50 ms -> ramp to zero within 5 ms) sees the stamp on the chain's clock, so it knows how old
+the finger data really is. A stamp is never refreshed: data that waited during a stall
+stays stale. ``now`` given to :meth:`LiveEngine.render` is the backend's emission time of
+the block on the same clock (the backend owns the clock; it is not caller input).
 
 Latency (``latency_stats``): for every touch sample applied, the time from its arrival to
 the emission of the first drive sample computed from it (the block's emission time ``now``
@@ -52,19 +50,20 @@ import math
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.live.clock import STALE, arrival_stamp, now as clock_now
+from surfhap.runtime.clock import arrival_stamp, now as clock_now
 from surfhap.live.engine_config import EngineConfig
 from surfhap.live.fifo_kernels import fifo_read, fifo_write_peak, mean_or_nan, write_trace_row
-from surfhap.live.prediction import TouchPredictor
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing, ring_rows_since, ring_stats
-from surfhap.render.block import Renderer
+from surfhap.render.hold import NO_LIFT, TouchHold
 from surfhap.render.safety import OutputSafety
+from surfhap.runtime.commands import Command, SetGain, Stop, SwapRenderer
+from surfhap.runtime.protocols import Renderer
 
 __all__ = ["LiveEngine", "TRACE_FIELDS"]
 
 # one row per processed chunk
 TRACE_FIELDS = ("t", "x", "y", "speed", "load", "v_peak", "target", "friction")
-_NO_TOUCH_TIME = -1.0e6  # "touched long ago": the watchdog holds the output at zero
 
 
 def _pow2_at_least(n: int) -> int:
@@ -93,6 +92,8 @@ class LiveEngine:
         self.touches = TouchRing(cfg.touch_capacity)
         self.commands = CommandQueue(64)
         self.predictor = TouchPredictor(cfg.touch_latency, cfg.smoothing, cfg.k_pred, cfg.speed_cutoff)
+        self.counters: dict = {}
+        self.hold = TouchHold(self.touches, self.predictor, cfg.takeover, self.counters)
         mb = int(cfg.max_block_frames)
         self._max_frames = mb
         self._max_model = int(math.ceil(mb * self.model_rate / self.drive_rate)) + 2
@@ -105,8 +106,6 @@ class LiveEngine:
         self._fifo = np.zeros(self._fifo_cap)
         self._fifo_mask = self._fifo_cap - 1
         self.out = np.zeros(mb)  # volts of the last block
-        self._touch_buf = np.zeros((256, 6))
-        self._pending_arrivals = np.zeros(256)
         self.trace = np.zeros((cfg.trace_capacity, len(TRACE_FIELDS)))
         self.latencies = np.zeros(cfg.latency_capacity)
         self.block_times = np.zeros(cfg.latency_capacity)  # seconds spent in render()
@@ -120,18 +119,11 @@ class LiveEngine:
         self.renderer.reset()
         if self.display is not None:
             self.display.reset()
-        self.predictor.reset()
+        self.hold.reset()
         self.touches.clear()
         self._fifo_r = 0
         self._fifo_w = 0
         self._n_model = 0
-        self._n_pending = 0
-        self._owner = -1.0
-        self._owner_active = False
-        self._owner_arrival = -math.inf
-        self._last_arrival = -math.inf
-        self._last_source_time = math.nan
-        self._load_now = 0.0
         self._gain = 1.0
         self.guard.set_limits(self.renderer.safety.limits)
         self.guard.reset()
@@ -142,10 +134,11 @@ class LiveEngine:
         self.trace_count = 0
         self.latency_count = 0
         self.block_time_count = 0
-        self.counters = {
+        self.counters.clear()
+        self.counters.update({
             "blocks": 0, "frames": 0, "touches": 0, "touches_ignored": 0, "underruns": 0,
             "overruns": 0, "errors": 0, "commands": 0, "backend_failures": 0, "stale_stamps": 0,
-        }
+        })
 
     def warm_up(self, blocks: int = 20) -> None:
         """Run a few blocks with a short stroke (loads compiled kernels, touches every
@@ -175,21 +168,23 @@ class LiveEngine:
         ta = arrival_stamp(t_arrival, self.clock())
         return self.touches.push(source, t_event, ta, x, y, load)
 
-    def send(self, *command) -> bool:
-        """Queue a command: ``("stop",)``, ``("renderer", new_renderer)`` (same drive rate;
-        build it outside the callback), ``("gain", g)`` with g in [0, 1] (anything else is ignored);
-        the gain is applied inside the output safety pass, so a gain step is rise-limited."""
-        if command and command[0] == "renderer":
-            r = command[1]
+    def send(self, command: Command) -> bool:
+        """Queue a typed command (:mod:`surfhap.runtime.commands`): :class:`Stop`,
+        :class:`SetGain` (applied inside the output safety pass, so a gain step is
+        rise-limited) or :class:`SwapRenderer` (same drive rate). Anything else raises."""
+        if not isinstance(command, (Stop, SetGain, SwapRenderer)):
+            raise TypeError(f"not an engine command: {command!r} (see surfhap.runtime.commands)")
+        if isinstance(command, SwapRenderer):
+            r = command.renderer
             if int(r.drive_rate) != self.drive_rate:
                 raise ConfigError("a new renderer must keep the drive rate", field="drive_rate")
             if math.ceil(self._max_frames * r.model_rate / self.drive_rate) + 2 > self._max_model:
                 raise ConfigError("a new renderer's model rate is too high for this engine", field="model_rate")
-        return self.commands.put(tuple(command))
+        return self.commands.put(command)
 
     def request_stop(self) -> None:
         """Ramp the output to zero over ``stop_ramp`` and then output silence."""
-        self.send("stop")
+        self.send(Stop())
 
     def fail(self, reason: str) -> None:
         """Mark the output as failed (a backend raised or stalled; any thread): every later
@@ -216,7 +211,7 @@ class LiveEngine:
         out = self.out[:frames]
         try:
             self._commands()
-            self._touch(now)
+            self.hold.take(now, self._n_model / self.model_rate)
             self._produce(frames, now)
             fifo_read(self._fifo, self._fifo_mask, self._fifo_r, out)
             self._fifo_r += frames
@@ -226,7 +221,7 @@ class LiveEngine:
         # the last processor before the backend: gain, stop ramp, v_max, rise limit and
         # watchdog on the emitted samples, remembering the last emitted magnitude
         try:
-            self.guard.process(out, out, now - self._last_arrival, self._gain, self.halted)
+            self.guard.process(out, out, now - self.hold.last_arrival, self._gain, self.halted)
             if self.stopping and self.guard.ramped_down:
                 self.stopped = True
         except Exception:  # noqa: BLE001
@@ -249,67 +244,20 @@ class LiveEngine:
             if cmd is None:
                 return
             self.counters["commands"] += 1
-            kind = cmd[0]
-            if kind == "stop" and not self.stopping:
-                self.stopping = True
-                self.guard.start_ramp()
-            elif kind == "renderer":
-                self.renderer = cmd[1]
-                self._n_model = 0  # a new renderer's sample clock starts at 0
+            if isinstance(cmd, Stop):
+                if not self.stopping:
+                    self.stopping = True
+                    self.guard.start_ramp()
+            elif isinstance(cmd, SwapRenderer):
+                # the new renderer's sample clock starts at 0 where the old one stood
+                self.hold.anchor += self._n_model / self.model_rate
+                self.renderer = cmd.renderer
+                self._n_model = 0
                 self.v_max = float(self.renderer.safety.limits.v_max)
                 self.model_rate = int(self.renderer.model_rate)
                 self.guard.set_limits(self.renderer.safety.limits)
-            elif kind == "gain":
-                g = cmd[1]
-                if isinstance(g, (int, float)) and 0.0 <= g <= 1.0:  # NaN fails the test
-                    self._gain = float(g)
-
-    def _touch(self, now: float) -> None:
-        n = self.touches.pop_into(self._touch_buf)
-        applied = self._n_pending
-        buf = self._touch_buf
-        pred = self.predictor
-        for i in range(n):
-            src, t_ev, t_arr, x, y, load = buf[i, 0], buf[i, 1], buf[i, 2], buf[i, 3], buf[i, 4], buf[i, 5]
-            if not t_arr > STALE or (src == self._owner and t_arr < self._owner_arrival):
-                # untrusted (future / non-finite) or non-monotonic stamp: stale, counted
-                self.counters["stale_stamps"] += 1
-                t_arr = STALE
-            if src != self._owner:
-                if self._owner_active and t_arr - self._owner_arrival < self.config.takeover:
-                    self.counters["touches_ignored"] += 1
-                    continue
-                self._owner = src
-                pred.reset()
-                self._last_source_time = math.nan
-            self._owner_arrival = t_arr
-            self._last_arrival = t_arr
-            self.counters["touches"] += 1
-            if applied < self._pending_arrivals.shape[0] and t_arr > STALE:
-                self._pending_arrivals[applied] = t_arr
-                applied += 1
-            if not load > 0.0:
-                self._owner_active = False
-                self._load_now = 0.0
-                pred.reset()
-                # lifted: drive already queued (a slow model rate queues up to one model
-                # period) is silenced at once; removing voltage is always safe
-                for j in range(self._fifo_r, self._fifo_w):
-                    self._fifo[j & self._fifo_mask] = 0.0
-                continue
-            if t_arr == STALE:  # data of unknown age: not used (the watchdog holds 0 V)
-                continue
-            self._owner_active = True
-            self._load_now = load
-            # the source's time stamps give the intervals when they are sane, else arrival
-            ts = t_ev if (t_ev == t_ev and (self._last_source_time != self._last_source_time
-                                            or t_ev >= self._last_source_time)) else math.nan
-            if ts == ts:
-                self._last_source_time = ts
-                pred.update(ts, x, y)
             else:
-                pred.update(t_arr, x, y)
-        self._n_pending = applied
+                self._gain = float(cmd.gain)
 
     def _produce(self, frames: int, now: float) -> None:
         while self._fifo_w - self._fifo_r < frames:
@@ -319,23 +267,15 @@ class LiveEngine:
                 n = 1
             if n > self._max_model:
                 n = self._max_model
-            chain_t = self._n_model / self.model_rate
-            if self._last_arrival > -math.inf:
-                age = now - self._last_arrival
-                tt = chain_t - (age if age > 0.0 else 0.0)
-            else:
-                tt = _NO_TOUCH_TIME
-            pred = self.predictor
-            sp = self._speed[:n]
-            ld = self._load[:n]
-            ti = self._ttime[:n]
-            sp.fill(pred.speed if self._load_now > 0.0 else 0.0)
-            ld.fill(self._load_now)
-            ti.fill(tt)
-            xs = self._xs[:n]
-            ys = self._ys[:n]
-            xs.fill(pred.x)
-            ys.fill(pred.y)
+            k0 = self._n_model
+            sp, ld, ti, xs, ys = self._speed[:n], self._load[:n], self._ttime[:n], self._xs[:n], self._ys[:n]
+            k_lift = self.hold.fill(k0, self.model_rate, sp, ld, ti, xs, ys)
+            if k_lift != NO_LIFT:
+                # lifted late (the chain is past the lift's stamp): the drive queued since the
+                # lift's model sample is silenced at once; removing voltage is always safe
+                late = int(math.ceil((k0 - k_lift) * self.drive_rate / self.model_rate))
+                for j in range(max(self._fifo_r, self._fifo_w - late), self._fifo_w):
+                    self._fifo[j & self._fifo_mask] = 0.0
             blk = self.renderer.process(sp, ld, ti, xs, ys)
             drive = blk.drive
             m = drive.shape[0]
@@ -346,15 +286,16 @@ class LiveEngine:
             friction = math.nan
             if self.display is not None and m:
                 friction = mean_or_nan(self.display.process(drive, blk.load_drive))
-            if self._n_pending and m:
-                # the touches applied since the last chunk are first heard in this one
-                t_emit = now + offset / self.drive_rate
-                for j in range(self._n_pending):
-                    self.latencies[self.latency_count & (self.latencies.shape[0] - 1)] = t_emit - self._pending_arrivals[j]
+            h = self.hold
+            if h.n_applied and m:
+                # the touches put in force in this chunk are first heard at their position in it
+                for j in range(h.n_applied):
+                    t_emit = now + (offset + h.positions[j] * m / n) / self.drive_rate
+                    self.latencies[self.latency_count & (self.latencies.shape[0] - 1)] = t_emit - h.arrivals[j]
                     self.latency_count += 1
-                self._n_pending = 0
-            write_trace_row(self.trace, self.trace_count, chain_t, pred.x, pred.y, sp[0], self._load_now, peak,
-                            blk.target[0], friction)
+                h.n_applied = 0
+            write_trace_row(self.trace, self.trace_count, k0 / self.model_rate, xs[0], ys[0], sp[0], ld[0],
+                            peak, blk.target[0], friction)
             self.trace_count += 1
 
     # ------------------------------------------------------------------ monitoring side

@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from surfhap.live.clock import now, sleep_until
+from surfhap.runtime.clock import now, sleep_until
 from surfhap.live.ff_bridge_wire import (BRIDGE_WATCHDOG_S, MIN_POSITION_RATE_HZ, PositionReceiver, encode_force,
                                          new_token)
 

@@ -38,7 +38,7 @@ from typing import Protocol
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.live.clock import now
+from surfhap.runtime.clock import now
 from surfhap.live.ff_bridge_wire import PositionReceiver, encode_force, new_token
 from surfhap.live.netaddr import parse_osc_address
 

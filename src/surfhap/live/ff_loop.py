@@ -42,7 +42,7 @@ import numpy as np
 
 from surfhap.ff.engine import FFEngine
 from surfhap.ff.tick_kernel import warm_up
-from surfhap.live.clock import STALE, arrival_stamp, now, sleep_until
+from surfhap.runtime.clock import STALE, arrival_stamp, now, sleep_until
 from surfhap.live.ff_devices import FFDevice
 from surfhap.live.pacing import SPIN, Pacer, enter_realtime
 from surfhap.live.queues import TouchRing
@@ -107,7 +107,7 @@ class FFLoop:
         """Hand one validated touch sample to the loop (any thread). x, y m; load N (0 = lifted).
 
         The loop stamps the arrival itself on its clock; a caller's ``t_arrival`` can only make
-        the sample older (:func:`surfhap.live.clock.arrival_stamp`, the law the texture engine
+        the sample older (:func:`surfhap.runtime.clock.arrival_stamp`, the law the texture engine
         uses too). A future or non-finite ``t_arrival`` is stale: counted in ``touches_stale``
         and dropped."""
         ta = arrival_stamp(t_arrival, self.clock())
@@ -189,7 +189,7 @@ class FFLoop:
             px, py, pz, t_pos = be.read(t)
         except Exception as exc:  # noqa: BLE001 - no position: the safety stage ramps to zero
             self._fail(exc)
-        # the one arrival law (live/clock.py), as for touches: the device's stamp may only make
+        # the one arrival law (runtime/clock.py), as for touches: the device's stamp may only make
         # the position older than its hand-over; a future or non-finite one is STALE
         t_pos = arrival_stamp(t_pos, self.clock())
         if self._stop.is_set() and self._stop_left is None:

@@ -21,7 +21,7 @@ import logging
 import os
 import threading
 
-from surfhap.live.clock import now, sleep_until
+from surfhap.runtime.clock import now, sleep_until
 
 __all__ = ["Pacer", "enter_realtime", "SPIN", "FIFO_PRIORITY"]
 

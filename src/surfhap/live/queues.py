@@ -114,7 +114,8 @@ class TouchRing:
 
 
 class CommandQueue:
-    """Bounded queue of small command tuples; ``put`` refuses (returns False) when full.
+    """Bounded queue of typed commands (:mod:`surfhap.runtime.commands`); ``put`` refuses
+    (returns False) when full.
 
     ``get_nowait`` returns None when empty; both never block. ``deque.append`` and
     ``popleft`` are atomic under the GIL.
@@ -126,7 +127,7 @@ class CommandQueue:
         self._lock = threading.Lock()
         self.dropped = 0
 
-    def put(self, command: tuple) -> bool:
+    def put(self, command) -> bool:
         with self._lock:
             if len(self._q) >= self.capacity:
                 self.dropped += 1

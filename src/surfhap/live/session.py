@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 
+from surfhap.errors import ConfigError
 from surfhap.live.sources import TouchSpace
 
 __all__ = ["LiveSession", "build_session", "material_preview", "backend_info", "page_info"]
@@ -84,6 +85,33 @@ class LiveSession:
             s.start()
         self.started = True
 
+    def run_simulated(self, trajectory, clock) -> int:
+        """Render ``trajectory`` through the engine into the backend on the simulated
+        ``clock`` (the engine's clock, starting at 0), as fast as possible: its samples arrive
+        at their stamps, the run lasts the trajectory's model samples, then the stop ramp.
+        Needs a backend driven block by block (sim, file, OSC); returns the frames emitted."""
+        from surfhap.live.backends.base import PacedBackend
+        from surfhap.runtime.loop import run
+        from surfhap.runtime.sources import TrajectorySource, drive_frames, model_samples
+
+        if not isinstance(self.backend, PacedBackend):
+            raise ConfigError("a simulated clock needs an output without its own clock (sim, file:, osc://)",
+                              source="--clock")
+        eng = self.engine
+        eng.reset()
+        source = TrajectorySource(eng, trajectory)
+        self.backend.open(eng)
+        try:
+            total = drive_frames(model_samples(trajectory, eng.model_rate), eng.model_rate, eng.drive_rate)
+            n = run(source, eng, clock, self.backend, total_frames=total)
+            eng.request_stop()  # the end: the same stop ramp as a live output
+            ramp = int(eng.config.stop_ramp * eng.drive_rate) + 4 * eng.block_frames
+            n += run(source, eng, clock, self.backend, total_frames=ramp, keep_running=lambda: not eng.stopped)
+        finally:
+            self.backend.close()
+        self.replay_sent = source.sent
+        return n
+
     def stop(self) -> None:
         # the backend first: its stop ramp runs on the live signal (a source's final lift
         # would cut it short), then the sources
@@ -98,11 +126,15 @@ class LiveSession:
 def build_session(material: str = "cork", output: str = "sim", *, drive_rate: int | None = None,
                   engine_config=None, amp_gain: float = 250.0, space: TouchSpace | None = None,
                   osc_in: tuple[str, int] | None = None, replay=None, replay_loop: bool = False,
-                  seed: int = 0, backend_options: dict | None = None, mesh=None, display=None) -> LiveSession:
+                  seed: int = 0, channels: tuple[int, ...] | None = None, max_seconds: float | None = None,
+                  mesh=None, display=None, clock=None) -> LiveSession:
     """Everything ``surfhap serve`` runs: material (or ``mesh`` file) -> renderer -> engine
-    -> backend, plus optional OSC touch input ``(host, port)`` and a replayed trajectory."""
+    -> backend, plus optional OSC touch input ``(host, port)`` and a replayed trajectory.
+    ``amp_gain``, ``channels``, ``max_seconds``: the output's options
+    (:class:`~surfhap.live.backends.output.OutputOptions`). ``clock``: the engine's
+    :class:`~surfhap.runtime.clock.Clock` (default: wall time)."""
     from surfhap.exchange.materials import load_material
-    from surfhap.live.backends import open_backend, parse_output
+    from surfhap.live.backends.output import OutputOptions, open_backend, parse_output
     from surfhap.live.engine import LiveEngine
     from surfhap.live.engine_config import EngineConfig
     from surfhap.live.sources import OscTouchSource, ReplaySource
@@ -124,8 +156,8 @@ def build_session(material: str = "cork", output: str = "sim", *, drive_rate: in
         chain = TextureChain(mat, ChainConfig(drive_rate=rate, seed=seed, **({} if display is None else {"display": display})))
         title, preview, display_model = f"{mat.name} ({chain.method})", material_preview(mat), chain.config.display
     display = SimulatedDisplay(display_model, chain.drive_rate, chain.model_rate) if cfg.simulate_display else None
-    engine = LiveEngine(chain, cfg, display=display)
-    backend = open_backend(output, amp_gain=amp_gain, **(backend_options or {}))
+    engine = LiveEngine(chain, cfg, display=display, clock=None if clock is None else clock.now)
+    backend = open_backend(output, OutputOptions(amp_gain, channels, max_seconds))
     sources = []
     if osc_in is not None:
         sources.append(OscTouchSource(engine, osc_in[0], osc_in[1], space=space))

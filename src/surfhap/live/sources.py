@@ -1,5 +1,9 @@
 """Touch sources of the live engine and the checks every incoming message passes.
 
+Each source is a :class:`surfhap.runtime.protocols.Source` (``start()``, ``stop()``) pushing
+into a :class:`surfhap.runtime.protocols.TouchSink` (the engine's ``push_touch``); the
+simulated-clock replay is :class:`surfhap.runtime.sources.TrajectorySource`.
+
 * :class:`OscTouchSource` - OSC over UDP (python-osc parsing, our own bounded handler);
 * :class:`ReplaySource` - a trajectory file (CSV: time, x, y, load) replayed in real time;
 * the web page's WebSocket stream lives in :mod:`surfhap.live.app` and uses the same
@@ -29,7 +33,7 @@ import threading
 from dataclasses import dataclass
 
 from surfhap.errors import ConfigError
-from surfhap.live.clock import now, sleep_until
+from surfhap.runtime.clock import now, sleep_until
 from surfhap.live.udpguard import UdpListener
 
 __all__ = ["TouchSpace", "RateLimiter", "RejectLog", "OscTouchSource", "ReplaySource", "OSC_ADDRESSES",

@@ -32,7 +32,7 @@ import socket
 import struct
 import threading
 
-from surfhap.live.clock import now
+from surfhap.runtime.clock import now
 
 __all__ = ["TouchBridge", "TracePublisher", "WebProcess", "RemoteLink", "describe"]
 

@@ -21,10 +21,11 @@ from surfhap.models.trajectory import Trajectory
 from surfhap.render.chain import ChainConfig, TextureChain
 from surfhap.render.drive import LowBand, rendering_gain
 from surfhap.render.expected import expected_texture_psd
-from surfhap.render.kinematics import Kinematics
+from surfhap.render.hold import TouchHold, TrajectoryRows
+from surfhap.render.kinematics import TouchPredictor
 from surfhap.render.safety import SafetyCounters
 
-__all__ = ["RenderResult", "RenderStats", "render", "sample_trajectory", "summary_dict", "saturation_warning",
+__all__ = ["RenderResult", "RenderStats", "render", "render_blocks", "model_samples", "summary_dict", "saturation_warning",
            "expected_texture_psd", "render_settings", "fault_error", "RenderFaultError", "MAX_FAULT_FRACTION",
            "texture_warning", "MIN_TEXTURE_SHARE"]
 
@@ -314,18 +315,33 @@ def fault_error(r, threshold: float = MAX_FAULT_FRACTION) -> str | None:
             f"check the trajectory's units and --alpha")
 
 
-def sample_trajectory(trajectory: Trajectory, model_rate: float, kinematics: Kinematics | None = None):
-    """Hold the touch samples onto the model-rate grid, as a live system sees them.
+def render_blocks(chain, trajectory: Trajectory, display: SimulatedDisplay, *, block_seconds: float = 1.0,
+                  stop: Callable[[], bool] | None = None):
+    """The offline block loop: the trajectory's samples in force from the model sample at their
+    stamps (the live engine's :class:`~surfhap.render.hold.TouchHold` and
+    :class:`~surfhap.render.kinematics.TouchPredictor`), through ``chain`` and the simulated
+    ``display``. Yields ``(start, speed, load, block, friction)`` per block: model sample index,
+    (n,) m/s and N inputs, the chain's block and the display's friction; ends early when
+    ``stop()`` is True. :func:`render` and :func:`surfhap.render.stream.stream_render` consume it."""
+    fm = chain.model_rate
+    n = model_samples(trajectory, fm)
+    hold = TouchHold(TrajectoryRows(trajectory), TouchPredictor(), 0.05,
+                     {"touches": 0, "touches_ignored": 0, "stale_stamps": 0})
+    hold.take(0.0, 0.0)  # the chain's model sample 0 is the trajectory's first stamp
+    block = max(1, int(round(block_seconds * fm)))
+    for start in range(0, n, block):
+        if stop is not None and stop():
+            return
+        k = min(n, start + block) - start
+        speed, load, touch_time, xs, ys = (np.empty(k) for _ in range(5))
+        hold.fill(start, fm, speed, load, touch_time, xs, ys)
+        out = chain.process(speed, load, touch_time, xs, ys)
+        yield start, speed, load, out, display.process(out.drive, out.load_drive)
 
-    Returns t (n,) s from 0, speed (n,) m/s, load (n,) N and touch_time (n,) s.
-    """
-    kin = kinematics or Kinematics()
-    t_rel = trajectory.t - trajectory.t[0]
-    speed_s = kin.process(t_rel, trajectory.x, trajectory.y)
-    n = int(np.floor(t_rel[-1] * model_rate + 1e-9)) + 1
-    t = np.arange(n) / model_rate
-    idx = np.searchsorted(t_rel, t + 1e-12, side="right") - 1
-    return t, speed_s[idx], trajectory.load[idx], t_rel[idx]
+
+def model_samples(trajectory: Trajectory, model_rate: float) -> int:
+    """Number of model-rate samples a render of ``trajectory`` has."""
+    return int(np.floor((trajectory.t[-1] - trajectory.t[0]) * model_rate + 1e-9)) + 1
 
 
 def render(material: Material, trajectory: Trajectory, config: ChainConfig | None = None, *,
@@ -334,38 +350,26 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
     cfg = config or ChainConfig()
     chain = TextureChain(material, cfg)
     display = SimulatedDisplay(cfg.display, chain.drive_rate, chain.model_rate)
-    fm = chain.model_rate
-    t, speed, load, touch_time = sample_trajectory(trajectory, fm)
-    n = t.size
-    block = max(1, int(round(block_seconds * fm)))
-    model_out = {k: np.empty(n) for k in ("texture", "voltage", "target", "mu_low", "mu_tex", "friction")}
-    drive = np.empty(int(np.ceil(n * chain.drive_rate / fm)) + 1)
-    n_drive = n_fric = 0
-    for start in range(0, n, block):
-        sl = slice(start, min(n, start + block))
-        out = chain.process(speed[sl], load[sl], touch_time[sl])
+    n = model_samples(trajectory, chain.model_rate)
+    keys = ("speed", "load", "texture", "voltage", "target", "mu_low", "mu_tex")
+    parts: dict[str, list] = {k: [] for k in (*keys, "drive", "friction")}
+    for start, speed, load, out, fric in render_blocks(chain, trajectory, display, block_seconds=block_seconds):
         law = out.drive_law
-        for key, arr in (("texture", out.texture), ("voltage", law.voltage), ("target", law.target),
-                         ("mu_low", law.mu_low), ("mu_tex", law.mu_tex)):
-            model_out[key][sl] = arr
-        m = out.drive.shape[0]
-        drive[n_drive:n_drive + m] = out.drive
-        n_drive += m
-        fric = display.process(out.drive, out.load_drive)
-        k = min(fric.shape[0], n - n_fric)
-        model_out["friction"][n_fric:n_fric + k] = fric[:k]
-        n_fric += k
+        for key, arr in zip(keys, (speed, load, out.texture, law.voltage, law.target, law.mu_low, law.mu_tex)):
+            parts[key].append(arr)
+        parts["drive"].append(out.drive)
+        parts["friction"].append(fric)
         if progress is not None:
-            progress(min(n, start + block) / n)
-    friction = model_out["friction"]
-    friction[n_fric:] = friction[n_fric - 1] if n_fric else 0.0
-    drive = drive[:n_drive]
-    arr = model_out
+            progress((start + speed.size) / n)
+    arr = {k: np.concatenate(v) if v else np.zeros(0) for k, v in parts.items()}
+    # the display's decimator lags: hold its last value over the tail
+    friction = np.full(n, arr["friction"][-1] if arr["friction"].size else 0.0)
+    friction[:min(n, arr["friction"].size)] = arr["friction"][:n]
     uses_acc = chain.law.uses_texture and material.texture.quantity == "acceleration"
     return RenderResult(
-        t=t, speed=speed, load=load, texture=arr["texture"], mu_low=arr["mu_low"], mu_tex=arr["mu_tex"], target=arr["target"],
-        voltage=arr["voltage"], drive=drive, friction_sim=friction, acc=arr["texture"] if uses_acc else None,
-        **render_settings(material, trajectory, cfg, chain, display),
+        t=np.arange(n) / chain.model_rate, speed=arr["speed"], load=arr["load"], texture=arr["texture"], mu_low=arr["mu_low"],
+        mu_tex=arr["mu_tex"], target=arr["target"], voltage=arr["voltage"], drive=arr["drive"], friction_sim=friction,
+        acc=arr["texture"] if uses_acc else None, **render_settings(material, trajectory, cfg, chain, display),
     )
 
 

@@ -1,7 +1,8 @@
 """The shape chain: Kim et al.'s shape rendering (2017, Sec. 4) as a block :class:`Renderer`.
 
-The live engine hands it, per chunk, the held finger state at ``model_rate`` (1 kHz: one
-sample per 1 ms block) including the (predicted) position. The touch-rate stage (vertical
+The runtime hands it, per chunk, the held finger state at ``model_rate`` (live 1 kHz: one
+sample per 1 ms block; :func:`render_shape` runs it at the drive
+rate) including the (predicted) position. The touch-rate stage (vertical
 ray, eq. 3-9 gradient and intensity, eq. 10-11 edge tick: the compiled
 :func:`surfhap.shape.touch.touch_step`, the same kernel the offline
 :class:`~surfhap.render.shape_renderer.ShapeRenderer` loops over) runs once per *new*
@@ -22,12 +23,19 @@ import math
 
 import numpy as np
 
+from typing import Callable
+
+from surfhap.models.panel import SimulatedDisplay
+from surfhap.models.trajectory import Trajectory
 from surfhap.render.block import RenderBlock
-from surfhap.render.hold import hold_latest, model_times
-from surfhap.render.shape_renderer import ShapeConfig, ShapeDrive, ShapeRenderer
+from surfhap.render.hold import TouchHold, TrajectoryRows, hold_latest, model_times
+from surfhap.render.kinematics import TouchPredictor
+from surfhap.render.shape_renderer import ShapeBlock, ShapeConfig, ShapeDrive, ShapeRenderer, ShapeResult
+from surfhap.shape.calibration import ShapeCalibration, calibrate
+from surfhap.shape.topsurface import TopSurface
 from surfhap.shape.touch import touch_step
 
-__all__ = ["ShapeChain"]
+__all__ = ["ShapeChain", "render_shape"]
 
 
 class ShapeChain:
@@ -86,6 +94,22 @@ class ShapeChain:
         self.touch_stage.reset()
         self.state = self.touch_stage.state
 
+    def _state_at(self, ld: float, x, y, i: int) -> float:
+        """Take the finger state of model sample ``i``; returns the edge tick it starts (0 if none)."""
+        if ld > self.lift and x is not None and math.isfinite(x[i]) and math.isfinite(y[i]):
+            xm = float(x[i]) - self.half[0]
+            ym = self.half[1] - float(y[i])
+            if not self._have or xm != self._lx or ym != self._ly:
+                self._intensity, tick = self.touch_point(xm, ym)
+                self._have = True
+                self._lx, self._ly = xm, ym
+                return tick
+        elif self._have:
+            self.reset_touch()  # a lift breaks the chain of hit points
+            self._have = False
+            self._intensity = 0.0
+        return 0.0
+
     def touch_point(self, x: float, y: float) -> tuple[float, float]:
         """The touch-rate stage for one new position (mesh coordinates, m): ``(intensity,
         tick)``, both 0 off the mesh. One call of the compiled :func:`touch_step` (the
@@ -104,30 +128,30 @@ class ShapeChain:
         return inten, tick
 
     def process(self, speed, load, touch_time, x=None, y=None) -> RenderBlock:
-        """One block (see :class:`~surfhap.render.block.Renderer`): speed unused; load (n,) N,
-        touch_time (n,) s, x, y (n,) m page coordinates; the finger state of the block's first
-        sample applies (the engine holds it over the block)."""
+        """One block (see :class:`~surfhap.runtime.protocols.Renderer`): speed unused; load (n,)
+        N, touch_time (n,) s, x, y (n,) m page coordinates. Each model sample holds the finger
+        state in force at it; a new position runs the touch-rate stage once and its tick starts
+        at the model sample's first drive sample."""
         n = load.shape[0]
-        m = n * self.ratio
-        ld = float(load[0]) if n else 0.0
-        tick = 0.0
-        if n and ld > self.lift and x is not None and math.isfinite(x[0]) and math.isfinite(y[0]):
-            xm = float(x[0]) - self.half[0]
-            ym = self.half[1] - float(y[0])
-            if not self._have or xm != self._lx or ym != self._ly:
-                self._intensity, tick = self.touch_point(xm, ym)
-                self._have = True
-                self._lx, self._ly = xm, ym
-        elif self._have:
-            self.reset_touch()  # a lift breaks the chain of hit points
-            self._have = False
-            self._intensity = 0.0
+        r = self.ratio
+        m = n * r
         inten = self._inten[:m]
-        inten.fill(self._intensity)
         ticks = self._tick[:m]
         ticks.fill(0.0)
-        if m and tick > 0.0:
-            ticks[0] = tick
+        starts = [0]
+        if n > 1:  # the runs of model samples holding one finger state
+            change = load[1:] != load[:-1]
+            if x is not None:
+                change |= (x[1:] != x[:-1]) | (y[1:] != y[:-1])
+            starts += (np.flatnonzero(change) + 1).tolist()
+        starts.append(n)
+        for i, j in zip(starts[:-1], starts[1:]):
+            if i >= n:
+                break
+            tick = self._state_at(float(load[i]), x, y, i)
+            inten[i * r:j * r] = self._intensity
+            if tick > 0.0:
+                ticks[i * r] = tick
         loads = self._load[:m]
         age = self._age[:m]
         src = self._src_time[:n]
@@ -141,3 +165,57 @@ class ShapeChain:
             self._last_load = float(load[n - 1])
             self._last_touch = float(touch_time[n - 1])
         return RenderBlock(drive, loads, target[::self.ratio])
+
+
+def render_shape(surface: TopSurface, trajectory: Trajectory, calibration: ShapeCalibration | None = None,
+                 config: ShapeConfig | None = None, *, block_seconds: float = 1.0,
+                 progress: Callable[[float], None] | None = None) -> ShapeResult:
+    """Render ``trajectory`` over ``surface`` on the simulated display.
+
+    Without ``calibration`` the Fsq range is measured by simulated scans first
+    (:func:`surfhap.shape.calibration.calibrate`, default plan).
+    """
+    cfg = config or ShapeConfig()
+    cal = calibration if calibration is not None else calibrate(surface, fz=cfg.fz)
+    renderer = ShapeRenderer(surface, cal, cfg)
+    display = SimulatedDisplay(cfg.display, cfg.drive_rate, cfg.model_rate, v_max=cfg.limits.v_max)
+    t = trajectory.t - trajectory.t[0]
+    touching = trajectory.load > cfg.limits.lift_threshold
+    # the touch-rate quantities of the result (z, face, Fsq, intensity, edge), in blocks
+    n = t.size
+    blk = max(1, int(round(block_seconds * trajectory.sensor_rate)))
+    parts = [renderer.process(trajectory.x[s:s + blk], trajectory.y[s:s + blk], touching[s:s + blk])
+             for s in range(0, n, blk)]
+    out = ShapeBlock(*(np.concatenate([getattr(p, f) for p in parts]) for f in ShapeBlock._fields))
+    # the drive: the live ShapeChain at the drive rate, each touch sample in force from the drive
+    # sample at its stamp (the runtime's TouchHold); the trajectory is in mesh coordinates
+    # (a zero page size maps x -> x, and the page's downward y -> -y)
+    fs = cfg.drive_rate
+    chain = ShapeChain(surface, cal, cfg, model_rate=fs, surface_size=(0.0, 0.0))
+    mirrored = Trajectory(trajectory.t, trajectory.x, -trajectory.y, trajectory.load, name=trajectory.name)
+    hold = TouchHold(TrajectoryRows(mirrored), TouchPredictor(), 0.05, {"touches": 0, "touches_ignored": 0, "stale_stamps": 0})
+    hold.take(0.0, 0.0)
+    m = int(np.floor(t[-1] * fs + 1e-9)) + int(round(0.05 * fs))  # 50 ms tail for the last grain
+    block_d = min(8192, max(1, int(round(block_seconds * fs))))
+    drives, targets, frictions = [], [], []
+    for s in range(0, m, block_d):
+        k = min(m, s + block_d) - s
+        speed, load, touch_time, xs, ys = (np.empty(k) for _ in range(5))
+        hold.fill(s, fs, speed, load, touch_time, xs, ys)
+        b = chain.process(speed, load, touch_time, xs, ys)
+        drives.append(b.drive)
+        targets.append(b.target)
+        frictions.append(display.process(b.drive, b.load_drive))
+        if progress is not None:
+            progress((s + k) / m)
+    drive_proc = chain.drive_stage
+    t_drive = np.arange(m) / fs
+    drive = np.concatenate(drives) if drives else np.zeros(0)
+    return ShapeResult(
+        mesh=surface.name, t=t, x=trajectory.x.copy(), y=trajectory.y.copy(), load=trajectory.load.copy(),
+        z=out.z, face=out.face, force=out.force, fsq=out.fsq, intensity=out.intensity, edge=out.edge,
+        theta=out.theta, t_drive=t_drive, drive=drive, target=np.concatenate(targets) if targets else np.zeros(0),
+        friction_sim=np.concatenate(frictions) if frictions else np.zeros(0), model_rate=int(cfg.model_rate),
+        drive_rate=int(fs), calibration=cal, config=cfg, theta_min=renderer.theta_min,
+        safety=drive_proc.safety.counters, trajectory_name=trajectory.name, surface=surface,
+    )

@@ -13,33 +13,31 @@ Two stateful processors, one per rate:
   inverse of a measured device curve) so the display adds the grain's force, polarity carrier,
   and the safety stage last.
 
-:func:`render_shape` runs both over a whole trajectory on the simulated display and returns a
+:func:`surfhap.render.shape_chain.render_shape` runs both over a whole trajectory on the simulated display and returns a
 :class:`ShapeResult` (named arrays, ``summary()``, ``plot()``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.models.panel import DisplayModel, SimulatedDisplay
-from surfhap.models.trajectory import Trajectory
+from surfhap.models.panel import DisplayModel
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive_kernel import target_to_voltage
-from surfhap.render.hold import hold_latest
 from surfhap.models.device_curve import DeviceCurve
 from surfhap.render.grains import GrainParams, GrainPlayer, grain_name
 from surfhap.render.safety import SafetyCounters, SafetyLimits, SafetyStage
-from surfhap.shape.calibration import ShapeCalibration, calibrate
+from surfhap.shape.calibration import ShapeCalibration
 from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks_walk, walk_spacing
 from surfhap.shape.gradient import FZ_DEFAULT
 from surfhap.shape.topsurface import TopSurface
 from surfhap.shape.touch import new_state, touch_block
 
-__all__ = ["display_device_curve", "ShapeConfig", "ShapeBlock", "ShapeRenderer", "ShapeDrive", "ShapeResult", "render_shape"]
+__all__ = ["display_device_curve", "ShapeConfig", "ShapeBlock", "ShapeRenderer", "ShapeDrive", "ShapeResult"]
 
 
 @dataclass(frozen=True)
@@ -274,63 +272,3 @@ class ShapeResult:
         from surfhap.report.shape_figures import plot_shape_result
 
         return plot_shape_result(self, fig=fig)
-
-
-def render_shape(surface: TopSurface, trajectory: Trajectory, calibration: ShapeCalibration | None = None,
-                 config: ShapeConfig | None = None, *, block_seconds: float = 1.0,
-                 progress: Callable[[float], None] | None = None) -> ShapeResult:
-    """Render ``trajectory`` over ``surface`` on the simulated display.
-
-    Without ``calibration`` the Fsq range is measured by simulated scans first
-    (:func:`surfhap.shape.calibration.calibrate`, default plan).
-    """
-    cfg = config or ShapeConfig()
-    cal = calibration if calibration is not None else calibrate(surface, fz=cfg.fz)
-    renderer = ShapeRenderer(surface, cal, cfg)
-    drive_proc = ShapeDrive(cfg)
-    display = SimulatedDisplay(cfg.display, cfg.drive_rate, cfg.model_rate, v_max=cfg.limits.v_max)
-    t = trajectory.t - trajectory.t[0]
-    touching = trajectory.load > cfg.limits.lift_threshold
-    # touch rate, in blocks (as a live loop would deliver them)
-    n = t.size
-    rate = trajectory.sensor_rate
-    blk = max(1, int(round(block_seconds * rate)))
-    parts = [renderer.process(trajectory.x[s:s + blk], trajectory.y[s:s + blk], touching[s:s + blk])
-             for s in range(0, n, blk)]
-    out = ShapeBlock(*(np.concatenate([getattr(p, f) for p in parts]) for f in ShapeBlock._fields))
-    # drive rate: hold the latest touch sample; ticks start at the first drive sample after it
-    fs = cfg.drive_rate
-    m = int(np.floor(t[-1] * fs + 1e-9)) + int(round(0.05 * fs))  # 50 ms tail for the last grain
-    t_drive = np.arange(m) / fs
-    t = np.ascontiguousarray(t, dtype=np.float64)
-    load_d = np.empty(m)
-    age_d = np.empty(m)
-    k = np.empty(m, dtype=np.int64)  # latest touch sample, -1 before the first
-    hold_latest(0, float(fs), t, 1e-12, np.ascontiguousarray(trajectory.load, dtype=np.float64), t, 0.0, -np.inf,
-                load_d, age_d, k)
-    kk = np.clip(k, 0, None)
-    # silent before the first touch, while lifted and off the mesh (nothing to touch there)
-    inten_d = np.where((k >= 0) & touching[kk] & (out.face[kk] >= 0), out.intensity[kk], 0.0)
-    tick_d = np.zeros(m)
-    onset = np.ceil(t * fs - 1e-9).astype(np.int64)
-    sel = (out.edge > 0) & (onset < m)
-    tick_d[onset[sel]] = out.edge[sel]
-    block_d = max(1, int(round(block_seconds * fs)))
-    drives, targets, frictions = [], [], []
-    for s in range(0, m, block_d):
-        sl = slice(s, min(m, s + block_d))
-        d, tg = drive_proc.process(inten_d[sl], tick_d[sl], load_d[sl], age_d[sl])
-        drives.append(d)
-        targets.append(tg)
-        frictions.append(display.process(d, load_d[sl]))
-        if progress is not None:
-            progress(min(m, s + block_d) / m)
-    drive = np.concatenate(drives) if drives else np.zeros(0)
-    return ShapeResult(
-        mesh=surface.name, t=t, x=trajectory.x.copy(), y=trajectory.y.copy(), load=trajectory.load.copy(),
-        z=out.z, face=out.face, force=out.force, fsq=out.fsq, intensity=out.intensity, edge=out.edge,
-        theta=out.theta, t_drive=t_drive, drive=drive, target=np.concatenate(targets) if targets else np.zeros(0),
-        friction_sim=np.concatenate(frictions) if frictions else np.zeros(0), model_rate=int(cfg.model_rate),
-        drive_rate=int(fs), calibration=cal, config=cfg, theta_min=renderer.theta_min,
-        safety=drive_proc.safety.counters, trajectory_name=trajectory.name, surface=surface,
-    )

@@ -2,7 +2,7 @@
 block, handing each block to a sink instead of keeping it, in memory independent of the duration.
 
 :func:`stream_render` samples the trajectory onto the model-rate grid one block at a time
-(exactly as :func:`~surfhap.render.offline.sample_trajectory` does for the whole), runs the
+(the one offline loop, :func:`~surfhap.render.offline.render_blocks`, that ``render()`` runs too), runs the
 :class:`~surfhap.render.chain.TextureChain` (whose last stage is the safety stage) and the
 simulated display, and calls ``sink(channel, block)`` for every channel of :data:`CHANNELS`.
 The summary statistics (:class:`~surfhap.render.offline.RenderStats`) and the figure's
@@ -23,10 +23,9 @@ from surfhap.models.material import Material
 from surfhap.models.panel import SimulatedDisplay
 from surfhap.models.trajectory import Trajectory
 from surfhap.render.chain import ChainConfig, TextureChain
-from surfhap.render.kinematics import Kinematics
 from surfhap.render.expected import expected_texture_psd
-from surfhap.render.offline import (MAX_FAULT_FRACTION, MIN_TEXTURE_SHARE, RenderStats, fault_error, render_settings,
-                                    saturation_warning, summary_dict, texture_warning)
+from surfhap.render.offline import (MAX_FAULT_FRACTION, MIN_TEXTURE_SHARE, RenderStats, fault_error, model_samples,
+                                    render_blocks, render_settings, saturation_warning, summary_dict, texture_warning)
 from surfhap.render.preview import PreviewRecorder, RenderPreview
 
 __all__ = ["CHANNELS", "StreamedRender", "stream_render", "model_samples"]
@@ -93,11 +92,6 @@ class StreamedRender:
         return plot_render(self.preview, fig=fig)
 
 
-def model_samples(trajectory: Trajectory, model_rate: float) -> int:
-    """Number of model-rate samples a render of ``trajectory`` has."""
-    return int(np.floor((trajectory.t[-1] - trajectory.t[0]) * model_rate + 1e-9)) + 1
-
-
 def stream_render(material: Material, trajectory: Trajectory, config: ChainConfig | None, sink: Sink, *,
                   block_seconds: float = 1.0, progress: Callable[[float], None] | None = None,
                   stop: Callable[[], bool] | None = None, preview_columns: int = 1200) -> StreamedRender:
@@ -109,8 +103,6 @@ def stream_render(material: Material, trajectory: Trajectory, config: ChainConfi
     chain = TextureChain(material, cfg)
     display = SimulatedDisplay(cfg.display, chain.drive_rate, chain.model_rate)
     fm = chain.model_rate
-    t_rel = trajectory.t - trajectory.t[0]
-    speed_s = Kinematics().process(t_rel, trajectory.x, trajectory.y)
     n = model_samples(trajectory, fm)
     block = max(1, int(round(block_seconds * fm)))
     meta = _Meta(render_settings(material, trajectory, cfg, chain, display))  # settings; counters taken again at the end
@@ -121,15 +113,8 @@ def stream_render(material: Material, trajectory: Trajectory, config: ChainConfi
     v_max = cfg.limits.v_max
     n_done = n_drive = n_fric = 0
     last_fric = 0.0
-    interrupted = False
-    for start in range(0, n, block):
-        if stop is not None and stop():
-            interrupted = True
-            break
-        end = min(n, start + block)
-        idx = np.searchsorted(t_rel, np.arange(start, end) / fm + 1e-12, side="right") - 1
-        speed, load = speed_s[idx], trajectory.load[idx]
-        out = chain.process(speed, load, t_rel[idx])
+    for start, speed, load, out, fric in render_blocks(chain, trajectory, display, block_seconds=block_seconds, stop=stop):
+        end = start + speed.size
         law = out.drive_law
         for key, arr in (("speed", speed), ("load", load), ("texture", out.texture), ("mu_low", law.mu_low),
                          ("mu_tex", law.mu_tex), ("target", law.target), ("voltage", law.voltage)):
@@ -141,7 +126,7 @@ def stream_render(material: Material, trajectory: Trajectory, config: ChainConfi
         preview.add_model(start, speed, load, law.target, law.mu_low, law.voltage)
         preview.add_drive(n_drive, out.drive)
         n_drive += out.drive.shape[0]
-        fric = display.process(out.drive, out.load_drive)[:end - n_fric]
+        fric = fric[:end - n_fric]
         _friction(sink, stats, preview, n_fric, fric)
         n_fric += fric.shape[0]
         if fric.shape[0]:
@@ -155,7 +140,7 @@ def stream_render(material: Material, trajectory: Trajectory, config: ChainConfi
         _friction(sink, stats, preview, n_fric, np.full(k, last_fric))
         n_fric += k
     settings = render_settings(material, trajectory, cfg, chain, display)
-    return StreamedRender(settings, stats, preview.finish(n_done), n_done, n_drive, n, interrupted)
+    return StreamedRender(settings, stats, preview.finish(n_done), n_done, n_drive, n, n_done < n)
 
 
 def _friction(sink: Sink, stats: RenderStats, preview: PreviewRecorder, start: int, fric: np.ndarray) -> None:

@@ -2,7 +2,7 @@
 (the ``--output`` parser and factory are in :mod:`surfhap.live.backends.output`).
 
 A backend owns the clock: it calls ``engine.render(frames, now)`` once per block and
-sends the returned volts somewhere. Protocol:
+sends the returned volts somewhere. Protocol (:class:`surfhap.runtime.protocols.Sink`):
 
 * ``start(engine)`` begins calling the engine (returns at once);
 * ``stop(timeout)`` asks the engine for its ramp to zero, waits for it (bounded), then
@@ -22,14 +22,14 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.live.clock import now, sleep_until
+from surfhap.runtime.clock import Clock, WallClock, now
+from surfhap.runtime.loop import run
 
-__all__ = ["Backend", "PacedBackend", "StallWatch", "parse_output", "open_backend", "STALL_TIMEOUT"]
+__all__ = ["PacedBackend", "StallWatch", "STALL_TIMEOUT"]
 
 # s without a rendered block before a running backend counts as stalled. A choice: long
 # enough that a loaded machine's scheduling hiccups (tens of ms) never trip it, short
@@ -37,18 +37,6 @@ __all__ = ["Backend", "PacedBackend", "StallWatch", "parse_output", "open_backen
 STALL_TIMEOUT = 1.0
 
 log = logging.getLogger("surfhap.live")
-
-
-@runtime_checkable
-class Backend(Protocol):
-    name: str
-    drive_rate: int | None
-
-    def start(self, engine) -> None: ...
-
-    def stop(self, timeout: float = 1.0) -> None: ...
-
-    def info(self) -> dict: ...
 
 
 class StallWatch:
@@ -116,11 +104,17 @@ class PacedBackend:
         self.stall_timeout = float(stall_timeout)
         self._watch: StallWatch | None = None
         self.error: str | None = None
+        self.clock: Clock = WallClock()  # what paces the blocks (a SimClock runs them as fast as possible)
+
+    def open(self, engine) -> None:
+        """Bind to ``engine`` and prepare the output (no thread; what :meth:`start` and a
+        simulated run do first)."""
+        self.engine = engine
 
     def start(self, engine) -> None:
         if self._thread is not None:
             raise RuntimeError("backend already started")
-        self.engine = engine
+        self.open(engine)
         self._run = True
         self._thread = threading.Thread(target=self._loop, name=f"surfhap-{self.name}", daemon=True)
         self._thread.start()
@@ -128,25 +122,14 @@ class PacedBackend:
 
     def _loop(self) -> None:
         eng = self.engine
-        frames = eng.block_frames
-        period = eng.block_period
-        slack = max(self.buffer, period)
-        deadline = now()
         try:
-            while self._run:
-                t = sleep_until(deadline)
-                if t - deadline > slack:
-                    eng.counters["underruns"] += 1
-                    deadline = t
-                volts = eng.render(frames, t)
-                self.emit(volts)
-                deadline += period
+            run(None, eng, self.clock, self, keep_running=lambda: self._run, buffer=self.buffer)
         except Exception as exc:  # noqa: BLE001 - reported, never silent
             self.error = f"{self.name} output failed: {type(exc).__name__}: {exc}"
             eng.fail(self.error)
             log.error("%s; the engine is halted (0 V)", self.error)
             try:
-                self.emit(np.zeros(frames))  # best effort: leave the output at 0 V
+                self.emit(np.zeros(eng.block_frames))  # best effort: leave the output at 0 V
             except Exception:  # noqa: BLE001
                 pass
 

@@ -105,7 +105,8 @@ class FileBackend(PacedBackend):
         self.capped_blocks = 0
         self.cap_reached = False
 
-    def start(self, engine) -> None:
+    def open(self, engine) -> None:
+        super().open(engine)
         self._rate = rate = int(engine.drive_rate)
         self._flush_every = max(1, int(self.flush_seconds * rate))
         self._buf = np.zeros(self._flush_every + int(engine.config.max_block_frames))
@@ -128,7 +129,6 @@ class FileBackend(PacedBackend):
             self._file.flush()
         except OSError as exc:
             raise ConfigError(f"cannot be written ({exc.strerror or exc})", source=str(self.stream_path)) from None
-        super().start(engine)
 
     @property
     def samples(self) -> int:

@@ -23,7 +23,7 @@ __all__ = ["OscBackend"]
 class OscBackend(PacedBackend):
     name = "osc"
 
-    def __init__(self, host: str, port: int, mode: str = "intensity", stall_timeout: float = STALL_TIMEOUT, **_ignored):
+    def __init__(self, host: str, port: int, mode: str = "intensity", stall_timeout: float = STALL_TIMEOUT):
         super().__init__(stall_timeout)
         from pythonosc.udp_client import SimpleUDPClient
 
@@ -33,9 +33,9 @@ class OscBackend(PacedBackend):
         self.errors = 0
         self._f32 = None
 
-    def start(self, engine) -> None:
+    def open(self, engine) -> None:
+        super().open(engine)
         self._f32 = np.zeros(engine.block_frames, dtype="<f4")
-        super().start(engine)
 
     def emit(self, volts) -> None:
         vmax = self.engine.v_max

@@ -7,10 +7,26 @@ only :mod:`surfhap.live.backends.base`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from surfhap.errors import ConfigError
 from surfhap.live.netaddr import parse_osc_address
 
-__all__ = ["parse_output", "open_backend"]
+__all__ = ["parse_output", "open_backend", "OutputOptions"]
+
+
+@dataclass(frozen=True)
+class OutputOptions:
+    """The typed options of the outputs; each backend takes only the ones it has.
+
+    amp_gain    : V per DAC full-scale unit (sound, file).
+    channels    : 0-based sound channels that carry the drive (sound; None = all).
+    max_seconds : end a file recording with the stop ramp after this long (file; None = no cap).
+    """
+
+    amp_gain: float = 250.0
+    channels: tuple[int, ...] | None = None
+    max_seconds: float | None = None
 
 
 # the outputs that reach an amplifier, so a finger: a study session on one of them never
@@ -43,21 +59,29 @@ def parse_output(text: str) -> tuple[str, dict]:
     raise ConfigError(f"unknown output {text!r} (sim, file:PATH, sound[:DEVICE], osc://HOST:PORT)", source="--output")
 
 
-def open_backend(text: str, **options):
-    """Build the backend named by an ``--output`` string; ``options`` go to its constructor."""
+def open_backend(text: str, options: OutputOptions | None = None):
+    """Build the backend named by an ``--output`` string with the ``options`` it takes; an
+    option the output has no use for (channels of a file, a cap on a sound card) is an error."""
     kind, args = parse_output(text)
+    opt = options or OutputOptions()
+    if opt.channels is not None and kind != "sound":
+        raise ConfigError("only applies to sound outputs", source="--channels")
+    if opt.max_seconds is not None and kind != "file":
+        raise ConfigError("only applies to file outputs", source="--max-seconds")
     if kind == "sim":
         from surfhap.live.backends.sim import SimBackend
 
-        return SimBackend(**options)
+        return SimBackend()
     if kind == "file":
         from surfhap.live.backends.file import FileBackend
 
-        return FileBackend(args["path"], **options)
+        return FileBackend(args["path"], amp_gain=opt.amp_gain, max_seconds=opt.max_seconds)
     if kind == "sound":
         from surfhap.live.backends.sound import SoundBackend
 
-        return SoundBackend(device=args["device"], **options)
+        chans = opt.channels
+        return SoundBackend(device=args["device"], amp_gain=opt.amp_gain, channels=chans,
+                            n_channels=None if chans is None else max(chans) + 1)
     from surfhap.live.backends.osc import OscBackend
 
-    return OscBackend(args["host"], args["port"], mode=args["mode"], **options)
+    return OscBackend(args["host"], args["port"], mode=args["mode"])

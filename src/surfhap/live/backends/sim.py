@@ -15,7 +15,7 @@ __all__ = ["SimBackend"]
 class SimBackend(PacedBackend):
     name = "sim"
 
-    def __init__(self, stall_timeout: float = STALL_TIMEOUT, **_ignored):
+    def __init__(self, stall_timeout: float = STALL_TIMEOUT):
         super().__init__(stall_timeout)
         self.blocks = 0
 

@@ -10,7 +10,7 @@ amplifier's gain in volts per DAC full-scale unit, from the rig's configuration.
 
 Emission time: each block is rendered for the moment its first sample reaches the DAC,
 ``time.outputBufferDacTime`` of the callback's time info, mapped onto the engine clock as
-``engine.clock() + (outputBufferDacTime - currentTime)`` (:func:`dac_time`). The engine's
+``engine.clock() + (outputBufferDacTime - currentTime)`` (:meth:`surfhap.runtime.clock.AudioClock.dac_time`). The engine's
 watchdog (touch older than 50 ms -> 0 V within 5 ms) therefore counts the output latency:
 the ramp is complete at the DAC, not one output latency later. A host API that reports no
 usable times (zeros, NaN, a latency outside 0-1 s) gets the stream's nominal output latency.
@@ -30,8 +30,9 @@ import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.live.backends.base import STALL_TIMEOUT, StallWatch
+from surfhap.runtime.clock import AudioClock
 
-__all__ = ["SoundBackend", "list_devices", "dac_time"]
+__all__ = ["SoundBackend", "list_devices"]
 
 log = logging.getLogger("surfhap.live")
 
@@ -46,19 +47,6 @@ def _sd():
     except ImportError:
         raise ConfigError("sounddevice is not installed; pip install 'surfhap[live]'", source="--output") from None
     return sd
-
-
-def dac_time(t_now: float, time_info, nominal_latency: float) -> float:
-    """Engine-clock time (s) at which the block of a PortAudio callback reaches the DAC:
-    ``t_now`` (engine clock, in the callback) plus the callback's
-    ``outputBufferDacTime - currentTime``; ``nominal_latency`` when the host API gives no
-    usable times (both zero, not finite, or a latency outside 0-1 s)."""
-    dac = float(time_info.outputBufferDacTime)
-    cur = float(time_info.currentTime)
-    lat = dac - cur
-    if (dac == 0.0 and cur == 0.0) or not 0.0 <= lat <= 1.0:  # False for NaN: nominal
-        lat = nominal_latency
-    return t_now + lat
 
 
 def list_devices() -> list[dict]:
@@ -79,7 +67,7 @@ class SoundBackend:
 
     def __init__(self, device: int | str | None = None, amp_gain: float = 250.0, n_channels: int | None = None,
                  channels: tuple[int, ...] | None = None, latency: str | float = "low",
-                 capture_seconds: float = 0.0, stall_timeout: float = STALL_TIMEOUT, **_ignored):
+                 capture_seconds: float = 0.0, stall_timeout: float = STALL_TIMEOUT):
         if not (np.isfinite(amp_gain) and amp_gain > 0):
             raise ConfigError("must be > 0 V per DAC unit", field="amp_gain")
         self.device = device
@@ -155,7 +143,7 @@ class SoundBackend:
         eng = self.engine
         if status.output_underflow:
             eng.counters["underruns"] += 1
-        volts = eng.render(frames, dac_time(eng.clock(), time_info, self.nominal_latency))
+        volts = eng.render(frames, AudioClock.dac_time(eng.clock(), time_info, self.nominal_latency))
         u = self._units[:frames]
         np.multiply(volts, self._inv_gain, out=u, casting="same_kind")
         np.clip(u, -_FULL_SCALE, _FULL_SCALE, out=u)
