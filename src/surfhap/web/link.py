@@ -1,11 +1,11 @@
 """How the page app reaches the engine: one interface, :class:`EngineLink`, and its
 in-process implementation :class:`LocalLink`.
 
-The app (:func:`surfhap.live.app.create_app`) needs four things from the engine: what to
-show (:meth:`EngineLink.info`), the touch surface (``space``, ``positions``), a way to push
+The touch page (:mod:`surfhap.web.touch`) needs four things from the engine: what to show
+(:meth:`EngineLink.info`), the touch surface (``space``, ``positions``), a way to push
 validated touch samples (:meth:`EngineLink.push_touch`) and the trace frames
-(:meth:`EngineLink.stream`). :class:`LocalLink` calls the engine directly; the link over
-the process boundary is :class:`surfhap.live.webproc.RemoteLink`.
+(:meth:`EngineLink.stream`). :class:`LocalLink` calls the engine directly; the link over the
+process boundary is :class:`surfhap.web.process.ProcessLink`.
 """
 
 from __future__ import annotations
