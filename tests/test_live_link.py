@@ -69,9 +69,20 @@ def test_touches_reach_the_engine_and_frames_come_back():
 
 def test_a_stalled_engine_side_drops_the_oldest_touches_and_never_blocks():
     session = build_session("cork", "sim")
-    _, touch_out, trace_in, _ = _pipes()  # nobody reads the touches
+    touch_in, touch_out, trace_in, _ = _pipes()  # nobody reads the touches
     link = ProcessLink(describe(session), touch_out, trace_in, max_pending=100)
-    for k in range(200_000):  # far more than the pipe and the queue hold (a blocking push hangs here)
-        assert link.push_touch(1, 0.01, 0.02, 0.5, t_event=float(k))
-    assert link.dropped > 0 and len(link.pending) <= 100
-    assert link.pending[-1][1] == 199_999.0  # the newest sample is kept
+
+    async def flood():  # far more than the pipe and the queue hold (a blocking send hangs here)
+        for k in range(100_000):
+            assert link.push_touch(1, 0.01, 0.02, 0.5, t_event=float(k))
+            if k % 50 == 0:
+                await asyncio.sleep(0)  # the loop turns: the link flushes what the pipe takes
+
+    asyncio.run(flood())
+    assert link.dropped > 0 and len(link.pending) == 100
+    assert link.pending[-1][1] == 99_999.0  # the newest sample is kept, the oldest went
+    got = []  # and what reached the pipe is whole messages, in order
+    while touch_in.poll(0):
+        got.append(np.frombuffer(touch_in.recv_bytes(), dtype=np.float64).reshape(-1, 6))
+    t_events = np.concatenate(got)[:, 1]
+    assert t_events[0] == 0.0 and np.all(np.diff(t_events) == 1.0) and t_events.size + 100 + link.dropped == 100_000

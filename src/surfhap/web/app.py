@@ -17,19 +17,20 @@ import asyncio
 from contextlib import asynccontextmanager
 
 from surfhap.live.config import ServerConfig
-from surfhap.web.guard import WILDCARD_HOSTS, OriginRule, RequestGuard, host_allow_list
+from surfhap.web.guard import MAX_BODY_BYTES, WILDCARD_HOSTS, OriginRule, RequestGuard, host_allow_list
 from surfhap.web.guard import log as guard_log
 
 __all__ = ["create_app", "page_guard"]
 
 
-def page_guard(cfg: ServerConfig, ip_literals: bool = False, logger=None) -> RequestGuard:
+def page_guard(cfg: ServerConfig, ip_literals: bool = False, max_body_bytes: int = MAX_BODY_BYTES,
+               logger=None) -> RequestGuard:
     """The request guard for a page served as ``cfg`` says: the ``Host`` allow list of its
-    bind address and ``allowed_hosts`` (with ``ip_literals``, also any IP literal) and the
-    ``Origin`` rule of ``allowed_origins`` / ``allow_missing_origin``."""
+    bind address and ``allowed_hosts`` (with ``ip_literals``, also any IP literal), the
+    ``Origin`` rule of ``allowed_origins`` / ``allow_missing_origin`` and the body cap."""
     return RequestGuard(host_allow_list(cfg.host, cfg.allowed_hosts),
-                        OriginRule(cfg.allowed_origins, cfg.allow_missing_origin), ip_literals=ip_literals,
-                        logger=logger or guard_log)
+                        OriginRule(cfg.allowed_origins, cfg.allow_missing_origin), max_body_bytes=max_body_bytes,
+                        ip_literals=ip_literals, logger=logger or guard_log)
 
 
 def create_app(cfg: ServerConfig | None = None, *, touch=None, study=None):
@@ -46,10 +47,10 @@ def create_app(cfg: ServerConfig | None = None, *, touch=None, study=None):
     if (touch is None) == (study is None):
         raise ValueError("create_app serves one page: give touch or study")
     if study is not None:
-        from surfhap.web.study import log as study_log, study_router
+        from surfhap.web.study import MAX_BODY, log as study_log, study_router
 
         app = FastAPI(title="surfhap study", docs_url=None, redoc_url=None, openapi_url=None)
-        page_guard(cfg, ip_literals=cfg.host in WILDCARD_HOSTS, logger=study_log).install(app)
+        page_guard(cfg, ip_literals=cfg.host in WILDCARD_HOSTS, max_body_bytes=MAX_BODY, logger=study_log).install(app)
         app.include_router(study_router(study, cfg))
         return app
 

@@ -7,8 +7,10 @@ pipes (``multiprocessing.Pipe``: a socket pair, reachable by nothing but the two
 
 * touches, web -> engine: the web process's :class:`ProcessLink` puts each validated sample
   (source, source time, arrival time on the shared monotonic clock, x, y, load) into a bounded
-  queue that drops its oldest sample when full; a sender thread ships what has accumulated as
-  one message (a float64 array). The event loop never waits on the pipe;
+  queue that drops its oldest sample when full; once per turn of the event loop what has
+  accumulated goes out in messages of at most :data:`BATCH` rows (a float64 array, one
+  atomic pipe write) while the pipe has room, the rest shortly after. The event loop never
+  waits on the pipe;
 * in the engine process, :class:`EngineEnd`'s reader thread pushes every sample of a message
   into the engine's touch ring (``push_touch``: non-blocking, bounded): a slow or flooded web
   side never blocks the real-time loop;
@@ -42,6 +44,9 @@ __all__ = ["EngineEnd", "ProcessLink", "WebProcess", "describe"]
 log = logging.getLogger("surfhap.web")
 
 COLS = 6  # source, t_event, t_arrival, x, y, load
+# rows per message: with multiprocessing's 4-byte header, 84 rows stay within PIPE_BUF (4096
+# bytes), so a message goes into a pipe that select() reports writable in one atomic write
+BATCH = 84
 
 
 class EngineEnd:
@@ -100,7 +105,7 @@ class EngineEnd:
 
 class ProcessLink:
     """Web side :class:`~surfhap.web.link.EngineLink` to the engine in the parent process:
-    ``push_touch`` queues (bounded, drop-oldest) for a sender thread, ``stream`` publishes
+    ``push_touch`` queues (bounded, drop-oldest, sent once per loop turn), ``stream`` publishes
     the frames that arrive on ``trace_in``. ``about``: :func:`describe` of the session;
     ``on_engine_gone``: called (in the event loop) when the trace pipe ends."""
 
@@ -115,32 +120,45 @@ class ProcessLink:
         self.on_engine_gone = on_engine_gone
         self.pending: deque = deque(maxlen=int(max_pending))
         self.dropped = 0  # samples dropped (the oldest) because the engine side did not keep up
-        self._wake = threading.Event()
-        threading.Thread(target=self._send, name="surfhap-touch-out", daemon=True).start()
+        self._flush_due = False
 
     def info(self) -> dict:
         return dict(self._info)
 
     def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan) -> bool:
+        """Queue one sample (event-loop thread); what accumulates within one turn of the loop
+        goes to the engine as one message."""
         if len(self.pending) == self.pending.maxlen:
             self.dropped += 1
         self.pending.append((float(source), t_event, now(), x, y, load))
-        self._wake.set()
+        if not self._flush_due:
+            self._flush_due = True
+            import asyncio
+
+            asyncio.get_running_loop().call_soon(self._flush)
         return True
 
-    def _send(self) -> None:
-        while True:
-            self._wake.wait()
-            self._wake.clear()
-            rows = []
-            while self.pending:
-                rows.append(self.pending.popleft())
-            if not rows:
-                continue
-            try:
-                self.touch_out.send_bytes(np.array(rows, dtype=np.float64).tobytes())
-            except (OSError, ValueError):
-                return
+    def _flush(self) -> None:
+        """Send the queued samples if the pipe has room now, else try again shortly: the
+        event loop never waits on a stalled engine process (the queue drops its oldest)."""
+        import asyncio
+        import select
+
+        self._flush_due = False
+        if not self.pending:
+            return
+        try:
+            while self.pending and select.select([], [self.touch_out], [], 0)[1]:
+                n = min(len(self.pending), BATCH)
+                rows = np.array([self.pending.popleft() for _ in range(n)], dtype=np.float64)
+                self.touch_out.send_bytes(rows.tobytes())
+        except (OSError, ValueError):
+            self.pending.clear()  # the engine side is gone
+            return
+        if not self.pending:
+            return
+        self._flush_due = True
+        asyncio.get_running_loop().call_later(0.005, self._flush)
 
     async def stream(self, publish) -> None:
         import asyncio

@@ -36,6 +36,7 @@ __all__ = ["StudyPage", "study_router"]
 log = logging.getLogger("surfhap.lab")
 STATIC = {"study.html": "text/html; charset=utf-8", "study.js": "text/javascript; charset=utf-8",
           "study.css": "text/css; charset=utf-8"}
+MAX_BODY = 4096  # an answer is a few dozen bytes; a toggles answer stays under 500 characters
 
 
 @dataclass

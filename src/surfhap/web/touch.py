@@ -136,8 +136,9 @@ class Hub:
         if self._event is None:
             self._event = asyncio.Event()
         try:
-            await asyncio.wait_for(self._event.wait(), timeout)
-        except asyncio.TimeoutError:
+            async with asyncio.timeout(timeout):  # no task per wait, unlike wait_for on 3.11
+                await self._event.wait()
+        except TimeoutError:
             pass
 
 
@@ -209,11 +210,12 @@ def touch_router(link, hub: Hub, cfg: ServerConfig):
                     parts.append(hub.status_member)
                 text = trace_message(client.last_seq, client.last_t, client.received, client.rejected, *parts)
                 try:
-                    await asyncio.wait_for(ws.send_text(text), cfg.send_timeout)
+                    async with asyncio.timeout(cfg.send_timeout):
+                        await ws.send_text(text)
                     client.slow = 0
                 except (WebSocketDisconnect, RuntimeError, OSError):
                     return  # the client went away; its receive loop cleans up
-                except asyncio.TimeoutError:
+                except TimeoutError:
                     client.slow += 1
                     if client.slow >= 5:
                         log.warning("closing %s: not reading its trace", client.peer)
