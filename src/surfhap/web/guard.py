@@ -1,36 +1,23 @@
-"""The one request guard of the web app (:func:`surfhap.web.app.create_app`), whichever page
-it serves: the touch page of ``serve`` (also the page of ``ff run --touch web``) and the study
-page of ``study run`` / ``study comfort``. :class:`RequestGuard` is a pure ASGI middleware
-(:meth:`RequestGuard.install`); the connection limits below HTTP are those of
-:mod:`surfhap.web.server`.
+"""The request guard of the web app (:func:`surfhap.web.app.create_app`), a pure ASGI
+middleware (:meth:`RequestGuard.install`). Every request and WebSocket handshake passes:
 
-Every HTTP request and WebSocket handshake passes, in this order:
+* **Host** must name a loopback name, the bound address or an allowed name
+  (:func:`host_allow_list`, ``*.domain`` patterns; a wildcard bind widens nothing; with
+  ``ip_literals`` any IP literal too): no DNS rebinding. Refused: 400, WebSocket close 1008;
+* **Origin** (CSRF): a state-changing request (not GET/HEAD/OPTIONS) and every WebSocket must
+  come from the page's own origin (``http://`` + ``Host``) or an allowed one
+  (:class:`OriginRule`); no ``Origin`` (not a browser) only with ``allow_missing_origin`` and
+  no cross-site ``Sec-Fetch-Site``. Refused: 403, before the body is read;
+* **body cap**: the guard reads the body, at most ``max_body_bytes``; a larger declared
+  ``Content-Length`` or chunked body is refused (413, ``Connection: close``);
+* **errors**: an exception answers 500 with one log line (type, message, where), never a
+  traceback; FastAPI's validation error of a pydantic body (:mod:`surfhap.web.messages`) is a
+  422 with a one-line reason (:meth:`RequestGuard.invalid`);
+* **connection state**: a finished response tells the server's
+  :class:`~surfhap.web.server.ConnectionGate` that the connection waits again.
 
-* **Host** - the ``Host`` header must name a loopback name, the bound address or an allowed
-  name (:func:`host_allow_list`; ``*.domain`` patterns; a wildcard bind widens nothing), which keeps DNS
-  rebinding out; with ``ip_literals`` any IP address literal is accepted too (a rebinding
-  attack always carries the attacker's DNS name). Refused: 400 (HTTP), close 1008 (WebSocket);
-* **Origin** (CSRF) - a request that can change state (every method but GET, HEAD, OPTIONS)
-  and every WebSocket must come from the page's own origin (``http://`` + ``Host``) or an
-  allowed origin (:class:`OriginRule`). A request without ``Origin`` is a
-  non-browser client (a browser sends ``Origin`` on every cross-site POST and WebSocket) and is
-  allowed only with ``allow_missing_origin``, and then only if no ``Sec-Fetch-Site`` header
-  says it is cross-site. Refused: 403, before the body is read;
-* **body cap** - a request body is read by the guard, at most ``max_body_bytes``: a declared
-  ``Content-Length`` above the cap is refused at once, a chunked body as soon as it passes the
-  cap (413, ``Connection: close``); the app then sees the whole (small) body. Nothing more than
-  the cap is ever buffered;
-* **errors** - an exception in the app answers 500 and logs one line (type, message, where),
-  never a traceback per request;
-* **connection state** - a finished response tells the server's connection gate
-  (:class:`surfhap.web.server.ConnectionGate`) that the connection waits for a request again.
-
-Endpoints take pydantic bodies (:mod:`surfhap.web.messages`: finite, bounded numbers;
-``1e400`` or a 400-digit integer is invalid like NaN); FastAPI's validation error becomes a 422
-with a one-line reason through :meth:`RequestGuard.invalid` (:meth:`install` adds the handler). Everything refused or rejected is
-counted (:attr:`RequestGuard.counts`) and logged through one
-:class:`~surfhap.live.sources.RejectLog`: the first few lines, then every 100th, whatever a
-flood of requests provokes.
+Everything refused or rejected is counted (:attr:`RequestGuard.counts`) and logged through one
+:class:`~surfhap.live.sources.RejectLog` (the first few lines, then every 100th).
 """
 
 from __future__ import annotations

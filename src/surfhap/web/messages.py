@@ -8,13 +8,12 @@ Page -> server messages (JSON text, one per pointer event)::
     {"type": "move", "seq": n, "t": ms, "x": 0..1, "y": 0..1, "p": 0..1}
     {"type": "up", "seq": n, "t": ms}
 
-They are validated as one pydantic discriminated union on ``type`` (:func:`parse_message`;
-the study page's POST bodies are the models :class:`StimulusRequest` and :class:`AnswerRequest`,
-validated by FastAPI),
-straight from the JSON text (parsed, never evaluated). Numbers must be JSON numbers (not
-strings or booleans) within their ranges; NaN, ±inf and numbers too large for a float
-(``1e400``, the integer ``10**400``) are invalid like any out-of-range value: the same
-rule as :func:`surfhap.live.sources.finite_in_range`. Unknown keys are ignored.
+They are one pydantic discriminated union on ``type`` (:func:`parse_message`), validated
+straight from the JSON text (never evaluated); the study page's POST bodies are
+:class:`StimulusRequest` and :class:`AnswerRequest` (FastAPI validates them). Numbers must be
+JSON numbers within their ranges; NaN, ±inf and numbers too large for a float (``1e400``,
+``10**400``) are invalid like any out-of-range value (the rule of
+:func:`surfhap.live.sources.finite_in_range`). Unknown keys are ignored.
 
 Server -> page: ``{"type": "trace", "ack": seq, "ack_t": ms, "received": n, "rejected": n,
 "t": [...], "v": [...], "f": [...], "target": [...], "speed": [...], "status": {...}}`` at

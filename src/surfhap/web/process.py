@@ -1,27 +1,15 @@
-"""Run the web app in its own process, apart from the real-time engine.
+"""Run the web app in its own process, apart from the real-time engine (whose callback would
+otherwise share the GIL with the web traffic), linked by two standard-library pipes
+(``multiprocessing.Pipe``: reachable only by the two processes):
 
-In one Python process the web server and the engine's callback share the GIL: a burst of
-pointer messages from many clients then delays the audio callback (underruns).
-:class:`WebProcess` spawns the server and links the two processes with two standard-library
-pipes (``multiprocessing.Pipe``: a socket pair, reachable by nothing but the two processes):
-
-* touches, web -> engine: the web process's :class:`ProcessLink` puts each validated sample
-  (source, source time, arrival time on the shared monotonic clock, x, y, load) into a bounded
-  queue that drops its oldest sample when full; once per turn of the event loop what has
-  accumulated goes out in messages of at most :data:`BATCH` rows (a float64 array, one
-  atomic pipe write) while the pipe has room, the rest shortly after. The event loop never
-  waits on the pipe;
-* in the engine process, :class:`EngineEnd`'s reader thread pushes every sample of a message
-  into the engine's touch ring (``push_touch``: non-blocking, bounded): a slow or flooded web
-  side never blocks the real-time loop;
-* trace, engine -> web: :class:`EngineEnd`'s publisher thread sends the trace frame at
-  ``trace_hz`` (with the engine status every 5th), which the web process's reader thread
-  hands to the event loop.
-
-``time.perf_counter`` is CLOCK_MONOTONIC on Linux, the same clock in both processes, so
-arrival stamps stay comparable; the receiving engine applies its arrival law to them (a
-stale stamp stays stale). When the engine process ends, the web process's trace pipe
-reaches its end and the web process exits.
+* touches, web -> engine: :class:`ProcessLink` queues each validated sample (source, source
+  time, arrival time on the shared monotonic clock, x, y, load; bounded, drops the oldest)
+  and once per turn of the event loop sends what accumulated, in atomic messages of at most
+  :data:`BATCH` rows, while the pipe has room (else shortly after): the loop never waits on
+  the pipe. :class:`EngineEnd`'s reader thread pushes the rows into the engine's non-blocking
+  touch ring, whose arrival law applies to the stamps (a stale stamp stays stale);
+* trace, engine -> web: :class:`EngineEnd` sends a frame at ``trace_hz`` (the engine status
+  with every 5th). When the engine process ends, the web process exits.
 """
 
 from __future__ import annotations
@@ -41,7 +29,6 @@ from surfhap.live.clock import now
 
 __all__ = ["EngineEnd", "ProcessLink", "WebProcess", "describe"]
 
-log = logging.getLogger("surfhap.web")
 
 COLS = 6  # source, t_event, t_arrival, x, y, load
 # rows per message: with multiprocessing's 4-byte header, 84 rows stay within PIPE_BUF (4096
@@ -54,10 +41,10 @@ class EngineEnd:
     frames from ``session`` to ``trace_out`` at ``hz``."""
 
     def __init__(self, session, touch_in, trace_out, hz: float = 30.0, points: int = 64):
-        from surfhap.live.frames import FrameBuilder
+        from surfhap.web.link import trace_ticks
 
         self.engine = session.engine
-        self.builder = FrameBuilder(session.engine, session.backend, points)
+        self.ticks = trace_ticks(session, points)
         self.touch_in, self.trace_out = touch_in, trace_out
         self.hz = float(hz)
         self.received = 0
@@ -85,15 +72,13 @@ class EngineEnd:
             self.received += len(rows)
 
     def _publish(self) -> None:
-        n = 0
-        while not self._stop.wait(1.0 / self.hz):
+        for tick in self.ticks:
+            if self._stop.wait(1.0 / self.hz):
+                return
             try:
-                self.trace_out.send((self.builder.frame(), self.builder.status() if n % 5 == 0 else None))
+                self.trace_out.send(tick)
             except (OSError, ValueError):
                 return
-            except Exception:  # noqa: BLE001 - monitoring must not die
-                log.exception("trace publisher failed")
-            n += 1
 
     def stop(self) -> None:
         self._stop.set()

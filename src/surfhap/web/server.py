@@ -1,29 +1,17 @@
-"""Serve the web app with uvicorn: its configuration, the connection gate that keeps half-open
-connections (slowloris) from taking the server, and :class:`ServerThread` (tests, notebooks,
-``study run``, ``surfhap serve --no-web-process``; the page in its own process is
-:mod:`surfhap.web.process`).
+"""Serve the web app with uvicorn: its configuration, :class:`ServerThread` (tests, notebooks,
+``study run``, ``serve --no-web-process``) and the connection gate against half-open
+connections (slowloris).
 
-uvicorn's HTTP/1.1 protocol (h11) waits for a request's headers as long as the client likes
-(its ``timeout_keep_alive`` starts only after a response, and every byte restarts it) and
-accepts connections until the process runs out of file handles. :class:`ConnectionGate` is an
-``asyncio.Protocol`` placed in front of uvicorn's own protocol (uvicorn's ``http`` option takes
-any protocol factory; the gate forwards the standard protocol calls and subclasses nothing):
-
-* **header deadline** - a connection that waits for a request (just opened, or kept alive
-  after a response) must deliver complete request headers within ``header_timeout`` s, or it
-  is closed; the deadline is absolute, so trickling one byte at a time does not extend it;
-* **connection cap** - at most ``max_connections`` open connections (HTTP and WebSocket),
-  lowered under a small file-handle limit (:func:`connection_cap`). A new connection beyond
-  the cap closes the connection that has waited for a request the longest; a request being
-  served and an open WebSocket are never closed for it. Only when nothing waits is the new
-  connection itself closed.
-
-A connection waits again when the app's last response body has gone out (the request guard
-tells the gate, :meth:`ConnectionGate.response_done`). Header size
-(``h11_max_incomplete_event_size``), keep-alive timeout, backlog and ``limit_concurrency`` are
-uvicorn's own options, set from :class:`~surfhap.live.config.ServerConfig`. What clients can
-make the server log (``uvicorn.error``, ``surfhap.web.http``) is throttled on the loggers
-(:class:`~surfhap.live.logfilter.RateLimitFilter`): one line per kind per second.
+uvicorn's h11 protocol waits for request headers as long as a client likes and accepts
+connections until the file handles run out. :class:`ConnectionGate` is an
+``asyncio.Protocol`` in front of uvicorn's (uvicorn's ``http`` option takes any protocol
+factory; nothing is subclassed): a connection waiting for a request (new, or kept alive after
+a response, as the request guard reports) must complete its headers within
+``header_timeout`` s (absolute: trickling does not extend it); beyond ``max_connections``
+(lowered under a small file limit, :func:`connection_cap`) a new connection closes the one
+that has waited longest, never a request being served or a WebSocket, else itself. Header
+size, keep-alive, backlog and ``limit_concurrency`` are uvicorn's own options. What clients
+can make a server log is throttled on the loggers: one line per kind per second.
 """
 
 from __future__ import annotations
@@ -89,6 +77,8 @@ class _Gated(asyncio.Protocol):
             self.gate.wait(self)
 
     def data_received(self, data: bytes) -> None:
+        if not self.admitted:
+            return
         if self.deadline is not None:  # waiting for a request head
             head = self.tail + data
             if b"\r\n\r\n" in head or b"\n\n" in head:

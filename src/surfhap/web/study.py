@@ -1,22 +1,13 @@
-"""The study page router: the participant's page of ``surfhap study run`` (static HTML/JS).
+"""The study page router: the participant's page of ``surfhap study run`` (docs/lab.md).
 
-The page polls ``GET /api/state`` and shows the current trial: its prompt, one button per
-stimulus (selecting one tells the server which stimulus to play under the finger), a touch pad,
-and the answer buttons (or the bump/hole toggles of a scene trial); between blocks a rest
-screen; at the end a thank-you screen. Answers go to ``POST /api/answer`` with the response
-time measured in the page (from showing the trial to the click) and are logged by the
-:class:`~surfhap.lab.session.SessionRunner` before the reply is sent.
-
-Live stimuli (optional): with a :class:`~surfhap.lab.stimuli.StimulusPlayer`, pointer events
-on the pad stream over ``/ws`` (the touch page's messages and checks,
-:func:`surfhap.web.touch.pointer_messages`) into the live engine, and selecting a stimulus
-swaps the engine's renderer to that stimulus (built outside the audio callback). Stimuli that
-cannot be rendered on this display mute the output.
-
-Security (docs/lab.md, "Threat model: study page"): the app's request guard
-(:mod:`surfhap.web.guard`, the same as the touch page's) and pydantic bodies
-(:class:`~surfhap.web.messages.StimulusRequest`, :class:`~surfhap.web.messages.AnswerRequest`:
-finite, bounded numbers; invalid input is a 422 with a short reason, never a traceback).
+The page polls ``GET /api/state``, shows the current trial (prompt, one button per stimulus,
+a touch pad, the answers; a rest screen between blocks), asks for a stimulus with ``POST
+/api/stimulus`` and answers with ``POST /api/answer`` (response time measured in the page),
+logged by the :class:`~surfhap.lab.session.SessionRunner` before the reply. With a
+:class:`~surfhap.lab.stimuli.StimulusPlayer`, the pad's pointer events (``/ws``, the touch
+page's messages and checks) drive the live engine and a stimulus swaps its renderer.
+Request bodies are pydantic models (:mod:`surfhap.web.messages`); the app's request guard
+does the rest.
 """
 
 # no "from __future__ import annotations": FastAPI reads the endpoints' annotations at run time

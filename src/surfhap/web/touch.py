@@ -1,17 +1,10 @@
 """The touch page router: the page, its static files, ``/api/info``, ``/api/status`` and the
-``/ws`` stream of pointer events into the engine with the live trace back. The same router
-serves the force-feedback page (``ff run --touch web``: the engine is the force loop's
-adapter, :mod:`surfhap.web.ff`). The pointer stream's checks (:func:`pointer_messages`) are
-shared with the study page's pad.
-
-Security (docs/live.md): every request passes the app's request guard
-(:mod:`surfhap.web.guard`: Host, Origin, body cap); every message is size-checked
-(``max_message_bytes``, also enforced by uvicorn), rate-limited per client (token bucket) and
-validated by the pydantic models of :mod:`surfhap.web.messages`; rejected messages are
-logged (throttled) and counted, and a client that keeps misbehaving is disconnected. Each
-client has its own receive loop and its own sender with a send timeout; the engine is fed
-through a non-blocking link (:mod:`surfhap.web.link`, :mod:`surfhap.web.process`), so no
-client can stall the engine or another client; ``max_clients`` bounds the WebSocket clients.
+``/ws`` stream of pointer events into the engine with the live trace back (also the
+force-feedback page, :mod:`surfhap.web.ff`). :func:`pointer_messages` (size, per-client token
+bucket, pydantic validation, rejections counted and logged, disconnect after ``max_rejects``)
+also checks the study page's pad. Each client has its own receive loop and its own sender with
+a send timeout; the engine is fed through a non-blocking link (:mod:`surfhap.web.link`,
+:mod:`surfhap.web.process`), so no client stalls the engine or another client. docs/live.md.
 """
 
 # no "from __future__ import annotations": FastAPI reads the endpoints' annotations at run time
