@@ -19,7 +19,6 @@ import math
 import multiprocessing as mp
 import os
 import threading
-import time
 from collections import deque
 from typing import Callable
 
@@ -177,8 +176,8 @@ def describe(session) -> dict:
 
 
 def _web_main(cfg, about: dict, touch_out, trace_in, log_level: int) -> None:
-    """Entry point of the web process: bind, report the port (or why not) on ``touch_out``,
-    then serve until the engine process ends."""
+    """Entry point of the web process: listen, report the port (or why not) on ``touch_out``
+    (connections wait in the kernel from then on), then serve until the engine process ends."""
     logging.basicConfig(level=log_level, format="%(asctime)s %(levelname)s %(name)s[web]: %(message)s")
     import uvicorn
 
@@ -188,7 +187,7 @@ def _web_main(cfg, about: dict, touch_out, trace_in, log_level: int) -> None:
 
     install_rate_limit()  # one line per kind per second, whatever a client provokes
     try:
-        sock = listen(cfg.host, cfg.port)
+        sock = listen(cfg.host, cfg.port, cfg.backlog)
     except OSError as exc:
         touch_out.send(("error", f"cannot listen on {cfg.host}:{cfg.port} ({exc.strerror or exc})"))
         return
@@ -215,8 +214,6 @@ class WebProcess:
         return f"http://[{h}]:{self.port}" if ":" in h else f"http://{h}:{self.port}"
 
     def start(self, timeout: float = 30.0) -> "WebProcess":
-        import urllib.request
-
         from surfhap.errors import ConfigError
 
         ctx = mp.get_context("spawn")
@@ -237,13 +234,6 @@ class WebProcess:
             raise ConfigError(msg[1], source="--port")
         self.port = msg[1]
         self.end = EngineEnd(self.session, touch_in, trace_out, self.cfg.trace_hz, self.cfg.trace_points).start()
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:  # until it answers HTTP (bounded)
-            try:
-                urllib.request.urlopen(f"{self.url}/api/status", timeout=1).read()
-                break
-            except OSError:
-                time.sleep(0.05)
         return self
 
     def stop(self) -> None:

@@ -229,12 +229,14 @@ def uvicorn_config(app, cfg: ServerConfig):
     return config, gate
 
 
-def listen(host: str, port: int) -> socket.socket:
-    """A bound TCP socket for the server (port 0: any free port)."""
+def listen(host: str, port: int, backlog: int = 64) -> socket.socket:
+    """A listening TCP socket for the server (port 0: any free port): connections queue in
+    the kernel until the server accepts them."""
     sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         sock.bind((host, port))
+        sock.listen(backlog)
     except OSError:
         sock.close()
         raise
@@ -249,7 +251,7 @@ class ServerThread:
         import uvicorn
 
         cfg = config or ServerConfig(host=host, port=port)
-        self._sock = listen(host, port)
+        self._sock = listen(host, port, cfg.backlog)
         self.host, self.port = host, self._sock.getsockname()[1]
         self.app = app
         uconfig, self.gate = uvicorn_config(app, cfg)
