@@ -94,8 +94,9 @@ async def _clients(url: str, origin: str, n_clients: int, rate: float, seconds: 
             ph = (i / rate) * 0.5 + c.k * 0.013
             x = 0.1 + 0.8 * abs((ph % 2.0) - 1.0)
             c.sent_at[i] = time.perf_counter()
-            await c.ws.send(json.dumps({"type": "move", "seq": i, "t": (c.sent_at[i] - t0) * 1e3, "x": x,
-                                        "y": 0.2 + 0.6 * (c.k % 10) / 10, "p": 0.5}))
+            # formatted, not json.dumps'd: the generator shares the machine with the server
+            await c.ws.send(f'{{"type":"move","seq":{i},"t":{(c.sent_at[i] - t0) * 1e3:.3f},"x":{x:.6f},'
+                            f'"y":{0.2 + 0.6 * (c.k % 10) / 10:.3f},"p":0.5}}')
     for c in clients:
         await c.ws.send(json.dumps({"type": "up", "seq": n, "t": (time.perf_counter() - t0) * 1e3}))
     try:

@@ -225,13 +225,13 @@ class _GuardMiddleware:
 
         async def tracked_send(message):
             nonlocal started
-            started = started or message["type"] in ("http.response.start", "websocket.accept")
+            started = started or message["type"] == "http.response.start"
             await send(message)
             if g.gate is not None and message["type"] == "http.response.body" and not message.get("more_body"):
                 g.gate.response_done(scope.get("client"))
 
-        try:
-            await self.app(scope, receive, tracked_send)
+        try:  # a WebSocket's messages go straight through (nothing to track: the hot path)
+            await self.app(scope, receive, tracked_send if kind == "http" else send)
         except Exception as exc:  # noqa: BLE001 - one line per failure, never a traceback per request
             where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
             at = f" at {where.filename.rsplit('/', 1)[-1]}:{where.lineno}" if where else ""

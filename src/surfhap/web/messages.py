@@ -165,6 +165,7 @@ def trace_message(ack: int, ack_t: float, received: int, rejected: int, *parts: 
     """One server -> page message (see module doc): the client's counters joined with
     ``parts``, objects encoded by :func:`encode`: the trace frame (of
     :meth:`surfhap.live.frames.FrameBuilder.frame`) and, when due, ``{"status": ...}``."""
-    head = encode({"type": "trace", "ack": int(ack), "ack_t": float(ack_t), "received": int(received),
-                   "rejected": int(rejected)})
+    # the head is formatted, not json.dumps'd: this runs for every client and frame
+    head = (f'{{"type":"trace","ack":{int(ack)},"ack_t":{encode(float(ack_t))},"received":{int(received)},'
+            f'"rejected":{int(rejected)}}}')
     return join_objects(head, *parts)
