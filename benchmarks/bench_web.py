@@ -17,6 +17,8 @@ messages each. Target: the models at least 2x faster than the old checks (ratio 
 """
 
 import json
+import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -87,6 +89,16 @@ def rss_bytes(pid: str = "self") -> int:
     return 0
 
 
+def cpu_seconds(pid: str = "self") -> float:
+    """User + system CPU time of process ``pid`` so far (s), from /proc (0 where unavailable)."""
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            fields = fh.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return 0.0
+
+
 def bench_clients(seconds: float, n_clients: int = 50, rate: float = 120.0) -> None:
     import urllib.request
 
@@ -112,12 +124,20 @@ def bench_clients(seconds: float, n_clients: int = 50, rate: float = 120.0) -> N
 
     threading.Thread(target=sample_rss, daemon=True).start()
     url = f"ws://127.0.0.1:{web.port}/ws"
+    cpu0 = {name: cpu_seconds(pid) for name, pid in pids.items()}
+    gen0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
     try:
         proc = subprocess.run([sys.executable, "-m", "surfhap.live.loadtest", url, str(n_clients), str(rate),
                                str(seconds), "1"], capture_output=True, text=True, timeout=3 * seconds + 120)
     except subprocess.TimeoutExpired:  # the generator itself could not keep up (a starved machine)
         proc = subprocess.CompletedProcess([], 1, "", "the load generator did not finish its events in time")
     done.set()
+    wall = time.perf_counter() - t0
+    cpu = {name: round((cpu_seconds(pid) - cpu0[name]) / wall, 3) for name, pid in pids.items()}
+    web_us_per_event = (cpu_seconds(pids["web"]) - cpu0["web"]) / (n_clients * int(rate * seconds)) * 1e6
+    gen1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu["generator"] = round((gen1.ru_utime + gen1.ru_stime - gen0.ru_utime - gen0.ru_stime) / wall, 3)
     try:
         server = json.loads(urllib.request.urlopen(f"{web.url}/api/status", timeout=5).read()).get("server", {})
     except OSError:
@@ -137,7 +157,9 @@ def bench_clients(seconds: float, n_clients: int = 50, rate: float = 120.0) -> N
                               "ack_lag_max_s": round(res["lag_max"], 4), "max_frame_gap_s": round(res["max_frame_gap"], 4),
                               "rss_mb": {k: round(v / 2**20, 1) for k, v in rss.items()},
                               "rss_growth_worst": round(growth, 4), "safety_violations": audit["violations"],
-                              "engine_underruns": st["counters"]["underruns"], "server": server},
+                              "engine_underruns": st["counters"]["underruns"], "cpu_cores_used": cpu,
+                              "web_cpu_us_per_event": round(web_us_per_event, 1),
+                              "load_avg": os.getloadavg()[0], "server": server},
            0.25 / max(res["lag_p99_max"], 1e-9) if ok else 0.0,
            "all events acked, worst client's p99 ack lag <= 0.25 s, RSS growth < 10 % (engine and web process), "
            "0 safety violations (ratio = 0.25 / worst p99 lag, 0 if any condition fails)", ok)

@@ -156,6 +156,29 @@ def test_flooding_client_is_rate_limited_and_disconnected(served):
     assert session.engine.counters["touches"] < 3000
 
 
+def test_a_backlog_read_late_is_not_a_flood(served):
+    """A server that fell behind (starved of CPU) reads a page's messages in one burst: 600
+    moves stamped at 120 Hz (5 s of the page's time) arriving at once. The rate limit (400/s,
+    burst 50 here) runs on the page's clock, so all are taken; before, on the server's
+    clock, the client was rate-limited and disconnected."""
+    _, srv = served
+
+    async def backlog():
+        async with websockets.connect(ws_url(srv), origin=f"http://127.0.0.1:{srv.port}") as ws:
+            await ws.send(json.dumps({"type": "hello", "w": 800, "h": 600}))
+            for i in range(600):
+                await ws.send(json.dumps({"type": "move", "seq": i, "t": 1000.0 + i * 1000.0 / 120, "x": 0.5,
+                                          "y": 0.5, "p": 0.5}))
+            end = time.monotonic() + PATIENCE
+            while time.monotonic() < end:
+                m = json.loads(await asyncio.wait_for(ws.recv(), PATIENCE))
+                if m["ack"] == 599:
+                    return m
+
+    m = asyncio.run(backlog())
+    assert m["ack"] == 599 and m["received"] == 600 and m["rejected"] == 0
+
+
 def test_fifty_clients_and_a_hostile_one_do_not_stall_each_other(tmp_path):
     """The benchmark's 50-client run, shortened: page server in its own process, clients in
     a third one, one of them flooding garbage and never reading its trace."""

@@ -129,7 +129,7 @@ def study_router(page: StudyPage, cfg: ServerConfig):
         # host and origin: checked by the request guard before the handshake gets here
         await sock.accept()
         peer = f"ws {sock.client.host}:{sock.client.port}" if sock.client else "ws ?"
-        client = Client(id(sock) & 0x7FFF, peer, RateLimiter(cfg.max_rate, cfg.burst), height_px=400.0)
+        client = Client(id(sock) & 0x7FFF, peer, RateLimiter(cfg.max_rate, cfg.burst, t=0.0), height_px=400.0)
         live = player is not None
 
         def hello(msg) -> None:

@@ -10,12 +10,13 @@ a send timeout; the engine is fed through a non-blocking link (:mod:`surfhap.web
 # no "from __future__ import annotations": FastAPI reads the endpoints' annotations at run time
 import asyncio
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 
 from pydantic import ValidationError
 
 from surfhap.live.config import ServerConfig
+from surfhap.live.clock import now
 from surfhap.live.sources import RateLimiter, RejectLog
 from surfhap.web.messages import encode, page_to_surface, parse_message, reason, trace_message
 
@@ -24,15 +25,19 @@ __all__ = ["Client", "Hub", "pointer_messages", "touch_router", "static_files", 
 log = logging.getLogger("surfhap.web")
 
 PAGE_CSP = "default-src 'self'; connect-src 'self' ws: wss:; img-src 'self' data:"
+# how far a page's clock may run ahead of the server's for its rate limit (s): the backlog of a
+# server that fell this far behind is still read as the page sent it, not as a flood
+CATCH_UP_S = 10.0
 
 
 @dataclass
 class Client:
-    """One WebSocket client: its rate limiter, page size (CSS px) and counters."""
+    """One WebSocket client: its rate limiter (on :meth:`clock`), page size (CSS px) and
+    counters."""
 
     id: int
     peer: str
-    limiter: RateLimiter
+    limiter: RateLimiter  # started at t=0 on the client's clock
     width_px: float = 800.0
     height_px: float = 600.0
     last_seq: int = -1
@@ -41,12 +46,32 @@ class Client:
     rejected: int = 0
     slow: int = 0
     down: bool = False
+    server0: float = field(default_factory=now)  # the server's clock at connect (s)
+    page0: float | None = None  # the page's clock (s) at connect, from its first stamp
+    elapsed: float = 0.0  # the client's clock (s since connect)
+
+    def clock(self, t_page: float | None) -> float:
+        """The client's time for its rate limit (s since connect): its page's stamps
+        (``t_page``, s), never more than :data:`CATCH_UP_S` ahead of the server's clock, never
+        backwards; the server's clock for a message without a stamp. A backlog that a starved
+        server reads late keeps the rate at which the page sent it; a page that stamps faster
+        than time passes gains at most ``CATCH_UP_S`` of allowance, once."""
+        since = now() - self.server0
+        if t_page is None:
+            t = since
+        else:
+            if self.page0 is None:
+                self.page0 = t_page - since
+            t = min(t_page - self.page0, since + CATCH_UP_S)
+        self.elapsed = max(self.elapsed, t)
+        return self.elapsed
 
 
 async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: RejectLog):
     """The validated messages (:mod:`surfhap.web.messages`) of the WebSocket ``ws`` until
-    it closes. A binary, oversized, too frequent or invalid message is counted on ``client``
-    and logged (throttled) through ``rejects``; after ``cfg.max_rejects`` the socket is closed."""
+    it closes. A binary, oversized, invalid or too frequent message (``client.limiter`` on
+    :meth:`Client.clock`) is counted on ``client`` and logged (throttled) through ``rejects``;
+    after ``cfg.max_rejects`` the socket is closed."""
     from starlette.websockets import WebSocketDisconnect
 
     try:
@@ -59,14 +84,16 @@ async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: Rejec
                 why = "binary frames are not accepted"
             elif len(text) > cfg.max_message_bytes:
                 why = f"message of {len(text)} bytes (limit {cfg.max_message_bytes})"
-            elif not client.limiter.allow():
-                why = "rate limit exceeded"
             else:
                 try:
-                    yield parse_message(text)
-                    continue
+                    message = parse_message(text)
                 except ValidationError as exc:
-                    why = reason(exc.errors(include_url=False, include_input=False))
+                    message, why = None, reason(exc.errors(include_url=False, include_input=False))
+                if message is not None:
+                    if client.limiter.allow(client.clock(None if message.type == "hello" else message.t * 1e-3)):
+                        yield message
+                        continue
+                    why = "rate limit exceeded"
             client.rejected += 1
             rejects.reject(client.peer, why)
             if client.rejected > cfg.max_rejects:
@@ -226,7 +253,7 @@ def touch_router(link, hub: Hub, cfg: ServerConfig):
             await ws.close(code=1013)
             return
         await ws.accept()
-        client = Client(hub.next_id, peer, RateLimiter(cfg.max_rate, cfg.burst))
+        client = Client(hub.next_id, peer, RateLimiter(cfg.max_rate, cfg.burst, t=0.0))
         hub.next_id += 1
         hub.clients[client.id] = client
         task = asyncio.get_running_loop().create_task(sender(ws, client))
