@@ -15,7 +15,7 @@ from surfhap.ff.params import GRAVITY
 from surfhap.ff.scene import load_scene
 from surfhap.live.ff_devices import SimDeviceBackend
 from surfhap.live.ff_loop import FFLoop
-from surfhap.live.ff_web import build_ff_session
+from surfhap.web.ff import build_ff_session
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.sim.ff_device import SimDevice
 
@@ -46,7 +46,7 @@ def test_texture_page_frames_carry_no_ff_data():
 
 def test_ff_stream_carries_the_loops_position_and_force():
     from surfhap.live.config import ServerConfig
-    from surfhap.live.webproc import WebProcess
+    from surfhap.web.process import WebProcess
 
     sc, eng, loop, session, log = _ff_session()
     easy = sc.buttons[0]

@@ -11,22 +11,22 @@ from surfhap.ff import FALCON, FFEngine
 from surfhap.ff.scene import load_scene
 from surfhap.live.ff_devices import SimDeviceBackend
 from surfhap.live.ff_loop import FFLoop
-from surfhap.live.ff_web import build_ff_session
+from surfhap.web.ff import build_ff_session
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.sim.ff_device import SimDevice
 
 
 def test_page_touches_press_the_button_under_them():
-    from surfhap.live.app import create_app
+    from surfhap.web import create_app
     from surfhap.live.config import ServerConfig
-    from surfhap.live.serverthread import ServerThread
+    from surfhap.web.server import ServerThread
 
     sc = load_scene("buttons")
     eng = FFEngine(sc.effects, FALCON, TouchPredictor(), touch_latency=0.0)
     loop = FFLoop(eng, SimDeviceBackend(SimDevice(gain=FALCON.gain), FALCON.gain))
     session = build_ff_session(sc, loop, max(FALCON.f_max))
     loop.feedback = lambda t, px, py, pz, dx, dy, fx, fy, fz: session.engine.record(t, px, py, pz, fx, fy, fz)
-    srv = ServerThread(create_app(session, ServerConfig()), port=0).start()
+    srv = ServerThread(create_app(ServerConfig(), touch=session), port=0).start()
     session.start()
     seen = {}
 

@@ -22,6 +22,16 @@ PATIENCE_MS = 60_000  # bound of the waits on the page (generous: a loaded 2-cor
 IN_CI = os.environ.get("CI", "").lower() == "true"
 
 
+def study_server(runner, player=None, markers=None):
+    """The study page of ``runner`` served on 127.0.0.1 (any free port), as 'study run' serves it."""
+    from surfhap.live.config import ServerConfig
+    from surfhap.web import create_app
+    from surfhap.web.server import ServerThread
+    from surfhap.web.study import StudyPage
+
+    return ServerThread(create_app(ServerConfig(port=0), study=StudyPage(runner, player, markers))).start()
+
+
 def _need(what: str, ok: bool):
     if not ok:
         if IN_CI:
@@ -39,7 +49,7 @@ def _need_browser():
 
 def test_short_study_answered_in_chromium(tmp_path):
     _need_browser()
-    from surfhap.lab.page import PageServer, StimulusPlayer
+    from surfhap.lab.stimuli import StimulusPlayer
     from surfhap.lab.session import SessionRunner
     from surfhap.live.session import build_session
 
@@ -50,7 +60,7 @@ def test_short_study_answered_in_chromium(tmp_path):
     player = StimulusPlayer(session, gain=1.0, v_max=runner.v_max)
     player.mute()
     session.start()
-    server = PageServer(runner, port=0, player=player).start()
+    server = study_server(runner, player=player)
     eng = session.engine
     clicked = []
     try:
@@ -102,13 +112,12 @@ def test_a_late_poll_response_does_not_bring_back_an_answered_trial(tmp_path):
     would also restart the response-time clock. The test holds one poll's response, answers,
     then releases the held (stale) response."""
     _need_browser()
-    from surfhap.lab.page import PageServer
     from surfhap.lab.session import SessionRunner
 
     study = identification_study(tmp_path, name="page test")
     runner = SessionRunner(study, "P01", mode="page")
     first, second = runner.plan.trials[0], runner.plan.trials[1]
-    server = PageServer(runner, port=0).start()
+    server = study_server(runner)
     held = []
     try:
         with chromium_page(server.url + "/", 900, 800, PATIENCE_MS) as page:
@@ -155,7 +164,6 @@ def test_lsl_markers_of_stimulus_touch_and_answer(tmp_path):
 
     from websockets.sync.client import connect
 
-    from surfhap.lab.page import PageServer
     from surfhap.lab.session import SessionRunner
 
     def post(url, body):
@@ -166,7 +174,7 @@ def test_lsl_markers_of_stimulus_touch_and_answer(tmp_path):
     study = identification_study(tmp_path, name="page test")
     runner = SessionRunner(study, "P01", mode="page")
     markers = open_markers(True, "P01", "page test")
-    server = PageServer(runner, port=0, markers=markers).start()
+    server = study_server(runner, markers=markers)
     try:
         streams = pylsl.resolve_byprop("name", "surfhap-P01", timeout=10)
         if not streams:  # LSL's own discovery (UDP multicast/broadcast) is blocked on this host

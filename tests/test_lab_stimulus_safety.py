@@ -4,7 +4,7 @@ sample a study stimulus produces stays within the session's limit (hypothesis)."
 import numpy as np
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from surfhap.lab.page import StimulusPlayer
+from surfhap.lab.stimuli import StimulusPlayer
 from surfhap.runtime.commands import SetGain
 
 
@@ -61,7 +61,7 @@ def test_real_samples_and_visual_only_scenes_mute():
 
 
 def test_scene_stimulus_renders_the_scene_shape_and_picture():
-    from surfhap.lab.page import scene_picture
+    from surfhap.lab.stimuli import scene_picture
 
     player = StimulusPlayer(_Session(), gain=1.0, v_max=200.0)
     assert player.select({"scene": "frustum-2B2H-directional", "haptic": True}) != "muted"

@@ -30,14 +30,14 @@ def _need(what: str, ok: bool):
 
 def test_drag_on_page_drives_engine_and_draws_trace():
     _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
-    from surfhap.live.app import create_app
+    from surfhap.web import create_app
     from surfhap.live.config import ServerConfig
-    from surfhap.live.serverthread import ServerThread
+    from surfhap.web.server import ServerThread
     from surfhap.live.session import build_session
 
     session = build_session("denim", "sim")
     session.start()
-    srv = ServerThread(create_app(session, ServerConfig(port=0)), port=0).start()
+    srv = ServerThread(create_app(ServerConfig(port=0), touch=session), port=0).start()
     eng = session.engine
     try:
         with chromium_page(srv.url + "/", 900, 700, PATIENCE_MS) as page:
@@ -110,11 +110,11 @@ def test_ff_page_panel_shows_device_position_force_and_button_press():
     from surfhap.ff.scene import load_scene
     from surfhap.live.ff_devices import SimDeviceBackend
     from surfhap.live.ff_loop import FFLoop
-    from surfhap.live.ff_web import build_ff_session
+    from surfhap.web.ff import build_ff_session
     from surfhap.render.kinematics import TouchPredictor
-    from surfhap.live.app import create_app
+    from surfhap.web import create_app
     from surfhap.live.config import ServerConfig
-    from surfhap.live.serverthread import ServerThread
+    from surfhap.web.server import ServerThread
     from surfhap.sim.ff_device import SimDevice
 
     sc = load_scene("buttons")
@@ -122,7 +122,7 @@ def test_ff_page_panel_shows_device_position_force_and_button_press():
     loop = FFLoop(eng, SimDeviceBackend(SimDevice(gain=FALCON.gain), FALCON.gain))
     session = build_ff_session(sc, loop, max(FALCON.f_max))
     loop.feedback = lambda t, px, py, pz, dx, dy, fx, fy, fz: session.engine.record(t, px, py, pz, fx, fy, fz)
-    srv = ServerThread(create_app(session, ServerConfig(port=0)), port=0).start()
+    srv = ServerThread(create_app(ServerConfig(port=0), touch=session), port=0).start()
     loop.start()
     w, h = sc.size
     easy = sc.buttons[0]

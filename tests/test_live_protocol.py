@@ -1,4 +1,4 @@
-"""The page's message models (pydantic, surfhap.live.protocol) against the hand-written
+"""The page's message models (pydantic, surfhap.web.messages) against the hand-written
 range rule they replace (surfhap.live.sources.finite_in_range), and the trace encoding."""
 
 from __future__ import annotations
@@ -9,9 +9,20 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from surfhap.live.protocol import (CSS_PX_M, Hello, Move, Up, encode, join_objects, page_to_surface, parse_message,
-                                   trace_message)
+from pydantic import ValidationError
+
 from surfhap.live.sources import TouchSpace, finite_in_range
+from surfhap.web.messages import (CSS_PX_M, Hello, Move, Up, encode, join_objects, page_to_surface, reason,
+                                  trace_message)
+from surfhap.web.messages import parse_message as _parse_or_raise
+
+
+def parse_message(text):
+    """The message, or the one-line reason the page server logs (any other exception fails)."""
+    try:
+        return _parse_or_raise(text)
+    except ValidationError as exc:
+        return reason(exc.errors(include_url=False, include_input=False))
 
 HUGE = "1" + "0" * 400
 VALID = {"hello": {"type": "hello", "w": 800, "h": 600},

@@ -8,7 +8,6 @@ touch sample that is stale when it reaches the engine stays stale.
 
 from __future__ import annotations
 
-import socket
 import time
 
 import numpy as np
@@ -125,29 +124,32 @@ def test_touches_queued_during_an_engine_stall_stay_stale():
     assert a["violations"] == 0 and np.abs(d[-20:]).max() > 0
 
 
-def _send_touch(sock, port, token, t_arrival, load=LOAD):
-    from surfhap.live.webproc import _TOUCH
+def _send_touch(conn, t_arrival, load=LOAD):
+    # one message of the web process's link: source, t_event, t_arrival, x, y, load
+    conn.send_bytes(np.array([[7, np.nan, t_arrival, 0.05, 0.03, load]]).tobytes())
 
-    sock.sendto(_TOUCH.pack(token, 7, float("nan"), t_arrival, 0.05, 0.03, load), ("127.0.0.1", port))
 
-
-def test_touch_bridge_keeps_stale_arrival_stamps():
-    # web process -> engine process: datagrams stamped by the web process 2.7 s ago (the
+def test_process_link_keeps_stale_arrival_stamps():
+    # web process -> engine process: samples stamped by the web process 2.7 s ago (the
     # engine process was stopped meanwhile) must not be re-stamped as fresh
-    from surfhap.live.webproc import TouchBridge
+    import multiprocessing as mp
+
+    from surfhap.live.backends.sim import SimBackend
+    from surfhap.web.process import EngineEnd
 
     e = engine(20000, 0.001)
-    bridge = TouchBridge(e)
-    bridge.start()
-    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    session = type("Session", (), {"engine": e, "backend": SimBackend()})()
+    touch_in, touch_out = mp.Pipe(duplex=False)
+    trace_in, trace_out = mp.Pipe(duplex=False)
+    end = EngineEnd(session, touch_in, trace_out, hz=1.0).start()
     try:
         t0 = clock_now()
         for k in range(20):
-            _send_touch(sock, bridge.port, bridge.token, t0 - 2.7 + 0.01 * k)
-        end = time.monotonic() + 30.0
-        while bridge.received < 20 and time.monotonic() < end:
+            _send_touch(touch_out, t0 - 2.7 + 0.01 * k)
+        deadline = time.monotonic() + 30.0
+        while end.received < 20 and time.monotonic() < deadline:
             time.sleep(0.01)
-        assert bridge.received == 20
+        assert end.received == 20
         buf = np.zeros((64, 6))
         n = e.touches.pop_into(buf)
         assert n == 20 and np.all(buf[:n, 2] < t0 - 2.5)  # stamps kept
@@ -158,12 +160,13 @@ def test_touch_bridge_keeps_stale_arrival_stamps():
         out = np.concatenate([e.render(e.block_frames, t + k * e.block_period).copy() for k in range(30)])
         assert not np.any(out)
         # a sample from the future is not trusted: stale (it can never refresh the watchdog)
-        _send_touch(sock, bridge.port, bridge.token, clock_now() + 100.0)
-        end = time.monotonic() + 30.0
-        while bridge.received < 21 and time.monotonic() < end:
+        _send_touch(touch_out, clock_now() + 100.0)
+        deadline = time.monotonic() + 30.0
+        while end.received < 21 and time.monotonic() < deadline:
             time.sleep(0.01)
         n = e.touches.pop_into(buf)
         assert n == 1 and buf[0, 2] == -np.inf
     finally:
-        sock.close()
-        bridge.stop()
+        touch_out.close()
+        end.stop()
+        trace_in.close()

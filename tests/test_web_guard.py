@@ -1,4 +1,4 @@
-"""One request guard for every web app (surfhap.live.webguard): the study page of 'study run'
+"""One request guard for every page of the web app (surfhap.web.guard): the study page of 'study run'
 and the touch page of 'serve' (which also serves 'ff run --touch web'), each on a real uvicorn
 server on loopback. Hostile requests: numbers too large for a float, a 300 MB body, cross-site
 POSTs, a flood of invalid requests. See docs/lab.md, "Threat model: study page"."""
@@ -23,11 +23,14 @@ HUGE_BODY = 300 * 1024 * 1024  # what a cross-site fetch can send
 @pytest.fixture
 def page(tmp_path):
     """The study page of one participant on 127.0.0.1 (any free port)."""
-    from surfhap.lab.page import PageServer
     from surfhap.lab.session import SessionRunner
+    from surfhap.live.config import ServerConfig
+    from surfhap.web import create_app
+    from surfhap.web.server import ServerThread
+    from surfhap.web.study import StudyPage
 
     runner = SessionRunner(identification_study(tmp_path, name="guard test"), "P01", mode="page")
-    server = PageServer(runner, port=0).start()
+    server = ServerThread(create_app(ServerConfig(port=0), study=StudyPage(runner))).start()
     yield runner, server
     server.stop()
     runner.close()
@@ -36,21 +39,21 @@ def page(tmp_path):
 @pytest.fixture
 def live_page():
     """'surfhap serve''s touch page (simulated output) on 127.0.0.1 (any free port)."""
-    from surfhap.live.app import create_app
+    from surfhap.web import create_app
     from surfhap.live.config import ServerConfig
-    from surfhap.live.serverthread import ServerThread
+    from surfhap.web.server import ServerThread
     from surfhap.live.session import build_session
 
     session = build_session("cork", "sim")
     session.start()
-    srv = ServerThread(create_app(session, ServerConfig(port=0)), port=0).start()
+    srv = ServerThread(create_app(ServerConfig(port=0), touch=session), port=0).start()
     yield srv
     srv.stop()
     session.stop()
 
 
 def _port(server) -> int:
-    return server.thread.port if hasattr(server, "thread") else server.port
+    return server.port
 
 
 def _request(port, method, path, body: bytes | None = None, headers=None):
@@ -91,7 +94,7 @@ def test_huge_numbers_are_a_422_with_one_short_log_line(page, caplog):
         assert len(recs) == (1 if k < 5 else 0), [r.getMessage()[:200] for r in recs]
         assert all(not r.exc_info and len(r.getMessage()) < 300 and "\n" not in r.getMessage() for r in recs)
     assert runner.n_done == 0  # nothing was logged as an answer
-    assert server.thread.app.state.guard.counts["invalid"] == len(bodies)
+    assert server.app.state.guard.counts["invalid"] == len(bodies)
     # a valid answer still goes through
     status, reply = _request(port, "POST", "/api/answer", _answer_body(t.id, t.correct, "800"))
     assert status == 200 and json.loads(reply)["accepted"] and runner.n_done == 1
@@ -168,7 +171,7 @@ def test_a_300_mb_body_is_refused_with_413_without_being_read(app, chunked, requ
     assert reply.startswith(b"HTTP/1.1 413"), reply[:200]
     # at most the cap was read; the rest of what got through sits in the sockets' buffers
     assert sent < 16 * 1024 * 1024, f"{sent / 1e6:.0f} MB consumed"
-    assert (server.thread.app if app == "study page" else server.app).state.guard.counts["body"] == 1
+    assert server.app.state.guard.counts["body"] == 1
     assert _request(_port(server), "GET", "/")[0] == 200  # and the page still answers
 
 
@@ -187,7 +190,7 @@ def test_cross_site_posts_to_every_state_changing_study_endpoint_are_403(page, c
             status, reply = _request(port, "POST", path, body, headers)
             assert status == 403, (path, headers, status, reply[:200])
     assert runner.n_done == 0 and runner.log.path.read_text().count('"trial_id"') == 0
-    assert server.thread.app.state.guard.counts["origin"] == len(calls) * len(cross)
+    assert server.app.state.guard.counts["origin"] == len(calls) * len(cross)
     assert not any(r.exc_info for r in _records(caplog))
     # the page's own origin (what the browser sends for the page's fetch) is served
     own = {"Origin": f"http://127.0.0.1:{port}", "Sec-Fetch-Site": "same-origin"}
@@ -211,23 +214,27 @@ def test_the_study_page_refuses_other_hosts_and_cross_site_websockets(page):
 
 
 def test_serve_page_refuses_cross_site_posts_with_the_same_guard(live_page):
-    from surfhap.lab.page import create_page_app
-    from surfhap.live.webguard import RequestGuard
+    from surfhap.live.config import ServerConfig
+    from surfhap.web import create_app
+    from surfhap.web.guard import RequestGuard
+    from surfhap.web.study import StudyPage
 
     port = live_page.port
     status, _ = _request(port, "POST", "/api/status", b"{}", {"Origin": "http://evil.example"})
     assert status == 403
     assert live_page.app.state.guard.counts["origin"] == 1
     assert type(live_page.app.state.guard) is RequestGuard
-    assert type(create_page_app(None).state.guard) is RequestGuard  # the study page's: the same class
+    study_app = create_app(ServerConfig(), study=StudyPage(None))
+    assert type(study_app.state.guard) is RequestGuard  # the study page's: the same class
 
 
 def test_a_wildcard_bound_study_page_takes_ip_literals_but_not_names(tmp_path):
-    from surfhap.lab.page import create_page_app
-    from surfhap.live.hosts import host_allow_list
-    from surfhap.live.webguard import RequestGuard
+    from surfhap.live.config import ServerConfig
+    from surfhap.web import create_app
+    from surfhap.web.guard import RequestGuard, host_allow_list
+    from surfhap.web.study import StudyPage
 
-    guard = create_page_app(None, allowed_hosts=host_allow_list("0.0.0.0"), ip_literals=True).state.guard
+    guard = create_app(ServerConfig(host="0.0.0.0"), study=StudyPage(None)).state.guard
     for host, ok in (("192.168.1.20:8780", True), ("[fe80::1]:8780", True), ("127.0.0.1", True),
                      ("localhost:8780", True), ("rebind.example:8780", False), ("192.168.1.20.evil.example", False),
                      ("", False)):
@@ -263,9 +270,9 @@ def test_a_flood_of_malformed_requests_leaves_a_few_log_lines(page, caplog, monk
 def test_an_exception_in_a_route_is_a_500_with_one_line_not_a_traceback(caplog):
     from fastapi import FastAPI
 
-    from surfhap.live.hosts import host_allow_list
-    from surfhap.live.serverthread import ServerThread
-    from surfhap.live.webguard import RequestGuard
+    from surfhap.web.guard import host_allow_list
+    from surfhap.web.server import ServerThread
+    from surfhap.web.guard import RequestGuard
 
     app = FastAPI()
     guard = RequestGuard(host_allow_list("127.0.0.1")).install(app)

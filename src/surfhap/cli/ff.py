@@ -301,7 +301,7 @@ class _WebSource:
     pressed button."""
 
     def __init__(self, scene, loop, dev, host: str, port: int):
-        from surfhap.live.ff_web import build_ff_session
+        from surfhap.web.ff import build_ff_session
 
         if not 1 <= port <= 65535:
             raise ConfigError("must be within 1-65535", source="--port")
@@ -321,7 +321,7 @@ class _WebSource:
 
     def start(self) -> None:
         from surfhap.live.config import ServerConfig
-        from surfhap.live.webproc import WebProcess
+        from surfhap.web.process import WebProcess
 
         self.server = WebProcess(self.session, ServerConfig(host=self.host, port=self.port)).start()
         stdout.print(f"touch page: http://{self.host}:{self.port}/")

@@ -146,11 +146,11 @@ def serve_cmd(
     Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
     (exit 130); exit 3 when the output backend failed."""
     require_modules("fastapi", "starlette", "uvicorn")  # the page; else: install surfhap[live]
-    from surfhap.live.app import create_app
     from surfhap.live.config import ServerConfig
-    from surfhap.live.serverthread import ServerThread
     from surfhap.live.session import backend_info, build_session
-    from surfhap.live.webproc import WebProcess
+    from surfhap.web import create_app
+    from surfhap.web.process import WebProcess
+    from surfhap.web.server import ServerThread
 
     _setup_logging(verbose)
     disp = resolve_display(display, config)
@@ -202,7 +202,7 @@ def serve_cmd(
             if web_process:
                 server = WebProcess(session, cfg).start()
             else:
-                server = ServerThread(create_app(session, cfg), host=host, port=port, config=cfg).start()
+                server = ServerThread(create_app(cfg, touch=session), host=host, port=port, config=cfg).start()
             shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
             shown = f"[{shown}]" if ":" in shown else shown
             stdout.print(f"surfhap live: {session.title} -> {output}; open http://{shown}:{port}/ (Ctrl-C stops)")

@@ -193,7 +193,11 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
     from rich.table import Table
 
     from surfhap.lab.markers import open_markers
-    from surfhap.lab.page import PageServer, StimulusPlayer
+    from surfhap.lab.stimuli import StimulusPlayer
+    from surfhap.live.config import ServerConfig
+    from surfhap.web import create_app
+    from surfhap.web.server import ServerThread
+    from surfhap.web.study import StudyPage
 
     markers = open_markers(lsl, runner.plan.id)
     if markers.enabled:
@@ -207,7 +211,8 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
         player.mute()
         session.start()
     try:
-        server = PageServer(runner, host=host, port=port, player=player, markers=markers).start()
+        page = StudyPage(runner, player, markers)
+        server = ServerThread(create_app(ServerConfig(host=host, port=port), study=page), host, port).start()
     except BaseException:
         if session is not None:
             session.stop()

@@ -1,7 +1,8 @@
-"""surfhap.live: the real-time engine, its backends, touch sources and the touch page.
+"""surfhap.live: the real-time engine, its backends and touch sources (the pages that feed
+it are the web app of :mod:`surfhap.web`).
 
-Importing this package is cheap: the backends (sounddevice, python-osc) and the web
-server (FastAPI, uvicorn) are imported only when used.
+Importing this package is cheap: the backends (sounddevice, python-osc) are imported only
+when used.
 """
 
 from surfhap.live.audit import audit_drive

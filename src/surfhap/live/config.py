@@ -1,4 +1,4 @@
-"""Settings of the touch page server (:mod:`surfhap.live.app`)."""
+"""Settings of the web app's server (:mod:`surfhap.web`)."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ class ServerConfig:
     trace_hz: float = 30.0
     send_timeout: float = 1.0
     trace_points: int = 64
-    # HTTP connection limits (surfhap.live.httpguard). The page loads with a handful of
+    # HTTP connection limits (surfhap.web.server). The page loads with a handful of
     # requests and one WebSocket per client; 256 connections is four per WebSocket client
     # slot (max_clients); fewer when the process may not open that many files.
     max_connections: int = 256

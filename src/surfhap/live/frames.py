@@ -2,8 +2,8 @@
 
 :class:`FrameBuilder` turns the engine's trace rows since its last call into a *frame*
 (a dict of short lists, at most ``points`` long) and the engine status into a dict; both
-are plain JSON-able values, sent in-process (:class:`surfhap.live.link.LocalLink`) or as
-datagrams to the web process (:mod:`surfhap.live.webproc`).
+are plain JSON-able values, sent in-process (:class:`surfhap.web.link.LocalLink`) or over
+a pipe to the web process (:mod:`surfhap.web.process`).
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ class FrameBuilder:
     def frame(self) -> dict:
         """The next frame (:func:`pack_rows`); at most half the trace ring per call. An engine
         with a ``frame_extra(rows)`` method (the force-feedback view,
-        :class:`surfhap.live.ff_web.FFWebEngine`) adds its part under ``"ff"``."""
+        :class:`surfhap.web.ff.FFWebEngine`) adds its part under ``"ff"``."""
         eng = self.engine
         rows, self._idx = eng.trace_since(self._idx, limit=eng.trace.shape[0] // 2)
         frame = pack_rows(rows, self.points)

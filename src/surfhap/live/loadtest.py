@@ -1,6 +1,6 @@
 """Load generator for the touch page: many WebSocket clients streaming pointer events.
 
-Used by ``benchmarks/bench_live.py`` (50 clients x 120 Hz x 60 s) and by the tests (a
+Used by ``benchmarks/bench_web.py`` (50 clients x 120 Hz x 60 s) and by the tests (a
 shorter run). Each client sends ``move`` events at ``rate`` Hz for ``seconds`` (bounded
 loops), reads its trace frames and measures the *ack lag*: the time from sending event
 ``seq`` to receiving the first frame that acknowledges it. ``bad_clients`` extra clients
@@ -29,64 +29,84 @@ _ACK = re.compile(r'"ack":\s*(-?\d+)')
 _REJ = re.compile(r'"rejected":\s*(\d+)')
 
 
-async def _client(url: str, origin: str, k: int, rate: float, seconds: float) -> dict:
+class _Client:
+    """One page client: sends ``move`` events when the shared ticker says so, reads its
+    trace frames and records the ack lag of every event."""
+
+    def __init__(self, k: int, n: int):
+        self.k, self.n = k, n
+        self.sent_at = np.full(n, np.nan)
+        self.lags: list[float] = []
+        self.gaps: list[float] = []
+        self.last_ack = -1
+        self.rejected = 0
+        self.ws = None
+
+    async def read(self) -> None:
+        t_prev = None
+        while self.last_ack < self.n - 1:
+            try:
+                raw = await asyncio.wait_for(self.ws.recv(), 10.0)
+            except (asyncio.TimeoutError, Exception):  # noqa: BLE001
+                return
+            t = time.perf_counter()
+            if t_prev is not None:
+                self.gaps.append(t - t_prev)
+            t_prev = t
+            # only the acknowledgement is needed: read it without parsing the whole frame
+            mo = _ACK.search(raw, 0, 200)
+            if mo is None:
+                continue
+            a = int(mo.group(1))
+            mr = _REJ.search(raw, 0, 300)
+            self.rejected = int(mr.group(1)) if mr else self.rejected
+            if a > self.last_ack:
+                for s in range(self.last_ack + 1, min(a, self.n - 1) + 1):
+                    if self.sent_at[s] == self.sent_at[s]:
+                        self.lags.append(t - self.sent_at[s])
+                self.last_ack = a
+
+    def result(self) -> dict:
+        lag = np.array(self.lags) if self.lags else np.array([np.inf])
+        return {"sent": self.n, "acked": self.last_ack + 1, "lag_p50": float(np.percentile(lag, 50)),
+                "lag_p99": float(np.percentile(lag, 99)), "lag_max": float(lag.max()),
+                "max_frame_gap": float(max(self.gaps)) if self.gaps else float("inf"), "rejected": self.rejected}
+
+
+async def _clients(url: str, origin: str, n_clients: int, rate: float, seconds: float) -> list[dict]:
+    """``n_clients`` clients, each sending ``move`` events at ``rate`` Hz for ``seconds``: one
+    ticker sends every client's event of a tick (one timer wake-up per tick for all clients,
+    so the generator itself stays light), each client reads its frames in its own task."""
     import websockets
 
     n = int(rate * seconds)
-    sent_at = np.full(n, np.nan)
-    lags: list[float] = []
-    gaps: list[float] = []
-    last_ack = -1
-    rejected = 0
-    async with websockets.connect(url, origin=origin, open_timeout=20, close_timeout=2) as ws:
-        await ws.send(json.dumps({"type": "hello", "w": 1000, "h": 700}))
-
-        async def reader():
-            nonlocal last_ack, rejected
-            t_prev = None
-            while last_ack < n - 1:
-                try:
-                    raw = await asyncio.wait_for(ws.recv(), 10.0)
-                except (asyncio.TimeoutError, Exception):  # noqa: BLE001
-                    return
-                t = time.perf_counter()
-                if t_prev is not None:
-                    gaps.append(t - t_prev)
-                t_prev = t
-                # only the acknowledgement is needed: read it without parsing the whole frame
-                mo = _ACK.search(raw, 0, 200)
-                if mo is None:
-                    continue
-                a = int(mo.group(1))
-                mr = _REJ.search(raw, 0, 300)
-                rejected = int(mr.group(1)) if mr else rejected
-                if a > last_ack:
-                    for s in range(last_ack + 1, a + 1):
-                        if s < n and sent_at[s] == sent_at[s]:
-                            lags.append(t - sent_at[s])
-                    last_ack = a
-
-        rd = asyncio.get_running_loop().create_task(reader())
-        t0 = time.perf_counter()
-        for i in range(n):
-            due = t0 + i / rate
-            delay = due - time.perf_counter()
-            if delay > 0:
-                await asyncio.sleep(delay)
-            ph = (i / rate) * 0.5 + k * 0.013
+    clients = [_Client(k, n) for k in range(n_clients)]
+    for c in clients:
+        c.ws = await websockets.connect(url, origin=origin, open_timeout=20, close_timeout=2)
+        await c.ws.send(json.dumps({"type": "hello", "w": 1000, "h": 700}))
+    readers = [asyncio.get_running_loop().create_task(c.read()) for c in clients]
+    t0 = time.perf_counter()
+    for i in range(n):
+        delay = t0 + i / rate - time.perf_counter()
+        if delay > 0:
+            await asyncio.sleep(delay)
+        for c in clients:
+            ph = (i / rate) * 0.5 + c.k * 0.013
             x = 0.1 + 0.8 * abs((ph % 2.0) - 1.0)
-            sent_at[i] = time.perf_counter()
-            await ws.send(json.dumps({"type": "move", "seq": i, "t": (sent_at[i] - t0) * 1e3, "x": x,
-                                      "y": 0.2 + 0.6 * (k % 10) / 10, "p": 0.5}))
-        await ws.send(json.dumps({"type": "up", "seq": n, "t": (time.perf_counter() - t0) * 1e3}))
-        try:
-            await asyncio.wait_for(rd, 5.0)
-        except asyncio.TimeoutError:
-            rd.cancel()
-    lag = np.array(lags) if lags else np.array([np.inf])
-    return {"sent": n, "acked": last_ack + 1, "lag_p50": float(np.percentile(lag, 50)),
-            "lag_p99": float(np.percentile(lag, 99)), "lag_max": float(lag.max()),
-            "max_frame_gap": float(max(gaps)) if gaps else float("inf"), "rejected": rejected}
+            c.sent_at[i] = time.perf_counter()
+            # formatted, not json.dumps'd: the generator shares the machine with the server
+            await c.ws.send(f'{{"type":"move","seq":{i},"t":{(c.sent_at[i] - t0) * 1e3:.3f},"x":{x:.6f},'
+                            f'"y":{0.2 + 0.6 * (c.k % 10) / 10:.3f},"p":0.5}}')
+    for c in clients:
+        await c.ws.send(json.dumps({"type": "up", "seq": n, "t": (time.perf_counter() - t0) * 1e3}))
+    try:
+        await asyncio.wait_for(asyncio.gather(*readers), 5.0)
+    except asyncio.TimeoutError:
+        for r in readers:
+            r.cancel()
+    for c in clients:
+        await c.ws.close()
+    return [c.result() for c in clients]
 
 
 async def _bad_client(url: str, origin: str, seconds: float) -> dict:
@@ -109,11 +129,9 @@ async def _bad_client(url: str, origin: str, seconds: float) -> dict:
 
 async def _run(url: str, n: int, rate: float, seconds: float, bad: int) -> dict:
     origin = url.replace("ws://", "http://").rsplit("/ws", 1)[0]
-    tasks = [_client(url, origin, k, rate, seconds) for k in range(n)]
-    tasks += [_bad_client(url, origin, seconds) for _ in range(bad)]
-    res = await asyncio.gather(*tasks)
-    good = res[:n]
-    return {"clients": good, "bad": res[n:]}
+    res = await asyncio.gather(_clients(url, origin, n, rate, seconds),
+                               *[_bad_client(url, origin, seconds) for _ in range(bad)])
+    return {"clients": res[0], "bad": list(res[1:])}
 
 
 def run_clients(url: str, n: int = 50, rate: float = 120.0, seconds: float = 60.0, bad: int = 0) -> dict:

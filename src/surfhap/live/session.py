@@ -62,7 +62,7 @@ class LiveSession:
         """``positions``: "physical" maps page positions to metres through CSS pixels (a
         material: the finger speed is real); "surface" maps the page onto the whole touch
         surface (a mesh: the shaded preview and the felt shape line up). ``ff``: the
-        force-feedback panel's description (:func:`surfhap.live.ff_web.ff_page_info`),
+        force-feedback panel's description (:func:`surfhap.web.ff.ff_page_info`),
         None for a texture or shape session."""
         self.ff = ff
         self.engine = engine

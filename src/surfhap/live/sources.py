@@ -6,7 +6,7 @@ simulated-clock replay is :class:`surfhap.runtime.sources.TrajectorySource`.
 
 * :class:`OscTouchSource` - OSC over UDP (python-osc parsing, our own bounded handler);
 * :class:`ReplaySource` - a trajectory file (CSV: time, x, y, load) replayed in real time;
-* the web page's WebSocket stream lives in :mod:`surfhap.live.app` and uses the same
+* the web page's WebSocket stream lives in :mod:`surfhap.web.touch` and uses the same
   :class:`RateLimiter`, :class:`RejectLog` and :class:`TouchSpace`.
 
 OSC address patterns (arguments are floats or ints; anything else is rejected):

@@ -1,4 +1,6 @@
-"""The page's WebSocket protocol: message models, their validation and the trace encoding.
+"""What the web pages send and receive: the pointer messages of the WebSocket (touch page,
+force-feedback page, study pad), the study page's request bodies, their validation and the
+trace encoding.
 
 Page -> server messages (JSON text, one per pointer event)::
 
@@ -6,11 +8,12 @@ Page -> server messages (JSON text, one per pointer event)::
     {"type": "move", "seq": n, "t": ms, "x": 0..1, "y": 0..1, "p": 0..1}
     {"type": "up", "seq": n, "t": ms}
 
-They are validated as one pydantic discriminated union on ``type`` (:func:`parse_message`),
-straight from the JSON text (parsed, never evaluated). Numbers must be JSON numbers (not
-strings or booleans) within their ranges; NaN, ±inf and numbers too large for a float
-(``1e400``, the integer ``10**400``) are invalid like any out-of-range value: the same
-rule as :func:`surfhap.live.sources.finite_in_range`. Unknown keys are ignored.
+They are one pydantic discriminated union on ``type`` (:func:`parse_message`), validated
+straight from the JSON text (never evaluated); the study page's POST bodies are
+:class:`StimulusRequest` and :class:`AnswerRequest` (FastAPI validates them). Numbers must be
+JSON numbers within their ranges; NaN, ±inf and numbers too large for a float (``1e400``,
+``10**400``) are invalid like any out-of-range value (the rule of
+:func:`surfhap.live.sources.finite_in_range`). Unknown keys are ignored.
 
 Server -> page: ``{"type": "trace", "ack": seq, "ack_t": ms, "received": n, "rejected": n,
 "t": [...], "v": [...], "f": [...], "target": [...], "speed": [...], "status": {...}}`` at
@@ -22,13 +25,13 @@ every few frames, the engine's counters and latency (``status``).
 from __future__ import annotations
 
 import json
-from typing import Annotated, Literal, Union
+from typing import Annotated, Literal, Optional, Union
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 
-__all__ = ["Hello", "Move", "Up", "ClientMessage", "parse_message", "parse_json", "number", "page_to_surface",
-           "trace_message", "encode", "join_objects", "json_default", "CSS_PX_M"]
+__all__ = ["Hello", "Move", "Up", "ClientMessage", "parse_message", "reason", "number", "page_to_surface",
+           "trace_message", "encode", "join_objects", "json_default", "CSS_PX_M", "StimulusRequest", "AnswerRequest"]
 
 CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres (CSS reference pixel: 1/96 inch)
 
@@ -80,25 +83,41 @@ ClientMessage = Annotated[Union[Hello, Move, Up], Field(discriminator="type")]
 _ADAPTER = TypeAdapter(ClientMessage)
 
 
-def parse_message(text: str | bytes) -> Hello | Move | Up | str:
-    """The validated message in ``text``, or a one-line reason why it is invalid (str).
-    Never raises for any input."""
-    return parse_json(_ADAPTER, text)
+def parse_message(text: str | bytes) -> Hello | Move | Up:
+    """The validated message in ``text`` (JSON); raises pydantic's ``ValidationError``
+    (:func:`reason` makes it one line) for anything else, also malformed JSON."""
+    return _ADAPTER.validate_json(text)
 
 
-def parse_json(adapter: TypeAdapter, text: str | bytes):
-    """``text`` (JSON) validated by ``adapter`` (a pydantic ``TypeAdapter`` of a model whose
-    numbers are :func:`number` fields), or a one-line reason why it is invalid (str, at most
-    ~120 characters, never the input itself). Never raises for any input: the one parser of
-    the WebSocket messages and of the study page's request bodies."""
-    try:
-        return adapter.validate_json(text)
-    except ValidationError as exc:
-        err = exc.errors(include_url=False, include_input=False)[0]
-        loc = ".".join(str(p) for p in err.get("loc", ()))[:40]
-        return f"{loc + ': ' if loc else ''}{err.get('msg', 'invalid')[:80]}"
-    except Exception as exc:  # noqa: BLE001 - whatever the input, a reason, never an exception
-        return f"malformed message ({type(exc).__name__})"
+def reason(errors: list) -> str:
+    """One line (at most ~120 characters, never the input itself) from pydantic's or
+    FastAPI's list of validation errors: where and what."""
+    err = errors[0] if errors else {}
+    loc = ".".join(str(p) for p in err.get("loc", ()) if p != "body")[:40]
+    return f"{loc + ': ' if loc else ''}{str(err.get('msg', 'invalid'))[:80]}"
+
+
+class _Request(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="ignore")
+
+
+TrialId = Annotated[str, Field(max_length=200, strict=True)]
+
+
+class StimulusRequest(_Request):
+    """Study page ``POST /api/stimulus``: play stimulus ``index`` of trial ``trial_id``."""
+
+    trial_id: TrialId
+    index: Annotated[int, Field(ge=0, le=1000, strict=True)]
+
+
+class AnswerRequest(_Request):
+    """Study page ``POST /api/answer``: ``answer`` to ``trial_id``, ``rt_ms`` measured in the
+    page (trial shown -> click, ms, at most a day)."""
+
+    trial_id: TrialId
+    answer: Annotated[str, Field(max_length=500, strict=True)]
+    rt_ms: Optional[number(0.0, 86_400_000.0)] = None
 
 
 def page_to_surface(msg: Move, width_px: float, height_px: float, space, surface: bool) -> tuple[float, float, float]:
@@ -146,6 +165,7 @@ def trace_message(ack: int, ack_t: float, received: int, rejected: int, *parts: 
     """One server -> page message (see module doc): the client's counters joined with
     ``parts``, objects encoded by :func:`encode`: the trace frame (of
     :meth:`surfhap.live.frames.FrameBuilder.frame`) and, when due, ``{"status": ...}``."""
-    head = encode({"type": "trace", "ack": int(ack), "ack_t": float(ack_t), "received": int(received),
-                   "rejected": int(rejected)})
+    # the head is formatted, not json.dumps'd: this runs for every client and frame
+    head = (f'{{"type":"trace","ack":{int(ack)},"ack_t":{encode(float(ack_t))},"received":{int(received)},'
+            f'"rejected":{int(rejected)}}}')
     return join_objects(head, *parts)

@@ -1,9 +1,10 @@
-"""The touch page as a touch source of the force-feedback loop (a minimal adapter).
+"""The force-feedback page: the touch page's router (:mod:`surfhap.web.touch`) over the
+force-feedback loop, through this minimal adapter.
 
-The page server (:mod:`surfhap.live.app`, :mod:`surfhap.live.webproc`) talks to an
-engine through ``push_touch``, ``warm_up``, ``status``, ``trace_since`` and a few rate
-attributes. :class:`FFWebEngine` offers those over an :class:`~surfhap.live.ff_loop.FFLoop`,
-so the page works unchanged: touches go into the haptic loop (page positions are mapped
+The page server (:mod:`surfhap.web.link`, :mod:`surfhap.web.process`) talks to an engine
+through ``push_touch``, ``warm_up``, ``status``, ``trace_since`` and a few rate attributes.
+:class:`FFWebEngine` offers those over an :class:`~surfhap.live.ff_loop.FFLoop`, so the page
+works unchanged: touches go into the haptic loop (page positions are mapped
 onto the whole scene, ``positions="surface"``), the scene's picture is the preview, and the
 trace shows the finger speed and, in the drive slot, the magnitude of the force sent to the
 device in N (the scale's maximum is the force limit), sampled by the 60 Hz feedback thread.

@@ -1,34 +1,23 @@
-"""One set of request guards for every web app surfhap serves: the touch page of ``serve``
-(also the page of ``ff run --touch web``, :mod:`surfhap.live.ff_web`) and the study page of
-``study run`` / ``study comfort`` (:mod:`surfhap.lab.page`). Both install a
-:class:`RequestGuard` (an ASGI middleware, :meth:`RequestGuard.install`); the connection
-limits below HTTP are :mod:`surfhap.live.httpguard`'s, which both servers also use.
+"""The request guard of the web app (:func:`surfhap.web.app.create_app`), a pure ASGI
+middleware (:meth:`RequestGuard.install`). Every request and WebSocket handshake passes:
 
-Every HTTP request and WebSocket handshake passes, in this order:
+* **Host** must name a loopback name, the bound address or an allowed name
+  (:func:`host_allow_list`, ``*.domain`` patterns; a wildcard bind widens nothing; with
+  ``ip_literals`` any IP literal too): no DNS rebinding. Refused: 400, WebSocket close 1008;
+* **Origin** (CSRF): a state-changing request (not GET/HEAD/OPTIONS) and every WebSocket must
+  come from the page's own origin (``http://`` + ``Host``) or an allowed one
+  (:class:`OriginRule`); no ``Origin`` (not a browser) only with ``allow_missing_origin`` and
+  no cross-site ``Sec-Fetch-Site``. Refused: 403, before the body is read;
+* **body cap**: the guard reads the body, at most ``max_body_bytes``; a larger declared
+  ``Content-Length`` or chunked body is refused (413, ``Connection: close``);
+* **errors**: an exception answers 500 with one log line (type, message, where), never a
+  traceback; FastAPI's validation error of a pydantic body (:mod:`surfhap.web.messages`) is a
+  422 with a one-line reason (:meth:`RequestGuard.invalid`);
+* **connection state**: a finished response tells the server's
+  :class:`~surfhap.web.server.ConnectionGate` that the connection waits again.
 
-* **Host** - the ``Host`` header must name a loopback name, the bound address or an allowed
-  name (:func:`surfhap.live.hosts.host_allow_list`; ``*.domain`` patterns), which keeps DNS
-  rebinding out; with ``ip_literals`` any IP address literal is accepted too (a rebinding
-  attack always carries the attacker's DNS name). Refused: 400 (HTTP), close 1008 (WebSocket);
-* **Origin** (CSRF) - a request that can change state (every method but GET, HEAD, OPTIONS)
-  and every WebSocket must come from the page's own origin (``http://`` + ``Host``) or an
-  allowed origin (:class:`surfhap.live.hosts.OriginRule`). A request without ``Origin`` is a
-  non-browser client (a browser sends ``Origin`` on every cross-site POST and WebSocket) and is
-  allowed only with ``allow_missing_origin``, and then only if no ``Sec-Fetch-Site`` header
-  says it is cross-site. Refused: 403, before the body is read;
-* **body cap** - a request body is read by the guard, at most ``max_body_bytes``: a declared
-  ``Content-Length`` above the cap is refused at once, a chunked body as soon as it passes the
-  cap (413, ``Connection: close``); the app then sees the whole (small) body. Nothing more than
-  the cap is ever buffered;
-* **errors** - an exception in the app answers 500 and logs one line (type, message, where),
-  never a traceback per request.
-
-Endpoints validate bodies with pydantic models (:func:`surfhap.live.protocol.parse_json`:
-finite, bounded numbers; ``1e400`` or a 400-digit integer is invalid like NaN) and report
-invalid input through :meth:`RequestGuard.invalid` (422). Everything refused or rejected is
-counted (:attr:`RequestGuard.counts`) and logged through one
-:class:`~surfhap.live.sources.RejectLog`: the first few lines, then every 100th, whatever a
-flood of requests provokes.
+Everything refused or rejected is counted (:attr:`RequestGuard.counts`) and logged through one
+:class:`~surfhap.live.sources.RejectLog` (the first few lines, then every 100th).
 """
 
 from __future__ import annotations
@@ -39,10 +28,10 @@ import logging
 import traceback
 from typing import Callable
 
-from surfhap.live.hosts import OriginRule
 from surfhap.live.sources import RejectLog
 
-__all__ = ["RequestGuard", "MAX_BODY_BYTES", "SAFE_METHODS"]
+__all__ = ["RequestGuard", "OriginRule", "host_allow_list", "MAX_BODY_BYTES", "SAFE_METHODS", "WILDCARD_HOSTS",
+           "LOOPBACK_NAMES"]
 
 log = logging.getLogger("surfhap.live")
 
@@ -50,6 +39,41 @@ MAX_BODY_BYTES = 16 * 1024  # the pages' requests are JSON objects of well under
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 _CROSS = ("cross-site", "same-site")  # Sec-Fetch-Site values of another site's page
 _REFUSALS = ("host", "origin", "body")  # counted as refused; "invalid" bodies and "error"s reached the app
+
+
+WILDCARD_HOSTS = ("0.0.0.0", "::", "")
+LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")  # as a Host header names them (IPv6 in brackets)
+
+
+def _as_host(name: str) -> str:
+    name = name.strip().lower().rstrip(".")
+    return f"[{name}]" if ":" in name and not name.startswith("[") else name
+
+
+def host_allow_list(bind_host: str, allowed_hosts=()) -> tuple[str, ...]:
+    """The names a ``Host`` header may carry (lower case, IPv6 literals in brackets): the
+    loopback names, the bound address (unless it is a wildcard) and ``allowed_hosts``
+    (exact names or ``*.domain`` patterns)."""
+    names = [*LOOPBACK_NAMES, *(_as_host(h) for h in allowed_hosts)]
+    if bind_host not in WILDCARD_HOSTS:
+        names.append(_as_host(bind_host))
+    return tuple(dict.fromkeys(n for n in names if n))
+
+
+class OriginRule:
+    """The ``Origin`` check of WebSockets and state-changing requests (see module doc)."""
+
+    def __init__(self, allowed_origins=(), allow_missing: bool = True):
+        self.allowed = {o.rstrip("/").lower() for o in allowed_origins}
+        self.allow_missing = bool(allow_missing)
+
+    def __call__(self, origin: str | None, host_header: str | None) -> bool:
+        if origin is None:
+            return self.allow_missing
+        o = origin.rstrip("/").lower()
+        if o in self.allowed:
+            return True
+        return bool(host_header) and o == "http://" + host_header.strip().lower()
 
 
 def _header(scope, name: bytes) -> str | None:
@@ -83,7 +107,7 @@ def _short(text: str | None, n: int = 80) -> str:
 class RequestGuard:
     """The rules and counters of one web app (see module doc).
 
-    allowed_hosts : names a ``Host`` header may carry (:func:`surfhap.live.hosts.host_allow_list`).
+    allowed_hosts : names a ``Host`` header may carry (:func:`host_allow_list`).
     origins       : the ``Origin`` rule for state-changing requests and WebSockets.
     max_body_bytes: the request body cap.
     ip_literals   : also accept any IP address literal as ``Host`` (a wildcard bind).
@@ -102,10 +126,21 @@ class RequestGuard:
         self.on_refused = on_refused
         self.rejects = RejectLog(logger)
         self.counts = {"host": 0, "origin": 0, "body": 0, "invalid": 0, "error": 0}
+        self.gate = None  # the server's ConnectionGate, told when a response is complete
 
     def install(self, app) -> "RequestGuard":
-        """Add this guard to the FastAPI/Starlette ``app`` (as its outermost user middleware:
-        inside it only the app's exception handlers and routes) and keep it as ``app.state.guard``."""
+        """Add this guard to the FastAPI ``app`` (as its outermost user middleware: inside it
+        only the app's exception handlers and routes), answer FastAPI's validation errors with
+        a short 422 and keep the guard as ``app.state.guard``."""
+        from fastapi.exceptions import RequestValidationError
+        from fastapi.responses import JSONResponse
+
+        from surfhap.web.messages import reason
+
+        async def invalid_body(request, exc: RequestValidationError):
+            return JSONResponse(self.invalid(request.scope, reason(exc.errors())), status_code=422)
+
+        app.add_exception_handler(RequestValidationError, invalid_body)
         app.add_middleware(_GuardMiddleware, guard=self)
         app.state.guard = self
         return self
@@ -190,11 +225,13 @@ class _GuardMiddleware:
 
         async def tracked_send(message):
             nonlocal started
-            started = started or message["type"] in ("http.response.start", "websocket.accept")
+            started = started or message["type"] == "http.response.start"
             await send(message)
+            if g.gate is not None and message["type"] == "http.response.body" and not message.get("more_body"):
+                g.gate.response_done(scope.get("client"))
 
-        try:
-            await self.app(scope, receive, tracked_send)
+        try:  # a WebSocket's messages go straight through (nothing to track: the hot path)
+            await self.app(scope, receive, tracked_send if kind == "http" else send)
         except Exception as exc:  # noqa: BLE001 - one line per failure, never a traceback per request
             where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
             at = f" at {where.filename.rsplit('/', 1)[-1]}:{where.lineno}" if where else ""

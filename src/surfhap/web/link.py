@@ -1,11 +1,11 @@
 """How the page app reaches the engine: one interface, :class:`EngineLink`, and its
 in-process implementation :class:`LocalLink`.
 
-The app (:func:`surfhap.live.app.create_app`) needs four things from the engine: what to
-show (:meth:`EngineLink.info`), the touch surface (``space``, ``positions``), a way to push
+The touch page (:mod:`surfhap.web.touch`) needs four things from the engine: what to show
+(:meth:`EngineLink.info`), the touch surface (``space``, ``positions``), a way to push
 validated touch samples (:meth:`EngineLink.push_touch`) and the trace frames
-(:meth:`EngineLink.stream`). :class:`LocalLink` calls the engine directly; the link over
-the process boundary is :class:`surfhap.live.webproc.RemoteLink`.
+(:meth:`EngineLink.stream`). :class:`LocalLink` calls the engine directly; the link over the
+process boundary is :class:`surfhap.web.process.ProcessLink`.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from surfhap.live.frames import FrameBuilder
 from surfhap.live.session import page_info
 from surfhap.live.sources import TouchSpace
 
-__all__ = ["EngineLink", "LocalLink", "Publish", "as_link"]
+__all__ = ["EngineLink", "LocalLink", "Publish", "as_link", "trace_ticks"]
 
 log = logging.getLogger("surfhap.live")
 
@@ -56,7 +56,7 @@ class LocalLink:
         self.session = session
         self.engine = session.engine
         self.space = session.space
-        self.positions = getattr(session, "positions", "physical")
+        self.positions = session.positions
         self.points, self.hz = int(points), float(hz)
 
     def info(self) -> dict:
@@ -66,16 +66,23 @@ class LocalLink:
         return self.engine.push_touch(source, x, y, load, t_event=t_event)
 
     async def stream(self, publish: Publish) -> None:
-        builder = FrameBuilder(self.engine, self.session.backend, self.points)
-        period = 1.0 / self.hz
-        n = 0
-        while True:
-            try:
-                publish(builder.frame(), builder.status() if n % 5 == 0 else None)
-            except Exception:  # noqa: BLE001 - monitoring must not die
-                log.exception("trace tick failed")
-            n += 1
-            await asyncio.sleep(period)
+        for frame, status in trace_ticks(self.session, self.points):
+            publish(frame, status)
+            await asyncio.sleep(1.0 / self.hz)
+
+
+def trace_ticks(session, points: int):
+    """Endless ``(frame, status or None)`` of ``session``'s engine: one frame per call, the
+    engine status with every 5th; a failing tick gives ``({}, None)`` (and one log line)."""
+    builder = FrameBuilder(session.engine, session.backend, points)
+    n = 0
+    while True:
+        try:
+            yield builder.frame(), builder.status() if n % 5 == 0 else None
+        except Exception:  # noqa: BLE001 - monitoring must not die
+            log.exception("trace tick failed")
+            yield {}, None
+        n += 1
 
 
 def as_link(obj, cfg) -> EngineLink:

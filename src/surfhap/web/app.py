@@ -1,0 +1,81 @@
+"""The one web app of surfhap: :func:`create_app` builds a FastAPI app with the request guard
+(:mod:`surfhap.web.guard`) and the router of the page it serves:
+
+* the touch page of ``surfhap serve`` (:mod:`surfhap.web.touch`), given an engine link or a
+  live session;
+* the force-feedback page of ``surfhap ff run --touch web``: the touch page over the force
+  loop's session (:func:`surfhap.web.ff.build_ff_session`), with its force panel;
+* the study page of ``surfhap study run`` (:mod:`surfhap.web.study`).
+
+Serve it with :class:`surfhap.web.server.ServerThread` or, apart from the real-time engine,
+:class:`surfhap.web.process.WebProcess`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from contextlib import asynccontextmanager
+
+from surfhap.live.config import ServerConfig
+from surfhap.web.guard import MAX_BODY_BYTES, WILDCARD_HOSTS, OriginRule, RequestGuard, host_allow_list
+from surfhap.web.guard import log as guard_log
+
+__all__ = ["create_app", "page_guard"]
+
+
+def page_guard(cfg: ServerConfig, ip_literals: bool = False, max_body_bytes: int = MAX_BODY_BYTES,
+               logger=None) -> RequestGuard:
+    """The request guard for a page served as ``cfg`` says: the ``Host`` allow list of its
+    bind address and ``allowed_hosts`` (with ``ip_literals``, also any IP literal), the
+    ``Origin`` rule of ``allowed_origins`` / ``allow_missing_origin`` and the body cap."""
+    return RequestGuard(host_allow_list(cfg.host, cfg.allowed_hosts),
+                        OriginRule(cfg.allowed_origins, cfg.allow_missing_origin), max_body_bytes=max_body_bytes,
+                        ip_literals=ip_literals, logger=logger or guard_log)
+
+
+def create_app(cfg: ServerConfig | None = None, *, touch=None, study=None):
+    """The FastAPI app serving ``touch`` (an :class:`~surfhap.web.link.EngineLink` or a live
+    session: the touch or force-feedback page) or ``study`` (a
+    :class:`~surfhap.web.study.StudyPage`), one of them, with the limits of ``cfg``.
+
+    A study page bound to every interface (``cfg.host`` 0.0.0.0 or ::) also accepts IP address
+    literals as ``Host`` (a tablet opening http://192.168.1.20:8780; a DNS rebinding attack
+    always names the attacker's domain)."""
+    from fastapi import FastAPI
+
+    cfg = cfg or ServerConfig()
+    if (touch is None) == (study is None):
+        raise ValueError("create_app serves one page: give touch or study")
+    if study is not None:
+        from surfhap.web.study import MAX_BODY, log as study_log, study_router
+
+        app = FastAPI(title="surfhap study", docs_url=None, redoc_url=None, openapi_url=None)
+        page_guard(cfg, ip_literals=cfg.host in WILDCARD_HOSTS, max_body_bytes=MAX_BODY, logger=study_log).install(app)
+        app.include_router(study_router(study, cfg))
+        return app
+
+    from surfhap.web.link import as_link
+    from surfhap.web.touch import Hub, static_files, touch_router
+
+    link = as_link(touch, cfg)
+    hub = Hub()
+
+    @asynccontextmanager
+    async def lifespan(_app):
+        task = asyncio.get_running_loop().create_task(link.stream(hub.publish))
+        try:
+            yield
+        finally:
+            task.cancel()
+
+    def refused() -> None:
+        hub.refused += 1
+
+    app = FastAPI(title="surfhap live", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
+    app.state.hub = hub
+    guard = page_guard(cfg)
+    guard.on_refused = refused
+    guard.install(app)
+    app.mount("/static", static_files(), name="static")
+    app.include_router(touch_router(link, hub, cfg))
+    return app

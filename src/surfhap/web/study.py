@@ -1,0 +1,161 @@
+"""The study page router: the participant's page of ``surfhap study run`` (docs/lab.md).
+
+The page polls ``GET /api/state``, shows the current trial (prompt, one button per stimulus,
+a touch pad, the answers; a rest screen between blocks), asks for a stimulus with ``POST
+/api/stimulus`` and answers with ``POST /api/answer`` (response time measured in the page),
+logged by the :class:`~surfhap.lab.session.SessionRunner` before the reply. With a
+:class:`~surfhap.lab.stimuli.StimulusPlayer`, the pad's pointer events (``/ws``, the touch
+page's messages and checks) drive the live engine and a stimulus swaps its renderer.
+Request bodies are pydantic models (:mod:`surfhap.web.messages`); the app's request guard
+does the rest.
+"""
+
+# no "from __future__ import annotations": FastAPI reads the endpoints' annotations at run time
+import logging
+from dataclasses import dataclass, field
+from importlib import resources
+
+from surfhap.lab.markers import NullMarkers
+from surfhap.lab.stimuli import StimulusPlayer, scene_picture
+from surfhap.live.config import ServerConfig
+from surfhap.live.sources import RateLimiter, RejectLog
+from surfhap.web.messages import AnswerRequest, StimulusRequest
+from surfhap.web.touch import Client, pointer_messages
+
+__all__ = ["StudyPage", "study_router"]
+
+log = logging.getLogger("surfhap.lab")
+STATIC = {"study.html": "text/html; charset=utf-8", "study.js": "text/javascript; charset=utf-8",
+          "study.css": "text/css; charset=utf-8"}
+MAX_BODY = 4096  # an answer is a few dozen bytes; a toggles answer stays under 500 characters
+
+
+@dataclass
+class StudyPage:
+    """What the study page serves: ``runner`` (a SessionRunner), the live ``player`` (or
+    None: nothing rendered) and the ``markers`` (:mod:`surfhap.lab.markers`) that receive
+    stimulus, touch and answer events."""
+
+    runner: object
+    player: StimulusPlayer | None = None
+    markers: object = field(default_factory=NullMarkers)
+
+
+def study_router(page: StudyPage, cfg: ServerConfig):
+    """The routes of the study page (see module doc)."""
+    from fastapi import APIRouter, WebSocket
+    from fastapi.responses import JSONResponse, Response
+
+    runner, player, markers = page.runner, page.player, page.markers or NullMarkers()
+    playing: dict[str, str | None] = {"trial": None}
+    rejects = RejectLog(log)
+    router = APIRouter()
+    files = resources.files("surfhap.web") / "static" / "study"
+
+    @router.get("/")
+    def index():
+        return Response((files / "study.html").read_bytes(), media_type=STATIC["study.html"])
+
+    @router.get("/static/{name}")
+    def static(name: str):
+        if name not in STATIC:
+            return JSONResponse({"error": "not found"}, status_code=404)
+        return Response((files / name).read_bytes(), media_type=STATIC[name], headers={"Cache-Control": "no-store"})
+
+    @router.get("/api/state")
+    def state():
+        return runner.state()
+
+    pictures: dict[str, bytes] = {}
+
+    @router.get("/api/image/{trial_id}")
+    def image(trial_id: str):
+        """The picture of the current trial's scene (visual tasks and the touch pad)."""
+        t = runner.current()
+        name = None
+        if t is not None and t.id == trial_id:
+            name = next((st.render.get("scene") or st.render.get("mesh") for st in t.stimuli
+                         if st.render.get("scene") or st.render.get("mesh")), None)
+        if not name:
+            return JSONResponse({"error": "no picture for this trial"}, status_code=404)
+        if name not in pictures:
+            from surfhap.live.sources import TouchSpace
+
+            sp = player.session.space if player is not None else TouchSpace()
+            try:
+                pictures[name] = scene_picture(name, (sp.width, sp.height))
+            except ValueError as exc:
+                return JSONResponse({"error": str(exc)}, status_code=404)
+        return Response(pictures[name], media_type="image/png", headers={"Cache-Control": "no-store"})
+
+    @router.post("/api/stimulus")
+    def stimulus(req: StimulusRequest):
+        stim = runner.stimulus(req.trial_id, req.index)
+        if stim is None:
+            return {"ok": False}
+        played = player.select(stim.render) if player is not None else "not rendered (no live output)"
+        markers.push("stimulus_on", trial=req.trial_id, index=req.index, label=stim.label, muted=played == "muted")
+        playing["trial"] = req.trial_id
+        # never the render spec: it names the material and condition (blinding)
+        return {"ok": True, "label": stim.label, "playing": "muted" if played == "muted" else
+                ("on" if player is not None else "not rendered")}
+
+    @router.post("/api/answer")
+    def answer(req: AnswerRequest):
+        tid, ans = req.trial_id, req.answer
+        rt_s = None if req.rt_ms is None else req.rt_ms / 1000.0
+        try:
+            st = runner.answer(tid, ans, rt_s)
+        except ValueError as exc:
+            return JSONResponse({"error": str(exc)}, status_code=400)
+        if player is not None:
+            player.mute()
+        if st.get("accepted"):
+            if playing["trial"] == tid:
+                markers.push("stimulus_off", trial=tid)
+                playing["trial"] = None
+            markers.push("answer", trial=tid, answer=ans, rt_s=rt_s)
+            if st["status"] in ("rest", "done"):
+                markers.push("rest" if st["status"] == "rest" else "end")
+        return st
+
+    @router.post("/api/resume")
+    def resume():
+        runner.resume()
+        return runner.state()
+
+    @router.websocket("/ws")
+    async def ws(sock: WebSocket):
+        # host and origin: checked by the request guard before the handshake gets here
+        await sock.accept()
+        peer = f"ws {sock.client.host}:{sock.client.port}" if sock.client else "ws ?"
+        client = Client(id(sock) & 0x7FFF, peer, RateLimiter(cfg.max_rate, cfg.burst, t=0.0), height_px=400.0)
+        live = player is not None
+
+        def hello(msg) -> None:
+            client.width_px, client.height_px = msg.w, msg.h
+
+        def move(msg) -> None:
+            if live:
+                player.touch(client.id, min(max(msg.x, 0.0), 1.0), min(max(msg.y, 0.0), 1.0), msg.p, msg.t,
+                             client.width_px, client.height_px)
+            if not client.down:
+                client.down = True
+                markers.push("touch_down")
+
+        def up(msg) -> None:
+            if live:
+                player.lift(client.id, msg.t)
+            if client.down:
+                client.down = False
+                markers.push("touch_up")
+
+        handlers = {"hello": hello, "move": move, "up": up}
+        try:
+            async for msg in pointer_messages(sock, cfg, client, rejects):
+                handlers[msg.type](msg)
+        finally:
+            if live:
+                player.lift(client.id, 0.0)
+
+    return router
