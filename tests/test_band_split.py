@@ -137,3 +137,18 @@ def test_both_banks_give_the_model_psd_at_a_speed_and_load():
     np.testing.assert_allclose(hatt.psd_at(0.01, 0.5, f), 2.0 * 0.2 * 4.0 / fs * np.abs(h) ** 2, rtol=1e-8)
     sd, _ = hatt.moments_at(0.01, 0.5)
     assert sd == pytest.approx(np.sqrt(arma_acovf(np.r_[1.0, -PHI], np.array([1.0]), nobs=1, sigma2=0.8)[0]), rel=1e-5)
+
+
+def test_calibration_std_is_what_the_split_measures_on_the_synthesised_texture():
+    # the texture calibration's sd(x) is the sd of the model's output in the texture band the
+    # fidelity metric measures (before: a brick wall at 3.5 Hz, 4.6 % above it for drawing-paper)
+    from scipy.signal import lfilter
+
+    from surfhap.exchange.materials import load_material
+    from surfhap.models.texture_calibration import texture_band_std
+
+    tex = load_material("drawing-paper").texture
+    m, fs = tex.models[0], tex.sample_rate
+    x = lfilter([1.0], np.r_[1.0, -m.coefficients], np.sqrt(m.variance) * np.random.default_rng(5).standard_normal(2_000_000))
+    measured = float(np.std(BandSplit().high(x[5000:], fs)))
+    assert texture_band_std(m.coefficients, m.variance, fs, 3.5) == pytest.approx(measured, rel=0.015)

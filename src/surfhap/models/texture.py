@@ -25,33 +25,26 @@ TEXTURE_QUANTITIES = ("cof", "acceleration")
 
 
 class TextureSynthesizer(Protocol):
-    """Streaming synthesis at the texture's model rate: speed (n,) m/s, load (n,) N -> (n,)."""
+    """Streaming synthesis at the model rate: speed (n,) m/s, load (n,) N -> (n,) samples."""
 
     def process(self, speed: np.ndarray, load: np.ndarray | None = None) -> np.ndarray: ...
-
     def reset(self) -> None: ...
 
 
 class TextureModel(Protocol):
     """A texture of one quantity ("cof" or "acceleration") at ``sample_rate`` Hz whose model
-    depends on the scan speed (m/s) and load (N)."""
+    depends on the scan speed (m/s) and load (N): ``psd_at`` gives its one-sided PSD
+    (quantity^2/Hz) at freqs (m,) Hz, ``moments_at`` the standard deviations of the texture and
+    of its rate of change (quantity/s) as a band-limited signal at ``sample_rate``."""
 
     quantity: str
     sample_rate: float
 
     @property
     def max_order(self) -> int: ...
-
     def synthesizer(self, seed=0) -> TextureSynthesizer: ...
-
-    def psd_at(self, speed: float, load: float, freqs: np.ndarray) -> np.ndarray:
-        """One-sided PSD (quantity^2/Hz) at freqs (m,) Hz of the model used at (speed, load)."""
-        ...
-
-    def moments_at(self, speed: float, load: float) -> tuple[float, float]:
-        """Standard deviation (quantity) and that of the rate of change (quantity/s) of the
-        model used at (speed, load), as a band-limited signal at ``sample_rate``."""
-        ...
+    def psd_at(self, speed: float, load: float, freqs: np.ndarray) -> np.ndarray: ...
+    def moments_at(self, speed: float, load: float) -> tuple[float, float]: ...
 
 
 @dataclass(frozen=True)
@@ -145,14 +138,11 @@ class TextureBank:
         return ARSynthesizer(self, seed=seed)
 
     def psd_at(self, speed: float, load: float, freqs: np.ndarray) -> np.ndarray:
-        """PSD of the model nearest ``speed`` (the load does not select; :class:`TextureModel`)."""
-        return self._at(speed).psd(self.sample_rate, freqs)
+        """:class:`TextureModel`: the model nearest ``speed`` (the load does not select)."""
+        return self.models[int(self.select(np.array([speed]))[0])].psd(self.sample_rate, freqs)
 
     def moments_at(self, speed: float, load: float) -> tuple[float, float]:
-        return self._at(speed).moments(self.sample_rate)
-
-    def _at(self, speed: float) -> ARModel:
-        return self.models[int(self.select(np.array([speed]))[0])]
+        return self.models[int(self.select(np.array([speed]))[0])].moments(self.sample_rate)
 
     def select(self, speed: np.ndarray) -> np.ndarray:
         """Index of the nearest-reference-speed model for each speed (n,) m/s -> (n,) int."""
