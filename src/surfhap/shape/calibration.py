@@ -18,11 +18,14 @@ hits on the mesh count. When a plan would take more than ``max_samples`` touch s
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, field
+from typing import Annotated, Literal
 
 import numba
 import numpy as np
+from pydantic import Field, FiniteFloat, model_validator
 
+from surfhap.checked import checked_dataclass
 from surfhap.errors import ConfigError
 from surfhap.shape.gradient import FZ_DEFAULT, gradient_step
 from surfhap.shape.raycast import hit_one
@@ -33,7 +36,7 @@ __all__ = ["ScanPlan", "ShapeCalibration", "calibrate", "scan_lines", "METHODS"]
 METHODS = ("sd", "percentile")
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class ScanPlan:
     """Straight scans of a calibration run (SI).
 
@@ -44,25 +47,11 @@ class ScanPlan:
     max_samples : upper bound on the touch samples of the whole plan.
     """
 
-    directions: int = 36
-    speeds: tuple[float, ...] = (0.02, 0.065, 0.11, 0.155, 0.20)
-    sensor_rate: float = 60.0
-    lines: int = 16
-    max_samples: int = 3_000_000
-
-    def __post_init__(self):
-        if not (isinstance(self.directions, (int, np.integer)) and 1 <= self.directions <= 3600):
-            raise ConfigError(f"must be a whole number in 1..3600, got {self.directions}", field="directions")
-        sp = tuple(float(s) for s in self.speeds)
-        if not sp or not all(np.isfinite(s) and 0 < s <= 2.0 for s in sp):
-            raise ConfigError(f"speeds must be in (0, 2] m/s, got {self.speeds}", field="speeds")
-        object.__setattr__(self, "speeds", sp)
-        if not (np.isfinite(self.sensor_rate) and 10 <= self.sensor_rate <= 10_000):
-            raise ConfigError(f"must be in [10, 10000] Hz, got {self.sensor_rate}", field="sensor_rate")
-        if not (isinstance(self.lines, (int, np.integer)) and 1 <= self.lines <= 10_000):
-            raise ConfigError(f"must be a whole number in 1..10000, got {self.lines}", field="lines")
-        if not self.max_samples >= 1000:
-            raise ConfigError("must be >= 1000", field="max_samples")
+    directions: Annotated[int, Field(ge=1, le=3600)] = 36
+    speeds: Annotated[tuple[Annotated[float, Field(gt=0, le=2.0)], ...], Field(min_length=1)] = (0.02, 0.065, 0.11, 0.155, 0.20)
+    sensor_rate: Annotated[float, Field(ge=10, le=10_000)] = 60.0
+    lines: Annotated[int, Field(ge=1, le=10_000)] = 16
+    max_samples: Annotated[int, Field(ge=1000)] = 3_000_000
 
     @classmethod
     def evenly(cls, directions: int = 36, n_speeds: int = 5, v_min: float = 0.02, v_max: float = 0.20,
@@ -74,13 +63,13 @@ class ScanPlan:
         return cls(directions=directions, speeds=speeds, **kw)
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class ShapeCalibration:
     """The Fsq range of one mesh (units: sqrt(N)) and how it was measured."""
 
-    fmin: float
-    fmax: float
-    method: str = "sd"
+    fmin: FiniteFloat
+    fmax: FiniteFloat
+    method: Literal["sd", "percentile", "manual"] = "sd"
     mean: float = 0.0
     sd: float = 0.0
     k: float = 2.0
@@ -93,11 +82,11 @@ class ShapeCalibration:
     hist_edges: tuple[float, ...] = ()
     hist_counts: tuple[int, ...] = ()
 
-    def __post_init__(self):
-        if not (np.isfinite(self.fmin) and np.isfinite(self.fmax) and self.fmin < self.fmax):
-            raise ConfigError(f"need finite fmin < fmax, got ({self.fmin}, {self.fmax})", field="fmin/fmax")
-        if self.method not in METHODS + ("manual",):
-            raise ConfigError(f"unknown method {self.method!r}", field="method")
+    @model_validator(mode="after")
+    def _a_range(self):
+        if not self.fmin < self.fmax:
+            raise ValueError(f"need fmin < fmax, got ({self.fmin}, {self.fmax})")
+        return self
 
     @classmethod
     def manual(cls, fmin: float, fmax: float, **kw) -> "ShapeCalibration":
