@@ -22,10 +22,12 @@ Sources
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
+from dataclasses import field
+from typing import Annotated
 
-from surfhap.errors import ConfigError
+from pydantic import Field
+
+from surfhap.checked import checked_dataclass
 
 __all__ = ["DeviceParams", "FALCON", "K_MAX", "TABLET_MASS", "GRAVITY", "FALCON_GAIN"]
 
@@ -35,13 +37,11 @@ GRAVITY = 9.81  # m/s^2
 FALCON_GAIN = 4.5  # requested / produced force of a Falcon through CHAI3D (004 Sec. 4.3)
 
 
-def _check(name: str, v: float, lo: float, hi: float) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
-        raise ConfigError(f"must be within {lo:g}-{hi:g}, got {v!r}", field=name)
-    return float(v)
+_FMax = Annotated[float, Field(ge=0.01, le=100.0, allow_inf_nan=False)]  # N per axis
+_Half = Annotated[float, Field(ge=1e-3, le=1.0, allow_inf_nan=False)]  # m, workspace half-size per axis
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class DeviceParams:
     """One impedance device carrying the screen.
 
@@ -85,47 +85,25 @@ class DeviceParams:
     """
 
     name: str = "falcon"
-    gain: float = FALCON_GAIN
-    f_max: tuple[float, float, float] = (8.0, 8.0, 8.0)
-    workspace: tuple[float, float, float] = (0.04, 0.04, 0.04)
-    k_max: float = K_MAX
-    damping: float = 10.0
-    moving_mass: float = TABLET_MASS
-    slew: float = 400.0
-    wall_k: float = K_MAX
-    ref_speed: float = 0.2
-    device_timeout: float = 0.010
-    touch_timeout: float = 0.100
-    brake_decel: float = 4.0
-    brake_gain: float = 100.0
-    brake_margin: float = 0.001
-    wall_damping: float = 20.0
-    land_time: float = 1.5
-    land_damping: float = 20.0
-    max_speed: float = 5.0
+    gain: Annotated[float, Field(ge=0.001, le=1000.0, allow_inf_nan=False)] = FALCON_GAIN
+    f_max: tuple[_FMax, _FMax, _FMax] = (8.0, 8.0, 8.0)
+    workspace: tuple[_Half, _Half, _Half] = (0.04, 0.04, 0.04)
+    k_max: Annotated[float, Field(ge=1.0, le=100000.0, allow_inf_nan=False)] = K_MAX
+    damping: Annotated[float, Field(ge=0.0, le=1000.0, allow_inf_nan=False)] = 10.0
+    moving_mass: Annotated[float, Field(ge=0.0, le=20.0, allow_inf_nan=False)] = TABLET_MASS
+    slew: Annotated[float, Field(ge=1.0, le=1000000.0, allow_inf_nan=False)] = 400.0
+    wall_k: Annotated[float, Field(ge=0.0, le=100000.0, allow_inf_nan=False)] = K_MAX
+    ref_speed: Annotated[float, Field(ge=0.001, le=10.0, allow_inf_nan=False)] = 0.2
+    device_timeout: Annotated[float, Field(ge=0.0001, le=1.0, allow_inf_nan=False)] = 0.010
+    touch_timeout: Annotated[float, Field(ge=0.001, le=10.0, allow_inf_nan=False)] = 0.100
+    brake_decel: Annotated[float, Field(ge=0.1, le=1000.0, allow_inf_nan=False)] = 4.0
+    brake_gain: Annotated[float, Field(ge=0.0, le=10000.0, allow_inf_nan=False)] = 100.0
+    brake_margin: Annotated[float, Field(ge=0.0, le=0.1, allow_inf_nan=False)] = 0.001
+    wall_damping: Annotated[float, Field(ge=0.0, le=1000.0, allow_inf_nan=False)] = 20.0
+    land_time: Annotated[float, Field(ge=0.0, le=60.0, allow_inf_nan=False)] = 1.5
+    land_damping: Annotated[float, Field(ge=0.0, le=1000.0, allow_inf_nan=False)] = 20.0
+    max_speed: Annotated[float, Field(ge=0.01, le=100.0, allow_inf_nan=False)] = 5.0
     extra: dict = field(default_factory=dict, compare=False)
-
-    def __post_init__(self):
-        _check("gain", self.gain, 1e-3, 1e3)
-        if len(self.f_max) != 3 or len(self.workspace) != 3:
-            raise ConfigError("needs three values (x, y, z)", field="f_max/workspace")
-        object.__setattr__(self, "f_max", tuple(_check("f_max", v, 0.01, 100.0) for v in self.f_max))
-        object.__setattr__(self, "workspace", tuple(_check("workspace", v, 1e-3, 1.0) for v in self.workspace))
-        _check("k_max", self.k_max, 1.0, 1e5)
-        _check("damping", self.damping, 0.0, 1e3)
-        _check("moving_mass", self.moving_mass, 0.0, 20.0)
-        _check("slew", self.slew, 1.0, 1e6)
-        _check("wall_k", self.wall_k, 0.0, 1e5)
-        _check("ref_speed", self.ref_speed, 1e-3, 10.0)
-        _check("device_timeout", self.device_timeout, 1e-4, 1.0)
-        _check("touch_timeout", self.touch_timeout, 1e-3, 10.0)
-        _check("brake_decel", self.brake_decel, 0.1, 1e3)
-        _check("brake_gain", self.brake_gain, 0.0, 1e4)
-        _check("brake_margin", self.brake_margin, 0.0, 0.1)
-        _check("wall_damping", self.wall_damping, 0.0, 1e3)
-        _check("land_time", self.land_time, 0.0, 60.0)
-        _check("land_damping", self.land_damping, 0.0, 1e3)
-        _check("max_speed", self.max_speed, 0.01, 100.0)
 
     @property
     def weight(self) -> float:
