@@ -88,6 +88,8 @@ class LiveEngine:
         self.block_frames = max(1, int(round(cfg.block_seconds * self.drive_rate)))
         self.block_period = self.block_frames / self.drive_rate
         self.v_max = float(renderer.safety.limits.v_max)
+        self.drive_unit = "V"  # the trace's drive column, full scale ``drive_full_scale``
+        self.frame_extra = None  # no extra trace part (the force-feedback view has one)
         self.display = display
         self.touches = TouchRing(cfg.touch_capacity)
         self.commands = CommandQueue(64)
@@ -321,6 +323,11 @@ class LiveEngine:
     def output_safety_counters(self) -> dict:
         c = self.guard.counters
         return {k: getattr(c, k) for k in ("samples", "clamped", "rise_limited", "faults", "watchdog", "halted")}
+
+    @property
+    def drive_full_scale(self) -> float:
+        """V: the full scale of the trace's drive column (``v_max``)."""
+        return self.v_max
 
     def status(self) -> dict:
         """Counters, latency and timing as plain JSON-able values (monitoring threads).

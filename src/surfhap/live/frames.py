@@ -46,14 +46,13 @@ class FrameBuilder:
 
     def frame(self) -> dict:
         """The next frame (:func:`pack_rows`); at most half the trace ring per call. An engine
-        with a ``frame_extra(rows)`` method (the force-feedback view,
-        :class:`surfhap.web.ff.FFWebEngine`) adds its part under ``"ff"``."""
+        whose ``frame_extra`` is a method (the force-feedback view,
+        :class:`surfhap.web.ff.FFWebEngine`; the texture engine's is None) adds its part under ``"ff"``."""
         eng = self.engine
         rows, self._idx = eng.trace_since(self._idx, limit=eng.trace.shape[0] // 2)
         frame = pack_rows(rows, self.points)
-        extra = getattr(eng, "frame_extra", None)
-        if extra is not None:
-            frame["ff"] = extra(bin_rows(rows, self.points))
+        if eng.frame_extra is not None:
+            frame["ff"] = eng.frame_extra(bin_rows(rows, self.points))
         return frame
 
     def status(self) -> dict:

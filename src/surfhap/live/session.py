@@ -45,12 +45,15 @@ def backend_info(backend) -> dict:
 
 def page_info(session) -> dict:
     """The page's ``/api/info`` for ``session``: title, preview, the engine's rates (Hz),
-    block period (s) and ``v_max`` (V), the touch surface size (m) and the output's info."""
+    block period (s), the full scale of the trace's drive column (``drive_full_scale`` in
+    ``drive_unit``: V for a display, N for a force-feedback device), the touch surface size (m)
+    and the output's info."""
     eng = session.engine
     return {"title": session.title, "preview": session.preview, "drive_rate": eng.drive_rate,
-            "model_rate": eng.model_rate, "block_period": eng.block_period, "v_max": eng.v_max,
+            "model_rate": eng.model_rate, "block_period": eng.block_period,
+            "drive_full_scale": eng.drive_full_scale, "drive_unit": eng.drive_unit,
             "surface_m": [session.space.width, session.space.height], "output": backend_info(session.backend),
-            "ff": getattr(session, "ff", None)}
+            "ff": session.ff}
 
 
 class LiveSession:

@@ -44,7 +44,8 @@ class FFWebEngine:
         self.drive_rate = loop.rate
         self.model_rate = loop.rate
         self.block_period = loop.period
-        self.v_max = float(f_max)
+        self.drive_full_scale = float(f_max)  # N: the trace's drive column is |F|
+        self.drive_unit = "N"
         self.trace = np.zeros((1024, _TRACE_COLS))
         self.trace_count = 0
         self._lock = threading.Lock()
@@ -63,11 +64,11 @@ class FFWebEngine:
         a newer button state."""
         eng = self.loop.engine
         st = eng.state
-        snap = getattr(self.loop, "feedback_snapshot", None)
+        snap = self.loop.feedback_snapshot
         if mask is None:
             mask = snap[6] if snap is not None else eng.mask
         if button is None:
-            button = snap[7] if snap is not None else getattr(eng, "button", -1)
+            button = snap[7] if snap is not None else eng.button
         with self._lock:
             row = self.trace[self.trace_count & (self.trace.shape[0] - 1)]
             row[:] = (t, st.fx, st.fy, st.speed, st.load if st.touched else 0.0, math.sqrt(fx * fx + fy * fy + fz * fz),
@@ -106,7 +107,7 @@ class FFWebBackend:
 
     def info(self) -> dict:
         be = self.loop.backend
-        return {"name": f"ff:{be.name}", **(be.info() if hasattr(be, "info") else {})}
+        return {"name": f"ff:{be.name}", **be.info()}
 
 
 def build_ff_session(scene, loop, f_max: float):
@@ -135,4 +136,4 @@ def ff_page_info(scene, loop) -> dict:
     dev = loop.engine.device
     return {"device": dev.name, "workspace_m": list(dev.workspace), "f_max_n": list(dev.f_max),
             "effects": [e.name for e in loop.engine.law.effects],
-            "buttons": [b.name for b in getattr(scene, "buttons", ())]}
+            "buttons": [b.name for b in scene.buttons]}

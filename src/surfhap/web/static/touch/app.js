@@ -85,7 +85,7 @@
     g.strokeStyle = "#2a2e35"; g.beginPath(); g.moveTo(0, H / 2); g.lineTo(W, H / 2); g.stroke();
     const n = hist.t.length; if (n < 2) return;
     const t1 = hist.t[n - 1], t0 = t1 - HIST_S;
-    const vmax = info ? info.v_max : 250;
+    const vmax = info ? info.drive_full_scale : 250;
     let fmax = 0.1; for (const f of hist.f) if (f > fmax) fmax = f;
     const line = (arr, scale, color) => {
       g.strokeStyle = color; g.lineWidth = 1.5 * (window.devicePixelRatio || 1); g.beginPath();
