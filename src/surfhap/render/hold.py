@@ -104,7 +104,6 @@ class TouchHold:
         self.buf = np.zeros((capacity, 6))
         self.arrivals = np.zeros(capacity)  # samples put in force since the engine last read them
         self.positions = np.zeros(capacity)  # ... and their positions in the chunk (model samples)
-        self._seg = np.zeros((16, 6))
         self.reset()
 
     def reset(self) -> None:
@@ -164,8 +163,7 @@ class TouchHold:
         n = sp.shape[0]
         buf = self.buf
         late_lift = NO_LIFT
-        seg = self._seg  # per run of model samples holding one sample: end, speed, load, time, x, y
-        n_seg = 0
+        runs = r_end, r_sp, r_ld, r_ti, r_x, r_y = [], [], [], [], [], []  # offline: per run of one sample
         pos = 0
         while pos < n:
             t_k = self.anchor + (k0 + pos) / rate + _DUE_TOL
@@ -193,18 +191,17 @@ class TouchHold:
                 ys[pos:end] = pred.y
                 pos = end
                 continue
-            if n_seg == seg.shape[0]:  # offline blocks only: live chunks hold a few segments
-                self._seg = np.concatenate([seg, np.empty_like(seg)])
-                seg = self._seg
-            seg[n_seg] = (end, pred.speed if load > 0.0 else 0.0, load,
-                          self.last_arrival - self.anchor if self.last_arrival > -math.inf else NO_TOUCH_TIME,
-                          pred.x, pred.y)
-            n_seg += 1
+            r_end.append(end)
+            r_sp.append(pred.speed if load > 0.0 else 0.0)
+            r_ld.append(load)
+            r_ti.append(self.last_arrival - self.anchor if self.last_arrival > -math.inf else NO_TOUCH_TIME)
+            r_x.append(pred.x)
+            r_y.append(pred.y)
             pos = end
-        if n_seg:  # an offline block: the runs recorded, one vectorised fill
-            counts = np.diff(seg[:n_seg, 0], prepend=0.0).astype(np.int64)
-            for j, out in enumerate((sp, ld, ti, xs, ys)):
-                out[:] = np.repeat(seg[:n_seg, j + 1], counts)
+        if runs[0]:  # an offline block: the runs recorded, one vectorised fill
+            counts = np.diff(runs[0], prepend=0)
+            for lst, out in zip(runs[1:], (sp, ld, ti, xs, ys)):
+                out[:] = np.repeat(lst, counts)
         return late_lift
 
     def _apply(self, row: list, k: int, pos: int, rate: float) -> int:
