@@ -110,6 +110,7 @@ class TouchHold:
         self.predictor.reset()
         self.n_buf = 0
         self.i_buf = 0
+        self._full = False
         self.n_applied = 0
         self.anchor = -math.inf
         self.owner = -1.0
@@ -122,7 +123,8 @@ class TouchHold:
     def take(self, now: float, chain_seconds: float) -> None:
         """Pop the ring behind the samples not yet in force and anchor the chain clock
         (``chain_seconds``: the chain's next model sample time, s from its 0) to ``now``."""
-        self._refill()
+        if self.i_buf or self.n_buf < self.buf.shape[0]:
+            self._refill()
         behind = now - chain_seconds
         if behind > self.anchor:
             self.anchor = behind
@@ -131,9 +133,11 @@ class TouchHold:
         buf = self.buf
         if self.i_buf:
             rest = self.n_buf - self.i_buf
-            buf[:rest] = buf[self.i_buf:self.n_buf].copy()
+            if rest:
+                buf[:rest] = buf[self.i_buf:self.n_buf].copy()
             self.n_buf, self.i_buf = rest, 0
         self.n_buf += self.ring.pop_into(buf[self.n_buf:])
+        self._full = self.n_buf == buf.shape[0]  # the ring may hold more than fitted
 
     def due(self, t_arr: float, k_min: int, rate: float) -> int:
         """The first model sample (>= ``k_min``) at which a sample stamped ``t_arr`` is in force."""
@@ -147,36 +151,61 @@ class TouchHold:
     def fill(self, k0: int, rate: float, sp, ld, ti, xs, ys) -> int:
         """Fill the (n,) inputs of model samples ``k0 ..`` with the sample in force at each;
         returns the earliest model sample of a lift applied late (``NO_LIFT`` if none)."""
+        pred = self.predictor
+        if self.i_buf == self.n_buf and not self._full:  # nothing waiting (most live chunks): one run
+            load = self.load
+            sp.fill(pred.speed if load > 0.0 else 0.0)
+            ld.fill(load)
+            ti.fill(self.last_arrival - self.anchor if self.last_arrival > -math.inf else NO_TOUCH_TIME)
+            xs.fill(pred.x)
+            ys.fill(pred.y)
+            return NO_LIFT
         n = sp.shape[0]
         buf = self.buf
-        pred = self.predictor
         late_lift = NO_LIFT
+        runs = r_end, r_sp, r_ld, r_ti, r_x, r_y = [], [], [], [], [], []  # offline: per run of one sample
         pos = 0
         while pos < n:
             t_k = self.anchor + (k0 + pos) / rate + _DUE_TOL
             while True:
+                if self.i_buf == self.n_buf and self._full:
+                    self._refill()  # the buffer ran dry: more is waiting in the ring
                 if self.i_buf == self.n_buf:
-                    self._refill()  # the buffer ran dry: more may be waiting in the ring
-                if not (self.i_buf < self.n_buf and buf[self.i_buf, 2] <= t_k):
+                    nxt = math.inf
                     break
-                k_lift = self._apply(self.i_buf, k0 + pos, pos, rate)
+                row = buf[self.i_buf].tolist()  # Python floats: cheap arithmetic below
+                nxt = row[2]
+                if not nxt <= t_k:
+                    break
+                k_lift = self._apply(row, k0 + pos, pos, rate)
                 if k_lift < late_lift:
                     late_lift = k_lift
                 self.i_buf += 1
-            end = n
-            if self.i_buf < self.n_buf:
-                end = min(n, self.due(buf[self.i_buf, 2], k0 + pos + 1, rate) - k0)
-            sp[pos:end] = pred.speed if self.load > 0.0 else 0.0
-            ld[pos:end] = self.load
-            ti[pos:end] = self.last_arrival - self.anchor if self.last_arrival > -math.inf else NO_TOUCH_TIME
-            xs[pos:end] = pred.x
-            ys[pos:end] = pred.y
+            end = n if nxt == math.inf else min(n, self.due(nxt, k0 + pos + 1, rate) - k0)
+            load = self.load
+            if n <= 64:  # a live chunk: fill the run at once
+                sp[pos:end] = pred.speed if load > 0.0 else 0.0
+                ld[pos:end] = load
+                ti[pos:end] = self.last_arrival - self.anchor if self.last_arrival > -math.inf else NO_TOUCH_TIME
+                xs[pos:end] = pred.x
+                ys[pos:end] = pred.y
+                pos = end
+                continue
+            r_end.append(end)
+            r_sp.append(pred.speed if load > 0.0 else 0.0)
+            r_ld.append(load)
+            r_ti.append(self.last_arrival - self.anchor if self.last_arrival > -math.inf else NO_TOUCH_TIME)
+            r_x.append(pred.x)
+            r_y.append(pred.y)
             pos = end
+        if runs[0]:  # an offline block: the runs recorded, one vectorised fill
+            counts = np.diff(runs[0], prepend=0)
+            for lst, out in zip(runs[1:], (sp, ld, ti, xs, ys)):
+                out[:] = np.repeat(lst, counts)
         return late_lift
 
-    def _apply(self, i: int, k: int, pos: int, rate: float) -> int:
-        buf = self.buf
-        src, t_ev, t_arr, x, y, load = buf[i, 0], buf[i, 1], buf[i, 2], buf[i, 3], buf[i, 4], buf[i, 5]
+    def _apply(self, row: list, k: int, pos: int, rate: float) -> int:
+        src, t_ev, t_arr, x, y, load = row
         pred = self.predictor
         c = self.counters
         if not t_arr > _STALE or (src == self.owner and t_arr < self.owner_arrival):
