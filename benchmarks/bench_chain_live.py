@@ -23,9 +23,9 @@ from surfhap.render.kinematics import TouchPredictor
 def main():
     material = dataclasses.replace(load_material("leather"), texture=bank())
     chain = TextureChain(material, ChainConfig(drive_rate=20000))
-    display = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.model_rate)
+    display = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.control_rate)
     kin = TouchPredictor()
-    per_block = chain.model_rate // 1000
+    per_block = chain.control_rate // 1000
     n_blocks = 20000
     times = np.empty(n_blocks)
     walls = np.empty(n_blocks)

@@ -27,7 +27,7 @@ from surfhap.render.chain import ChainConfig, TextureChain
 
 def engine_for(material: str, display: bool) -> LiveEngine:
     chain = TextureChain(load_material(material), ChainConfig(drive_rate=20000))
-    disp = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.model_rate) if display else None
+    disp = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.control_rate) if display else None
     return LiveEngine(chain, EngineConfig(block_seconds=0.001), display=disp)
 
 

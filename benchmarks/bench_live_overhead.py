@@ -41,7 +41,7 @@ def engine_for(name: str, display: bool):
         from surfhap.render.chain import ChainConfig, TextureChain
 
         chain = TextureChain(load_material(name), ChainConfig(drive_rate=20000))
-    disp = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.model_rate) if display else None
+    disp = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.control_rate) if display else None
     return LiveEngine(chain, EngineConfig(block_seconds=0.001), display=disp)
 
 
@@ -68,7 +68,7 @@ def bench(name: str, display: bool, n_blocks: int) -> None:
     p99 = float(np.percentile(us, 99))
     share = p99 * 1e-6 / eng.block_period
     report("live_overhead", {
-        "renderer": name, "kind": "shape" if name == "suzanne" else "texture", "model_rate_hz": eng.model_rate,
+        "renderer": name, "kind": "shape" if name == "suzanne" else "texture", "control_rate_hz": eng.control_rate,
         "simulated_display": display, "blocks": n_blocks,
         "cpu_p50_us": round(float(np.median(us)), 1), "cpu_p99_us": round(p99, 1),
         "cpu_max_us": round(float(us.max()), 1), "wall_p50_us": round(float(np.median(wus)), 1),

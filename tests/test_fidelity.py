@@ -54,7 +54,7 @@ def test_low_band_is_the_papers_law_times_the_planned_gain(grid):
         warm = r.t >= 0.5
         from scipy.signal import butter, sosfiltfilt
 
-        low = sosfiltfilt(butter(4, 3.5, fs=r.model_rate, output="sos"), r.added_friction)
+        low = sosfiltfilt(butter(4, 3.5, fs=r.control_rate, output="sos"), r.added_friction)
         assert np.mean(low[warm]) == pytest.approx(expected, rel=0.02), (name, fn, v)
         assert abs(m.low_band_error) <= 0.02
 

@@ -42,12 +42,12 @@ def test_stimulus_drive_never_exceeds_the_session_limit(gain, v_max, which, seed
     assert chain.safety.limits.v_max == v_max  # the engine adopts the renderer's limit on the swap
     rng = np.random.default_rng(seed)
     n = 400
-    t = np.arange(n) / chain.model_rate
+    t = np.arange(n) / chain.control_rate
     for _ in range(3):
         speed = rng.uniform(-3.0, 3.0, n)
         load = rng.uniform(0.0, 1.0, n) * load_scale
         drive = chain.process(speed, load, t).drive
-        t = t + n / chain.model_rate
+        t = t + n / chain.control_rate
         assert np.all(np.abs(drive) <= v_max + 1e-9)
 
 
@@ -107,7 +107,7 @@ def test_shape_stimuli_never_exceed_the_session_limit(gain, v_max, seed, which):
         x = rng.uniform(-0.01, 0.23, 1)
         y = rng.uniform(-0.01, 0.15, 1)
         load = rng.uniform(0.0, 3.0, 1)
-        drive = r.process(np.zeros(1), load, np.array([k / r.model_rate]), x, y).drive
+        drive = r.process(np.zeros(1), load, np.array([k / r.control_rate]), x, y).drive
         assert np.all(np.abs(drive) <= v_max + 1e-9)
 
 

@@ -11,7 +11,7 @@ from surfhap.models.texture import ARModel, TextureBank
 from surfhap.report.figures import render_spectrum
 from surfhap.signal.bands import spectral_deviation_db
 
-# a textural-CoF model at Otake's 2 kHz model rate (synthetic ground truth, not a material)
+# a textural-CoF model at Otake's 2 kHz control rate (synthetic ground truth, not a material)
 TRUTH = TextureBank("cof", 2000.0, (ARModel([1.3, -0.62, 0.1], 2.5e-5, 0.1),))
 
 
@@ -62,7 +62,7 @@ def test_square_baseline_mean_matches_friction_only(cork_with_known_texture):
                                                            square_reference_load=0.3, square_reference_speed=0.1))
     fo = render(cork_with_known_texture, traj, ChainConfig(method="friction-only", alpha=300.0))
     warm = sq.t > 0.5
-    # band-limiting the gate at the model rate removes the harmonics above 900 Hz (~2.5 % of its power)
+    # band-limiting the gate at the control rate removes the harmonics above 900 Hz (~2.5 % of its power)
     assert np.mean(sq.added_friction[warm]) == pytest.approx(np.mean(fo.added_friction[warm]), rel=0.04)
     f, p, _ = render_spectrum(sq)
     assert f[np.argmax(p * (f > 20))] == pytest.approx(100.0, abs=2.0)

@@ -83,7 +83,7 @@ def test_render_file_round_trip(tmp_path, fmt):
     np.testing.assert_array_equal(data["t"], r.t)
     np.testing.assert_array_equal(data["t_drive"], r.t_drive)
     np.testing.assert_array_equal(data["acc"], r.acc.astype(np.float32))  # leather's texture is an acceleration
-    assert data.rates["drive"] == 20000 and data.rates["voltage"] == r.model_rate
+    assert data.rates["drive"] == 20000 and data.rates["voltage"] == r.control_rate
     assert data.units["drive"] == "V" and data.units["texture"] == "m/s^2" and data.units["friction_sim"] == "N"
     assert data.attrs["material"] == "leather" and data.attrs["complete"] is True and data.attrs["interrupted"] is False
     assert float(data["latency"]) == r.latency

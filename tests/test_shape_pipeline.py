@@ -159,7 +159,7 @@ def test_offline_and_live_give_identical_drive(bump):
     cfg = ShapeConfig(edge_threshold_deg=180.0)
     off = render_shape(bump, Trajectory(t, xy[:, 0], xy[:, 1], load, name="stream"), cal, cfg)
     size = (0.25, 0.25)
-    live = ShapeChain(bump, cal, cfg, model_rate=rate, surface_size=size)
+    live = ShapeChain(bump, cal, cfg, control_rate=rate, surface_size=size)
     ratio = cfg.drive_rate // rate
     blocks = off.drive.size // ratio
     drive = []
@@ -204,7 +204,7 @@ def test_both_chains_are_renderers(bump):
         n = 3
         blk = r.process(np.full(n, 0.1), np.full(n, 0.5), np.zeros(n), np.full(n, 0.1), np.full(n, 0.07))
         assert isinstance(blk, RenderBlock)
-        assert blk.drive.shape == blk.load_drive.shape == (n * r.drive_rate // r.model_rate,)
+        assert blk.drive.shape == blk.load_drive.shape == (n * r.drive_rate // r.control_rate,)
         assert blk.target.shape == (n,)
 
 

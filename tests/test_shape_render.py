@@ -41,7 +41,7 @@ def test_frustum_render_end_to_end():
     # the simulated display adds that friction (mu_panel * load removed), once settled
     n = res.friction_sim.size
     added = res.friction_sim - cfg.display.mu_panel * 1.0
-    t_model = np.arange(n) / res.model_rate
+    t_model = np.arange(n) / res.friction_rate
     tgt = np.interp(t_model, res.t_drive, res.target)
     sel = (t_model > 0.1) & (t_model < res.t[-1] - 0.05)
     assert abs(np.mean(added[sel]) - np.mean(tgt[sel])) < 0.1 * np.mean(tgt[sel])
@@ -97,7 +97,7 @@ def test_drive_never_exceeds_safety_limits(xs, seed):
     x = np.nan_to_num(np.array(xs), nan=0.0, posinf=1.0, neginf=-1.0) % 0.06 - 0.03
     t = np.cumsum(rng.uniform(0.005, 0.03, n))
     tr = Trajectory(t, x, rng.uniform(-0.03, 0.03, n), rng.uniform(0, 3, n))
-    cfg = ShapeConfig(drive_rate=4000, carrier=2000, model_rate=1000)
+    cfg = ShapeConfig(drive_rate=4000, carrier=2000, friction_rate=1000)
     res = render_shape(builtin_shape("frustum-bump"), tr, ShapeCalibration.manual(-1, 1), cfg)
     assert np.all(np.abs(res.drive) <= cfg.limits.v_max + 1e-9)
     assert np.all((res.intensity >= 0.3) & (res.intensity <= 1.0))

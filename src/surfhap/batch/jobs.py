@@ -56,7 +56,7 @@ def render_to_folder(material, trajectory, config, out: Path, *, fmt: str = "aut
     gain = float(amp_gain) if amp_gain is not None else float(probe.config.limits.v_max)
     wav = DriveWavWriter(out / "drive.wav", probe.drive_rate, gain)
     quantity = material.texture.quantity if probe.law.uses_texture else None
-    writer = open_render_writer(out, fmt, render_file_spec(probe.model_rate, probe.drive_rate, quantity))
+    writer = open_render_writer(out, fmt, render_file_spec(probe.control_rate, probe.drive_rate, quantity))
 
     def sink(channel, block):
         writer(channel, block)

@@ -104,7 +104,7 @@ def fit_accel_cmd(
     recordings: List[Path] = typer.Argument(..., help="Tool-scan recordings (CSV or NPZ): time, acceleration, speed, normal_force[, shear_force]."),
     material: str = typer.Option(..., "--material", help="Name of the material to write."),
     out: Path = typer.Option(..., "--out", help="Material JSON to write."),
-    model_rate: float = typer.Option(1000.0, "--model-rate", help="Rate of the models, Hz (HaTT: 1000)."),
+    texture_rate: float = typer.Option(1000.0, "--texture-rate", help="Rate of the models, Hz (HaTT: 1000)."),
     highpass: float = typer.Option(20.0, "--highpass", help="High-pass of the acceleration before fitting, Hz (0 = off)."),
     max_order: int = typer.Option(20, "--max-order", min=1, max=100, help="Largest AR order considered."),
     criterion: str = typer.Option("aic", "--criterion", help="aic | bic (the common order)."),
@@ -126,7 +126,7 @@ def fit_accel_cmd(
     recs = read_recordings(recordings, parse_column_map(columns))
     command = _command()
     with StopSignals() as guard, joblib_backend(scheduler):
-        fit = guard.call(fit_accel, recs, material, model_rate=model_rate, highpass=highpass, max_order=max_order,
+        fit = guard.call(fit_accel, recs, material, texture_rate=texture_rate, highpass=highpass, max_order=max_order,
                          criterion=criterion, min_segment=min_segment / 1000.0, mu0=mu0, jobs=n_jobs,
                          max_segment=max_segment or None)
     guard.finish(f"the fit did not finish; {out} not written")

@@ -32,10 +32,10 @@ def render_arrays(result: RenderResult) -> dict[str, np.ndarray]:
     return {name: getattr(result, name) for name in CHANNELS}
 
 
-def render_file_spec(model_rate: float, drive_rate: float, texture_quantity: str | None) -> dict[str, tuple[float, str]]:
+def render_file_spec(control_rate: float, drive_rate: float, texture_quantity: str | None) -> dict[str, tuple[float, str]]:
     """channel -> (rate Hz, unit) of a render file; ``texture_quantity`` "cof", "acceleration" or None."""
     units = {"texture": {"cof": "1", "acceleration": "m/s^2"}.get(texture_quantity or "", "1")}
-    return {name: (float(drive_rate if rate == "drive" else model_rate), units.get(name, unit))
+    return {name: (float(drive_rate if rate == "drive" else control_rate), units.get(name, unit))
             for name, (rate, unit) in CHANNELS.items()}
 
 
@@ -43,7 +43,7 @@ def render_file_attrs(r, *, interrupted: bool = False) -> dict:
     """File attributes of render ``r``: what a reader needs besides the arrays."""
     return {
         "material": r.material, "method": r.method, "seed": r.seed, "trajectory": r.trajectory_name,
-        "model_rate_hz": r.model_rate, "drive_rate_hz": r.drive_rate, "carrier_hz": r.carrier,
+        "control_rate_hz": r.control_rate, "drive_rate_hz": r.drive_rate, "carrier_hz": r.carrier,
         "latency_s": r.latency, "v_max": r.v_max, "mu_panel": r.mu_panel,
         "texture_quantity": r.texture_quantity, "interrupted": interrupted,
     }
@@ -76,7 +76,7 @@ def write_render(result: RenderResult, out_dir: str | Path, amp_gain: float | No
     out.mkdir(parents=True, exist_ok=True)
     gain = float(amp_gain) if amp_gain is not None else float(result.v_max)
     wav = write_drive_wav(out / "drive.wav", result.drive, result.drive_rate, gain)
-    writer = open_render_writer(out, format, render_file_spec(result.model_rate, result.drive_rate, result.texture_quantity))
+    writer = open_render_writer(out, format, render_file_spec(result.control_rate, result.drive_rate, result.texture_quantity))
     for name, arr in render_arrays(result).items():
         writer(name, arr)
     writer.close(render_file_attrs(result))

@@ -44,7 +44,7 @@ VERSION = 1
 
 
 def store_dtype(channel: str) -> type:
-    """float64 for the drive (V, exact), float32 for the model-rate channels."""
+    """float64 for the drive (V, exact), float32 for the control-rate channels."""
     return np.float64 if channel == "drive" else np.float32
 
 

@@ -4,7 +4,7 @@
 mesh units, NaN off the mesh), ``face`` (-1 off the mesh), ``force`` (lateral, N), ``fsq``
 (sqrt(N)), ``intensity`` (area grain, 0.3..1.0), ``edge`` (tick intensity, 0 where none),
 ``theta`` (deg), ``load`` (N), and the drive-rate ``t_drive``, ``drive`` (V after the
-safety stage), ``target`` (N), plus ``friction_sim`` (N, at ``model_rate``).
+safety stage), ``target`` (N), plus ``friction_sim`` (N, at ``friction_rate``).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ def shape_arrays(result) -> dict[str, np.ndarray]:
         "t": result.t, "x": result.x, "y": result.y, "z": result.z, "face": result.face, "force": result.force,
         "fsq": result.fsq, "intensity": result.intensity, "edge": result.edge, "theta": result.theta,
         "load": result.load, "t_drive": result.t_drive, "drive": result.drive, "target": result.target,
-        "friction_sim": result.friction_sim, "model_rate": np.array(result.model_rate),
+        "friction_sim": result.friction_sim, "friction_rate": np.array(result.friction_rate),
         "drive_rate": np.array(result.drive_rate), "fsq_range": np.array([result.calibration.fmin, result.calibration.fmax]),
     }
 

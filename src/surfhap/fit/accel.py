@@ -1,6 +1,6 @@
 """The acceleration route (HaTT / Zhao et al.): tool-scan recordings -> interpolated ARMA bank.
 
-For each recording (acceleration, speed, normal force): resample to the model rate
+For each recording (acceleration, speed, normal force): resample to the texture rate
 (1 kHz, as the HaTT models), high-pass the acceleration (hand motion and gravity out),
 split it into stationary pieces (:func:`surfhap.signal.segmentation.segment_ar`), and label
 each piece with its mean speed and force. Pieces slower than ``min_speed`` or lighter than
@@ -44,7 +44,7 @@ HIGHPASS_FILL = 1.1
 
 @dataclass(frozen=True)
 class AccelSegment:
-    """One stationary piece: source recording, [start, stop) at the model rate, mean speed
+    """One stationary piece: source recording, [start, stop) at the texture rate, mean speed
     m/s and force N, MDL order of the segmentation, the chosen criterion curve (orders
     0..P), the AIC and BIC curves, and the equivalent sample count of the tapered segment."""
 
@@ -135,7 +135,7 @@ class AccelFit:
 
 
 def _resample(x: np.ndarray, fs: float, target: float) -> np.ndarray:
-    """Polyphase resampling of the acceleration to the model rate. ``padtype="line"``: the
+    """Polyphase resampling of the acceleration to the texture rate. ``padtype="line"``: the
     default zero padding makes every channel start and end with a transient."""
     if abs(fs - target) < 1e-9 * target:
         return x
@@ -144,7 +144,7 @@ def _resample(x: np.ndarray, fs: float, target: float) -> np.ndarray:
 
 
 def _resample_slow(x: np.ndarray, fs: float, target: float, n_out: int) -> np.ndarray:
-    """Speed and force to the model rate: zero-phase anti-alias low-pass at 0.45 x the lower
+    """Speed and force to the texture rate: zero-phase anti-alias low-pass at 0.45 x the lower
     rate (line-through edge extension, so a constant or a ramp passes unchanged up to
     rounding), then linear interpolation onto the model-rate grid (n_out,). A polyphase
     resampler zero-pads the ends (a constant 50 mm/s read 27 mm/s at t = 0) and has a
@@ -156,24 +156,24 @@ def _resample_slow(x: np.ndarray, fs: float, target: float, n_out: int) -> np.nd
     return np.interp(np.arange(n_out) / target, np.arange(x.size) / fs, y)
 
 
-def _segment_recording(rec: Recording, model_rate, highpass, max_order, min_segment, step, min_speed, min_force, max_segment):
+def _segment_recording(rec: Recording, texture_rate, highpass, max_order, min_segment, step, min_speed, min_force, max_segment):
     rec.require("acceleration", "speed", "normal_force")
     fs = rec.sample_rate
-    if model_rate > fs * 1.0001:
-        raise RecordingFormatError(f"sampled at {fs:g} Hz, below the model rate {model_rate:g} Hz", source=rec.source, field="time")
-    acc = _resample(rec.get("acceleration"), fs, model_rate)
-    speed = np.abs(_resample_slow(rec.get("speed"), fs, model_rate, acc.size))
-    force = _resample_slow(rec.get("normal_force"), fs, model_rate, acc.size)
+    if texture_rate > fs * 1.0001:
+        raise RecordingFormatError(f"sampled at {fs:g} Hz, below the texture rate {texture_rate:g} Hz", source=rec.source, field="time")
+    acc = _resample(rec.get("acceleration"), fs, texture_rate)
+    speed = np.abs(_resample_slow(rec.get("speed"), fs, texture_rate, acc.size))
+    force = _resample_slow(rec.get("normal_force"), fs, texture_rate, acc.size)
     comp = {}
     if highpass and highpass > 0:  # HaTT's pre-filter against hand motion and gravity (not the band split)
-        if not highpass < model_rate / 2:
-            raise ConfigError(f"must be below {model_rate / 2:g} Hz", source="--highpass")
-        acc = sosfiltfilt(butter(4, highpass, btype="high", fs=model_rate, output="sos"), acc)
+        if not highpass < texture_rate / 2:
+            raise ConfigError(f"must be below {texture_rate / 2:g} Hz", source="--highpass")
+        acc = sosfiltfilt(butter(4, highpass, btype="high", fs=texture_rate, output="sos"), acc)
         # a Butterworth high-pass and low-pass of one corner are power complementary: its gain
         # |H_hp|^4 is the texture band's gain (1 - |H_lp|^2)^2 of the band split at that corner
-        comp = {"fill_below": HIGHPASS_FILL * highpass, "gain": lambda f: BandSplit(cutoff=highpass).high_gain(f, model_rate)}
-    seg = segment_ar(acc, max_order=max_order, min_length=int(min_segment * model_rate), step=max(1, int(step * model_rate)),
-                     max_length=None if not max_segment else int(max_segment * model_rate))
+        comp = {"fill_below": HIGHPASS_FILL * highpass, "gain": lambda f: BandSplit(cutoff=highpass).high_gain(f, texture_rate)}
+    seg = segment_ar(acc, max_order=max_order, min_length=int(min_segment * texture_rate), step=max(1, int(step * texture_rate)),
+                     max_length=None if not max_segment else int(max_segment * texture_rate))
     pieces = []
     for (a, b), p in zip(seg.segments, seg.orders):
         v = float(np.mean(speed[a:b]))
@@ -183,7 +183,7 @@ def _segment_recording(rec: Recording, model_rate, highpass, max_order, min_segm
         # tapered periodogram; the high-pass's gain divided out where it is >= 0.5 and its
         # notch continued flat below (the all-pole model would otherwise spend its poles on
         # the notch; docs/fitting.md)
-        avg = average_spectra([[acc[a:b]]], model_rate, max_order, taper=ORDER_TAPER, **comp)
+        avg = average_spectra([[acc[a:b]]], texture_rate, max_order, taper=ORDER_TAPER, **comp)
         lev = levinson_durbin(avg.autocovariance, max_order)
         pieces.append((a, b, v, f, int(p), lev, avg.n_effective))
     return seg, pieces, {"acceleration": acc, "speed": speed, "force": force}
@@ -192,7 +192,7 @@ def _segment_recording(rec: Recording, model_rate, highpass, max_order, min_segm
 def fit_accel(
     recordings: Sequence[Recording],
     name: str,
-    model_rate: float = 1000.0,
+    texture_rate: float = 1000.0,
     highpass: float = 20.0,
     max_order: int = 20,
     criterion: str = "aic",
@@ -215,7 +215,7 @@ def fit_accel(
     criterion = criterion.lower()
     if criterion not in ("aic", "bic"):
         raise ConfigError(f"must be 'aic' or 'bic', got {criterion!r}", source="--criterion")
-    results = _map(_segment_recording, [(r, model_rate, highpass, max_order, min_segment, step, min_speed, min_force, max_segment)
+    results = _map(_segment_recording, [(r, texture_rate, highpass, max_order, min_segment, step, min_speed, min_force, max_segment)
                                         for r in recordings], jobs)
     segments = []
     segmentations = {}
@@ -260,12 +260,12 @@ def fit_accel(
             seen[key] = (v, f, i, var)
     uniq = list(seen.values())
     bank = InterpolatedARMABank.from_models(
-        "acceleration", model_rate, [u[0] for u in uniq], [u[1] for u in uniq], lsfs[[u[2] for u in uniq]],
+        "acceleration", texture_rate, [u[0] for u in uniq], [u[1] for u in uniq], lsfs[[u[2] for u in uniq]],
         [u[3] for u in uniq], max_speed=vmax, max_force=fmax)
     notes = [f"{len(segments)} stationary segments from {len(recordings)} recording(s); AR({order}) by summed "
              f"{criterion.upper()} (AIC minimum {aic_order}, BIC minimum {bic_order}; Tukey {ORDER_TAPER:g} taper per segment"
              + (f", high-pass notch below {2 * highpass:g} Hz continued flat" if highpass and highpass > 0 else "")
-             + f"); high-pass {highpass:g} Hz; model rate {model_rate:g} Hz",
+             + f"); high-pass {highpass:g} Hz; texture rate {texture_rate:g} Hz",
              "MA part left empty (AR-only models): the available ARMA estimators (statsmodels ARIMA, innovations, "
              "Hannan-Rissanen) fit the full band in the time domain, and on high-passed segments of a pure AR texture "
              "BIC then asks for the largest MA order tried and the MA polynomial digs a notch at DC, i.e. the MA part "
@@ -291,5 +291,5 @@ def fit_accel(
             raise ConfigError("must be within 0..5", source="--mu0")
         mu = float(mu0)
     recs = [(r.source, r.participant, r.sha256) for r in recordings]
-    return AccelFit(name, float(model_rate), bank, segments, segmentations, order, orders, total, criterion, coulomb, mu, notes,
+    return AccelFit(name, float(texture_rate), bank, segments, segmentations, order, orders, total, criterion, coulomb, mu, notes,
                     recs, signals, aic_order, bic_order)

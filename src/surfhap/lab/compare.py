@@ -116,8 +116,8 @@ def compare_materials(refs: Sequence[str], *, speed: float = 0.1, load: float = 
         added = res.added_friction
         touching = res.load > 0
         x = added[touching] - np.mean(added[touching])
-        nper = int(min(x.size, 2 ** int(np.log2(max(res.model_rate, 256)))))
-        freqs, psd = welch(x, fs=res.model_rate, nperseg=nper)
+        nper = int(min(x.size, 2 ** int(np.log2(max(res.control_rate, 256)))))
+        freqs, psd = welch(x, fs=res.control_rate, nperseg=nper)
         v = np.abs(res.drive)
         v_on = v[v > 0] if np.any(v > 0) else v
         hist, _ = np.histogram(v_on, bins=edges)

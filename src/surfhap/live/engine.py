@@ -84,7 +84,7 @@ class LiveEngine:
         self.config = cfg = config or EngineConfig()
         self.renderer = renderer
         self.drive_rate = int(renderer.drive_rate)
-        self.model_rate = int(renderer.model_rate)
+        self.control_rate = int(renderer.control_rate)
         self.block_frames = max(1, int(round(cfg.block_seconds * self.drive_rate)))
         self.block_period = self.block_frames / self.drive_rate
         self.v_max = float(renderer.safety.limits.v_max)
@@ -98,13 +98,13 @@ class LiveEngine:
         self.hold = TouchHold(self.touches, self.predictor, cfg.takeover, self.counters)
         mb = int(cfg.max_block_frames)
         self._max_frames = mb
-        self._max_model = int(math.ceil(mb * self.model_rate / self.drive_rate)) + 2
+        self._max_model = int(math.ceil(mb * self.control_rate / self.drive_rate)) + 2
         self._speed = np.zeros(self._max_model)
         self._load = np.zeros(self._max_model)
         self._ttime = np.zeros(self._max_model)
         self._xs = np.zeros(self._max_model)
         self._ys = np.zeros(self._max_model)
-        self._fifo_cap = _pow2_at_least(4 * mb + 8 * self.drive_rate // self.model_rate + 64)
+        self._fifo_cap = _pow2_at_least(4 * mb + 8 * self.drive_rate // self.control_rate + 64)
         self._fifo = np.zeros(self._fifo_cap)
         self._fifo_mask = self._fifo_cap - 1
         self.out = np.zeros(mb)  # volts of the last block
@@ -180,8 +180,8 @@ class LiveEngine:
             r = command.renderer
             if int(r.drive_rate) != self.drive_rate:
                 raise ConfigError("a new renderer must keep the drive rate", field="drive_rate")
-            if math.ceil(self._max_frames * r.model_rate / self.drive_rate) + 2 > self._max_model:
-                raise ConfigError("a new renderer's model rate is too high for this engine", field="model_rate")
+            if math.ceil(self._max_frames * r.control_rate / self.drive_rate) + 2 > self._max_model:
+                raise ConfigError("a new renderer's control rate is too high for this engine", field="control_rate")
         return self.commands.put(command)
 
     def request_stop(self) -> None:
@@ -213,7 +213,7 @@ class LiveEngine:
         out = self.out[:frames]
         try:
             self._commands()
-            self.hold.take(now, self._n_model / self.model_rate)
+            self.hold.take(now, self._n_model / self.control_rate)
             self._produce(frames, now)
             fifo_read(self._fifo, self._fifo_mask, self._fifo_r, out)
             self._fifo_r += frames
@@ -252,11 +252,11 @@ class LiveEngine:
                     self.guard.start_ramp()
             elif isinstance(cmd, SwapRenderer):
                 # the new renderer's sample clock starts at 0 where the old one stood
-                self.hold.anchor += self._n_model / self.model_rate
+                self.hold.anchor += self._n_model / self.control_rate
                 self.renderer = cmd.renderer
                 self._n_model = 0
                 self.v_max = float(self.renderer.safety.limits.v_max)
-                self.model_rate = int(self.renderer.model_rate)
+                self.control_rate = int(self.renderer.control_rate)
                 self.guard.set_limits(self.renderer.safety.limits)
             else:
                 self._gain = float(cmd.gain)
@@ -264,18 +264,18 @@ class LiveEngine:
     def _produce(self, frames: int, now: float) -> None:
         while self._fifo_w - self._fifo_r < frames:
             need = frames - (self._fifo_w - self._fifo_r)
-            n = int(math.ceil(need * self.model_rate / self.drive_rate))
+            n = int(math.ceil(need * self.control_rate / self.drive_rate))
             if n < 1:
                 n = 1
             if n > self._max_model:
                 n = self._max_model
             k0 = self._n_model
             sp, ld, ti, xs, ys = self._speed[:n], self._load[:n], self._ttime[:n], self._xs[:n], self._ys[:n]
-            k_lift = self.hold.fill(k0, self.model_rate, sp, ld, ti, xs, ys)
+            k_lift = self.hold.fill(k0, self.control_rate, sp, ld, ti, xs, ys)
             if k_lift != NO_LIFT:
                 # lifted late (the chain is past the lift's stamp): the drive queued since the
                 # lift's model sample is silenced at once; removing voltage is always safe
-                late = int(math.ceil((k0 - k_lift) * self.drive_rate / self.model_rate))
+                late = int(math.ceil((k0 - k_lift) * self.drive_rate / self.control_rate))
                 for j in range(max(self._fifo_r, self._fifo_w - late), self._fifo_w):
                     self._fifo[j & self._fifo_mask] = 0.0
             blk = self.renderer.process(sp, ld, ti, xs, ys)
@@ -296,7 +296,7 @@ class LiveEngine:
                     self.latencies[self.latency_count & (self.latencies.shape[0] - 1)] = t_emit - h.arrivals[j]
                     self.latency_count += 1
                 h.n_applied = 0
-            write_trace_row(self.trace, self.trace_count, k0 / self.model_rate, xs[0], ys[0], sp[0], ld[0],
+            write_trace_row(self.trace, self.trace_count, k0 / self.control_rate, xs[0], ys[0], sp[0], ld[0],
                             peak, blk.target[0], friction)
             self.trace_count += 1
 
@@ -342,6 +342,6 @@ class LiveEngine:
             "block_time": self.block_time_stats(),
             "block_period": self.block_period,
             "drive_rate": self.drive_rate,
-            "model_rate": self.model_rate,
+            "control_rate": self.control_rate,
             "stopped": self.stopped,
         }

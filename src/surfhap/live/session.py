@@ -50,7 +50,7 @@ def page_info(session) -> dict:
     and the output's info."""
     eng = session.engine
     return {"title": session.title, "preview": session.preview, "drive_rate": eng.drive_rate,
-            "model_rate": eng.model_rate, "block_period": eng.block_period,
+            "control_rate": eng.control_rate, "block_period": eng.block_period,
             "drive_full_scale": eng.drive_full_scale, "drive_unit": eng.drive_unit,
             "surface_m": [session.space.width, session.space.height], "output": backend_info(session.backend),
             "ff": session.ff}
@@ -105,7 +105,7 @@ class LiveSession:
         source = TrajectorySource(eng, trajectory)
         self.backend.open(eng)
         try:
-            total = drive_frames(model_samples(trajectory, eng.model_rate), eng.model_rate, eng.drive_rate)
+            total = drive_frames(model_samples(trajectory, eng.control_rate), eng.control_rate, eng.drive_rate)
             n = run(source, eng, clock, self.backend, total_frames=total)
             eng.request_stop()  # the end: the same stop ramp as a live output
             ramp = int(eng.config.stop_ramp * eng.drive_rate) + 4 * eng.block_frames
@@ -158,7 +158,7 @@ def build_session(material: str = "cork", output: str = "sim", *, drive_rate: in
         mat = load_material(material)
         chain = TextureChain(mat, ChainConfig(drive_rate=rate, seed=seed, **({} if display is None else {"display": display})))
         title, preview, display_model = f"{mat.name} ({chain.method})", material_preview(mat), chain.config.display
-    display = SimulatedDisplay(display_model, chain.drive_rate, chain.model_rate) if cfg.simulate_display else None
+    display = SimulatedDisplay(display_model, chain.drive_rate, chain.control_rate) if cfg.simulate_display else None
     engine = LiveEngine(chain, cfg, display=display, clock=None if clock is None else clock.now)
     backend = open_backend(output, OutputOptions(amp_gain, channels, max_seconds))
     sources = []

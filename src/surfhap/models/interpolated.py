@@ -197,7 +197,7 @@ class InterpolatedARMABank:
     """LSF-interpolated ARMA models over (speed, force) (see the module docstring).
 
     quantity    : "acceleration" (m/s^2; HaTT) or "cof".
-    sample_rate : model rate, Hz (HaTT: 1000).
+    sample_rate : control rate, Hz (HaTT: 1000).
     speeds      : (k,) m/s and forces (k,) N of the vertices (one per model).
     ar_lsf      : (k, p) rad; ma_lsf (k, q) rad (q may be 0).
     variances   : (k,) excitation variances; gains (k,) MA gains.
@@ -337,7 +337,7 @@ class InterpolatedARMABank:
 
 
 class InterpolatedSynthesizer:
-    """Streaming synthesis over an :class:`InterpolatedARMABank` at its model rate.
+    """Streaming synthesis over an :class:`InterpolatedARMABank` at its control rate.
 
     ``process(speed, load)``: speed (n,) m/s and normal force (n,) N -> (n,) samples. The
     model is re-interpolated whenever (speed, force) changes; histories persist across

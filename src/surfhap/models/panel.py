@@ -11,7 +11,7 @@ the finger/insulator stack behaves as a first-order high-pass with time constant
 ``leakage_time_constant``: a DC drive fades (the residual-charge problem that makes Otake et
 al. switch polarity, citing Nakamura and Yamamoto 2017) while a polarity carrier keeps
 ``V_eff^2`` equal to the envelope squared. The friction is low-pass filtered and decimated to
-the model rate for comparison with the material model.
+the control rate for comparison with the material model.
 
 ``mu_panel`` (0.5) and the 50 ms leakage constant are documented assumptions for a
 simulated panel, not measurements; the electrostatic constant ``k`` comes from
@@ -118,26 +118,26 @@ def _display_kernel(drive, load, state, a, mu, c0, c1, c2, scale, top, out):
 
 
 class SimulatedDisplay:
-    """``process(drive, load) -> friction`` at the model rate.
+    """``process(drive, load) -> friction`` at the control rate.
 
     drive (m,) V and load (m,) N at the drive rate; returns the friction force (N) low-passed
-    and decimated to ``model_rate``. ``last_friction_drive_rate`` keeps the undecimated force of
+    and decimated to ``friction_rate``. ``last_friction_drive_rate`` keeps the undecimated force of
     the last block and ``last_v_eff`` the effective voltage, for inspection. The added friction
     is the display's :attr:`DisplayModel.curve` at ``|V_eff|`` (``mu_panel k V_eff^2`` without a
     measured curve; an intensity curve at ``|V_eff| / v_max``), 0 without drive.
     """
 
-    def __init__(self, model: DisplayModel, drive_rate: int, model_rate: int, v_max: float = 250.0):
+    def __init__(self, model: DisplayModel, drive_rate: int, friction_rate: int, v_max: float = 250.0):
         self.model = model
         self.drive_rate = int(drive_rate)
-        self.model_rate = int(model_rate)
+        self.friction_rate = int(friction_rate)
         dt = 1.0 / self.drive_rate
         tau = model.leakage_time_constant
         self._a = tau / (tau + dt)
         curve = model.curve
         self._curve = (*curve.coefficients, 1.0 if curve.input == "voltage" else 1.0 / float(v_max), curve.u_max)
         self._state = np.zeros(2)
-        self._down = RationalResampler(self.drive_rate, self.model_rate)
+        self._down = RationalResampler(self.drive_rate, self.friction_rate)
         self.delay = self._down.delay
         self.last_friction_drive_rate = np.zeros(0)
 

@@ -37,9 +37,9 @@ def _ar_bank_kernel(noise, model_idx, coefs, orders, sigmas, buf, pmax, out):
 
 
 class ARSynthesizer:
-    """Texture synthesis at the bank's model rate.
+    """Texture synthesis at the bank's control rate.
 
-    ``process(speed, load=None)`` takes (n,) finger speeds (m/s) at the model rate (the load
+    ``process(speed, load=None)`` takes (n,) finger speeds (m/s) at the control rate (the load
     is accepted for the common synthesiser protocol and not used) and returns (n,) texture samples (the bank's quantity: mu_t, or acceleration in m/s^2). The last
     ``model_index`` array tells which model produced each sample.
     """

@@ -1,7 +1,7 @@
 """High-frequency texture models: AR models and banks of them over reference speeds.
 
 A :class:`TextureBank` holds AR models of one quantity (``"cof"``, the textural coefficient
-of friction mu_t, or ``"acceleration"`` in m/s^2) at one model rate. Live rendering picks
+of friction mu_t, or ``"acceleration"`` in m/s^2) at one control rate. Live rendering picks
 the model whose reference speed is nearest the finger speed (Otake et al. 2022, Sec. III-B).
 
 :class:`TextureModel` is the interface every texture a Material can hold provides (this
@@ -25,7 +25,7 @@ TEXTURE_QUANTITIES = ("cof", "acceleration")
 
 
 class TextureSynthesizer(Protocol):
-    """Streaming synthesis at the model rate: speed (n,) m/s, load (n,) N -> (n,) samples."""
+    """Streaming synthesis at the control rate: speed (n,) m/s, load (n,) N -> (n,) samples."""
 
     def process(self, speed: np.ndarray, load: np.ndarray | None = None) -> np.ndarray: ...
     def reset(self) -> None: ...
@@ -88,10 +88,10 @@ class ARModel:
 
 @dataclass(frozen=True)
 class TextureBank:
-    """AR models of one quantity at one model rate, keyed by reference speed.
+    """AR models of one quantity at one control rate, keyed by reference speed.
 
     quantity    : "cof" (dimensionless mu_t) or "acceleration" (m/s^2).
-    sample_rate : model rate, Hz (2 kHz for Otake's data, 1 kHz for HaTT).
+    sample_rate : control rate, Hz (2 kHz for Otake's data, 1 kHz for HaTT).
     models      : tuple of ARModel, sorted by reference speed; a single model may have
                   ``reference_speed=None``.
     """

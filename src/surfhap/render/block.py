@@ -4,8 +4,8 @@
 The texture chain (:class:`surfhap.render.chain.TextureChain`) and the shape chain
 (:class:`surfhap.render.shape_chain.ShapeChain`) both return it, so the runtime
 (:func:`surfhap.runtime.loop.run`) drives either one the same way. Block contract:
-the engine hands ``n`` finger samples at ``model_rate`` and receives the drive samples that
-became available (``n * drive_rate / model_rate`` on average), already through the
+the engine hands ``n`` finger samples at ``control_rate`` and receives the drive samples that
+became available (``n * drive_rate / control_rate`` on average), already through the
 renderer's own safety stage; the engine's output safety pass still comes after.
 """
 
@@ -24,7 +24,7 @@ class RenderBlock(NamedTuple):
     drive      : (m,) float V at ``drive_rate``, after the renderer's safety stage.
     load_drive : (m,) float N, the finger load held at ``drive_rate`` (what the safety stage saw).
     target     : (n,) float N, the friction the renderer asks the display to add, one value per
-                 model-rate input sample.
+                 control-rate input sample.
     detail     : renderer-specific extras (the texture chain: texture samples and its
                  :class:`~surfhap.render.drive.DriveBlock`; see ``TextureChain``), or None.
     """

@@ -1,15 +1,15 @@
 """The electrostatic texture chain: synthesis -> drive law -> resampling -> carrier -> safety.
 
-One :class:`TextureChain` turns blocks of finger state at the model rate into drive samples
+One :class:`TextureChain` turns blocks of finger state at the control rate into drive samples
 at the drive rate. Offline rendering (:func:`surfhap.render.offline.render`) and live
 rendering run this same object; only the clock and the backend differ.
 
-The chain runs at ``model_rate`` (the control rate, 2 kHz by default, or the texture's model
+The chain runs at ``control_rate`` (the control rate, 2 kHz by default, or the texture's model
 rate when that is higher). Block contract (``process``): inputs are (n,) float arrays at that
 rate for the n samples following the previous block: speed (m/s), load (N) and ``touch_time``, the
 time stamp (s, on the chain's clock that starts at 0 on reset) of the freshest touch sample
-available at each model sample (``-inf`` if none yet). The output holds the model-rate
-envelope and the drive-rate samples that became available (n * drive_rate / model_rate on
+available at each model sample (``-inf`` if none yet). The output holds the control-rate
+envelope and the drive-rate samples that became available (n * drive_rate / control_rate on
 average), already through the safety stage.
 """
 
@@ -28,7 +28,7 @@ from surfhap.models.panel import DisplayModel
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
 from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
-from surfhap.render.hold import hold_latest, model_times
+from surfhap.render.hold import hold_latest, control_times
 from surfhap.render.safety import SafetyLimits, SafetyStage
 from surfhap.render.texture_source import TextureSource
 from surfhap.signal.resample import RationalResampler
@@ -105,7 +105,7 @@ class ChainConfig:
 
 class TextureDetail(NamedTuple):
     """The texture chain's extras of a block: texture (n,) samples (material quantity, zeros
-    if none) and drive_law, the :class:`~surfhap.render.drive.DriveBlock` at the model rate
+    if none) and drive_law, the :class:`~surfhap.render.drive.DriveBlock` at the control rate
     (voltage envelope, target, mu_low, mu_tex)."""
 
     texture: np.ndarray
@@ -115,7 +115,7 @@ class TextureDetail(NamedTuple):
 class ChainBlock(RenderBlock):
     """A :class:`~surfhap.render.block.RenderBlock` of the texture chain: drive (m,) V at the
     drive rate after carrier and safety, load_drive (m,) N held at the drive rate (what the
-    safety stage saw), target (n,) N at the model rate, detail a :class:`TextureDetail`;
+    safety stage saw), target (n,) N at the control rate, detail a :class:`TextureDetail`;
     ``texture`` and ``drive_law`` read the detail."""
 
     __slots__ = ()
@@ -172,26 +172,26 @@ class TextureChain:
         probe = make_drive_law(method, material, self.params, cfg.control_rate)
         self.method = probe.method
         self.carrier_hz, self.carrier_choice = resolve_carrier(cfg.carrier, self.method, int(cfg.drive_rate))
-        self.model_rate = int(cfg.control_rate)
+        self.control_rate = int(cfg.control_rate)
         self.texture_rate = None
         if probe.uses_texture:
-            rate = material.model_rate
+            rate = material.texture_rate
             if int(rate) != rate:
-                raise ConfigError(f"texture model rate {rate} Hz is not a whole number", field="texture.sample_rate")
+                raise ConfigError(f"texture model's rate {rate} Hz is not a whole number", field="texture.sample_rate")
             self.texture_rate = int(rate)
-            self.model_rate = max(self.model_rate, self.texture_rate)
-        if self.model_rate > cfg.drive_rate:
-            raise ConfigError(f"drive rate {cfg.drive_rate} Hz is below the model rate {self.model_rate} Hz", field="drive_rate")
-        self.law = make_drive_law(self.method, material, self.params, self.model_rate, display=cfg.display,
+            self.control_rate = max(self.control_rate, self.texture_rate)
+        if self.control_rate > cfg.drive_rate:
+            raise ConfigError(f"drive rate {cfg.drive_rate} Hz is below the control rate {self.control_rate} Hz", field="drive_rate")
+        self.law = make_drive_law(self.method, material, self.params, self.control_rate, display=cfg.display,
                                   v_max=cfg.limits.v_max)
-        self.synth = TextureSource(material.texture, self.model_rate, seed=cfg.seed) if self.law.uses_texture else None
-        self.upsampler = RationalResampler(self.model_rate, int(cfg.drive_rate))
+        self.synth = TextureSource(material.texture, self.control_rate, seed=cfg.seed) if self.law.uses_texture else None
+        self.upsampler = RationalResampler(self.control_rate, int(cfg.drive_rate))
         self.carrier = PolarityCarrier(self.carrier_hz, cfg.drive_rate)
         self.safety = SafetyStage(cfg.drive_rate, cfg.limits)
         self.drive_rate = int(cfg.drive_rate)
         self._max_load = cfg.limits.max_load
         self.latency = self.upsampler.delay
-        self._hold_tol = 1e-9 / self.model_rate  # s: a model sample holds from its start time on
+        self._hold_tol = 1e-9 / self.control_rate  # s: a model sample holds from its start time on
         self.reset()
 
     def reset(self) -> None:
@@ -223,7 +223,7 @@ class TextureChain:
         load_drive = np.empty(m)
         age = np.empty(m)
         src_time = np.empty(n)
-        model_times(self._n_model, float(self.model_rate), src_time)
+        control_times(self._n_model, float(self.control_rate), src_time)
         hold_latest(self._n_drive, float(self.drive_rate), src_time, self._hold_tol, np.ascontiguousarray(load),
                     np.ascontiguousarray(touch_time), self._last_load, self._last_touch, load_drive, age,
                     np.empty(m, dtype=np.int64))

@@ -1,4 +1,4 @@
-"""Drive laws: from finger speed, load and texture to the voltage envelope (model rate).
+"""Drive laws: from finger speed, load and texture to the voltage envelope (control rate).
 
 Every law computes a target lateral force ``F`` (N) that the display should add, then
 ``V = alpha * sqrt(max(F, 0))``: the electrostatic friction is ``mu_panel * k * V^2``, so with
@@ -89,7 +89,7 @@ class DriveParams:
 
 
 class DriveBlock(NamedTuple):
-    """One block of drive-law output, all (n,) float at the model rate."""
+    """One block of drive-law output, all (n,) float at the control rate."""
 
     voltage: np.ndarray  # V, envelope before the polarity carrier, >= 0
     target: np.ndarray  # N, target added friction before clipping
@@ -318,7 +318,7 @@ class Square(DriveLaw):
                  display: DisplayModel | None = None, v_max: float = 250.0):
         super().__init__(material, params, sample_rate, display=display, v_max=v_max)
         if self.sample_rate is not None and params.square_frequency >= self.sample_rate / 2:
-            raise ConfigError(f"square frequency must be below half the model rate ({self.sample_rate / 2:g} Hz)", field="square_frequency")
+            raise ConfigError(f"square frequency must be below half the control rate ({self.sample_rate / 2:g} Hz)", field="square_frequency")
         p = params
         if p.square_amplitude is not None:
             self.square_amplitude = float(p.square_amplitude)
@@ -335,7 +335,7 @@ class Square(DriveLaw):
 
     def _evaluate(self, speed, load, texture, start):
         if self.sample_rate is None:
-            raise ConfigError("the square baseline needs the model rate to render", field="sample_rate")
+            raise ConfigError("the square baseline needs the control rate to render", field="sample_rate")
         n = load.shape[0]
         target, voltage = np.empty(n), np.empty(n)
         clipped, touching = self._kernels.square_law(start, self._step, self.on_force, load, float(self.params.alpha), target, voltage)

@@ -20,7 +20,7 @@ def expected_texture_psd(r, freqs: np.ndarray, v: float, fn: float) -> np.ndarra
     bank = r.texture_model
     if bank is None or not r.low_band.drive_law.uses_texture:
         return None
-    rate = r.texture_rate or r.model_rate
+    rate = r.texture_rate or r.control_rate
     f = np.asarray(freqs, dtype=float)
     psd = np.where(f < rate / 2, bank.psd_at(v, fn, f), 0.0)  # the TextureModel at (v, fn)
     per_unit = float(r.low_band.drive_law.texture_force_per_unit(v, fn)[0])  # N of target force per unit of texture

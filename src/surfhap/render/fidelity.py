@@ -2,7 +2,7 @@
 
 For a constant scan (one load fn, one speed v) rendered at rendering gain G
 (``RenderResult.rendering_gain``), with the added friction ``f_add = friction_sim - mu_panel fn``
-(N, model rate) and the band split at ``cutoff`` (3.5 Hz, 003 Sec. II; :class:`~surfhap.signal.bands.BandSplit`):
+(N, control rate) and the band split at ``cutoff`` (3.5 Hz, 003 Sec. II; :class:`~surfhap.signal.bands.BandSplit`):
 
 saturated_fraction
     drive samples the safety stage clamped to v_max, over all drive samples.
@@ -65,7 +65,7 @@ def fidelity_metrics(result, cutoff: float = 3.5, warmup: float = 0.5, target_vo
     """Metrics of a RenderResult of a constant scan; ``target_voltage_ratio`` defaults to the
     material file's calibration when the caller passes the material's value."""
     r = result
-    rate = float(r.model_rate)
+    rate = float(r.control_rate)
     touching = r.load > 0
     fn = float(np.median(r.load[touching])) if np.any(touching) else 0.0
     v = float(np.median(r.speed[touching])) if np.any(touching) else 0.0

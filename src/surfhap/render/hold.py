@@ -2,7 +2,7 @@
 
 The texture chain (:mod:`surfhap.render.chain`), the offline shape render and the live shape
 renderer (:mod:`surfhap.render.shape_renderer`) all turn finger samples that arrive at a slow
-rate (touch or model rate) into drive-rate inputs of the safety stage: for each drive sample,
+rate (touch or control rate) into drive-rate inputs of the safety stage: for each drive sample,
 the load and the age of the freshest finger sample in force at its time. :func:`hold_latest`
 is that zero-order hold.
 
@@ -22,7 +22,7 @@ run on a trajectory and its offline render give the same drive (tests/test_play_
 (:func:`surfhap.render.offline.render_blocks`) and the offline shape render feed it a
 trajectory's rows directly (:class:`TrajectoryRows`).
 
-Chain clock: model sample ``k`` of the renderer is at ``anchor + k / model_rate`` on the
+Chain clock: model sample ``k`` of the renderer is at ``anchor + k / control_rate`` on the
 engine clock. ``anchor`` follows the emission time: at each block it is raised so that the
 chain never runs behind ``now`` (a stall or a late block re-anchors it), so a sample that has
 arrived by ``now`` is in force at the latest from the next model sample computed. A sample
@@ -45,7 +45,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["hold_latest", "model_times", "TouchHold", "TrajectoryRows", "NO_TOUCH_TIME", "NO_LIFT"]
+__all__ = ["hold_latest", "control_times", "TouchHold", "TrajectoryRows", "NO_TOUCH_TIME", "NO_LIFT"]
 
 NO_TOUCH_TIME = -1.0e6  # "touched long ago": the watchdog holds the output at zero
 NO_LIFT = 1 << 62  # TouchHold.fill(): no late lift in this chunk
@@ -84,12 +84,12 @@ def hold_latest(n_drive0, drive_rate, src_time, tol, load, stamp, last_load, las
 
 
 @numba.njit(cache=True, nogil=True)
-def model_times(n_model0, model_rate, out):
-    """Start times (s) of the model samples ``n_model0 .. n_model0 + n - 1`` at ``model_rate``
+def control_times(n_model0, control_rate, out):
+    """Start times (s) of the model samples ``n_model0 .. n_model0 + n - 1`` at ``control_rate``
     Hz into ``out`` (n,) float: the ``src_time`` of :func:`hold_latest` for a chain that runs
-    at a fixed model rate."""
+    at a fixed control rate."""
     for k in range(out.shape[0]):
-        out[k] = (n_model0 + k) / model_rate
+        out[k] = (n_model0 + k) / control_rate
 
 
 class TouchHold:

@@ -56,7 +56,7 @@ class RenderResult:
     material: str
     method: str
     seed: int
-    model_rate: int
+    control_rate: int
     drive_rate: int
     carrier: float
     alpha: float
@@ -213,7 +213,7 @@ class RenderStats:
         self.texture_sq_sum += float(np.sum(np.square(target[on] - low[on])))
 
     def add_model(self, load: np.ndarray, voltage: np.ndarray, v_max: float) -> None:
-        """Account one block of model-rate load (n,) N and envelope (n,) V."""
+        """Account one block of control-rate load (n,) N and envelope (n,) V."""
         self.n_model += int(load.shape[0])
         sat = (load > 0) & (voltage >= v_max)
         if np.any(sat):
@@ -240,8 +240,8 @@ def summary_dict(r, stats: RenderStats) -> dict:
         "method": r.method,
         "seed": r.seed,
         "trajectory": r.trajectory_name,
-        "duration_s": float((stats.n_model - 1) / r.model_rate + 1.0 / r.model_rate) if stats.n_model else 0.0,
-        "model_rate_hz": r.model_rate,
+        "duration_s": float((stats.n_model - 1) / r.control_rate + 1.0 / r.control_rate) if stats.n_model else 0.0,
+        "control_rate_hz": r.control_rate,
         "texture_rate_hz": r.texture_rate,
         "drive_rate_hz": r.drive_rate,
         "carrier_hz": r.carrier,
@@ -323,7 +323,7 @@ def render_blocks(chain, trajectory: Trajectory, display: SimulatedDisplay, *, b
     ``display``. Yields ``(start, speed, load, block, friction)`` per block: model sample index,
     (n,) m/s and N inputs, the chain's block and the display's friction; ends early when
     ``stop()`` is True. :func:`render` and :func:`surfhap.render.stream.stream_render` consume it."""
-    fm = chain.model_rate
+    fm = chain.control_rate
     n = model_samples(trajectory, fm)
     hold = TouchHold(TrajectoryRows(trajectory), TouchPredictor(), 0.05,
                      {"touches": 0, "touches_ignored": 0, "stale_stamps": 0})
@@ -339,9 +339,9 @@ def render_blocks(chain, trajectory: Trajectory, display: SimulatedDisplay, *, b
         yield start, speed, load, out, display.process(out.drive, out.load_drive)
 
 
-def model_samples(trajectory: Trajectory, model_rate: float) -> int:
-    """Number of model-rate samples a render of ``trajectory`` has."""
-    return int(np.floor((trajectory.t[-1] - trajectory.t[0]) * model_rate + 1e-9)) + 1
+def model_samples(trajectory: Trajectory, control_rate: float) -> int:
+    """Number of control-rate samples a render of ``trajectory`` has."""
+    return int(np.floor((trajectory.t[-1] - trajectory.t[0]) * control_rate + 1e-9)) + 1
 
 
 def render(material: Material, trajectory: Trajectory, config: ChainConfig | None = None, *,
@@ -349,8 +349,8 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
     """Render ``trajectory`` over ``material`` on the simulated display; see :class:`RenderResult`."""
     cfg = config or ChainConfig()
     chain = TextureChain(material, cfg)
-    display = SimulatedDisplay(cfg.display, chain.drive_rate, chain.model_rate)
-    n = model_samples(trajectory, chain.model_rate)
+    display = SimulatedDisplay(cfg.display, chain.drive_rate, chain.control_rate)
+    n = model_samples(trajectory, chain.control_rate)
     keys = ("speed", "load", "texture", "voltage", "target", "mu_low", "mu_tex")
     parts: dict[str, list] = {k: [] for k in (*keys, "drive", "friction")}
     for start, speed, load, out, fric in render_blocks(chain, trajectory, display, block_seconds=block_seconds):
@@ -367,7 +367,7 @@ def render(material: Material, trajectory: Trajectory, config: ChainConfig | Non
     friction[:min(n, arr["friction"].size)] = arr["friction"][:n]
     uses_acc = chain.law.uses_texture and material.texture.quantity == "acceleration"
     return RenderResult(
-        t=np.arange(n) / chain.model_rate, speed=arr["speed"], load=arr["load"], texture=arr["texture"], mu_low=arr["mu_low"],
+        t=np.arange(n) / chain.control_rate, speed=arr["speed"], load=arr["load"], texture=arr["texture"], mu_low=arr["mu_low"],
         mu_tex=arr["mu_tex"], target=arr["target"], voltage=arr["voltage"], drive=arr["drive"], friction_sim=friction,
         acc=arr["texture"] if uses_acc else None, **render_settings(material, trajectory, cfg, chain, display),
     )
@@ -378,7 +378,7 @@ def render_settings(material: Material, trajectory: Trajectory, cfg: ChainConfig
     """The non-array fields of a :class:`RenderResult` (settings, counters, models) of a chain
     that has run; shared by :func:`render` and the streaming render."""
     return dict(
-        material=material.name, method=chain.method, seed=cfg.seed, model_rate=chain.model_rate, drive_rate=chain.drive_rate,
+        material=material.name, method=chain.method, seed=cfg.seed, control_rate=chain.control_rate, drive_rate=chain.drive_rate,
         carrier=chain.carrier_hz, alpha=chain.params.alpha, beta=chain.params.beta, alpha_calibrated=chain.alpha_calibrated,
         latency=chain.latency, display_latency=display.delay, mu_panel=cfg.display.mu_panel, k=cfg.display.k,
         clipped=chain.law.clipped, touching=chain.law.touching, safety=chain.safety.counters,

@@ -1,6 +1,6 @@
 """What the render figure shows, kept in bounded memory while a render streams.
 
-:class:`PreviewRecorder` takes the model-rate and drive-rate blocks of a render as they are
+:class:`PreviewRecorder` takes the control-rate and drive-rate blocks of a render as they are
 produced and keeps only: a 1 s window of friction, target and low band in the middle of the
 render; a 50 ms window of the drive and its envelope there; up to ``spectrum_seconds`` of
 added friction (after the 0.5 s settling) for the spectrum; and a min/max envelope of speed
@@ -32,7 +32,7 @@ class RenderPreview:
     win_low: (w,) N, the drive law's low-band target there (its ``LowBand``: mu_low times the
     load the method uses, Zhao's constant load for zhao), which the figure's law line draws.
     drv_t, drv: (d,) drive window, V; env_t, env: (e,) envelope in that window, V.
-    spec_added: (s,) N added friction from ``SETTLE_S`` on, at ``model_rate`` (spectrum input).
+    spec_added: (s,) N added friction from ``SETTLE_S`` on, at ``control_rate`` (spectrum input).
     col_t, speed_min, speed_max, load_min, load_max: (c,) min/max envelope per column.
     expected_psd: freqs (k,) Hz -> (k,) N^2/Hz or None, the texture model's spectrum.
     """
@@ -42,7 +42,7 @@ class RenderPreview:
     carrier: float
     rendering_gain: float
     mu_panel: float
-    model_rate: int
+    control_rate: int
     texture_rate: int | None
     span: float
     window: float
@@ -93,21 +93,21 @@ class PreviewRecorder:
     object (material, method, carrier, ...), ``expected(freqs, v, fn)`` the model spectrum.
     """
 
-    def __init__(self, n_model: int, n_drive: int, model_rate: int, drive_rate: int, meta, expected,
+    def __init__(self, n_model: int, n_drive: int, control_rate: int, drive_rate: int, meta, expected,
                  *, columns: int = 1200, spectrum_seconds: float = 30.0):
-        self.n, self.fm, self.fd, self.meta, self._expected = n_model, model_rate, drive_rate, meta, expected
-        t_last = (n_model - 1) / model_rate if n_model else 0.0
+        self.n, self.fm, self.fd, self.meta, self._expected = n_model, control_rate, drive_rate, meta, expected
+        t_last = (n_model - 1) / control_rate if n_model else 0.0
         self.span = min(1.0, t_last) if n_model else 1.0
         start = max(0.0, t_last / 2 - self.span / 2)
-        a, b = _index_window(start, start + self.span, model_rate, n_model)
+        a, b = _index_window(start, start + self.span, control_rate, n_model)
         self._win = {k: _Window(a, b) for k in ("friction", "target", "mu_low", "load", "low")}
         td_last = (n_drive - 1) / drive_rate if n_drive else 0.0
         self.window = min(0.05, td_last) if n_drive else 0.05
         mid = td_last / 2
         self._drv = _Window(*_index_window(mid, mid + self.window, drive_rate, n_drive))
-        self._env = _Window(*_index_window(mid, mid + self.window, model_rate, n_model))
-        s0 = min(int(SETTLE_S * model_rate), max(0, n_model - 64))
-        s1 = min(n_model, s0 + int(spectrum_seconds * model_rate))
+        self._env = _Window(*_index_window(mid, mid + self.window, control_rate, n_model))
+        s0 = min(int(SETTLE_S * control_rate), max(0, n_model - 64))
+        s1 = min(n_model, s0 + int(spectrum_seconds * control_rate))
         self._spec = {k: _Window(s0, s1) for k in ("friction", "load", "speed")}
         self._bin = max(1, math.ceil(n_model / columns))
         ncol = math.ceil(n_model / self._bin)
@@ -174,7 +174,7 @@ class PreviewRecorder:
         k = len(wt)
         return RenderPreview(
             material=m.material, method=m.method, carrier=m.carrier, rendering_gain=rendering_gain(m.alpha, m.alpha_calibrated),
-            mu_panel=m.mu_panel, model_rate=self.fm, texture_rate=m.texture_rate, span=self.span, window=self.window,
+            mu_panel=m.mu_panel, control_rate=self.fm, texture_rate=m.texture_rate, span=self.span, window=self.window,
             win_t=wt, win_friction=fr, win_target=self._win["target"].buf[:k], win_mu_low=self._win["mu_low"].buf[:k],
             win_load=self._win["load"].buf[:k], win_low=self._win["low"].buf[:k], drv_t=di / self.fd, drv=dv, env_t=ei / self.fm, env=ev,
             spec_added=sf - m.mu_panel * sl, col_t=np.arange(ncol) * self._bin / self.fm,
@@ -187,7 +187,7 @@ def preview_of(result, *, columns: int = 1200, spectrum_seconds: float = 30.0) -
     """The :class:`RenderPreview` of an in-memory :class:`~surfhap.render.offline.RenderResult`."""
     from surfhap.render.expected import expected_texture_psd
 
-    rec = PreviewRecorder(result.t.size, result.drive.size, result.model_rate, result.drive_rate, result,
+    rec = PreviewRecorder(result.t.size, result.drive.size, result.control_rate, result.drive_rate, result,
                           expected_texture_psd, columns=columns, spectrum_seconds=spectrum_seconds)
     rec.add_model(0, result.speed, result.load, result.target, result.mu_low, result.voltage)
     rec.add_friction(0, result.friction_sim)

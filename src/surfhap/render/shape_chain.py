@@ -1,6 +1,6 @@
 """The shape chain: Kim et al.'s shape rendering (2017, Sec. 4) as a block :class:`Renderer`.
 
-The runtime hands it, per chunk, the held finger state at ``model_rate`` (live 1 kHz: one
+The runtime hands it, per chunk, the held finger state at ``control_rate`` (live 1 kHz: one
 sample per 1 ms block; :func:`render_shape` runs it at the drive
 rate) including the (predicted) position. The touch-rate stage (vertical
 ray, eq. 3-9 gradient and intensity, eq. 10-11 edge tick: the compiled
@@ -28,7 +28,7 @@ from typing import Callable
 from surfhap.models.panel import SimulatedDisplay
 from surfhap.models.trajectory import Trajectory
 from surfhap.render.block import RenderBlock
-from surfhap.render.hold import TouchHold, TrajectoryRows, hold_latest, model_times
+from surfhap.render.hold import TouchHold, TrajectoryRows, hold_latest, control_times
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.render.shape_renderer import ShapeBlock, ShapeConfig, ShapeDrive, ShapeRenderer, ShapeResult
 from surfhap.shape.calibration import ShapeCalibration, calibrate
@@ -40,15 +40,15 @@ __all__ = ["ShapeChain", "render_shape"]
 
 class ShapeChain:
     """:class:`~surfhap.render.block.Renderer` of a mesh (``TopSurface``) with its Fsq
-    calibration (``ShapeCalibration``); ``model_rate`` Hz must divide the drive rate."""
+    calibration (``ShapeCalibration``); ``control_rate`` Hz must divide the drive rate."""
 
     uses_position = True
 
-    def __init__(self, surface, calibration, config: ShapeConfig | None = None, *, model_rate: int = 1000,
+    def __init__(self, surface, calibration, config: ShapeConfig | None = None, *, control_rate: int = 1000,
                  surface_size: tuple[float, float] = (0.217, 0.136), max_block: int = 1 << 14):
         cfg = config or ShapeConfig()
-        if cfg.drive_rate % model_rate:
-            raise ValueError("the drive rate must be a multiple of the model rate")
+        if cfg.drive_rate % control_rate:
+            raise ValueError("the drive rate must be a multiple of the control rate")
         self.config = cfg
         self.surface = surface
         self.calibration = calibration
@@ -56,11 +56,11 @@ class ShapeChain:
         self.drive_stage = ShapeDrive(cfg)
         self.safety = self.drive_stage.safety
         self.drive_rate = int(cfg.drive_rate)
-        self.model_rate = int(model_rate)
-        self.ratio = self.drive_rate // self.model_rate
+        self.control_rate = int(control_rate)
+        self.ratio = self.drive_rate // self.control_rate
         self.half = (surface_size[0] / 2.0, surface_size[1] / 2.0)
         self.lift = cfg.limits.lift_threshold
-        self._hold_tol = 1e-9 / self.model_rate
+        self._hold_tol = 1e-9 / self.control_rate
         self._fmin = float(calibration.fmin)
         self._fmax = float(calibration.fmax)
         self._edges = bool(cfg.edges) and not cfg.edge_walk
@@ -155,7 +155,7 @@ class ShapeChain:
         loads = self._load[:m]
         age = self._age[:m]
         src = self._src_time[:n]
-        model_times(self._n_model, float(self.model_rate), src)
+        control_times(self._n_model, float(self.control_rate), src)
         hold_latest(self._n_drive, float(self.drive_rate), src, self._hold_tol, load, touch_time, self._last_load,
                     self._last_touch, loads, age, self._index[:m])
         drive, target = self.drive_stage.process(inten, ticks, loads, age)
@@ -178,7 +178,7 @@ def render_shape(surface: TopSurface, trajectory: Trajectory, calibration: Shape
     cfg = config or ShapeConfig()
     cal = calibration if calibration is not None else calibrate(surface, fz=cfg.fz)
     renderer = ShapeRenderer(surface, cal, cfg)
-    display = SimulatedDisplay(cfg.display, cfg.drive_rate, cfg.model_rate, v_max=cfg.limits.v_max)
+    display = SimulatedDisplay(cfg.display, cfg.drive_rate, cfg.friction_rate, v_max=cfg.limits.v_max)
     t = trajectory.t - trajectory.t[0]
     touching = trajectory.load > cfg.limits.lift_threshold
     # the touch-rate quantities of the result (z, face, Fsq, intensity, edge), in blocks
@@ -191,7 +191,7 @@ def render_shape(surface: TopSurface, trajectory: Trajectory, calibration: Shape
     # sample at its stamp (the runtime's TouchHold); the trajectory is in mesh coordinates
     # (a zero page size maps x -> x, and the page's downward y -> -y)
     fs = cfg.drive_rate
-    chain = ShapeChain(surface, cal, cfg, model_rate=fs, surface_size=(0.0, 0.0))
+    chain = ShapeChain(surface, cal, cfg, control_rate=fs, surface_size=(0.0, 0.0))
     mirrored = Trajectory(trajectory.t, trajectory.x, -trajectory.y, trajectory.load, name=trajectory.name)
     hold = TouchHold(TrajectoryRows(mirrored), TouchPredictor(), 0.05, {"touches": 0, "touches_ignored": 0, "stale_stamps": 0})
     hold.take(0.0, 0.0)
@@ -215,7 +215,7 @@ def render_shape(surface: TopSurface, trajectory: Trajectory, calibration: Shape
         mesh=surface.name, t=t, x=trajectory.x.copy(), y=trajectory.y.copy(), load=trajectory.load.copy(),
         z=out.z, face=out.face, force=out.force, fsq=out.fsq, intensity=out.intensity, edge=out.edge,
         theta=out.theta, t_drive=t_drive, drive=drive, target=np.concatenate(targets) if targets else np.zeros(0),
-        friction_sim=np.concatenate(frictions) if frictions else np.zeros(0), model_rate=int(cfg.model_rate),
+        friction_sim=np.concatenate(frictions) if frictions else np.zeros(0), friction_rate=int(cfg.friction_rate),
         drive_rate=int(fs), calibration=cal, config=cfg, theta_min=renderer.theta_min,
         safety=drive_proc.safety.counters, trajectory_name=trajectory.name, surface=surface,
     )

@@ -53,7 +53,7 @@ class ShapeConfig:
                          segment (an extension; the paper compares consecutive hit faces).
     drive_rate         : Hz, DAC rate (2-48 kHz).
     carrier            : Hz, polarity carrier (0 = off, else 2-20 kHz).
-    model_rate         : Hz, rate of the simulated display's friction output.
+    friction_rate         : Hz, rate of the simulated display's friction output.
     alpha              : V/sqrt(N); None = calibrated to the display (a given alpha scales the
                          target force by (alpha / calibrated alpha)^2 before the display's map).
     seed               : seed of the grainy grain.
@@ -71,7 +71,7 @@ class ShapeConfig:
     edge_walk: bool = False
     drive_rate: int = 20000
     carrier: float = 2000.0
-    model_rate: int = 2000
+    friction_rate: int = 2000
     alpha: float | None = None
     seed: int = 0
     device: DeviceCurve | None = None
@@ -89,8 +89,8 @@ class ShapeConfig:
             raise ConfigError(f"must be in (0, 180] deg, got {self.edge_threshold_deg}", field="edge_threshold")
         if int(self.drive_rate) != self.drive_rate or not 2000 <= self.drive_rate <= 48000:
             raise ConfigError(f"must be a whole number of Hz within 2000-48000, got {self.drive_rate}", field="drive_rate")
-        if int(self.model_rate) != self.model_rate or not 100 <= self.model_rate <= self.drive_rate:
-            raise ConfigError("must be a whole number of Hz within 100 and the drive rate", field="model_rate")
+        if int(self.friction_rate) != self.friction_rate or not 100 <= self.friction_rate <= self.drive_rate:
+            raise ConfigError("must be a whole number of Hz within 100 and the drive rate", field="friction_rate")
         check_carrier(self.carrier, self.drive_rate)
         if self.alpha is not None and not (np.isfinite(self.alpha) and self.alpha > 0):
             raise ConfigError("must be > 0", field="alpha")
@@ -201,7 +201,7 @@ class ShapeResult:
     """One shape render. Touch-rate arrays (n,): t (s, from 0), x, y (m), load (N), z (hit
     height, NaN off the mesh), face (-1 off), force (N lateral), fsq, intensity ([0.3, 1]),
     edge (tick Ie, 0 where none), theta (deg). Drive-rate arrays (m,): t_drive, drive (V,
-    after safety), target (N). friction_sim (k,) N at ``model_rate`` from the simulated
+    after safety), target (N). friction_sim (k,) N at ``friction_rate`` from the simulated
     display."""
 
     mesh: str
@@ -220,7 +220,7 @@ class ShapeResult:
     drive: np.ndarray
     target: np.ndarray
     friction_sim: np.ndarray
-    model_rate: int
+    friction_rate: int
     drive_rate: int
     calibration: ShapeCalibration
     config: ShapeConfig

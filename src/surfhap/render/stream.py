@@ -1,7 +1,7 @@
 """Streaming offline render: the same chain as :func:`surfhap.render.offline.render`, block by
 block, handing each block to a sink instead of keeping it, in memory independent of the duration.
 
-:func:`stream_render` samples the trajectory onto the model-rate grid one block at a time
+:func:`stream_render` samples the trajectory onto the control-rate grid one block at a time
 (the one offline loop, :func:`~surfhap.render.offline.render_blocks`, that ``render()`` runs too), runs the
 :class:`~surfhap.render.chain.TextureChain` (whose last stage is the safety stage) and the
 simulated display, and calls ``sink(channel, block)`` for every channel of :data:`CHANNELS`.
@@ -72,8 +72,8 @@ class StreamedRender:
         ``interrupted`` and ``rendered_s`` / ``requested_s``."""
         return summary_dict(self, self.stats) | {
             "interrupted": self.interrupted,
-            "rendered_s": self.n_model / self.model_rate,
-            "requested_s": self.n_total / self.model_rate,
+            "rendered_s": self.n_model / self.control_rate,
+            "requested_s": self.n_total / self.control_rate,
         }
 
     def saturation_warning(self, threshold: float = 0.01) -> str | None:
@@ -96,13 +96,13 @@ def stream_render(material: Material, trajectory: Trajectory, config: ChainConfi
                   block_seconds: float = 1.0, progress: Callable[[float], None] | None = None,
                   stop: Callable[[], bool] | None = None, preview_columns: int = 1200) -> StreamedRender:
     """Render ``trajectory`` over ``material`` block by block, calling ``sink(channel, array)``
-    for each block of each channel of :data:`CHANNELS` (model-rate channels (n,) float64 in
+    for each block of each channel of :data:`CHANNELS` (control-rate channels (n,) float64 in
     order, ``drive`` (m,) V after the safety stage). ``stop()`` is polled between blocks: when it
     returns True the render ends there, every channel consistent up to the last whole block."""
     cfg = config or ChainConfig()
     chain = TextureChain(material, cfg)
-    display = SimulatedDisplay(cfg.display, chain.drive_rate, chain.model_rate)
-    fm = chain.model_rate
+    display = SimulatedDisplay(cfg.display, chain.drive_rate, chain.control_rate)
+    fm = chain.control_rate
     n = model_samples(trajectory, fm)
     block = max(1, int(round(block_seconds * fm)))
     meta = _Meta(render_settings(material, trajectory, cfg, chain, display))  # settings; counters taken again at the end

@@ -1,9 +1,9 @@
-"""Texture samples at the chain's control rate from a synthesiser running at its model rate.
+"""Texture samples at the chain's control rate from a synthesiser running at its control rate.
 
 A texture model runs at the rate it was fitted at (2 kHz for Otake's data, 1 kHz for HaTT,
 100 Hz for the HapMat IMU). The friction law and the rest of the chain run at the control
 rate (2 kHz by default), so the load and speed response keeps a few-ms latency whatever the
-texture's rate. This processor synthesises at the model rate and resamples up; the texture
+texture's rate. This processor synthesises at the control rate and resamples up; the texture
 is stochastic, so the resampler's delay does not matter for it.
 """
 
@@ -28,7 +28,7 @@ class TextureSource:
         self.texture_rate = int(texture.sample_rate)
         self.control_rate = int(control_rate)
         if self.control_rate < self.texture_rate:
-            raise ValueError("control rate below the texture's model rate")
+            raise ValueError("control rate below the texture's control rate")
         self.synth = texture.synthesizer(seed=seed)
         same = self.control_rate == self.texture_rate
         self.resampler = None if same else RationalResampler(self.texture_rate, self.control_rate)
@@ -52,7 +52,7 @@ class TextureSource:
         L, M = self.resampler.L, self.resampler.M
         while self._fill < n:
             need = n - self._fill
-            k = max(1, -(-need * M // L))  # model-rate samples that cover the shortfall
+            k = max(1, -(-need * M // L))  # control-rate samples that cover the shortfall
             if k == 1:  # the usual live case: one model sample, taken at the first uncovered sample
                 p = min(self._fill, n - 1)
                 sp, ld = speed[p : p + 1], load[p : p + 1]

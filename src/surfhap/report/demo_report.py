@@ -35,7 +35,7 @@ def _speed_figure(name: str, runs) -> Figure:
             continue_spectrum = False
         else:
             f, p, e = render_spectrum(r)
-            band = (f >= 3.5) & (f <= 0.4 * (r.texture_rate or r.model_rate))
+            band = (f >= 3.5) & (f <= 0.4 * (r.texture_rate or r.control_rate))
             continue_spectrum = bool(band.any())
         if continue_spectrum:
             line, = b.loglog(f[band], p[band], lw=0.7, label=lab)
@@ -144,7 +144,7 @@ def write_demo_report(results: DemoResults, out_dir: str | Path) -> Path:
             f, p, e = render_spectrum(r)
             dev = "n/a"
             if e is not None and f.size:
-                top = min(500.0, 0.25 * (r.texture_rate or r.model_rate))
+                top = min(500.0, 0.25 * (r.texture_rate or r.control_rate))
                 _, d = spectral_deviation_db(f, p, e, 3.5, top)
                 dev = f"{np.max(np.abs(d)):.2f} dB (3.5–{top:g} Hz)"
             rows.append([name, s["method"], f"{np.median(r.speed[r.load > 0]) * 1e3:.0f}", f"{r.texture_rate or '-'}",
@@ -160,7 +160,7 @@ def write_demo_report(results: DemoResults, out_dir: str | Path) -> Path:
         spec = runs[0]
         bank = spec.texture_model
         tex = "friction-only (no real recording to fit a texture from)" if bank is None else \
-            f"texture: {bank.quantity} AR({bank.max_order}) fitted at {spec.texture_rate} Hz, rendered at {spec.model_rate} Hz"
+            f"texture: {bank.quantity} AR({bank.max_order}) fitted at {spec.texture_rate} Hz, rendered at {spec.control_rate} Hz"
         note = next((n for n in load_material_notes(name)), None)
         if note:
             tex += f". {note}"

@@ -38,7 +38,7 @@ def render_spectrum(result, settle: float = 0.5):
     Returns freqs (m,), measured (m,) N^2/Hz, expected (m,) or None. The first ``settle``
     seconds (filter start-up) are skipped.
     """
-    fs = result.model_rate
+    fs = result.control_rate
     start = min(int(settle * fs), max(0, result.t.size - 64))
     return spectrum_of(result.added_friction[start:], fs, result.expected_texture_psd)
 
@@ -74,9 +74,9 @@ def plot_render(pv, fig: Figure | None = None) -> Figure:
     ax.set(xlabel="time (ms)", ylabel="voltage (V)", title=f"drive, {pv.carrier:g} Hz carrier, {pv.window * 1e3:g} ms")
     ax.legend(loc="upper right", fontsize=8)
     ax = axs[1, 0]
-    f, p, e = spectrum_of(pv.spec_added, pv.model_rate, pv.expected_psd)
+    f, p, e = spectrum_of(pv.spec_added, pv.control_rate, pv.expected_psd)
     if f.size:
-        top = 0.4 * (pv.texture_rate or pv.model_rate)  # the resamplers roll off above 0.45 fs
+        top = 0.4 * (pv.texture_rate or pv.control_rate)  # the resamplers roll off above 0.45 fs
         band = (f >= _SPLIT.cutoff) & (f <= top)
         ax.loglog(f[band], p[band], lw=0.8, label="simulated (high band, Welch)")
         if e is not None:

@@ -41,12 +41,12 @@ class Safety(Protocol):
 class Renderer(Protocol):
     """A stateful block renderer for the runtime.
 
-    model_rate, drive_rate : int Hz, rates of the inputs and of the drive.
+    control_rate, drive_rate : int Hz, rates of the inputs and of the drive.
     safety                 : its :class:`Safety` stage (the renderer's last processor).
     uses_position          : True when ``x``, ``y`` matter (shapes), False for textures.
     """
 
-    model_rate: int
+    control_rate: int
     drive_rate: int
     uses_position: bool
 

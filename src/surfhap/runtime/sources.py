@@ -18,9 +18,9 @@ from surfhap.render.offline import model_samples
 __all__ = ["TrajectorySource", "model_samples", "drive_frames"]
 
 
-def drive_frames(n_model: int, model_rate: int, drive_rate: int) -> int:
+def drive_frames(n_model: int, control_rate: int, drive_rate: int) -> int:
     """Drive samples that ``n_model`` model samples give at ``drive_rate`` (whole model periods)."""
-    return (int(n_model) * int(drive_rate)) // int(model_rate)
+    return (int(n_model) * int(drive_rate)) // int(control_rate)
 
 
 class TrajectorySource:

@@ -1,4 +1,4 @@
-"""Streaming rational resampler (polyphase FIR), used model rate -> drive rate and back.
+"""Streaming rational resampler (polyphase FIR), used control rate -> drive rate and back.
 
 ``RationalResampler(rate_in, rate_out)`` converts by ``L / M = rate_out / rate_in`` (integer
 rates). The low-pass is a Kaiser-windowed FIR with ``taps_per_phase`` taps per polyphase

@@ -42,7 +42,7 @@ class FFWebEngine:
     def __init__(self, loop, f_max: float):
         self.loop = loop
         self.drive_rate = loop.rate
-        self.model_rate = loop.rate
+        self.control_rate = loop.rate
         self.block_period = loop.period
         self.drive_full_scale = float(f_max)  # N: the trace's drive column is |F|
         self.drive_unit = "N"
