@@ -29,6 +29,7 @@ from _common import best_time, log, report, run
 
 from surfhap.web.messages import parse_message
 from surfhap.live.sources import finite_in_range as _num
+from surfhap.live.backends.output import FileOutput
 
 
 def old_check(text: str):
@@ -108,7 +109,7 @@ def bench_clients(seconds: float, n_clients: int = 50, rate: float = 120.0) -> N
     from surfhap.web.process import WebProcess
 
     tmp = tempfile.mkdtemp(prefix="surfhap-bench-")
-    session = build_session("cork", f"file:{tmp}/drive.npz", max_seconds=seconds + 60)
+    session = build_session("cork", FileOutput(f"{tmp}/drive.npz"), max_seconds=seconds + 60)
     session.start()
     web = WebProcess(session, ServerConfig(port=0, max_clients=n_clients + 8)).start()
     pids = {"engine": "self", "web": str(web.proc.pid)}

@@ -136,7 +136,7 @@ def test_study_stimuli_and_mesh_sessions_use_the_display(tmp_path, panels):
     faces = [[i * 13 + j, i * 13 + j + 1, i * 13 + j + 13] for i in range(12) for j in range(12)]
     faces += [[i * 13 + j + 1, i * 13 + j + 14, i * 13 + j + 13] for i in range(12) for j in range(12)]
     trimesh.Trimesh(verts, np.array(faces), process=False).export(mesh)
-    live = build_session(output="sim", mesh=mesh, display=disp)
+    live = build_session(mesh=mesh, display=disp)
     assert live.engine.renderer.config.display == disp
 
 

@@ -39,7 +39,7 @@ def test_texture_page_frames_carry_no_ff_data():
     from surfhap.live.frames import FrameBuilder
     from surfhap.live.session import build_session
 
-    s = build_session("denim", "sim")
+    s = build_session("denim")
     frame = FrameBuilder(s.engine, s.backend).frame()
     assert "ff" not in frame and s.ff is None and set(frame) == {"t", "v", "f", "target", "speed"}
 

@@ -56,7 +56,7 @@ def test_short_study_answered_in_chromium(tmp_path):
     study = identification_study(tmp_path, name="page test")
     runner = SessionRunner(study, "P01", mode="page")
     plan = runner.plan.trials
-    session = build_session("cork", "sim")
+    session = build_session("cork")
     player = StimulusPlayer(session, gain=1.0, v_max=runner.v_max)
     player.mute()
     session.start()

@@ -35,7 +35,7 @@ def test_drag_on_page_drives_engine_and_draws_trace():
     from surfhap.web.server import ServerThread
     from surfhap.live.session import build_session
 
-    session = build_session("denim", "sim")
+    session = build_session("denim")
     session.start()
     srv = ServerThread(create_app(ServerConfig(port=0), touch=session), port=0).start()
     eng = session.engine

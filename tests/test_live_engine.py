@@ -214,11 +214,11 @@ def push_and_wait(e, t0, n=25, patience=60.0):
 def test_sim_backend_runs_in_real_time(tmp_path):
     import time
 
-    from surfhap.live.backends import open_backend
+    from surfhap.live.backends import FileOutput, SimOutput, open_backend
 
     e = make_engine()
     e.warm_up()
-    b = open_backend("sim")
+    b = open_backend(SimOutput())
     t_start = time.perf_counter()
     b.start(e)
     pushed = push_and_wait(e, t_start)
@@ -235,12 +235,12 @@ def test_sim_backend_runs_in_real_time(tmp_path):
 def test_file_backend_records_what_the_engine_rendered(tmp_path, suffix):
     import time
 
-    from surfhap.live.backends import open_backend
+    from surfhap.live.backends import FileOutput, SimOutput, open_backend
 
     e = make_engine()
     e.warm_up()
     path = tmp_path / f"drive{suffix}"
-    b = open_backend(f"file:{path}")
+    b = open_backend(FileOutput(str(path)))
     b.start(e)
     pushed = push_and_wait(e, time.perf_counter())
     b.stop()
@@ -259,11 +259,15 @@ def test_file_backend_records_what_the_engine_rendered(tmp_path, suffix):
 
 
 def test_output_parser_errors():
+    from surfhap.cli._output import parse_output
     from surfhap.errors import ConfigError
-    from surfhap.live.backends import parse_output
+    from surfhap.live.backends import FileOutput, OscOutput, SimOutput, SoundOutput
 
-    assert parse_output("sound:3") == ("sound", {"device": 3})
-    assert parse_output("osc://127.0.0.1:9001/drive")[1]["mode"] == "drive"
+    assert parse_output("sound:3") == SoundOutput(3)
+    assert parse_output("sound:Dummy") == SoundOutput("Dummy")
+    assert parse_output("osc://127.0.0.1:9001/drive") == OscOutput("127.0.0.1", 9001, "drive")
+    assert parse_output("file:d.npz") == FileOutput("d.npz") and parse_output(None) == SimOutput()
+    assert parse_output("sound").reaches_amplifier and not parse_output("file:d.wav").reaches_amplifier
     for bad in ("file:x.txt", "osc://nohost", "osc://127.0.0.1:9/whatever", "pigeon"):
         with pytest.raises(ConfigError):
             parse_output(bad)

@@ -25,7 +25,7 @@ def _pipes():
 
 
 def test_both_links_satisfy_the_interface_and_describe_the_same_page():
-    session = build_session("cork", "sim")
+    session = build_session("cork")
     local = as_link(session, type("Cfg", (), {"trace_points": 16, "trace_hz": 30.0})())
     assert isinstance(local, LocalLink) and isinstance(local, EngineLink)
     assert not isinstance(session, EngineLink)
@@ -37,7 +37,7 @@ def test_both_links_satisfy_the_interface_and_describe_the_same_page():
 
 
 def test_touches_reach_the_engine_and_frames_come_back():
-    session = build_session("cork", "sim")
+    session = build_session("cork")
     touch_in, touch_out, trace_in, trace_out = _pipes()
     end = EngineEnd(session, touch_in, trace_out, hz=50.0, points=16).start()
     gone = []
@@ -68,7 +68,7 @@ def test_touches_reach_the_engine_and_frames_come_back():
 
 
 def test_a_stalled_engine_side_drops_the_oldest_touches_and_never_blocks():
-    session = build_session("cork", "sim")
+    session = build_session("cork")
     touch_in, touch_out, trace_in, _ = _pipes()  # nobody reads the touches
     link = ProcessLink(describe(session), touch_out, trace_in, max_pending=100)
 

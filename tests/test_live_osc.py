@@ -13,6 +13,7 @@ import pytest
 from pythonosc.dispatcher import Dispatcher
 from pythonosc.osc_server import ThreadingOSCUDPServer
 
+from surfhap.live.backends.output import OscOutput
 from surfhap.live.session import build_session
 
 HERE = Path(__file__).parent
@@ -32,7 +33,7 @@ def test_osc_client_process_drives_osc_output():
     rx = threading.Thread(target=receiver.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
     rx.start()
     out_port = receiver.server_address[1]
-    session = build_session("cork", f"osc://127.0.0.1:{out_port}/intensity", osc_in=("127.0.0.1", 0))
+    session = build_session("cork", OscOutput("127.0.0.1", out_port, "intensity"), osc_in=("127.0.0.1", 0))
     session.start()
     osc_in = session.sources[0]
     try:

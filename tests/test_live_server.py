@@ -16,13 +16,14 @@ from surfhap.web import create_app
 from surfhap.live.config import ServerConfig
 from surfhap.web.server import ServerThread
 from surfhap.live.session import build_session
+from surfhap.live.backends.output import FileOutput
 
 PATIENCE = 60.0  # s: bound of every wait for the server (generous: a loaded 2-core machine)
 
 
 @pytest.fixture
 def served():
-    session = build_session("cork", "sim")
+    session = build_session("cork")
     session.start()
     srv = ServerThread(create_app(ServerConfig(port=0, max_rate=400.0, burst=50.0, max_rejects=30), touch=session),
                        port=0).start()
@@ -188,7 +189,7 @@ def test_fifty_clients_and_a_hostile_one_do_not_stall_each_other(tmp_path):
     from surfhap.live.audit import audit_drive
     from surfhap.web.process import WebProcess
 
-    session = build_session("cork", f"file:{tmp_path / 'drive.npz'}", max_seconds=60)
+    session = build_session("cork", FileOutput(f"{tmp_path / 'drive.npz'}"), max_seconds=60)
     session.start()
     web = WebProcess(session, ServerConfig(port=0)).start()
     try:
@@ -208,7 +209,7 @@ def test_fifty_clients_and_a_hostile_one_do_not_stall_each_other(tmp_path):
 def test_page_server_in_its_own_process_feeds_the_engine():
     from surfhap.web.process import WebProcess
 
-    session = build_session("cork", "sim")
+    session = build_session("cork")
     session.start()
     web = WebProcess(session, ServerConfig(port=0)).start()
     try:
@@ -271,7 +272,7 @@ def _closed_by_server(sock, timeout: float = 20.0) -> bool:
 
 
 def _guarded(header_timeout):
-    session = build_session("cork", "sim")
+    session = build_session("cork")
     session.start()
     cfg = ServerConfig(port=0, header_timeout=header_timeout, max_connections=16, max_rejects=1000)
     srv = ServerThread(create_app(cfg, touch=session), port=0, config=cfg).start()
@@ -428,7 +429,7 @@ def test_huge_numbers_in_http_requests_are_harmless(guarded):
 def test_wildcard_bind_accepts_only_the_allowed_host_names():
     from surfhap.web.guard import host_allow_list
 
-    session = build_session("cork", "sim")
+    session = build_session("cork")
     session.start()
     # the app believes it is bound to every interface; the test itself listens on loopback only
     cfg = ServerConfig(host="0.0.0.0", port=0, allowed_hosts=("Lab-PC.local", "*.rig.example"))

@@ -38,7 +38,7 @@ def drive_along(engine, xs, y, t0=0.0):
 
 
 def test_mesh_session_renders_on_the_shape_and_not_beside_it(bump_file):
-    session = build_session(output="sim", mesh=bump_file)
+    session = build_session(mesh=bump_file)
     eng = session.engine
     assert session.positions == "surface" and "mesh" in session.title
     assert session.preview["w"] * session.preview["h"] == len(session.preview["data"])

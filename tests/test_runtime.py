@@ -45,8 +45,8 @@ def test_clocks_and_protocols():
     c = SimClock(5.0)
     assert c.simulated and c.wait_until(7.5) == 7.5 and c.now() == 7.5 and c.wait_until(6.0) == 7.5
     assert not WallClock().simulated
-    from surfhap.live.backends.output import open_backend
+    from surfhap.live.backends.output import SimOutput, open_backend
     from surfhap.live.sources import ReplaySource
 
-    assert isinstance(open_backend("sim"), Sink)
+    assert isinstance(open_backend(SimOutput()), Sink)
     assert isinstance(ReplaySource(None, None), Source)

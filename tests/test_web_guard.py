@@ -44,7 +44,7 @@ def live_page():
     from surfhap.web.server import ServerThread
     from surfhap.live.session import build_session
 
-    session = build_session("cork", "sim")
+    session = build_session("cork")
     session.start()
     srv = ServerThread(create_app(ServerConfig(port=0), touch=session), port=0).start()
     yield srv

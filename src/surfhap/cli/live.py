@@ -18,6 +18,7 @@ from typing import List, Optional
 
 import typer
 
+from surfhap.cli._output import parse_output
 from surfhap.cli._common import require_modules, stderr, stdout
 from surfhap.cli._display_options import resolve_display
 from surfhap.cli._options import ConfigOption, DisplayOption, LiveAmpGainOption, SeedOption, TrajectoryOption
@@ -186,7 +187,7 @@ def serve_cmd(
     if trajectory is not None and replay is not None:
         raise ConfigError("give --trajectory or --replay, not both", source="--trajectory")
     traj = read_trajectory_csv(trajectory or replay) if (trajectory or replay) is not None else None
-    session = build_session(material or "cork", output, drive_rate=drive_rate, amp_gain=amp_gain,
+    session = build_session(material or "cork", parse_output(output), drive_rate=drive_rate, amp_gain=amp_gain,
                             engine_config=_engine_config(block_ms, touch_latency_ms, smoothing),
                             osc_in=osc, replay=None if clk.simulated else traj, replay_loop=replay is not None,
                             seed=seed, mesh=mesh, channels=_channels(channels), max_seconds=max_seconds,
@@ -259,7 +260,7 @@ def play_cmd(
     traj = trajectory_from_options(scan if scan is not None or trajectory is not None else DEFAULT_SCAN, trajectory)
     if not clk.simulated and not traj.duration <= 600:
         raise ConfigError("must be within (0, 600] s on a wall clock", source="--scan/--trajectory", field="duration")
-    session = build_session(material, output, drive_rate=drive_rate, amp_gain=amp_gain,
+    session = build_session(material, parse_output(output), drive_rate=drive_rate, amp_gain=amp_gain,
                             engine_config=_engine_config(block_ms, 0.0, 1.0), replay=None if clk.simulated else traj,
                             seed=seed, channels=_channels(channels), display=disp, clock=clk)
     if clk.simulated:

@@ -21,6 +21,7 @@ from typing import Optional
 
 import typer
 
+from surfhap.cli._output import parse_output
 from surfhap.cli._common import stderr, stdout
 from surfhap.cli._display_options import resolve_display
 from surfhap.cli._options import ConfigOption, DisplayOption
@@ -149,9 +150,7 @@ def run(
         # a staircase without a threshold (or unfinished) stops here: one line, exit 2
         comfort_voltage = measured = required_comfort_voltage(study, pid)
         if measured is None:
-            from surfhap.live.backends.output import HARDWARE_OUTPUTS, parse_output
-
-            if output is not None and parse_output(output)[0] in HARDWARE_OUTPUTS:
+            if output is not None and parse_output(output).reaches_amplifier:
                 raise ConfigError(f"no comfort voltage for {pid}: run 'study comfort' first or give --comfort-voltage "
                                   "(a session on a real display never starts at the 250 V safety limit by default)",
                                   source="--output")
@@ -206,7 +205,7 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
     if output is not None:
         from surfhap.live.session import build_session
 
-        session = build_session(_first_material(runner), output, amp_gain=amp_gain, display=runner.display)
+        session = build_session(_first_material(runner), parse_output(output), amp_gain=amp_gain, display=runner.display)
         player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max, display=runner.display)
         player.mute()
         session.start()

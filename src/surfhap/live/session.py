@@ -5,11 +5,15 @@ from __future__ import annotations
 
 import logging
 import sys
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.live.sources import TouchSpace
+
+if TYPE_CHECKING:
+    from surfhap.live.backends.output import Output
 
 __all__ = ["LiveSession", "build_session", "material_preview", "backend_info", "page_info"]
 
@@ -126,26 +130,27 @@ class LiveSession:
         self.started = False
 
 
-def build_session(material: str = "cork", output: str = "sim", *, drive_rate: int | None = None,
+def build_session(material: str = "cork", output: Output | None = None, *, drive_rate: int | None = None,
                   engine_config=None, amp_gain: float = 250.0, space: TouchSpace | None = None,
                   osc_in: tuple[str, int] | None = None, replay=None, replay_loop: bool = False,
                   seed: int = 0, channels: tuple[int, ...] | None = None, max_seconds: float | None = None,
                   mesh=None, display=None, clock=None) -> LiveSession:
     """Everything ``surfhap serve`` runs: material (or ``mesh`` file) -> renderer -> engine
-    -> backend, plus optional OSC touch input ``(host, port)`` and a replayed trajectory.
+    -> backend (``output``, a typed output spec; default the simulated display), plus optional
+    OSC touch input ``(host, port)`` and a replayed trajectory.
     ``amp_gain``, ``channels``, ``max_seconds``: the output's options
     (:class:`~surfhap.live.backends.output.OutputOptions`). ``clock``: the engine's
     :class:`~surfhap.runtime.clock.Clock` (default: wall time)."""
     from surfhap.exchange.materials import load_material
-    from surfhap.live.backends.output import OutputOptions, open_backend, parse_output
+    from surfhap.live.backends.output import OutputOptions, SimOutput, open_backend
     from surfhap.live.engine import LiveEngine
     from surfhap.live.engine_config import EngineConfig
     from surfhap.live.sources import OscTouchSource, ReplaySource
     from surfhap.render.chain import ChainConfig, TextureChain
     from surfhap.models.panel import SimulatedDisplay
 
-    kind, _ = parse_output(output)
-    rate = int(drive_rate or (48000 if kind == "sound" else 20000))
+    output = output if output is not None else SimOutput()
+    rate = int(drive_rate or output.default_drive_rate)
     space = space or TouchSpace()
     cfg = engine_config or EngineConfig()
     if mesh is not None:

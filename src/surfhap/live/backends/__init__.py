@@ -2,12 +2,15 @@
 
 ``sim`` (simulated display, default), ``file`` (WAV/NPZ), ``sound`` (PortAudio through
 sounddevice) and ``osc`` (drive or intensity values to an external renderer).
-:func:`open_backend` turns an ``--output`` string and :class:`OutputOptions` into a backend.
+:func:`open_backend` turns a typed output (:class:`SimOutput`, :class:`FileOutput`,
+:class:`SoundOutput`, :class:`OscOutput`) and :class:`OutputOptions` into a backend.
 """
 
 from __future__ import annotations
 
 from surfhap.live.backends.base import PacedBackend
-from surfhap.live.backends.output import OutputOptions, open_backend, parse_output
+from surfhap.live.backends.output import (FileOutput, OscOutput, Output, OutputOptions, SimOutput, SoundOutput,
+                                          open_backend)
 
-__all__ = ["PacedBackend", "OutputOptions", "parse_output", "open_backend"]
+__all__ = ["PacedBackend", "Output", "SimOutput", "FileOutput", "SoundOutput", "OscOutput", "OutputOptions",
+           "open_backend"]

@@ -1,18 +1,60 @@
-"""The ``--output`` string: parse it and open the backend it names.
+"""The outputs a live session can drive, as typed specs, and the registry that opens one.
 
-This module is the registry of backends: it imports the implementations (on demand, so an
-optional dependency such as sounddevice loads only when that output is chosen); they import
-only :mod:`surfhap.live.backends.base`.
+An output is one of :class:`SimOutput`, :class:`FileOutput`, :class:`SoundOutput` or
+:class:`OscOutput` (the command line's ``--output`` text becomes one in ``surfhap.cli``; the
+library never parses it). This module is the registry of backends: it imports the
+implementations on demand (an optional dependency such as sounddevice loads only when that
+output is chosen); they import only :mod:`surfhap.live.backends.base`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar, Literal, Union
 
 from surfhap.errors import ConfigError
-from surfhap.live.netaddr import parse_osc_address
 
-__all__ = ["parse_output", "open_backend", "OutputOptions"]
+__all__ = ["SimOutput", "FileOutput", "SoundOutput", "OscOutput", "Output", "OutputOptions", "open_backend"]
+
+
+@dataclass(frozen=True)
+class SimOutput:
+    """The embedded simulated display (no hardware)."""
+
+    reaches_amplifier: ClassVar[bool] = False
+    default_drive_rate: ClassVar[int] = 20000
+
+
+@dataclass(frozen=True)
+class FileOutput:
+    """A .wav or .npz recording of the drive at ``path``."""
+
+    path: str
+    reaches_amplifier: ClassVar[bool] = False
+    default_drive_rate: ClassVar[int] = 20000
+
+
+@dataclass(frozen=True)
+class SoundOutput:
+    """A sound card (PortAudio ``device`` index or name; None = the default device)."""
+
+    device: int | str | None = None
+    reaches_amplifier: ClassVar[bool] = True
+    default_drive_rate: ClassVar[int] = 48000
+
+
+@dataclass(frozen=True)
+class OscOutput:
+    """OSC messages to an amplifier bridge at ``host``:``port`` (``mode``: per-block intensity or drive)."""
+
+    host: str
+    port: int
+    mode: Literal["intensity", "drive"] = "intensity"
+    reaches_amplifier: ClassVar[bool] = True
+    default_drive_rate: ClassVar[int] = 20000
+
+
+Output = Union[SimOutput, FileOutput, SoundOutput, OscOutput]
 
 
 @dataclass(frozen=True)
@@ -29,59 +71,28 @@ class OutputOptions:
     max_seconds: float | None = None
 
 
-# the outputs that reach an amplifier, so a finger: a study session on one of them never
-# starts without a comfort voltage (``study run``)
-HARDWARE_OUTPUTS = frozenset({"sound", "osc"})
-
-
-def parse_output(text: str) -> tuple[str, dict]:
-    """``sim`` | ``file:PATH.wav|.npz`` | ``sound`` | ``sound:DEVICE`` | ``osc://HOST:PORT[/intensity|/drive]``."""
-    text = (text or "sim").strip()
-    if text == "sim":
-        return "sim", {}
-    if text.startswith("file:"):
-        path = text[5:]
-        if not path or not path.lower().endswith((".wav", ".npz")):
-            raise ConfigError("file output needs a .wav or .npz path, e.g. file:drive.wav", source="--output")
-        return "file", {"path": path}
-    if text == "sound" or text.startswith("sound:"):
-        dev = text[6:] if text.startswith("sound:") else ""
-        device: int | str | None = None
-        if dev:
-            device = int(dev) if dev.isdigit() else dev
-        return "sound", {"device": device}
-    if text.startswith("osc://"):
-        host, port, mode = parse_osc_address(text, "--output")  # checked here: no DNS lookup, port 1-65535
-        mode = mode or "intensity"
-        if mode not in ("intensity", "drive"):
-            raise ConfigError(f"OSC output mode must be /intensity or /drive, got /{mode}", source="--output")
-        return "osc", {"host": host, "port": port, "mode": mode}
-    raise ConfigError(f"unknown output {text!r} (sim, file:PATH, sound[:DEVICE], osc://HOST:PORT)", source="--output")
-
-
-def open_backend(text: str, options: OutputOptions | None = None):
-    """Build the backend named by an ``--output`` string with the ``options`` it takes; an
-    option the output has no use for (channels of a file, a cap on a sound card) is an error."""
-    kind, args = parse_output(text)
+def open_backend(output: Output, options: OutputOptions | None = None):
+    """Build the backend of ``output`` with the ``options`` it takes; an option the output has
+    no use for (channels of a file, a cap on a sound card) is an error."""
     opt = options or OutputOptions()
-    if opt.channels is not None and kind != "sound":
+    if opt.channels is not None and not isinstance(output, SoundOutput):
         raise ConfigError("only applies to sound outputs", source="--channels")
-    if opt.max_seconds is not None and kind != "file":
+    if opt.max_seconds is not None and not isinstance(output, FileOutput):
         raise ConfigError("only applies to file outputs", source="--max-seconds")
-    if kind == "sim":
+    if isinstance(output, SimOutput):
         from surfhap.live.backends.sim import SimBackend
 
         return SimBackend()
-    if kind == "file":
+    if isinstance(output, FileOutput):
         from surfhap.live.backends.file import FileBackend
 
-        return FileBackend(args["path"], amp_gain=opt.amp_gain, max_seconds=opt.max_seconds)
-    if kind == "sound":
+        return FileBackend(output.path, amp_gain=opt.amp_gain, max_seconds=opt.max_seconds)
+    if isinstance(output, SoundOutput):
         from surfhap.live.backends.sound import SoundBackend
 
         chans = opt.channels
-        return SoundBackend(device=args["device"], amp_gain=opt.amp_gain, channels=chans,
+        return SoundBackend(device=output.device, amp_gain=opt.amp_gain, channels=chans,
                             n_channels=None if chans is None else max(chans) + 1)
     from surfhap.live.backends.osc import OscBackend
 
-    return OscBackend(args["host"], args["port"], mode=args["mode"])
+    return OscBackend(output.host, output.port, mode=output.mode)
