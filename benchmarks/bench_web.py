@@ -24,6 +24,7 @@ import sys
 import tempfile
 import threading
 import time
+from pathlib import Path
 
 from _common import best_time, log, report, run
 
@@ -129,7 +130,7 @@ def bench_clients(seconds: float, n_clients: int = 50, rate: float = 120.0) -> N
     gen0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     try:
-        proc = subprocess.run([sys.executable, "-m", "surfhap.live.loadtest", url, str(n_clients), str(rate),
+        proc = subprocess.run([sys.executable, str(Path(__file__).with_name("loadtest.py")), url, str(n_clients), str(rate),
                                str(seconds), "1"], capture_output=True, text=True, timeout=3 * seconds + 120)
     except subprocess.TimeoutExpired:  # the generator itself could not keep up (a starved machine)
         proc = subprocess.CompletedProcess([], 1, "", "the load generator did not finish its events in time")

@@ -8,6 +8,7 @@ import http.client
 import json
 import logging
 import time
+from pathlib import Path
 
 import pytest
 import websockets
@@ -193,7 +194,7 @@ def test_fifty_clients_and_a_hostile_one_do_not_stall_each_other(tmp_path):
     session.start()
     web = WebProcess(session, ServerConfig(port=0)).start()
     try:
-        r = subprocess.run([sys.executable, "-m", "surfhap.live.loadtest", f"ws://127.0.0.1:{web.port}/ws",
+        r = subprocess.run([sys.executable, str(Path(__file__).parents[1] / "benchmarks" / "loadtest.py"), f"ws://127.0.0.1:{web.port}/ws",
                             "50", "120", "2", "1"], capture_output=True, text=True, timeout=900)
     finally:
         web.stop()

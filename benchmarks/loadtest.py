@@ -6,9 +6,10 @@ loops), reads its trace frames and measures the *ack lag*: the time from sending
 ``seq`` to receiving the first frame that acknowledges it. ``bad_clients`` extra clients
 misbehave (flood garbage and never read) to show they do not stall the others.
 
-Run as a script to keep the clients in their own process::
+Measurement tooling, not part of the package (it needs only numpy and websockets). Run as a
+script to keep the clients in their own process::
 
-    python -m surfhap.live.loadtest ws://127.0.0.1:PORT/ws N RATE SECONDS [BAD]
+    python benchmarks/loadtest.py ws://127.0.0.1:PORT/ws N RATE SECONDS [BAD]
 
 prints one JSON object.
 """
