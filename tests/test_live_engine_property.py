@@ -31,7 +31,7 @@ import os
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, example, given, settings, strategies as st
 
 from surfhap.exchange.materials import load_material
 from surfhap.live.audit import audit_drive
@@ -208,6 +208,8 @@ class Harness:
           suppress_health_check=list(HealthCheck))
 @given(st.sampled_from(RATES), st.floats(0.00025, 0.004), st.integers(0, len(RENDERERS) - 1),
        st.lists(op, min_size=1, max_size=10))
+@example(20000, 0.00390625, 0, [("idle", 1, 1, 0.0, 0.0, 0.0, 0.0),  # a stamp ages ago: the touch hold's due
+                                 ("stamp", 1, 1, 0.0, 0.0, 0.0, -8.98846567431158e+304)])  # sample overflowed
 def test_whole_engine_keeps_every_safety_limit(rate, block, first, ops):
     h = Harness(rate, block, first)
     for o in ops:

@@ -141,9 +141,10 @@ class TouchHold:
 
     def due(self, t_arr: float, k_min: int, rate: float) -> int:
         """The first model sample (>= ``k_min``) at which a sample stamped ``t_arr`` is in force."""
-        if not t_arr > _STALE:
+        x = (t_arr - _DUE_TOL - self.anchor) * rate
+        if not (t_arr > _STALE and x > k_min):  # stale, NaN, or due already (also a stamp ages ago: -inf)
             return k_min
-        k = max(k_min, int(math.ceil((t_arr - _DUE_TOL - self.anchor) * rate)) - 1)
+        k = max(k_min, int(math.ceil(x)) - 1)
         while not t_arr <= self.anchor + k / rate + _DUE_TOL:
             k += 1
         return k
