@@ -146,7 +146,7 @@ class TextureCalibrationSpec(_Strict):
 
 class TextureSpec(_Strict):
     quantity: Literal["cof", "acceleration"]
-    sample_rate: float = Field(gt=0, le=100_000, description="control rate, Hz")
+    sample_rate: float = Field(gt=0, le=100_000, description="rate the texture models were fitted at, Hz")
     models: list[ARModelSpec] = Field(min_length=1)
     provenance: Provenance
     calibration: TextureCalibrationSpec | None = None
@@ -181,7 +181,7 @@ class InterpolatedTextureSpec(_Strict):
 
     kind: Literal["interpolated-arma"]
     quantity: Literal["cof", "acceleration"]
-    sample_rate: float = Field(gt=0, le=100_000, description="control rate, Hz")
+    sample_rate: float = Field(gt=0, le=100_000, description="rate the texture models were fitted at, Hz")
     max_speed: float = Field(gt=0, le=5, description="m/s, clamp")
     max_force: float = Field(gt=0, le=100, description="N, clamp")
     triangles: list[tuple[int, int, int]] = Field(default_factory=list, description="0-based model indices")

@@ -11,7 +11,7 @@ the finger/insulator stack behaves as a first-order high-pass with time constant
 ``leakage_time_constant``: a DC drive fades (the residual-charge problem that makes Otake et
 al. switch polarity, citing Nakamura and Yamamoto 2017) while a polarity carrier keeps
 ``V_eff^2`` equal to the envelope squared. The friction is low-pass filtered and decimated to
-the control rate for comparison with the material model.
+``friction_rate`` (the renderer's control rate in a render) for comparison with the material model.
 
 ``mu_panel`` (0.5) and the 50 ms leakage constant are documented assumptions for a
 simulated panel, not measurements; the electrostatic constant ``k`` comes from
@@ -118,7 +118,7 @@ def _display_kernel(drive, load, state, a, mu, c0, c1, c2, scale, top, out):
 
 
 class SimulatedDisplay:
-    """``process(drive, load) -> friction`` at the control rate.
+    """``process(drive, load) -> friction`` at ``friction_rate``.
 
     drive (m,) V and load (m,) N at the drive rate; returns the friction force (N) low-passed
     and decimated to ``friction_rate``. ``last_friction_drive_rate`` keeps the undecimated force of
