@@ -23,6 +23,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from surfhap.errors import ConfigError
+from surfhap.signal.tribometer import fit_quadratic
 
 __all__ = ["DeviceCurve"]
 
@@ -89,14 +90,9 @@ class DeviceCurve(BaseModel):
     @classmethod
     def fit(cls, u: np.ndarray, force: np.ndarray, input: str = "intensity", input_max: float | None = None,
             source: str = "fit") -> "DeviceCurve":
-        """Least-squares quadratic through (u (n,), force (n,) N) pairs at three or more distinct drives."""
-        x = np.asarray(u, dtype=float)
-        f = np.asarray(force, dtype=float)
-        if x.shape != f.shape or x.ndim != 1 or np.unique(x).size < 3:
-            raise ConfigError("need (drive, force) pairs at three distinct drives or more", field="device")
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(f))):
-            raise ConfigError("drives and forces must be finite", field="device")
-        c = np.linalg.lstsq(np.vander(x, 3, increasing=True), f, rcond=None)[0]
+        """Least-squares quadratic through (u (n,), force (n,) N) pairs at three or more distinct
+        drives (:func:`surfhap.signal.tribometer.fit_quadratic`, the calibration's own fit)."""
+        c = fit_quadratic(u, force).coefficients
         return cls.of(input, c, input_max, source)
 
     @classmethod
