@@ -18,7 +18,7 @@ never draws and nothing is imported for drawing until a figure is asked for.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -43,7 +43,7 @@ class Result:
     """Base of result objects: ``summary()``, ``to_dict()`` and ``plot(ax=None)``."""
 
     #: how many Axes :meth:`plot` draws (the length of the ``ax`` sequence it accepts)
-    panels: int = 1
+    panels: ClassVar[int] = 1
 
     def summary(self) -> dict:
         """The headline figures, JSON-ready."""

@@ -161,7 +161,7 @@ def simulate_cmd(
         from surfhap.report.ff_figures import plot_ff_top_view
 
         res.plot().savefig(out / "ff_simulation.png", dpi=110)
-        plot_ff_top_view(res, sc.picture_array(), sc.size).savefig(out / "ff_top_view.png", dpi=110)
+        plot_ff_top_view(res, picture=sc.picture_array(), size=sc.size).savefig(out / "ff_top_view.png", dpi=110)
     stdout.print(f"{sc.name}: {summary['ticks']} ticks, max |F| {summary['force_abs_max_N']} N, "
                  f"sliding rms {summary['sliding_speed_rms_m_s'] * 1e3:.1f} mm/s "
                  f"(finger {summary['finger_speed_rms_m_s'] * 1e3:.1f} mm/s)"

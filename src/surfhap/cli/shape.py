@@ -237,7 +237,7 @@ def scenes_cmd(
             if out is not None:
                 v, f = sc.mesh(resolution)
                 trimesh.Trimesh(v, f, process=False).export(out / f"{sc.name}.obj")
-                plot_scene(sc, resolution).savefig(out / f"{sc.name}.png", dpi=90)
+                plot_scene(sc, resolution=resolution).savefig(out / f"{sc.name}.png", dpi=90)
                 update((i + 1) / len(scenes))
 
 

@@ -27,6 +27,7 @@ from surfhap.exchange.recordings import Recording
 from surfhap.fit.friction import CoulombFit, coulomb_from_sums
 from surfhap.fit.material_fit import _map
 from surfhap.models.interpolated import InterpolatedARMABank
+from surfhap.results import Result, jsonable
 from surfhap.signal.ar import information_criteria, levinson_durbin
 from surfhap.signal.bands import BandSplit
 from surfhap.signal.lsf import ar_to_lsf
@@ -66,7 +67,7 @@ class AccelSegment:
 
 
 @dataclass(frozen=True)
-class AccelFit:
+class AccelFit(Result):
     """Result of :func:`fit_accel`.
 
     bank           : InterpolatedARMABank (quantity "acceleration").
@@ -127,11 +128,25 @@ class AccelFit:
                             notes=list(self.notes))
         return Material.from_spec(spec)
 
-    def plot(self, kind: str = "summary", **kwargs):
-        """Figures: "segments", "aic", "models", "summary" (see :mod:`surfhap.report.fit_figures`)."""
+    panels = 4  # of the "summary" figure
+
+    def summary(self) -> dict:
+        return jsonable({"name": self.name, "sample_rate": self.sample_rate, "order": self.order,
+                         "criterion": self.criterion, "aic_order": self.aic_order, "bic_order": self.bic_order,
+                         "segments": len(self.segments), "mu0": self.mu0, "recordings": [r[0] for r in self.recordings],
+                         "notes": list(self.notes)})
+
+    def to_dict(self) -> dict:
+        return jsonable({**self.summary(), "orders": self.orders, "total_criterion": self.total_criterion,
+                         "models": {"speed": self.bank.speeds, "force": self.bank.forces,
+                                    "variance": self.bank.variances}})
+
+    def plot(self, ax=None, kind: str = "summary", source: str | None = None):
+        """Figures: kind "summary", "segments" (of recording ``source``), "models", "aic" (see
+        :mod:`surfhap.report.fit_figures`)."""
         from surfhap.report.fit_figures import plot_accel_fit
 
-        return plot_accel_fit(self, kind, **kwargs)
+        return plot_accel_fit(self, ax, kind, source)
 
 
 def _resample(x: np.ndarray, fs: float, target: float) -> np.ndarray:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from surfhap.models.texture import ARModel, TextureBank
+from surfhap.results import Result, jsonable
 from surfhap.signal.ar import OrderSelection, autocovariance, information_criteria, levinson_durbin
 from surfhap.signal.bands import BandSplit
 from surfhap.signal.filters import dft321
@@ -31,7 +32,7 @@ __all__ = ["ImuTextureFit", "fit_imu_texture"]
 
 
 @dataclass(frozen=True)
-class ImuTextureFit:
+class ImuTextureFit(Result):
     """Result of :func:`fit_imu_texture`.
 
     signal    : (n,) m/s^2, the high-band DFT321 signal the model was fitted to.
@@ -53,10 +54,21 @@ class ImuTextureFit:
     def bank(self) -> TextureBank:
         return TextureBank("acceleration", self.sample_rate, (ARModel(self.coefficients, self.variance, None),))
 
-    def plot(self, fig=None):
+    panels = 2
+
+    def summary(self) -> dict:
+        return jsonable({"order": self.order, "selected_order": self.selection.order, "criterion": self.selection.criterion,
+                         "variance": self.variance, "sample_rate": self.sample_rate, "cutoff": self.cutoff,
+                         "samples": self.signal.size})
+
+    def to_dict(self) -> dict:
+        return jsonable({**self.summary(), "coefficients": self.coefficients, "selection": self.selection.to_dict()})
+
+    def plot(self, ax=None):
+        """Recording vs model spectrum, and the order selection (see :mod:`surfhap.report.figures`)."""
         from surfhap.report.figures import plot_imu_fit
 
-        return plot_imu_fit(self, fig=fig)
+        return plot_imu_fit(self, ax)
 
 
 def fit_imu_texture(accel: np.ndarray, sample_rate: float, *, cutoff: float = 3.5, order: int | None = None,

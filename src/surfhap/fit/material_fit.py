@@ -26,6 +26,7 @@ from surfhap.exchange.recordings import Recording
 from surfhap.fit.friction import CoulombFit, QuasiStaticFit, coulomb_from_sums, fit_quasi_static, summarize_fits
 from surfhap.fit.preprocess import PreparedRecording, prepare_friction_recording
 from surfhap.fit.texture import VelocityTexture, fit_velocity_texture
+from surfhap.results import Result, jsonable
 from surfhap.signal.splice import speed_spans
 
 __all__ = ["DEFAULT_REFERENCE_SPEEDS", "FrictionFit", "fit_friction", "recording_provenance"]
@@ -50,7 +51,7 @@ def recording_provenance(recordings: Sequence[Recording]) -> tuple[str, str]:
 
 
 @dataclass(frozen=True)
-class FrictionFit:
+class FrictionFit(Result):
     """Everything fitted from one material's friction recordings.
 
     name, sample_rate (Hz), cutoff (Hz), reference_speeds (m/s).
@@ -125,12 +126,21 @@ class FrictionFit:
                             friction=friction, texture=texture, notes=list(self.notes))
         return Material.from_spec(spec)
 
-    def plot(self, kind: str = "summary", **kwargs):
+    panels = 6  # of the "summary" figure
+
+    def summary(self) -> dict:
+        qs = self.quasi_static
+        return jsonable({"name": self.name, "sample_rate": self.sample_rate, "cutoff": self.cutoff,
+                         "participants": self.participants, "mu0": self.coulomb.mu0,
+                         "quasi_static": {**qs.params, "r2": qs.r2, "label": qs.label},
+                         "textures": [t.summary() for t in self.textures], "notes": list(self.notes)})
+
+    def plot(self, ax=None, kind: str = "summary"):
         """Figures: kind in "band-split", "friction-law", "aic", "spectra", "similarity",
         "summary" (see :mod:`surfhap.report.fit_figures`)."""
         from surfhap.report.fit_figures import plot_friction_fit
 
-        return plot_friction_fit(self, kind, **kwargs)
+        return plot_friction_fit(self, ax, kind)
 
 
 def _prepare(rec, cutoff):

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from surfhap.models.texture import ARModel
+from surfhap.results import Result, jsonable
 from surfhap.signal.ar import OrderSelection, information_criteria, levinson_durbin
 from surfhap.signal.burg import select_order_burg
 from surfhap.signal.spectra import average_spectra, log_spectral_distance, similarity_index, welch_spans
@@ -37,7 +38,7 @@ ESTIMATORS = ("yule-walker", "burg")
 
 
 @dataclass(frozen=True)
-class VelocityTexture:
+class VelocityTexture(Result):
     """AR model of the textural CoF at one reference velocity, with its evidence.
 
     reference_speed : m/s.
@@ -83,6 +84,18 @@ class VelocityTexture:
     def similarity_se(self) -> float:
         k = self.similarity.size
         return float(np.std(self.similarity, ddof=1) / np.sqrt(k)) if k > 1 else float("nan")
+
+    def summary(self) -> dict:
+        return jsonable({"reference_speed": self.reference_speed, "order": self.model.order, "estimator": self.estimator,
+                         "aic_order": self.selection.aic_order, "bic_order": self.selection.bic_order,
+                         "n_samples": self.n_samples, "n_spans": self.n_spans, "participants": self.participants,
+                         "similarity_mean": self.similarity_mean, "similarity_pooled": self.similarity_pooled,
+                         "spectrum_error_db": self.spectrum_error_db})
+
+    def to_dict(self) -> dict:
+        return jsonable({**self.summary(), "coefficients": self.model.coefficients, "variance": self.model.variance,
+                         "freqs": self.freqs, "measured_psd": self.measured_psd, "model_psd": self.model_psd,
+                         "similarity": self.similarity})
 
     def plot(self, ax=None):
         """Measured vs modelled spectrum (see :mod:`surfhap.report.fit_figures`)."""

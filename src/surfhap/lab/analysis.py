@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from surfhap.errors import ConfigError
+from surfhap.results import Result, jsonable
 
 __all__ = ["ProportionResult", "proportions", "participant_means", "TestResult", "binomial_test", "z_test_one",
            "z_test_two", "t_test", "bonferroni", "ConfusionResult", "confusion", "PearsonResult", "pearson",
@@ -30,7 +31,7 @@ __all__ = ["ProportionResult", "proportions", "participant_means", "TestResult",
 
 
 @dataclass(frozen=True)
-class ProportionResult:
+class ProportionResult(Result):
     """labels (k,), successes (k,) float, n (k,), proportion (k,), ci_low / ci_high (k,);
     method ("wilson", "beta", "normal", "participants"), confidence, title."""
 
@@ -49,10 +50,16 @@ class ProportionResult:
                 for lab, s, n, p, lo, hi in zip(self.labels, self.successes, self.n, self.proportion, self.ci_low,
                                                 self.ci_high)]
 
-    def plot(self, fig=None, chance: float | None = None):
+    def summary(self) -> dict:
+        return jsonable({"title": self.title, "method": self.method, "confidence": self.confidence,
+                         "labels": self.labels, "successes": self.successes, "n": self.n, "proportion": self.proportion,
+                         "ci_low": self.ci_low, "ci_high": self.ci_high})
+
+    def plot(self, ax=None, chance: float | None = None):
+        """Bars with their intervals, and the ``chance`` level as a line."""
         from surfhap.report.lab_figures import plot_proportions
 
-        return plot_proportions(self, fig=fig, chance=chance)
+        return plot_proportions(self, ax, chance)
 
 
 def _conf(confidence: float) -> float:
@@ -180,7 +187,7 @@ def bonferroni(p: Sequence[float]) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class ConfusionResult:
+class ConfusionResult(Result):
     """labels (k,), counts (k, k) int (row = presented, column = answered), proportions (k, k)
     (each row divided by its total), accuracy (diagonal total / total), title."""
 
@@ -195,10 +202,18 @@ class ConfusionResult:
         """(k,) proportion correct per presented label."""
         return np.diag(self.proportions)
 
-    def plot(self, fig=None):
+    def summary(self) -> dict:
+        return jsonable({"title": self.title, "labels": self.labels, "accuracy": self.accuracy,
+                         "per_class": self.per_class})
+
+    def to_dict(self) -> dict:
+        return jsonable({**self.summary(), "counts": self.counts})
+
+    def plot(self, ax=None):
+        """The row proportions as an image, with their values."""
         from surfhap.report.lab_figures import plot_confusion
 
-        return plot_confusion(self, fig=fig)
+        return plot_confusion(self, ax)
 
 
 def confusion(presented: Sequence[str] | None = None, answered: Sequence[str] | None = None,
@@ -228,7 +243,7 @@ def confusion(presented: Sequence[str] | None = None, answered: Sequence[str] | 
 
 
 @dataclass(frozen=True)
-class PearsonResult:
+class PearsonResult(Result):
     """r, p (two-sided t test with n - 2 df), n, ci_low / ci_high (Fisher z), and the data
     x (n,), y (n,), labels, x_name, y_name for the scatter plot."""
 
@@ -243,10 +258,18 @@ class PearsonResult:
     x_name: str = "x"
     y_name: str = "y"
 
-    def plot(self, fig=None):
+    def summary(self) -> dict:
+        return jsonable({"r": self.r, "p": self.p, "n": self.n, "ci_low": self.ci_low, "ci_high": self.ci_high})
+
+    def to_dict(self) -> dict:
+        return jsonable({**self.summary(), "x_name": self.x_name, "y_name": self.y_name, "labels": self.labels,
+                         "x": self.x, "y": self.y})
+
+    def plot(self, ax=None):
+        """The scatter of y over x with the identity line."""
         from surfhap.report.lab_figures import plot_rating_scatter
 
-        return plot_rating_scatter(self, fig=fig)
+        return plot_rating_scatter(self, ax)
 
 
 def pearson(x: Sequence[float], y: Sequence[float], labels: Sequence[str] = (), x_name: str = "real",

@@ -38,6 +38,7 @@ from surfhap.errors import StudyFormatError
 from surfhap.lab import analysis as A
 from surfhap.lab.schema import Study, load_study
 from surfhap.lab.triallog import read_log
+from surfhap.results import Result, jsonable
 
 __all__ = ["Section", "StudyAnalysis", "analyze_study", "load_trials"]
 
@@ -54,7 +55,7 @@ class Section:
 
 
 @dataclass
-class StudyAnalysis:
+class StudyAnalysis(Result):
     name: str
     kind: str
     participants: list[str]
@@ -70,6 +71,27 @@ class StudyAnalysis:
         for s in self.sections:
             out += [f"  {s.title}: {s.text[0]}"] if s.text else []
         return out
+
+    @property
+    def panels(self) -> int:
+        """One per figure of the sections."""
+        return sum(len(s.figures) for s in self.sections)
+
+    def summary(self) -> dict:
+        return jsonable({"name": self.name, "kind": self.kind, "participants": self.participants,
+                         "n_trials": self.n_trials, "incomplete": self.incomplete, "warnings": self.warnings,
+                         "sections": [{"title": s.title, "text": s.text} for s in self.sections]})
+
+    def to_dict(self) -> dict:
+        return jsonable({**self.summary(), "sections": [
+            {"title": s.title, "text": s.text, "tables": [{"header": h, "rows": r} for h, r in s.tables],
+             "figures": {name: obj.to_dict() for name, obj, _ in s.figures}} for s in self.sections]})
+
+    def plot(self, ax=None):
+        """Every figure of the sections, one panel each (see :mod:`surfhap.report.lab_report`)."""
+        from surfhap.report.lab_report import plot_study
+
+        return plot_study(self, ax)
 
 
 def load_trials(study_dir: str | Path) -> tuple[Study, list[dict], list[str], list[str]]:

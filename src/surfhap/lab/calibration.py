@@ -32,6 +32,7 @@ from surfhap.errors import ConfigError
 from surfhap.exchange.tribometer import TribometerRecording
 from surfhap.models.device_curve import DeviceCurve
 from surfhap.models.display import DISPLAY_FORMAT, DISPLAY_VERSION
+from surfhap.results import Result, jsonable
 from surfhap.signal.tribometer import QuadraticFit, fit_quadratic, tribometer_amplitude
 
 __all__ = ["LevelMeasure", "Calibration", "measure_recording", "calibrate", "calibrate_display", "CURVES"]
@@ -98,7 +99,7 @@ def measure_recording(rec: TribometerRecording, guard: float = GUARD) -> LevelMe
 
 
 @dataclass(frozen=True)
-class Calibration:
+class Calibration(Result):
     """A display calibration.
 
     input         : "intensity" or "voltage".
@@ -187,10 +188,22 @@ class Calibration:
                                                     "80 Hz low-pass, least squares (surfhap.lab.leakage)")
         return doc
 
-    def plot(self, fig=None):
+    panels = 2
+
+    def summary(self) -> dict:
+        return jsonable({"input": self.input, "curve": self.curve, "levels": self.levels, "mu_panel": self.mu_panel,
+                         "k": self.k, "device_curve": self.device_curve.coefficients, "rmse_N": self.device_fit.rmse,
+                         "r2": self.device_fit.r2, "recordings": self.sources})
+
+    def to_dict(self) -> dict:
+        """The display file's content (:meth:`to_display_json`) without a provenance command."""
+        return jsonable(self.to_display_json(", ".join(self.sources), ""))
+
+    def plot(self, ax=None):
+        """Fits of the static increase and amplitude over the level, and their residuals."""
         from surfhap.report.lab_figures import plot_calibration
 
-        return plot_calibration(self, fig=fig)
+        return plot_calibration(self, ax)
 
 
 def calibrate(recordings: Sequence[TribometerRecording], curve: str = "static", guard: float = GUARD,

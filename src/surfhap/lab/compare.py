@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from surfhap.errors import ConfigError
+from surfhap.results import Result, jsonable
 
 __all__ = ["MaterialProfile", "MaterialComparison", "compare_materials"]
 
@@ -53,7 +54,7 @@ class MaterialProfile:
 
 
 @dataclass(frozen=True)
-class MaterialComparison:
+class MaterialComparison(Result):
     """Profiles of the compared materials plus the scan they were rendered on."""
 
     profiles: tuple[MaterialProfile, ...]
@@ -67,10 +68,19 @@ class MaterialComparison:
 
     header = ["material", "drive law", "friction law", "texture", "mu at scan", "V mean", "V p95", "V max"]
 
-    def plot(self, fig=None):
+    panels = 4
+
+    def summary(self) -> dict:
+        return jsonable({"speed": self.speed, "load": self.load, "duration": self.duration,
+                         "materials": [{"name": p.name, "method": p.method, "law": p.law, "texture": p.texture,
+                                        "mu_at_scan": np.interp(self.speed, p.speeds, p.mu_speed), "v_mean": p.v_mean,
+                                        "v_p95": p.v_p95, "v_max": p.v_max} for p in self.profiles]})
+
+    def plot(self, ax=None):
+        """Friction over speed and load, spectra, drive voltage histograms (4 panels)."""
         from surfhap.report.lab_figures import plot_comparison
 
-        return plot_comparison(self, fig=fig)
+        return plot_comparison(self, ax)
 
 
 def _law_text(mat) -> str:

@@ -33,6 +33,7 @@ from pydantic import Field, FiniteFloat, PositiveFloat, model_validator
 
 from surfhap.checked import Checked
 from surfhap.errors import ConfigError
+from surfhap.results import Result, jsonable
 
 __all__ = ["StaircaseParams", "Staircase", "StaircaseResult", "target_probability", "run_simulated"]
 
@@ -79,7 +80,7 @@ class StaircaseParams(Checked):
 
 
 @dataclass(frozen=True)
-class StaircaseResult:
+class StaircaseResult(Result):
     """levels (n,), responses (n,) bool, reversal_trials (r,) indices of the trials whose
     level is a reversal point, reversal_levels (r,), threshold (None if there are no
     reversals), stopped_by: "trials" | "reversals" | "running"."""
@@ -91,10 +92,19 @@ class StaircaseResult:
     threshold: float | None
     stopped_by: str
 
-    def plot(self, fig=None):
+    def summary(self) -> dict:
+        return jsonable({"trials": self.levels.size, "reversals": self.reversal_trials.size,
+                         "threshold": self.threshold, "stopped_by": self.stopped_by})
+
+    def to_dict(self) -> dict:
+        return jsonable({**self.summary(), "levels": self.levels, "responses": self.responses,
+                         "reversal_trials": self.reversal_trials, "reversal_levels": self.reversal_levels})
+
+    def plot(self, ax=None):
+        """Levels over the trials, reversals and the threshold."""
         from surfhap.report.lab_figures import plot_staircase
 
-        return plot_staircase(self, fig=fig)
+        return plot_staircase(self, ax)
 
 
 class Staircase:

@@ -23,12 +23,13 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from surfhap.errors import ConfigError
+from surfhap.results import Result, jsonable
 from surfhap.signal.tribometer import fit_quadratic
 
 __all__ = ["DeviceCurve"]
 
 
-class DeviceCurve(BaseModel):
+class DeviceCurve(BaseModel, Result):
     """Lateral force (N) over the drive: ``F(u) = c0 + c1 u + c2 u^2`` on ``[0, input_max]``.
 
     input        : "intensity" (0..1) or "voltage" (V).
@@ -132,7 +133,15 @@ class DeviceCurve(BaseModel):
         return cls(input=input, coefficients=(0.0, 0.0, float(max_force) / top ** 2), input_max=input_max,
                    source=f"square law, {max_force:.4g} N at {input} {top:g}")
 
-    def plot(self, fig=None):
+    def summary(self) -> dict:
+        return jsonable({**self.model_dump(), "max_force": self.max_force})
+
+    def to_dict(self) -> dict:
+        """The fields (what the display file holds; ``DeviceCurve(**d)`` rebuilds it)."""
+        return self.model_dump(mode="json")
+
+    def plot(self, ax=None):
+        """Force over the drive."""
         from surfhap.report.shape_figures import plot_device_curve
 
-        return plot_device_curve(self, fig=fig)
+        return plot_device_curve(self, ax)

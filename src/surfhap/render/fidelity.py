@@ -27,13 +27,14 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from surfhap.results import Result, jsonable
 from surfhap.signal.bands import BandSplit
 
 __all__ = ["FidelityMetrics", "fidelity_metrics"]
 
 
 @dataclass(frozen=True)
-class FidelityMetrics:
+class FidelityMetrics(Result):
     """See the module docstring; ``load`` N and ``speed`` m/s are the medians while touching."""
 
     material: str
@@ -55,10 +56,14 @@ class FidelityMetrics:
             return None
         return self.voltage_ratio / self.target_voltage_ratio - 1.0
 
-    def to_dict(self) -> dict:
-        d = asdict(self)
-        d["ratio_error"] = self.ratio_error
-        return d
+    def summary(self) -> dict:
+        return jsonable({**asdict(self), "ratio_error": self.ratio_error})
+
+    def plot(self, ax=None):
+        """The metrics as bars (see :mod:`surfhap.report.figures`)."""
+        from surfhap.report.figures import plot_fidelity
+
+        return plot_fidelity(self, ax)
 
 
 def fidelity_metrics(result, cutoff: float = 3.5, warmup: float = 0.5, target_voltage_ratio: float | None = None) -> FidelityMetrics:

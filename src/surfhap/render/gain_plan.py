@@ -37,6 +37,7 @@ from surfhap.models.material import Material
 from surfhap.models.panel import DisplayModel
 from surfhap.render.drive import DriveParams, Square, make_drive_law, rendering_gain
 from surfhap.render.safety import SafetyLimits
+from surfhap.results import Result, jsonable
 
 __all__ = ["OperatingRange", "GainPlan", "plan_gains", "PLAN_PERCENTILE", "PLAN_FILL"]
 
@@ -67,7 +68,7 @@ class OperatingRange:
 
 
 @dataclass(frozen=True)
-class GainPlan:
+class GainPlan(Result):
     """A gain plan (SI).
 
     method, alpha (V/sqrt(N)), alpha_calibrated, rendering_gain = (alpha/alpha_calibrated)^2,
@@ -106,8 +107,15 @@ class GainPlan:
         """20 log10(headroom)."""
         return float(20 * np.log10(self.headroom)) if np.isfinite(self.headroom) and self.headroom > 0 else float("inf")
 
+    panels = 2
+
+    def summary(self) -> dict:
+        return jsonable({"material": self.material, "method": self.method, "alpha_v_per_sqrt_n": self.alpha,
+                         "rendering_gain": self.rendering_gain, "binding_constraint": self.binding,
+                         "headroom_db": self.headroom_db})
+
     def to_dict(self) -> dict:
-        """JSON-ready summary (used in summary.json and ``surfhap materials --show``)."""
+        """JSON-ready plan (used in summary.json and ``surfhap materials --show``)."""
         d = {
             "method": self.method, "alpha_v_per_sqrt_n": self.alpha, "alpha_calibrated_v_per_sqrt_n": self.alpha_calibrated,
             "rendering_gain": self.rendering_gain, "texture_gain": self.texture_gain, "beta": self.beta,
@@ -124,13 +132,13 @@ class GainPlan:
         if self.square_amplitude is not None:
             d["square_amplitude_v"] = self.square_amplitude
             d["square_reference"] = {"load_n": self.square_reference[0], "speed_m_per_s": self.square_reference[1]}
-        return d
+        return jsonable(d)
 
-    def plot(self, fig=None):
-        """Renderable friction range over load (matplotlib Figure)."""
+    def plot(self, ax=None):
+        """Renderable friction range and peak voltage over load (matplotlib Figure, 2 panels)."""
         from surfhap.report.plan_figures import plot_gain_plan
 
-        return plot_gain_plan(self, fig=fig)
+        return plot_gain_plan(self, ax)
 
 
 def plan_gains(material: Material, method: str, display: DisplayModel | None = None,

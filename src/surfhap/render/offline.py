@@ -159,12 +159,12 @@ class RenderResult:
         """The JSON-ready summary of this render."""
         return summary_dict(self, RenderStats.of(self))
 
-    def plot(self, fig=None):
+    def plot(self, ax=None):
         """Time course and spectrum of the rendered friction against the model (matplotlib Figure)."""
         from surfhap.render.preview import preview_of
         from surfhap.report.figures import plot_render
 
-        return plot_render(preview_of(self), fig=fig)
+        return plot_render(preview_of(self), ax)
 
 
 @dataclass

@@ -31,6 +31,7 @@ from surfhap.render.drive_kernel import target_to_voltage
 from surfhap.models.device_curve import DeviceCurve
 from surfhap.render.grains import GrainParams, GrainPlayer, grain_name
 from surfhap.render.safety import SafetyCounters, SafetyLimits, SafetyStage
+from surfhap.results import Result, jsonable
 from surfhap.shape.calibration import ShapeCalibration
 from surfhap.shape.edges import EDGE_THRESHOLD_DEG, edge_ticks_walk, walk_spacing
 from surfhap.shape.gradient import FZ_DEFAULT
@@ -197,7 +198,7 @@ class ShapeDrive:
 
 
 @dataclass
-class ShapeResult:
+class ShapeResult(Result):
     """One shape render. Touch-rate arrays (n,): t (s, from 0), x, y (m), load (N), z (hit
     height, NaN off the mesh), face (-1 off), force (N lateral), fsq, intensity ([0.3, 1]),
     edge (tick Ie, 0 where none), theta (deg). Drive-rate arrays (m,): t_drive, drive (V,
@@ -237,10 +238,12 @@ class ShapeResult:
     def n_ticks(self) -> int:
         return int(np.count_nonzero(self.edge > 0))
 
+    panels = 4
+
     def summary(self) -> dict:
         s = self.safety
         on = self.on_mesh
-        return {
+        return jsonable({
             "mesh": self.mesh,
             "trajectory": self.trajectory_name,
             "samples": int(self.t.size),
@@ -264,11 +267,11 @@ class ShapeResult:
             "max_abs_voltage": float(np.max(np.abs(self.drive))) if self.drive.size else 0.0,
             "safety": {"samples": s.samples, "clamped": s.clamped, "rise_limited": s.rise_limited,
                        "faults": s.faults, "lifted": s.lifted, "watchdog": s.watchdog},
-        }
+        })
 
-    def plot(self, fig=None):
+    def plot(self, ax=None):
         """Height along the path, lateral force, intensity and edge ticks, and a top view
         (matplotlib Figure)."""
         from surfhap.report.shape_figures import plot_shape_result
 
-        return plot_shape_result(self, fig=fig)
+        return plot_shape_result(self, ax)

@@ -85,11 +85,11 @@ class StreamedRender:
     def texture_warning(self, threshold: float = MIN_TEXTURE_SHARE) -> str | None:
         return texture_warning(self, self.stats.texture_share, threshold)
 
-    def plot(self, fig=None):
+    def plot(self, ax=None):
         """The render figure, drawn from the preview (matplotlib Figure)."""
         from surfhap.report.figures import plot_render
 
-        return plot_render(self.preview, fig=fig)
+        return plot_render(self.preview, ax)
 
 
 def stream_render(material: Material, trajectory: Trajectory, config: ChainConfig | None, sink: Sink, *,

@@ -2,9 +2,28 @@
 
 from __future__ import annotations
 
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-__all__ = ["plain_log_ticks"]
+__all__ = ["plain_log_ticks", "figure_axes"]
+
+
+def figure_axes(ax, n: int, size: tuple[float, float], layout=None, **subplots) -> tuple[Figure, list[Axes]]:
+    """The Figure and the ``n`` Axes a plot draws into (the ``ax`` of :meth:`surfhap.results.Result.plot`).
+
+    ``ax`` None: a new constrained Figure of ``size`` inches whose Axes are ``layout(fig)``
+    (a callable returning them) or ``fig.subplots(**subplots)``; one Axes (``n == 1``) or a
+    sequence of ``n`` Axes: those, and their root figure."""
+    if ax is None:
+        fig = Figure(figsize=size, layout="constrained")
+        axs = layout(fig) if layout is not None else fig.subplots(**subplots)
+        return fig, list(np.ravel(axs))
+    axs = [ax] if isinstance(ax, Axes) else list(np.ravel(np.asarray(ax, dtype=object)))
+    if len(axs) != n:
+        raise ValueError(f"this plot draws {n} panel(s): pass None, or {n} Axes, not {len(axs)}")
+    return axs[0].get_figure(root=True), axs
 
 
 def plain_log_ticks(axis) -> None:

@@ -1,6 +1,7 @@
 """Figures of a force-feedback simulation (matplotlib object API, no pyplot state).
 
-Each function returns a ``matplotlib.figure.Figure``; saving is the caller's business.
+Each function takes ``ax`` (None, one Axes, or one Axes per panel:
+:func:`surfhap.report.axes.figure_axes`) and returns the ``matplotlib.figure.Figure``.
 """
 
 from __future__ import annotations
@@ -8,13 +9,14 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
+from surfhap.report.axes import figure_axes
+
 __all__ = ["plot_ff_result", "plot_ff_top_view"]
 
 
-def plot_ff_result(result, fig: Figure | None = None) -> Figure:
-    """Forces, screen motion, finger-screen relative sliding and effect switches over time."""
-    fig = fig or Figure(figsize=(11, 9), layout="constrained")
-    axs = fig.subplots(4, 1, sharex=True, gridspec_kw={"height_ratios": (1.0, 1.0, 1.0, 0.6)})
+def plot_ff_result(result, ax=None) -> Figure:
+    """Forces, screen motion, finger-screen relative sliding and effect switches over time (4 panels)."""
+    fig, axs = figure_axes(ax, 4, (11, 9), nrows=4, sharex=True, height_ratios=(1.0, 1.0, 1.0, 0.6))
     t = result.t - result.t[0]
     for i, lab in enumerate("xyz"):
         axs[0].plot(t, result.force[:, i], lw=0.8, label=f"F{lab}")
@@ -52,11 +54,10 @@ def plot_ff_result(result, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_ff_top_view(result, picture: np.ndarray | None = None, size: tuple[float, float] | None = None,
-                     fig: Figure | None = None) -> Figure:
+def plot_ff_top_view(result, ax=None, picture: np.ndarray | None = None,
+                     size: tuple[float, float] | None = None) -> Figure:
     """The scene's picture (content coordinates) with the finger's path and the screen's path."""
-    fig = fig or Figure(figsize=(6, 5), layout="constrained")
-    ax = fig.subplots()
+    fig, (ax,) = figure_axes(ax, 1, (6, 5))
     if picture is not None and size is not None:
         ax.imshow(picture, extent=(0, size[0] * 100, size[1] * 100, 0), cmap="gray", vmin=0, vmax=1)
     m = result.touched

@@ -1,7 +1,8 @@
 """Figures for texture rendering and model fitting (matplotlib, object API, no pyplot state).
 
-Each function takes a result object and returns a ``matplotlib.figure.Figure``; saving is the
-caller's business (``fig.savefig(path)``).
+Each function takes a result object and ``ax`` (None, one Axes, or one Axes per panel: see
+:func:`surfhap.report.axes.figure_axes`) and returns the ``matplotlib.figure.Figure``; saving
+is the caller's business (``fig.savefig(path)``).
 """
 
 from __future__ import annotations
@@ -10,10 +11,10 @@ import numpy as np
 from matplotlib.figure import Figure
 from scipy.signal import welch
 
-from surfhap.report.axes import plain_log_ticks
+from surfhap.report.axes import figure_axes, plain_log_ticks
 from surfhap.signal.bands import BandSplit
 
-__all__ = ["plot_render", "plot_order_selection", "plot_imu_fit", "render_spectrum", "spectrum_of", "law_line"]
+__all__ = ["plot_render", "plot_order_selection", "plot_imu_fit", "plot_fidelity", "render_spectrum", "spectrum_of", "law_line"]
 
 _SPLIT = BandSplit()  # 3.5 Hz, the band split of Otake et al. 2022
 
@@ -50,16 +51,17 @@ def law_line(pv) -> np.ndarray:
     return pv.mu_panel * pv.win_load + pv.rendering_gain * pv.win_low
 
 
-def plot_render(pv, fig: Figure | None = None) -> Figure:
+def plot_render(pv, ax=None) -> Figure:
     """Four panels: friction over time, drive voltage, spectrum vs model, speed and load.
 
     ``pv``: a :class:`~surfhap.render.preview.RenderPreview`, the bounded copy a render keeps
     for its figure (``RenderResult.plot()`` and the streamed render pass theirs)."""
-    if fig is None:  # fixed margins: constrained layout took half of the figure's time (batch jobs draw one each)
+    if ax is None:  # fixed margins: constrained layout took half of the figure's time (batch jobs draw one each)
         fig = Figure(figsize=(11, 7.5))
         fig.subplots_adjust(left=0.065, right=0.935, bottom=0.07, top=0.955, wspace=0.24, hspace=0.3)
-    axs = fig.subplots(2, 2)
-    ax = axs[0, 0]
+        ax = fig.subplots(2, 2)
+    fig, axs = figure_axes(ax, 4, ())
+    ax = axs[0]
     t = pv.win_t
     ax.plot(t, pv.win_friction, lw=0.8, color="C0", label="simulated friction")
     g = pv.rendering_gain
@@ -68,12 +70,12 @@ def plot_render(pv, fig: Figure | None = None) -> Figure:
     ax.plot(t, law_line(pv), lw=1.2, color="k", ls="--", label=f"panel + low band{scaled}")
     ax.set(xlabel="time (s)", ylabel="lateral force (N)", title=f"{pv.material} — {pv.method}, {pv.span:g} s window")
     ax.legend(loc="upper right", fontsize=8)
-    ax = axs[0, 1]
+    ax = axs[1]
     ax.plot(pv.drv_t * 1e3, pv.drv, lw=0.6, label="drive (after safety)")
     ax.plot(pv.env_t * 1e3, pv.env, lw=1.2, color="C3", label="envelope")
     ax.set(xlabel="time (ms)", ylabel="voltage (V)", title=f"drive, {pv.carrier:g} Hz carrier, {pv.window * 1e3:g} ms")
     ax.legend(loc="upper right", fontsize=8)
-    ax = axs[1, 0]
+    ax = axs[2]
     f, p, e = spectrum_of(pv.spec_added, pv.control_rate, pv.expected_psd)
     if f.size:
         top = 0.4 * (pv.texture_rate or pv.control_rate)  # the resamplers roll off above 0.45 fs
@@ -84,7 +86,7 @@ def plot_render(pv, fig: Figure | None = None) -> Figure:
         ax.legend(fontsize=8)
         plain_log_ticks(ax.xaxis)
     ax.set(xlabel="frequency (Hz)", ylabel="PSD (N²/Hz)", title="added friction above 3.5 Hz")
-    ax = axs[1, 1]
+    ax = axs[3]
     ax.fill_between(pv.col_t, pv.speed_min * 1e3, pv.speed_max * 1e3, color="C2", lw=1, step="post")
     ax.set(xlabel="time (s)", ylabel="speed (mm/s)", title="finger (min/max per column)")
     ax2 = ax.twinx()
@@ -93,13 +95,9 @@ def plot_render(pv, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_order_selection(selection, ax=None):
+def plot_order_selection(selection, ax=None) -> Figure:
     """AIC and BIC against the AR order, the chosen order marked."""
-    if ax is None:
-        fig = Figure(figsize=(6, 4), layout="constrained")
-        ax = fig.subplots()
-    else:
-        fig = ax.figure
+    fig, (ax,) = figure_axes(ax, 1, (6, 4))
     ax.plot(selection.orders, selection.aic - selection.aic.min(), label="AIC")
     ax.plot(selection.orders, selection.bic - selection.bic.min(), label="BIC")
     ax.axvline(selection.order, color="k", ls=":", label=f"chosen ({selection.criterion.upper()}): {selection.order}")
@@ -108,10 +106,9 @@ def plot_order_selection(selection, ax=None):
     return fig
 
 
-def plot_imu_fit(fit, fig: Figure | None = None) -> Figure:
-    """Measured high-band spectrum vs the fitted AR spectrum, and the order selection."""
-    fig = fig or Figure(figsize=(10, 4), layout="constrained")
-    a, b = fig.subplots(1, 2)
+def plot_imu_fit(fit, ax=None) -> Figure:
+    """Measured high-band spectrum vs the fitted AR spectrum, and the order selection (2 panels)."""
+    fig, (a, b) = figure_axes(ax, 2, (10, 4), ncols=2)
     f, p = welch(fit.signal, fs=fit.sample_rate, nperseg=min(512, fit.signal.size))
     model = fit.bank.models[0].psd(fit.sample_rate, f) * BandSplit(cutoff=fit.cutoff).high_gain(f, fit.sample_rate)
     sel = f > 0
@@ -121,4 +118,17 @@ def plot_imu_fit(fit, fig: Figure | None = None) -> Figure:
     plain_log_ticks(a.xaxis)
     a.legend(fontsize=8)
     plot_order_selection(fit.selection, ax=b)
+    return fig
+
+
+def plot_fidelity(metrics, ax=None) -> Figure:
+    """The fidelity metrics of one render (:mod:`surfhap.render.fidelity`) as bars; the ones
+    not measured (None) are left out."""
+    fig, (ax,) = figure_axes(ax, 1, (6, 3))
+    d = metrics.summary()
+    shown = [k for k in ("saturated_fraction", "clipped_fraction", "low_band_error", "texture_correlation",
+                         "voltage_ratio", "ratio_error") if d[k] is not None]
+    ax.barh(shown, [d[k] for k in shown], color="C0")
+    ax.axvline(0, color="k", lw=0.8)
+    ax.set(xlabel="value", title=f"{metrics.material} — {metrics.method}, G = {metrics.rendering_gain:.3g}")
     return fig

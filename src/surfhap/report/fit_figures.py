@@ -1,6 +1,7 @@
 """Figures of fitting results (matplotlib object API; no pyplot state).
 
-Every function takes a result object from :mod:`surfhap.fit` and returns a
+Every function takes a result object from :mod:`surfhap.fit` and ``ax`` (None, one Axes, or
+one Axes per panel: :func:`surfhap.report.axes.figure_axes`) and returns the
 ``matplotlib.figure.Figure``; computing and plotting stay separate calls.
 """
 
@@ -9,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from surfhap.report.axes import plain_log_ticks
+from surfhap.report.axes import figure_axes, plain_log_ticks
 from surfhap.report.figures import plot_order_selection
 
 __all__ = [
@@ -22,18 +23,15 @@ __all__ = [
     "plot_friction_fit",
     "plot_accel_segments",
     "plot_accel_models",
+    "plot_accel_aic",
     "plot_accel_fit",
 ]
 
 
-def _fig(size=(7, 4)):
-    return Figure(figsize=size, layout="constrained")
 
-
-def plot_band_split(fit, fig: Figure | None = None) -> Figure:
-    """CoF of the longest contact run, its low band (< cut-off) and high band."""
-    fig = fig or _fig((9, 5))
-    a, b = fig.subplots(2, 1, sharex=True)
+def plot_band_split(fit, ax=None) -> Figure:
+    """CoF of the longest contact run, its low band (< cut-off) and high band (2 panels)."""
+    fig, (a, b) = figure_axes(ax, 2, (9, 5), nrows=2, sharex=True)
     ex = fit.example
     a.plot(ex["t"], ex["cof"], lw=0.5, color="0.5", label="CoF")
     a.plot(ex["t"], ex["low"], lw=1.6, color="C0", label=f"low band (< {fit.cutoff:g} Hz)")
@@ -44,10 +42,9 @@ def plot_band_split(fit, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_friction_law(fit, fig: Figure | None = None) -> Figure:
-    """Low-band CoF against normal force and speed, with the fitted quasi-static law."""
-    fig = fig or _fig((11, 4.2))
-    a, b = fig.subplots(1, 2)
+def plot_friction_law(fit, ax=None) -> Figure:
+    """Low-band CoF against normal force and speed, with the fitted quasi-static law (2 panels)."""
+    fig, (a, b) = figure_axes(ax, 2, (11, 4.2), ncols=2)
     lb = fit.low_band
     law = fit.quasi_static.law
     for k, lab in enumerate(fit.participants):
@@ -68,24 +65,19 @@ def plot_friction_law(fit, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_aic_curves(fit, fig: Figure | None = None) -> Figure:
+def plot_aic_curves(fit, ax=None) -> Figure:
     """Order-selection curves, one panel per reference velocity."""
     n = max(len(fit.textures), 1)
-    fig = fig or _fig((3.2 * n, 3.4))
-    axs = np.atleast_1d(fig.subplots(1, n))
+    fig, axs = figure_axes(ax, n, (3.2 * n, 3.4), ncols=n)
     for ax, t in zip(axs, fit.textures):
         plot_order_selection(t.selection, ax=ax)
         ax.set_title(f"{t.reference_speed * 1e3:g} mm/s", fontsize=9)
     return fig
 
 
-def plot_velocity_spectrum(tex, ax=None):
+def plot_velocity_spectrum(tex, ax=None) -> Figure:
     """Measured (mean Welch over participants, and each participant) vs AR spectrum."""
-    if ax is None:
-        fig = _fig((6, 4))
-        ax = fig.subplots()
-    else:
-        fig = ax.figure
+    fig, (ax,) = figure_axes(ax, 1, (6, 4))
     f = tex.freqs
     sel = (f >= tex.band[0]) & (f > 0)
     for p in tex.participant_psds:
@@ -99,20 +91,18 @@ def plot_velocity_spectrum(tex, ax=None):
     return fig
 
 
-def plot_spectra(fit, fig: Figure | None = None) -> Figure:
+def plot_spectra(fit, ax=None) -> Figure:
     """Measured vs modelled spectra, one panel per reference velocity."""
     n = max(len(fit.textures), 1)
-    fig = fig or _fig((3.4 * n, 3.6))
-    axs = np.atleast_1d(fig.subplots(1, n, sharey=True))
+    fig, axs = figure_axes(ax, n, (3.4 * n, 3.6), ncols=n, sharey=True)
     for ax, t in zip(axs, fit.textures):
         plot_velocity_spectrum(t, ax=ax)
     return fig
 
 
-def plot_similarity(fit, fig: Figure | None = None) -> Figure:
+def plot_similarity(fit, ax=None) -> Figure:
     """Similarity index per reference velocity: each participant and the mean ± SE."""
-    fig = fig or _fig((6, 4))
-    ax = fig.subplots()
+    fig, (ax,) = figure_axes(ax, 1, (6, 4))
     for t in fit.textures:
         x = t.reference_speed * 1e3
         ax.scatter(np.full(t.similarity.size, x), t.similarity, s=12, color="0.6")
@@ -123,33 +113,37 @@ def plot_similarity(fit, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_friction_fit(fit, kind: str = "summary", **kwargs) -> Figure:
-    """Dispatch for :meth:`surfhap.fit.material_fit.FrictionFit.plot`."""
+def _friction_summary_layout(fig):
+    sub = fig.subfigures(2, 2)
+    return [*sub[0, 0].subplots(2, 1, sharex=True), *sub[0, 1].subplots(1, 2), sub[1, 0].subplots(), sub[1, 1].subplots()]
+
+
+def plot_friction_fit(fit, ax=None, kind: str = "summary") -> Figure:
+    """:meth:`surfhap.fit.material_fit.FrictionFit.plot`: ``kind`` "summary" (6 panels: band split,
+    friction law, similarity, the middle velocity's spectrum) or one of the figures above."""
     table = {"band-split": plot_band_split, "friction-law": plot_friction_law, "aic": plot_aic_curves,
              "spectra": plot_spectra, "similarity": plot_similarity}
     if kind == "summary":
-        fig = _fig((12, 8))
-        sub = fig.subfigures(2, 2)
-        plot_band_split(fit, fig=sub[0, 0])
-        plot_friction_law(fit, fig=sub[0, 1])
-        plot_similarity(fit, fig=sub[1, 0])
+        fig, axs = figure_axes(ax, 6, (12, 8), layout=_friction_summary_layout)
+        plot_band_split(fit, axs[0:2])
+        plot_friction_law(fit, axs[2:4])
+        plot_similarity(fit, axs[4])
         if fit.textures:
-            plot_velocity_spectrum(fit.textures[len(fit.textures) // 2], ax=sub[1, 1].subplots())
+            plot_velocity_spectrum(fit.textures[len(fit.textures) // 2], ax=axs[5])
         return fig
     if kind not in table:
         raise ValueError(f"kind must be one of {', '.join(['summary', *table])}")
-    return table[kind](fit, **kwargs)
+    return table[kind](fit, ax)
 
 
-def plot_accel_segments(fit, source: str | None = None, fig: Figure | None = None) -> Figure:
-    """Acceleration of one recording with its change points, speed and force."""
+def plot_accel_segments(fit, ax=None, source: str | None = None) -> Figure:
+    """Acceleration of one recording with its change points, speed and force (2 panels)."""
     source = source or next(iter(fit.signals))
     sig = fit.signals[source]
     seg = fit.segmentations[source]
     fs = fit.sample_rate
     t = np.arange(sig["acceleration"].size) / fs
-    fig = fig or _fig((10, 5))
-    a, b = fig.subplots(2, 1, sharex=True)
+    fig, (a, b) = figure_axes(ax, 2, (10, 5), nrows=2, sharex=True)
     a.plot(t, sig["acceleration"], lw=0.4)
     for cp in seg.change_points:
         a.axvline(cp / fs, color="C3", lw=0.8)
@@ -162,10 +156,9 @@ def plot_accel_segments(fit, source: str | None = None, fig: Figure | None = Non
     return fig
 
 
-def plot_accel_models(fit, fig: Figure | None = None) -> Figure:
-    """Triangulation over (speed, force) and the spectra of the fitted segment models."""
-    fig = fig or _fig((11, 4.2))
-    a, b = fig.subplots(1, 2)
+def plot_accel_models(fit, ax=None) -> Figure:
+    """Triangulation over (speed, force) and the spectra of the fitted segment models (2 panels)."""
+    fig, (a, b) = figure_axes(ax, 2, (11, 4.2), ncols=2)
     bank = fit.bank
     a.triplot(bank.speeds * 1e3, bank.forces, bank.triangles, color="0.6", lw=0.8)
     a.scatter(bank.speeds * 1e3, bank.forces, c=np.where(bank.variances > 0, "C0", "C7"), s=18)
@@ -179,24 +172,32 @@ def plot_accel_models(fit, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_accel_fit(fit, kind: str = "summary", **kwargs) -> Figure:
-    """Dispatch for :meth:`surfhap.fit.accel.AccelFit.plot`."""
-    if kind == "segments":
-        return plot_accel_segments(fit, **kwargs)
-    if kind == "models":
-        return plot_accel_models(fit, **kwargs)
-    if kind == "aic":
-        fig = _fig((6, 4))
-        ax = fig.subplots()
-        ax.plot(fit.orders[1:], fit.total_criterion[1:] - fit.total_criterion[1:].min())
-        ax.axvline(fit.order, color="k", ls=":", label=f"chosen: {fit.order}")
-        ax.set(xlabel="AR order p", ylabel=f"summed {fit.criterion.upper()} − min", yscale="symlog")
-        ax.legend(fontsize=8)
-        return fig
+def plot_accel_aic(fit, ax=None) -> Figure:
+    """The summed criterion against the common AR order, the chosen order marked."""
+    fig, (ax,) = figure_axes(ax, 1, (6, 4))
+    ax.plot(fit.orders[1:], fit.total_criterion[1:] - fit.total_criterion[1:].min())
+    ax.axvline(fit.order, color="k", ls=":", label=f"chosen: {fit.order}")
+    ax.set(xlabel="AR order p", ylabel=f"summed {fit.criterion.upper()} − min", yscale="symlog")
+    ax.legend(fontsize=8)
+    return fig
+
+
+def _accel_summary_layout(fig):
+    top, bottom = fig.subfigures(2, 1)
+    return [*top.subplots(2, 1, sharex=True), *bottom.subplots(1, 2)]
+
+
+def plot_accel_fit(fit, ax=None, kind: str = "summary", source: str | None = None) -> Figure:
+    """:meth:`surfhap.fit.accel.AccelFit.plot`: ``kind`` "summary" (4 panels: segments of ``source``
+    and models), "segments", "models" or "aic"."""
     if kind == "summary":
-        fig = _fig((12, 8))
-        sub = fig.subfigures(2, 1)
-        plot_accel_segments(fit, fig=sub[0])
-        plot_accel_models(fit, fig=sub[1])
+        fig, axs = figure_axes(ax, 4, (12, 8), layout=_accel_summary_layout)
+        plot_accel_segments(fit, axs[:2], source)
+        plot_accel_models(fit, axs[2:])
         return fig
-    raise ValueError("kind must be one of summary, segments, models, aic")
+    if kind == "segments":
+        return plot_accel_segments(fit, ax, source)
+    table = {"models": plot_accel_models, "aic": plot_accel_aic}
+    if kind not in table:
+        raise ValueError("kind must be one of summary, segments, models, aic")
+    return table[kind](fit, ax)

@@ -1,7 +1,9 @@
 """Figures for the lab tools: calibration fits, confusion matrices, proportions with intervals,
 real-vs-virtual rating scatter (matplotlib object API, no pyplot state).
 
-Each function returns a ``matplotlib.figure.Figure``; saving is the caller's business.
+Each function takes ``ax`` (None, one Axes, or one Axes per panel:
+:func:`surfhap.report.axes.figure_axes`) and returns the ``matplotlib.figure.Figure``; saving
+is the caller's business.
 """
 
 from __future__ import annotations
@@ -9,14 +11,15 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
+from surfhap.report.axes import figure_axes
+
 __all__ = ["plot_calibration", "plot_confusion", "plot_proportions", "plot_rating_scatter", "plot_staircase",
            "plot_comparison"]
 
 
-def plot_calibration(cal, fig: Figure | None = None) -> Figure:
-    """Static increase and vibration amplitude vs level with their quadratic fits; residuals."""
-    fig = fig or Figure(figsize=(10, 4), layout="constrained")
-    ax_fit, ax_res = fig.subplots(1, 2)
+def plot_calibration(cal, ax=None) -> Figure:
+    """Static increase and vibration amplitude vs level with their quadratic fits; residuals (2 panels)."""
+    fig, (ax_fit, ax_res) = figure_axes(ax, 2, (10, 4), ncols=2)
     x = np.linspace(0.0, cal.level_max, 200)
     unit = "V" if cal.input == "voltage" else ""
     for fit, label, colour in ((cal.static_fit, "static friction increase", "C0"),
@@ -36,10 +39,9 @@ def plot_calibration(cal, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_confusion(result, fig: Figure | None = None) -> Figure:
+def plot_confusion(result, ax=None) -> Figure:
     """Confusion matrix (row = presented, column = answered) as proportions per row."""
-    fig = fig or Figure(figsize=(5.5, 4.5), layout="constrained")
-    ax = fig.subplots()
+    fig, (ax,) = figure_axes(ax, 1, (5.5, 4.5))
     p = result.proportions
     im = ax.imshow(p, cmap="Blues", vmin=0, vmax=1)
     labels = list(result.labels)
@@ -53,16 +55,15 @@ def plot_confusion(result, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_proportions(result, fig: Figure | None = None, chance: float | None = None) -> Figure:
+def plot_proportions(result, ax=None, chance: float | None = None) -> Figure:
     """Bar chart of proportions with their confidence intervals."""
-    fig = fig or Figure(figsize=(6, 3.5), layout="constrained")
-    ax = fig.subplots()
+    fig, (ax,) = figure_axes(ax, 1, (6, 3.5))
     p = np.asarray(result.proportion, dtype=float)
     lo = np.asarray(result.ci_low, dtype=float)
     hi = np.asarray(result.ci_high, dtype=float)
     x = np.arange(p.size)
     ax.bar(x, p, color="C0", alpha=0.8)
-    ax.errorbar(x, p, yerr=[p - lo, hi - p], fmt="none", ecolor="k", capsize=4)
+    ax.errorbar(x, p, yerr=np.maximum([p - lo, hi - p], 0.0), fmt="none", ecolor="k", capsize=4)  # hi is 1 - 1e-16 at n/n
     if chance is not None:
         ax.axhline(chance, color="C3", ls="--", lw=1, label=f"chance {chance:.2f}")
         ax.legend(fontsize=8)
@@ -71,10 +72,9 @@ def plot_proportions(result, fig: Figure | None = None, chance: float | None = N
     return fig
 
 
-def plot_rating_scatter(result, fig: Figure | None = None) -> Figure:
+def plot_rating_scatter(result, ax=None) -> Figure:
     """Mean rating of each material, real (x) vs virtual (y), with the correlation."""
-    fig = fig or Figure(figsize=(4.5, 4.5), layout="constrained")
-    ax = fig.subplots()
+    fig, (ax,) = figure_axes(ax, 1, (4.5, 4.5))
     ax.plot(result.x, result.y, "o")
     for xi, yi, lab in zip(result.x, result.y, result.labels):
         ax.annotate(str(lab), (xi, yi), fontsize=7, xytext=(3, 3), textcoords="offset points")
@@ -86,10 +86,9 @@ def plot_rating_scatter(result, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_staircase(result, fig: Figure | None = None) -> Figure:
+def plot_staircase(result, ax=None) -> Figure:
     """Levels of a staircase run, reversals marked, threshold estimate as a line."""
-    fig = fig or Figure(figsize=(6, 3.5), layout="constrained")
-    ax = fig.subplots()
+    fig, (ax,) = figure_axes(ax, 1, (6, 3.5))
     lv = np.asarray(result.levels)
     resp = np.asarray(result.responses, dtype=bool)
     x = np.arange(1, lv.size + 1)
@@ -106,11 +105,10 @@ def plot_staircase(result, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_comparison(comp, fig: Figure | None = None) -> Figure:
-    """Friction over speed and load, spectra of the added friction, voltage histograms."""
-    fig = fig or Figure(figsize=(13, 7.5), layout="constrained")
-    axs = fig.subplots(2, 2)
-    (a_v, a_l), (a_s, a_h) = axs
+def plot_comparison(comp, ax=None) -> Figure:
+    """Friction over speed and load, spectra of the added friction, voltage histograms (4 panels)."""
+    fig, axs = figure_axes(ax, 4, (13, 7.5), nrows=2, ncols=2)
+    a_v, a_l, a_s, a_h = axs
     for i, p in enumerate(comp.profiles):
         c = f"C{i}"
         a_v.plot(p.speeds * 1e3, p.mu_speed, color=c, label=p.name)
@@ -124,7 +122,7 @@ def plot_comparison(comp, fig: Figure | None = None) -> Figure:
             title=f"friction law at {comp.speed * 1e3:g} mm/s")
     a_s.set(xlabel="frequency (Hz)", ylabel="PSD (N$^2$/Hz)", title="added friction on the simulated display")
     a_h.set(xlabel="|drive| (V)", ylabel="fraction of samples", title="drive voltage (after the safety stage)")
-    for ax in axs.ravel():
+    for ax in axs:
         ax.legend(fontsize=8)
     fig.suptitle(f"strokes at {comp.speed * 1e3:g} mm/s, {comp.load:g} N, {comp.duration:g} s")
     return fig

@@ -4,9 +4,25 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from matplotlib.figure import Figure
+
+from surfhap.report.axes import figure_axes
 from surfhap.report.html import Page
 
-__all__ = ["write_study_report"]
+__all__ = ["write_study_report", "plot_study"]
+
+
+def plot_study(result, ax=None) -> Figure:
+    """Every figure of the analysis's sections in one panel each (up to 3 columns)."""
+    figures = [(obj, kw) for sec in result.sections for _, obj, kw in sec.figures]
+    cols = max(1, min(len(figures), 3))
+    rows = max(1, -(-len(figures) // cols))
+    fig, axs = figure_axes(ax, len(figures), (4.5 * cols, 3.6 * rows), nrows=rows, ncols=cols)
+    for a in axs[len(figures):]:
+        a.set_axis_off()
+    for (obj, kw), a in zip(figures, axs):
+        obj.plot(a, **kw)
+    return fig
 
 
 def write_study_report(result, folder: str | Path) -> Path:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
+from surfhap.report.axes import figure_axes
+
 __all__ = ["plot_gain_plan", "plot_gain_plans", "plan_table"]
 
 
@@ -15,17 +17,16 @@ def _draw(ax, ax_v, plan, color, label):
     ax_v.plot(plan.loads, plan.peak_voltage, color=color, lw=1.2, label=label)
 
 
-def plot_gain_plan(plan, fig=None) -> Figure:
+def plot_gain_plan(plan, ax=None) -> Figure:
     """Two panels: the friction the display adds over the planned loads (band: over the
     speeds of the operating range, at the rendering gain), and the 99.9th-percentile drive
-    voltage against v_max."""
-    return plot_gain_plans([plan], fig=fig)
+    voltage against v_max (2 panels)."""
+    return plot_gain_plans([plan], ax)
 
 
-def plot_gain_plans(plans, fig=None) -> Figure:
-    """Like :func:`plot_gain_plan` for several materials on shared axes."""
-    fig = fig or Figure(figsize=(10, 4), layout="constrained")
-    ax, ax_v = fig.subplots(1, 2)
+def plot_gain_plans(plans, ax=None) -> Figure:
+    """Like :func:`plot_gain_plan` for several materials on shared axes (2 panels)."""
+    fig, (ax, ax_v) = figure_axes(ax, 2, (10, 4), ncols=2)
     for i, plan in enumerate(plans):
         lab = f"{plan.material} (G = {plan.rendering_gain:.2f})" if plan.material else f"G = {plan.rendering_gain:.2f}"
         _draw(ax, ax_v, plan, f"C{i}", lab)

@@ -1,6 +1,7 @@
 """Figures for shape rendering (matplotlib object API, no pyplot state).
 
-Each function returns a ``matplotlib.figure.Figure``; saving is the caller's business.
+Each function takes ``ax`` (None, one Axes, or one Axes per panel:
+:func:`surfhap.report.axes.figure_axes`) and returns the ``matplotlib.figure.Figure``.
 """
 
 from __future__ import annotations
@@ -8,17 +9,18 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
+from surfhap.report.axes import figure_axes
+
 __all__ = ["plot_shape_result", "plot_top_view", "plot_calibration", "plot_profile", "plot_device_curve",
            "plot_scene"]
 
 
-def plot_top_view(surface, light=(0.0, 0.0, 1.0), ax=None, path=None, n: int = 300):
+def plot_top_view(surface, ax=None, light=(0.0, 0.0, 1.0), path=None, n: int = 300) -> Figure:
     """Top view of ``surface`` shaded under ``light`` (vector towards the light), with an
-    optional finger path ``(x (n,), y (n,))``; returns the Axes."""
+    optional finger path ``(x (n,), y (n,))``."""
     from surfhap.shape.scan import top_view
 
-    if ax is None:
-        ax = Figure(figsize=(5, 5), layout="constrained").subplots()
+    fig, (ax,) = figure_axes(ax, 1, (5, 5))
     shade, _, (x0, x1, y0, y1) = top_view(surface, np.asarray(light, dtype=float), n=n)
     img = np.ma.masked_invalid(shade)
     ax.imshow(img, origin="lower", extent=(x0 * 100, x1 * 100, y0 * 100, y1 * 100), cmap="gray", vmin=0, vmax=1,
@@ -28,21 +30,24 @@ def plot_top_view(surface, light=(0.0, 0.0, 1.0), ax=None, path=None, n: int = 3
         ax.plot(np.asarray(px) * 100, np.asarray(py) * 100, color="C1", lw=1.2)
         ax.plot(px[0] * 100, py[0] * 100, "o", color="C1", ms=4)
     ax.set(xlabel="x (cm)", ylabel="y (cm)", aspect="equal", title=f"{surface.name} (top view)")
-    return ax
+    return fig
 
 
-def plot_shape_result(result, fig: Figure | None = None) -> Figure:
-    """Top view with the path; height along the path; lateral force; intensity and ticks."""
-    fig = fig or Figure(figsize=(12, 7), layout="constrained")
+def _shape_layout(fig):
     gs = fig.add_gridspec(3, 2, width_ratios=(1.0, 1.5))
-    ax_top = fig.add_subplot(gs[:, 0])
+    ax = fig.add_subplot(gs[0, 1])
+    return [fig.add_subplot(gs[:, 0]), ax, *(fig.add_subplot(gs[k, 1], sharex=ax) for k in (1, 2))]
+
+
+def plot_shape_result(result, ax=None) -> Figure:
+    """Top view with the path; height along the path; lateral force; intensity and ticks (4 panels)."""
+    fig, (ax_top, ax, ax_f, ax_i) = figure_axes(ax, 4, (12, 7), layout=_shape_layout)
     if result.surface is not None:
         plot_top_view(result.surface, ax=ax_top, path=(result.x, result.y))
     t = result.t
-    ax = fig.add_subplot(gs[0, 1])
     ax.plot(t, result.z * 100, color="C0", lw=1.2)
     ax.set(ylabel="hit height (cm)", title=f"{result.mesh}: {result.trajectory_name}")
-    ax = fig.add_subplot(gs[1, 1], sharex=ax)
+    ax = ax_f
     ax.plot(t, result.force, color="C3", lw=1.0, label="lateral force -Fz dz/dr")
     ax.plot(t, result.fsq, color="C2", lw=0.8, alpha=0.8, label="signed sqrt (Fsq)")
     cal = result.calibration
@@ -51,7 +56,7 @@ def plot_shape_result(result, fig: Figure | None = None) -> Figure:
     ax.axhline(0, color="k", lw=0.5)
     ax.set(ylabel="force (N) / Fsq")
     ax.legend(fontsize=8, loc="upper right")
-    ax = fig.add_subplot(gs[2, 1], sharex=ax)
+    ax = ax_i
     ax.step(t, result.intensity, where="post", color="C1", lw=1.2, label="area intensity (eq. 9)")
     ticks = result.edge > 0
     if np.any(ticks):
@@ -62,19 +67,17 @@ def plot_shape_result(result, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_scene(scene, resolution: float = 0.001, fig: Figure | None = None) -> Figure:
+def plot_scene(scene, ax=None, resolution: float = 0.001) -> Figure:
     """Top view of one study scene under its light."""
-    fig = fig or Figure(figsize=(5, 5), layout="constrained")
-    ax = fig.subplots()
-    plot_top_view(scene.surface(resolution), light=scene.light_direction, ax=ax)
+    fig, (ax,) = figure_axes(ax, 1, (5, 5))
+    plot_top_view(scene.surface(resolution), ax, light=scene.light_direction)
     ax.set_title(scene.name)
     return fig
 
 
-def plot_calibration(cal, fig: Figure | None = None) -> Figure:
+def plot_calibration(cal, ax=None) -> Figure:
     """Histogram of the scanned Fsq and the chosen range."""
-    fig = fig or Figure(figsize=(6, 4), layout="constrained")
-    ax = fig.subplots()
+    fig, (ax,) = figure_axes(ax, 1, (6, 4))
     if cal.hist_counts:
         edges = np.asarray(cal.hist_edges)
         ax.stairs(np.asarray(cal.hist_counts), edges, fill=True, alpha=0.6)
@@ -86,10 +89,9 @@ def plot_calibration(cal, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_profile(profile, fig: Figure | None = None) -> Figure:
+def plot_profile(profile, ax=None) -> Figure:
     """A formative-study profile: geometry (cm), force (N) and intensity along the track."""
-    fig = fig or Figure(figsize=(6, 3.5), layout="constrained")
-    ax = fig.subplots()
+    fig, (ax,) = figure_axes(ax, 1, (6, 3.5))
     x = profile.x * 100
     ax.plot(x, profile.height * 100, color="C0", label="geometry (cm)")
     ax.plot(x, profile.force, color="C3", label="force (N)")
@@ -100,11 +102,10 @@ def plot_profile(profile, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_device_curve(curve, fig: Figure | None = None) -> Figure:
-    """The device's intensity -> force curve."""
-    fig = fig or Figure(figsize=(5, 3.5), layout="constrained")
-    ax = fig.subplots()
-    i = np.linspace(0, 1, 101)
-    ax.plot(i, curve.force(i))
-    ax.set(xlabel="intensity", ylabel="force (N)", title="device curve")
+def plot_device_curve(curve, ax=None) -> Figure:
+    """The device's drive -> force curve over [0, its largest drive] (1 where unbounded)."""
+    fig, (ax,) = figure_axes(ax, 1, (5, 3.5))
+    u = np.linspace(0, curve.u_max if np.isfinite(curve.u_max) else 1.0, 101)
+    ax.plot(u, curve.force(u))
+    ax.set(xlabel=curve.input, ylabel="force (N)", title="device curve")
     return fig

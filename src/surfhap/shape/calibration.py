@@ -27,6 +27,7 @@ from pydantic import Field, FiniteFloat, model_validator
 
 from surfhap.checked import checked_dataclass
 from surfhap.errors import ConfigError
+from surfhap.results import Result, jsonable
 from surfhap.shape.gradient import FZ_DEFAULT, gradient_step
 from surfhap.shape.raycast import hit_one
 from surfhap.shape.topsurface import TopSurface
@@ -64,7 +65,7 @@ class ScanPlan:
 
 
 @checked_dataclass
-class ShapeCalibration:
+class ShapeCalibration(Result):
     """The Fsq range of one mesh (units: sqrt(N)) and how it was measured."""
 
     fmin: FiniteFloat
@@ -93,13 +94,14 @@ class ShapeCalibration:
         """A range given by hand, e.g. (-1, 1) as in the formative study (Sec. 4.2)."""
         return cls(float(fmin), float(fmax), method="manual", **kw)
 
+    def summary(self) -> dict:
+        return jsonable({"mesh": self.mesh, "method": self.method, "fmin": self.fmin, "fmax": self.fmax,
+                         "n_samples": self.n_samples})
+
     def to_dict(self) -> dict:
-        d = asdict(self)
-        d["percentiles"] = list(self.percentiles)
-        d["hist_edges"] = list(self.hist_edges)
-        d["hist_counts"] = list(self.hist_counts)
-        d["units"] = "fmin/fmax/mean/sd in sqrt(N) (signed square root of the lateral force, Kim et al. eq. 8)"
-        return d
+        """Every field (what :meth:`from_dict` reads back) and the units."""
+        return jsonable({**asdict(self), "units": "fmin/fmax/mean/sd in sqrt(N) (signed square root of the "
+                                                  "lateral force, Kim et al. eq. 8)"})
 
     @classmethod
     def from_dict(cls, d: dict) -> "ShapeCalibration":
@@ -110,11 +112,11 @@ class ShapeCalibration:
                 kw[k] = tuple(kw[k])
         return cls(**kw)
 
-    def plot(self, fig=None):
+    def plot(self, ax=None):
         """Histogram of the scanned Fsq with the chosen range (matplotlib Figure)."""
         from surfhap.report.shape_figures import plot_calibration
 
-        return plot_calibration(self, fig=fig)
+        return plot_calibration(self, ax)
 
 
 @numba.njit(cache=True, nogil=True)

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from surfhap.errors import ConfigError
+from surfhap.results import Result, jsonable
 
 __all__ = [
     "SIGMA",
@@ -87,7 +88,7 @@ def piecewise_profile(x: np.ndarray, values_at_knots: np.ndarray) -> np.ndarray:
 
 
 @dataclass
-class Profile1D:
+class Profile1D(Result):
     """One formative-study profile sampled along the track: x (n,) m, height (n,) m,
     force (n,) N, intensity (n,) in [0, 1]."""
 
@@ -97,11 +98,19 @@ class Profile1D:
     force: np.ndarray
     intensity: np.ndarray
 
-    def plot(self, fig=None):
+    def summary(self) -> dict:
+        return jsonable({"name": self.name, "samples": self.x.size, "force_range_n": [self.force.min(), self.force.max()],
+                         "intensity_range": [self.intensity.min(), self.intensity.max()]})
+
+    def to_dict(self) -> dict:
+        return jsonable({**self.summary(), "x_m": self.x, "height_m": self.height, "force_n": self.force,
+                         "intensity": self.intensity})
+
+    def plot(self, ax=None):
         """Geometry, force and intensity along the track (matplotlib Figure), as Fig. 6."""
         from surfhap.report.shape_figures import plot_profile
 
-        return plot_profile(self, fig=fig)
+        return plot_profile(self, ax)
 
 
 def formative_profile(shape: str = "bump", mapping: str = "IP0.5", piecewise: bool = False, n: int = 501) -> Profile1D:

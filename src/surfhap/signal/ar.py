@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from surfhap.results import Result, jsonable
+
 __all__ = [
     "autocovariance",
     "levinson_durbin",
@@ -125,7 +127,7 @@ def information_criteria(variances: np.ndarray, n: float) -> tuple[np.ndarray, n
 
 
 @dataclass(frozen=True)
-class OrderSelection:
+class OrderSelection(Result):
     """Result of :func:`select_order`.
 
     order          : chosen order.
@@ -155,6 +157,14 @@ class OrderSelection:
     def bic_order(self) -> int:
         """Order at the BIC minimum."""
         return int(self.orders[int(np.argmin(self.bic))])
+
+    def summary(self) -> dict:
+        return {"order": self.order, "criterion": self.criterion, "aic_order": self.aic_order,
+                "bic_order": self.bic_order, "variance": float(self.variance), "n": int(self.n)}
+
+    def to_dict(self) -> dict:
+        return jsonable({**self.summary(), "coefficients": self.coefficients, "orders": self.orders, "aic": self.aic,
+                         "bic": self.bic})
 
     def plot(self, ax=None):
         """Plot the criteria against the order (see :mod:`surfhap.report.figures`)."""

@@ -12,13 +12,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from surfhap.results import Result, jsonable
 from surfhap.sim.ff_device import SimDevice, SimFinger
 
 __all__ = ["FFSimResult", "simulate_ff"]
 
 
 @dataclass
-class FFSimResult:
+class FFSimResult(Result):
     """Per-tick record of a simulation (n ticks).
 
     t (n,) s; force (n, 3) N (safe force, device frame); screen (n, 3) m and screen_v (n, 3)
@@ -57,12 +58,14 @@ class FFSimResult:
         idx = np.nonzero(np.diff(self.mask, prepend=-1))[0]
         return [(float(self.t[i]), [n for b, n in enumerate(self.effects) if int(self.mask[i]) >> b & 1]) for i in idx]
 
+    panels = 4
+
     def summary(self) -> dict:
         touch = self.touched
         slide = np.hypot(self.sliding[:, 0], self.sliding[:, 1])
         fing = np.hypot(self.finger_v[:, 0], self.finger_v[:, 1])
         rms = (lambda a: float(np.sqrt(np.mean(a ** 2))) if a.size else 0.0)
-        return {
+        return jsonable({
             "name": self.name,
             "ticks": int(self.t.size),
             "duration_s": float(self.t[-1] - self.t[0]) if self.t.size else 0.0,
@@ -75,13 +78,13 @@ class FFSimResult:
             "effects": list(self.effects),
             **({"button_presses": [{"t_s": round(t, 4), "button": b} for t, b in self.presses()]}
                if self.buttons else {}),
-        }
+        })
 
-    def plot(self, fig=None):
+    def plot(self, ax=None):
         """Forces, screen motion, relative sliding and effect switches (matplotlib Figure)."""
         from surfhap.report.ff_figures import plot_ff_result
 
-        return plot_ff_result(self, fig=fig)
+        return plot_ff_result(self, ax)
 
 
 def simulate_ff(engine, finger: SimFinger, device: SimDevice, settle: float = 0.3, tail: float = 0.2,
