@@ -136,11 +136,6 @@ class AccelFit(Result):
                          "segments": len(self.segments), "mu0": self.mu0, "recordings": [r[0] for r in self.recordings],
                          "notes": list(self.notes)})
 
-    def to_dict(self) -> dict:
-        return jsonable({**self.summary(), "orders": self.orders, "total_criterion": self.total_criterion,
-                         "models": {"speed": self.bank.speeds, "force": self.bank.forces,
-                                    "variance": self.bank.variances}})
-
     def plot(self, ax=None, kind: str = "summary", source: str | None = None):
         """Figures: kind "summary", "segments" (of recording ``source``), "models", "aic" (see
         :mod:`surfhap.report.fit_figures`)."""

@@ -92,11 +92,6 @@ class VelocityTexture(Result):
                          "similarity_mean": self.similarity_mean, "similarity_pooled": self.similarity_pooled,
                          "spectrum_error_db": self.spectrum_error_db})
 
-    def to_dict(self) -> dict:
-        return jsonable({**self.summary(), "coefficients": self.model.coefficients, "variance": self.model.variance,
-                         "freqs": self.freqs, "measured_psd": self.measured_psd, "model_psd": self.model_psd,
-                         "similarity": self.similarity})
-
     def plot(self, ax=None):
         """Measured vs modelled spectrum (see :mod:`surfhap.report.fit_figures`)."""
         from surfhap.report.fit_figures import plot_velocity_spectrum

@@ -18,7 +18,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -51,9 +51,7 @@ class ProportionResult(Result):
                                                 self.ci_high)]
 
     def summary(self) -> dict:
-        return jsonable({"title": self.title, "method": self.method, "confidence": self.confidence,
-                         "labels": self.labels, "successes": self.successes, "n": self.n, "proportion": self.proportion,
-                         "ci_low": self.ci_low, "ci_high": self.ci_high})
+        return jsonable(asdict(self))
 
     def plot(self, ax=None, chance: float | None = None):
         """Bars with their intervals, and the ``chance`` level as a line."""
@@ -156,27 +154,21 @@ def t_test(a: Sequence[float], b: Sequence[float] | float | None = None, *, pair
     Constant data give an infinite or undefined statistic (scipy's precision warning is silenced)."""
     import warnings
 
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", category=RuntimeWarning)
-        return _t_test(a, b, paired, alternative)
-
-
-def _t_test(a, b, paired: bool, alternative: str) -> TestResult:
     from scipy import stats
 
     x = np.asarray(a, dtype=float)
-    if b is None or np.isscalar(b):
-        r = stats.ttest_1samp(x, 0.0 if b is None else float(b), alternative=alternative)
-        return TestResult("t (one sample)", float(r.statistic), float(r.pvalue), float(x.size - 1), alternative,
-                          float(x.mean()))
-    y = np.asarray(b, dtype=float)
-    if paired:
-        r = stats.ttest_rel(x, y, alternative=alternative)
-        return TestResult("t (paired)", float(r.statistic), float(r.pvalue), float(x.size - 1), alternative,
-                          float(np.mean(x - y)))
-    r = stats.ttest_ind(x, y, alternative=alternative)
-    return TestResult("t (independent)", float(r.statistic), float(r.pvalue), float(x.size + y.size - 2),
-                      alternative, float(x.mean() - y.mean()))
+    y = None if b is None or np.isscalar(b) else np.asarray(b, dtype=float)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=RuntimeWarning)
+        if y is None:
+            r = stats.ttest_1samp(x, float(b or 0.0), alternative=alternative)
+            name, df, est = "one sample", x.size - 1, x.mean()
+        elif paired:
+            name, r, df, est = "paired", stats.ttest_rel(x, y, alternative=alternative), x.size - 1, np.mean(x - y)
+        else:
+            name, r, df, est = ("independent", stats.ttest_ind(x, y, alternative=alternative), x.size + y.size - 2,
+                                x.mean() - y.mean())
+    return TestResult(f"t ({name})", float(r.statistic), float(r.pvalue), float(df), alternative, float(est))
 
 
 def bonferroni(p: Sequence[float]) -> np.ndarray:
@@ -207,10 +199,9 @@ class ConfusionResult(Result):
                          "per_class": self.per_class})
 
     def to_dict(self) -> dict:
-        return jsonable({**self.summary(), "counts": self.counts})
+        return jsonable({**self.summary(), **asdict(self)})
 
     def plot(self, ax=None):
-        """The row proportions as an image, with their values."""
         from surfhap.report.lab_figures import plot_confusion
 
         return plot_confusion(self, ax)
@@ -262,8 +253,7 @@ class PearsonResult(Result):
         return jsonable({"r": self.r, "p": self.p, "n": self.n, "ci_low": self.ci_low, "ci_high": self.ci_high})
 
     def to_dict(self) -> dict:
-        return jsonable({**self.summary(), "x_name": self.x_name, "y_name": self.y_name, "labels": self.labels,
-                         "x": self.x, "y": self.y})
+        return jsonable(asdict(self))
 
     def plot(self, ax=None):
         """The scatter of y over x with the identity line."""

@@ -83,9 +83,8 @@ class StudyAnalysis(Result):
                          "sections": [{"title": s.title, "text": s.text} for s in self.sections]})
 
     def to_dict(self) -> dict:
-        return jsonable({**self.summary(), "sections": [
-            {"title": s.title, "text": s.text, "tables": [{"header": h, "rows": r} for h, r in s.tables],
-             "figures": {name: obj.to_dict() for name, obj, _ in s.figures}} for s in self.sections]})
+        return jsonable({**self.summary(), "sections": [{"title": s.title, "text": s.text, "tables": s.tables}
+                                                        for s in self.sections]})  # tables: (header, rows)
 
     def plot(self, ax=None):
         """Every figure of the sections, one panel each (see :mod:`surfhap.report.lab_report`)."""
@@ -136,6 +135,17 @@ def _pp(records, value=lambda r: float(r["score"]), key="participant"):
 def _fmt_test(t: A.TestResult, p_adj: float | None = None) -> str:
     s = f"{t.name}: statistic {t.statistic:.3g}" + (f", df {t.df:g}" if t.df is not None else "") + f", p = {t.p:.3g}"
     return s + (f" (Bonferroni {p_adj:.3g})" if p_adj is not None else "") + f" [{t.alternative}]"
+
+
+def _anova(sec: Section, *args) -> None:
+    """The table of ``A.rm_anova(*args)`` into ``sec``, or why there is none."""
+    try:
+        an = A.rm_anova(*args)
+    except Exception as exc:  # noqa: BLE001 - too few complete participants is a normal state
+        sec.text.append(f"no repeated-measures ANOVA: {exc}")
+        return
+    sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
+                                                     for e, f, d1, d2, p in an.rows]))
 
 
 def _nafc(study, recs):
@@ -259,14 +269,8 @@ def _ratings(study, recs):
             rows.append([meth[0], len(v), f"{np.mean(v):.2f}", f"{np.std(v, ddof=1) if len(v) > 1 else 0:.2f}"])
         sec.tables.append((["method", "n", "mean", "SD"], rows))
         sec.text.append("; ".join(f"{r[0]} {r[2]} (SD {r[3]})" for r in rows))
-        try:
-            an = A.rm_anova([{"p": r["participant"], "method": r["condition"]["method"],
-                              "material": r["condition"]["material"], "y": float(r["answer"])} for r in sim],
-                            "y", "p", ["method", "material"])
-            sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
-                                                             for e, f, d1, d2, p in an.rows]))
-        except Exception as exc:  # noqa: BLE001 - too few complete participants is a normal state
-            sec.text.append(f"no repeated-measures ANOVA: {exc}")
+        _anova(sec, [{"p": r["participant"], "method": r["condition"]["method"], "material": r["condition"]["material"],
+                      "y": float(r["answer"])} for r in sim], "y", "p", ["method", "material"])
         out.append(sec)
     return out
 
@@ -301,14 +305,9 @@ def _scenes(study, recs):
     res = A.proportions(k, n, tasks, title="objects right")
     sec.text.append(", ".join(f"{t} {p:.2f}" for t, p in zip(tasks, res.proportion)))
     sec.figures.append(("scenes_task", res, {"chance": 0.5}))
-    try:
-        an = A.rm_anova([{"p": r["participant"], **{f: r["condition"][f] for f in
-                                                   ("task", "light", "profile", "configuration")},
-                          "y": r["score"]} for r in recs], "y", "p", ["task", "light", "profile", "configuration"])
-        sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
-                                                         for e, f, d1, d2, p in an.rows]))
-    except Exception as exc:  # noqa: BLE001
-        sec.text.append(f"no repeated-measures ANOVA: {exc}")
+    factors = ["task", "light", "profile", "configuration"]
+    _anova(sec, [{"p": r["participant"], **{f: r["condition"][f] for f in factors}, "y": r["score"]} for r in recs],
+           "y", "p", factors)
     return [sec]
 
 
@@ -338,12 +337,7 @@ def _sliding(study, recs):
             rows.append([factor, lev, f"{np.mean(v):.2f}", f"{np.std(v, ddof=1) if len(v) > 1 else 0:.2f}", len(v)])
     sec.tables.append((["factor", "level", "mean score", "SD", "n"], rows))
     sec.text.append("mean discrimination score " + f"{np.mean([s['score'] for s in scores]):.2f}")
-    try:
-        an = A.rm_anova(scores, "score", "participant", ["visual", "tactile", "comparison"])
-        sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
-                                                         for e, f, d1, d2, p in an.rows]))
-    except Exception as exc:  # noqa: BLE001
-        sec.text.append(f"no repeated-measures ANOVA: {exc}")
+    _anova(sec, scores, "score", "participant", ["visual", "tactile", "comparison"])
     return [sec]
 
 

@@ -25,7 +25,7 @@ GPL-3, which the BSD core may not depend on.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Literal
 
 import numpy as np
@@ -97,8 +97,7 @@ class StaircaseResult(Result):
                          "threshold": self.threshold, "stopped_by": self.stopped_by})
 
     def to_dict(self) -> dict:
-        return jsonable({**self.summary(), "levels": self.levels, "responses": self.responses,
-                         "reversal_trials": self.reversal_trials, "reversal_levels": self.reversal_levels})
+        return jsonable({**self.summary(), **asdict(self)})
 
     def plot(self, ax=None):
         """Levels over the trials, reversals and the threshold."""

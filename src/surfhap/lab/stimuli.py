@@ -24,7 +24,9 @@ __all__ = ["StimulusPlayer", "make_profile_renderer", "scene_picture"]
 CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres
 
 
-def _profile_renderer_class():
+def make_profile_renderer(shape: str, mapping: str, surface, calibration, config, surface_size):
+    """A live renderer of one of Kim et al.'s formative profiles (the class is built here: it
+    derives from the live package's shape renderer, imported on first use)."""
     from surfhap.live.shape_live import LiveShapeRenderer
 
     class ProfileRenderer(LiveShapeRenderer):
@@ -53,13 +55,7 @@ def _profile_renderer_class():
             f = 0.0 if self.shape == "flat" else float(profile_force(np.array([x]), hole=self.shape == "hole")[0])
             return float(ip_intensity(np.array([f]), self.offset)[0]), 0.0
 
-    return ProfileRenderer
-
-
-def make_profile_renderer(shape: str, mapping: str, surface, calibration, config, surface_size):
-    """A live renderer of one of Kim et al.'s formative profiles (the class is built on first
-    use: it derives from the live package's shape renderer)."""
-    return _profile_renderer_class()(shape, mapping, surface, calibration, config, surface_size)
+    return ProfileRenderer(shape, mapping, surface, calibration, config, surface_size)
 
 
 class StimulusPlayer:

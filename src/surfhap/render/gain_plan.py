@@ -136,9 +136,9 @@ class GainPlan(Result):
 
     def plot(self, ax=None):
         """Renderable friction range and peak voltage over load (matplotlib Figure, 2 panels)."""
-        from surfhap.report.plan_figures import plot_gain_plan
+        from surfhap.report.plan_figures import plot_gain_plans
 
-        return plot_gain_plan(self, ax)
+        return plot_gain_plans([self], ax)
 
 
 def plan_gains(material: Material, method: str, display: DisplayModel | None = None,

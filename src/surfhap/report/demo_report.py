@@ -12,7 +12,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from surfhap.models.texture import TextureBank
-from surfhap.report.axes import plain_log_ticks
+from surfhap.report.axes import figure_axes, plain_log_ticks
 from surfhap.report.figures import render_spectrum
 from surfhap.report.html import Page
 from surfhap.signal.bands import spectral_deviation_db
@@ -24,20 +24,17 @@ __all__ = ["write_demo_report"]
 
 
 def _speed_figure(name: str, runs) -> Figure:
-    fig = Figure(figsize=(11, 3.6), layout="constrained")
-    a, b, c = fig.subplots(1, 3)
+    fig, (a, b, c) = figure_axes(None, 3, (11, 3.6), ncols=3)
     for r in runs:
         v = float(np.median(r.speed[r.load > 0]))
         lab = f"{v * 1e3:.0f} mm/s"
         sel = r.t >= r.t[-1] - 0.5
         a.plot(r.t[sel], r.added_friction[sel], lw=0.7, label=lab)
-        if r.texture_model is None:
-            continue_spectrum = False
-        else:
+        band = np.zeros(0, dtype=bool)
+        if r.texture_model is not None:
             f, p, e = render_spectrum(r)
             band = (f >= 3.5) & (f <= 0.4 * (r.texture_rate or r.control_rate))
-            continue_spectrum = bool(band.any())
-        if continue_spectrum:
+        if band.any():
             line, = b.loglog(f[band], p[band], lw=0.7, label=lab)
             if e is not None:
                 b.loglog(f[band], e[band], lw=1.3, ls="--", color=line.get_color())
@@ -62,8 +59,7 @@ def _speed_figure(name: str, runs) -> Figure:
 
 
 def _law_figure(results) -> Figure:
-    fig = Figure(figsize=(7, 4.2), layout="constrained")
-    ax = fig.subplots()
+    fig, (ax,) = figure_axes(None, 1, (7, 4.2))
     for i, (name, runs) in enumerate(results.items()):
         v = [float(np.median(r.speed[r.load > 0])) for r in runs]
         sim = [float(np.mean(r.added_friction[r.t > 0.5])) for r in runs]
@@ -92,16 +88,10 @@ def _fidelity_rows(grid) -> tuple[list[str], list[list[str]]]:
     return head, rows
 
 
-def load_material_notes(name: str) -> list[str]:
-    """The notes of a built-in material file (provenance remarks shown under its figure)."""
-    from surfhap.exchange.materials import load_material
-
-    return list(load_material(name).spec.notes)
-
-
 def write_demo_report(results: DemoResults, out_dir: str | Path) -> Path:
     """Write the gain plans, the fidelity table, one figure per material and ``report.html``;
     returns its path."""
+    from surfhap.exchange.materials import load_material
     from surfhap.report.plan_figures import plan_table, plot_gain_plans
 
     settings = results.settings
@@ -119,8 +109,8 @@ def write_demo_report(results: DemoResults, out_dir: str | Path) -> Path:
                    f"percentile stays under v_max over loads {first.operating_range.loads[0]:g}-{first.operating_range.loads[1]:g} N "
                    f"and speeds {first.operating_range.speeds[0]:g}-{first.operating_range.speeds[1]:g} m/s; the display then adds "
                    f"G = (alpha / alpha_calibrated)^2 times the law's force (docs/texture.md).")
-    plot_gain_plans(list(results.plans.values())).savefig(out / "figures" / "gain_plan.png", dpi=100)
-    page.image("figures/gain_plan.png", "renderable friction range over load")
+    page.figure(plot_gain_plans(list(results.plans.values())), out, "figures/gain_plan.png",
+                "renderable friction range over load", dpi=100)
     page.table(["material", "method", "alpha V/sqrt(N)", "gain G", "bound by", "headroom dB"], plan_table(results.plans.values()))
     page.heading("Fidelity over load x speed x material")
     page.paragraph("Targets: saturated <= 0.1 %; low-band mean of the added friction within 2 % of G·mu_p(fn, v)·fn; "
@@ -130,10 +120,8 @@ def write_demo_report(results: DemoResults, out_dir: str | Path) -> Path:
     head, rows = _fidelity_rows(results.grid)
     page.table(head, rows)
     results = results.renders
-    law = _law_figure(results)
-    law.savefig(out / "figures" / "friction_law.png", dpi=100)
     page.heading("Low band: does the display add the friction the law asks for?")
-    page.image("figures/friction_law.png", "mean added friction vs speed")
+    page.figure(_law_figure(results), out, "figures/friction_law.png", "mean added friction vs speed", dpi=100)
     rows = []
     for name, runs in results.items():
         for r in runs:
@@ -153,19 +141,14 @@ def write_demo_report(results: DemoResults, out_dir: str | Path) -> Path:
     page.table(["material", "method", "speed mm/s", "texture rate Hz", "G·law N", "simulated N", "error",
                 "spectrum max dev (1/3 oct)", "max |V|", "clipped", "saturated"], rows)
     for name, runs in results.items():
-        fig = _speed_figure(name, runs)
-        fn = f"figures/{name}.png"
-        fig.savefig(out / fn, dpi=100)
         page.heading(name)
         spec = runs[0]
         bank = spec.texture_model
         tex = "friction-only (no real recording to fit a texture from)" if bank is None else \
             f"texture: {bank.quantity} AR({bank.max_order}) fitted at {spec.texture_rate} Hz, rendered at {spec.control_rate} Hz"
-        note = next((n for n in load_material_notes(name)), None)
+        note = next(iter(load_material(name).spec.notes), None)
         if note:
             tex += f". {note}"
         page.paragraph(tex, cls="note")
-        page.image(fn, f"{name} renders")
-    path = out / "report.html"
-    path.write_text(page.html(), encoding="utf-8")
-    return path
+        page.figure(_speed_figure(name, runs), out, f"figures/{name}.png", f"{name} renders", dpi=100)
+    return page.write(out / "report.html")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import html
 from datetime import datetime, timezone
+from pathlib import Path
 
 __all__ = ["Page"]
 
@@ -41,6 +42,16 @@ class Page:
 
     def image(self, src: str, alt: str) -> None:
         self._parts.append(f'<img src="{html.escape(src)}" alt="{html.escape(alt)}">')
+
+    def figure(self, fig, folder, name: str, alt: str, dpi: int = 110) -> None:
+        """Save ``fig`` as ``folder/name`` (a PNG) and show it here."""
+        fig.savefig(Path(folder) / name, dpi=dpi)
+        self.image(name, alt)
+
+    def write(self, path) -> Path:
+        """Write the page to ``path``; returns it."""
+        Path(path).write_text(self.html(), encoding="utf-8")
+        return Path(path)
 
     def html(self) -> str:
         stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")

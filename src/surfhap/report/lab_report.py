@@ -44,9 +44,5 @@ def write_study_report(result, folder: str | Path) -> Path:
             page.table(header, rows)
         for name, obj, kw in sec.figures:
             safe = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in name)
-            fig = obj.plot(**kw)
-            fig.savefig(out / f"{safe}.png", dpi=110)
-            page.image(f"{safe}.png", name)
-    path = out / "index.html"
-    path.write_text(page.html(), encoding="utf-8")
-    return path
+            page.figure(obj.plot(**kw), out, f"{safe}.png", name)
+    return page.write(out / "index.html")

@@ -7,29 +7,20 @@ from matplotlib.figure import Figure
 
 from surfhap.report.axes import figure_axes
 
-__all__ = ["plot_gain_plan", "plot_gain_plans", "plan_table"]
-
-
-def _draw(ax, ax_v, plan, color, label):
-    lo, hi = plan.friction_low_n, plan.friction_high_n
-    ax.fill_between(plan.loads, lo, hi, color=color, alpha=0.35, lw=0)
-    ax.plot(plan.loads, 0.5 * (lo + hi), color=color, lw=1.2, label=label)
-    ax_v.plot(plan.loads, plan.peak_voltage, color=color, lw=1.2, label=label)
-
-
-def plot_gain_plan(plan, ax=None) -> Figure:
-    """Two panels: the friction the display adds over the planned loads (band: over the
-    speeds of the operating range, at the rendering gain), and the 99.9th-percentile drive
-    voltage against v_max (2 panels)."""
-    return plot_gain_plans([plan], ax)
+__all__ = ["plot_gain_plans", "plan_table"]
 
 
 def plot_gain_plans(plans, ax=None) -> Figure:
-    """Like :func:`plot_gain_plan` for several materials on shared axes (2 panels)."""
+    """Two panels: the friction the display adds over the planned loads (band: over the
+    speeds of the operating range, at the rendering gain), and the 99.9th-percentile drive
+    voltage against v_max; several materials share the axes."""
     fig, (ax, ax_v) = figure_axes(ax, 2, (10, 4), ncols=2)
     for i, plan in enumerate(plans):
         lab = f"{plan.material} (G = {plan.rendering_gain:.2f})" if plan.material else f"G = {plan.rendering_gain:.2f}"
-        _draw(ax, ax_v, plan, f"C{i}", lab)
+        lo, hi = plan.friction_low_n, plan.friction_high_n
+        ax.fill_between(plan.loads, lo, hi, color=f"C{i}", alpha=0.35, lw=0)
+        ax.plot(plan.loads, 0.5 * (lo + hi), color=f"C{i}", lw=1.2, label=lab)
+        ax_v.plot(plan.loads, plan.peak_voltage, color=f"C{i}", lw=1.2, label=lab)
     p0 = plans[0]
     rng = p0.operating_range
     ax.set(xlabel="finger load (N)", ylabel="added friction (N)",

@@ -105,12 +105,7 @@ class ShapeCalibration(Result):
 
     @classmethod
     def from_dict(cls, d: dict) -> "ShapeCalibration":
-        keys = {f for f in cls.__dataclass_fields__}
-        kw = {k: v for k, v in d.items() if k in keys}
-        for k in ("percentiles", "hist_edges", "hist_counts"):
-            if k in kw:
-                kw[k] = tuple(kw[k])
-        return cls(**kw)
+        return cls(**{k: v for k, v in d.items() if k in cls.__dataclass_fields__})  # lists become tuples
 
     def plot(self, ax=None):
         """Histogram of the scanned Fsq with the chosen range (matplotlib Figure)."""

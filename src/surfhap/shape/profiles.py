@@ -23,7 +23,7 @@ the force extremes at +-sigma and the summit (documented choice).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -103,8 +103,7 @@ class Profile1D(Result):
                          "intensity_range": [self.intensity.min(), self.intensity.max()]})
 
     def to_dict(self) -> dict:
-        return jsonable({**self.summary(), "x_m": self.x, "height_m": self.height, "force_n": self.force,
-                         "intensity": self.intensity})
+        return jsonable({**self.summary(), **asdict(self)})  # x, height m; force N
 
     def plot(self, ax=None):
         """Geometry, force and intensity along the track (matplotlib Figure), as Fig. 6."""

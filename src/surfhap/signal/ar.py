@@ -15,7 +15,7 @@ and ``statsmodels.tsa.stattools.levinson_durbin`` in the tests.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -163,8 +163,7 @@ class OrderSelection(Result):
                 "bic_order": self.bic_order, "variance": float(self.variance), "n": int(self.n)}
 
     def to_dict(self) -> dict:
-        return jsonable({**self.summary(), "coefficients": self.coefficients, "orders": self.orders, "aic": self.aic,
-                         "bic": self.bic})
+        return jsonable({**self.summary(), **asdict(self)})
 
     def plot(self, ax=None):
         """Plot the criteria against the order (see :mod:`surfhap.report.figures`)."""

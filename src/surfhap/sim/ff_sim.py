@@ -101,9 +101,8 @@ def simulate_ff(engine, finger: SimFinger, device: SimDevice, settle: float = 0.
     t0 = finger.t0 - settle
     n = int(round((finger.t1 + tail - t0) * rate)) + 1
     t = t0 + np.arange(n) * dt
-    rec = {k: np.zeros((n, 3)) for k in ("force", "screen", "screen_v")}
-    for k in ("finger", "finger_v", "sliding", "finger_est"):
-        rec[k] = np.zeros((n, 2))
+    rec = {k: np.zeros((n, 3 if k.startswith(("force", "screen")) else 2))
+           for k in ("force", "screen", "screen_v", "finger", "finger_v", "sliding", "finger_est")}
     touched = np.zeros(n, dtype=bool)
     mask = np.zeros(n, dtype=np.int64)
     button = np.full(n, -1, dtype=np.int64)
@@ -123,11 +122,9 @@ def simulate_ff(engine, finger: SimFinger, device: SimDevice, settle: float = 0.
         rec["force"][k] = f
         rec["screen"][k] = p
         rec["screen_v"][k] = device.v
-        fx, fy = finger.position(tk)
-        fvx, fvy = finger.velocity(tk)
-        rec["finger"][k] = (fx, fy)
-        rec["finger_v"][k] = (fvx, fvy)
-        rec["sliding"][k] = (fvx - device.v[0], fvy - device.v[1])
+        rec["finger"][k] = finger.position(tk)
+        rec["finger_v"][k] = fv = finger.velocity(tk)
+        rec["sliding"][k] = (fv[0] - device.v[0], fv[1] - device.v[1])
         rec["finger_est"][k] = (st.fx, st.fy)
         touched[k] = st.touched
         mask[k] = engine.mask
