@@ -23,7 +23,7 @@ def write_friction_report(fit, out_dir: str | Path, command: str = "") -> Path:
     page.paragraph(f"{len(fit.recordings)} recording(s), {len(fit.participants)} participant(s), {fit.sample_rate:g} Hz, "
                    f"cut-off {fit.cutoff:g} Hz, estimator {fit.estimator}, order by {fit.criterion.upper()}.")
     page.heading("Band split")
-    page.figure(fit.plot(kind="band-split"), out, "band_split.png", page, "band split")
+    page.figure(fit.plot(kind="band-split"), out, "band_split.png", "band split")
     page.heading("Low band: friction laws")
     page.table(["fit", "mu0", "a", "b", "c", "d", "q", "R²", "n"],
                [[c.label, f"{c.mu0:.4f}", *[""] * 6, c.n] for c in [fit.coulomb, *fit.coulomb_by_participant]])
@@ -33,7 +33,7 @@ def write_friction_report(fit, out_dir: str | Path, command: str = "") -> Path:
     page.table(["quasi-static fit", "a", "b", "c", "d", "q", "R²", "n"], rows)
     page.paragraph("First row: written to the material (mean ± standard error across participants, as Otake et al. 2022 "
                    "Table I; the pooled fit with asymptotic errors when there is one participant).", cls="note")
-    page.figure(fit.plot(kind="friction-law"), out, "friction_law.png", page, "friction law vs data")
+    page.figure(fit.plot(kind="friction-law"), out, "friction_law.png", "friction law vs data")
     page.heading("High band: AR models per reference velocity")
     page.table(["velocity (mm/s)", "order", "AIC min", "BIC min", "variance", "samples", "n_eff", "spans", "participants",
                 "SI mean ± SE", "SI pooled", "mean |ΔdB|"],
@@ -44,9 +44,9 @@ def write_friction_report(fit, out_dir: str | Path, command: str = "") -> Path:
     for note in fit.notes:
         page.paragraph(note, cls="bad")
     if fit.textures:
-        page.figure(fit.plot(kind="aic"), out, "aic.png", page, "order selection")
-        page.figure(fit.plot(kind="spectra"), out, "spectra.png", page, "measured vs modelled spectra")
-        page.figure(fit.plot(kind="similarity"), out, "similarity.png", page, "similarity index")
+        page.figure(fit.plot(kind="aic"), out, "aic.png", "order selection")
+        page.figure(fit.plot(kind="spectra"), out, "spectra.png", "measured vs modelled spectra")
+        page.figure(fit.plot(kind="similarity"), out, "similarity.png", "similarity index")
     page.paragraph(f"Order: the {fit.criterion.upper()} minimum (both AIC and BIC minima are listed). n_eff is the "
                    "equivalent number of samples of the tapered spans, the n of both criteria. Before the Yule–Walker "
                    f"fit, {fit.edge_trim * 1000:.0f} ms are cut from both ends of every contact run (band-split edge "
@@ -69,11 +69,11 @@ def write_accel_report(fit, out_dir: str | Path, command: str = "") -> Path:
     page.paragraph(f"Coulomb mu0 = {fit.mu0:.4f}" + (" (fitted)" if fit.coulomb is not None else " (given)"))
     page.heading("Segmentation")
     for i, src in enumerate(fit.signals):
-        page.figure(fit.plot(kind="segments", source=src), out, f"segments_{i}.png", page, f"segments of {src}")
+        page.figure(fit.plot(kind="segments", source=src), out, f"segments_{i}.png", f"segments of {src}")
     page.table(["recording", "start (s)", "stop (s)", "speed (mm/s)", "force (N)", "MDL order"],
                [[s.source, f"{s.start / fit.sample_rate:.3f}", f"{s.stop / fit.sample_rate:.3f}", f"{s.speed * 1e3:.1f}",
                  f"{s.force:.3f}", s.mdl_order] for s in fit.segments])
     page.heading("Order and models")
-    page.figure(fit.plot(kind="aic"), out, "aic.png", page, "summed criterion")
-    page.figure(fit.plot(kind="models"), out, "models.png", page, "models and triangulation")
+    page.figure(fit.plot(kind="aic"), out, "aic.png", "summed criterion")
+    page.figure(fit.plot(kind="models"), out, "models.png", "models and triangulation")
     return page.write(out / "index.html")

@@ -43,7 +43,7 @@ class Page:
     def image(self, src: str, alt: str) -> None:
         self._parts.append(f'<img src="{html.escape(src)}" alt="{html.escape(alt)}">')
 
-    def figure(self, fig, folder, name: str, alt: str, dpi: int = 110) -> None:
+    def figure(self, fig, folder, name: str, alt: str, *, dpi: int = 110) -> None:
         """Save ``fig`` as ``folder/name`` (a PNG) and show it here."""
         fig.savefig(Path(folder) / name, dpi=dpi)
         self.image(name, alt)
