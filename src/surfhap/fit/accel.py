@@ -25,7 +25,7 @@ from scipy.signal import butter, resample_poly, sosfiltfilt
 from surfhap.errors import ConfigError, RecordingFormatError
 from surfhap.exchange.recordings import Recording
 from surfhap.fit.friction import CoulombFit, coulomb_from_sums
-from surfhap.fit.material_fit import _map
+from surfhap.fit.material_fit import _map, recording_provenance
 from surfhap.models.interpolated import InterpolatedARMABank
 from surfhap.signal.ar import information_criteria, levinson_durbin
 from surfhap.signal.bands import BandSplit
@@ -98,22 +98,13 @@ class AccelFit:
     def to_material(self, command: str = "surfhap fit accel", description: str = ""):
         """Material with Coulomb mu0 and the interpolated acceleration texture."""
         from surfhap.models.material import (CoulombSpec, FrictionSpec, InterpolatedModelSpec, InterpolatedTextureSpec, Material,
-                                             MaterialFile, Provenance)
-        import hashlib
+                                             MaterialFile)
 
-        names = ", ".join(r[0] for r in self.recordings)
-        digest = hashlib.sha256("".join(r[2] for r in self.recordings).encode()).hexdigest()
-        note = "sha256 is taken over the per-file SHA-256 hex digests, in the order listed"
-        prov_t = Provenance(source="recording", recording=names, sha256=digest, command=command,
-                            note=f"{len(self.segments)} segments, AR({self.order}) by summed {self.criterion.upper()} "
-                                 f"(AIC minimum {self.aic_order}, BIC minimum {self.bic_order}); MA part empty: "
-                                 f"see docs/fitting.md; {note}")
-        if self.coulomb is not None:
-            prov_f = Provenance(source="recording", recording=names, sha256=digest, command=command,
-                                note=f"mu0 = mean shear / mean normal over contact samples; {note}")
-        else:
-            prov_f = Provenance(source="recording", recording=names, sha256=digest, command=command,
-                                note="mu0 given on the command line (--mu0), not fitted")
+        prov = recording_provenance(self.recordings, command)
+        prov_t = prov(f"{len(self.segments)} segments, AR({self.order}) by summed {self.criterion.upper()} (AIC minimum "
+                      f"{self.aic_order}, BIC minimum {self.bic_order}); MA part empty: see docs/fitting.md")
+        prov_f = (prov("mu0 = mean shear / mean normal over contact samples") if self.coulomb is not None
+                  else prov("mu0 given on the command line (--mu0), not fitted", digest_note=False))
         b = self.bank
         texture = InterpolatedTextureSpec(
             kind="interpolated-arma", quantity="acceleration", sample_rate=b.sample_rate, max_speed=float(b.max_speed),

@@ -42,11 +42,20 @@ def _map(fn, items, jobs: int):
     return Parallel(n_jobs=jobs)(delayed(fn)(*it) for it in items)
 
 
-def recording_provenance(recordings: Sequence[Recording]) -> tuple[str, str]:
-    """(comma-separated file names, sha256 over the per-file SHA-256 hex digests in order)."""
-    names = ", ".join(r.source for r in recordings)
-    h = hashlib.sha256("".join(r.sha256 for r in recordings).encode()).hexdigest()
-    return names, h
+def recording_provenance(recordings: Sequence[tuple], command: str):
+    """A function ``note -> Provenance`` for parameters fitted from ``recordings``, the
+    (source, participant, sha256) of each file: their names, comma-separated, and a sha256 over
+    their SHA-256 hex digests in order (said in the note unless ``digest_note=False``)."""
+    from surfhap.models.material import Provenance
+
+    names = ", ".join(r[0] for r in recordings)
+    digest = hashlib.sha256("".join(r[2] for r in recordings).encode()).hexdigest()
+
+    def prov(what: str, digest_note: bool = True) -> Provenance:
+        note = f"{what}; sha256 is taken over the per-file SHA-256 hex digests, in the order listed" if digest_note else what
+        return Provenance(source="recording", recording=names, sha256=digest, command=command, note=note)
+
+    return prov
 
 
 @dataclass(frozen=True)
@@ -86,16 +95,9 @@ class FrictionFit:
 
     def to_material(self, command: str = "surfhap fit friction", description: str = ""):
         """A :class:`~surfhap.models.material.Material` with recording provenance."""
-        from surfhap.models.material import (ARModelSpec, CoulombSpec, FrictionSpec, Material, MaterialFile, Provenance,
-                                             QuasiStaticSpec, TextureSpec)
+        from surfhap.models.material import ARModelSpec, CoulombSpec, FrictionSpec, Material, MaterialFile, QuasiStaticSpec, TextureSpec
 
-        names = ", ".join(r[0] for r in self.recordings)
-        digest = hashlib.sha256("".join(r[2] for r in self.recordings).encode()).hexdigest()
-        note = "sha256 is taken over the per-file SHA-256 hex digests, in the order listed"
-
-        def prov(what):
-            return Provenance(source="recording", recording=names, sha256=digest, command=command, note=f"{what}; {note}")
-
+        prov = recording_provenance(self.recordings, command)
         qs = self.quasi_static
         friction = FrictionSpec(
             coulomb=CoulombSpec(mu0=self.coulomb.mu0, provenance=prov("mu0 = mean shear / mean normal over contact samples")),
@@ -131,10 +133,6 @@ class FrictionFit:
         from surfhap.report.fit_figures import plot_friction_fit
 
         return plot_friction_fit(self, kind, **kwargs)
-
-
-def _prepare(rec, cutoff):
-    return prepare_friction_recording(rec, cutoff)
 
 
 def _velocity_job(groups, labels, fs, vref, max_order, criterion, estimator, f_lo, taper, fill_below):
@@ -189,7 +187,7 @@ def fit_friction(
     refs = tuple(float(v) for v in reference_speeds)
     if not refs or any(not (v > 0) for v in refs) or len(set(refs)) != len(refs):
         raise ConfigError("reference velocities must be distinct and > 0", source="--reference-velocities")
-    prepared: list[PreparedRecording] = _map(_prepare, [(r, cutoff) for r in recordings], jobs)
+    prepared: list[PreparedRecording] = _map(prepare_friction_recording, [(r, cutoff) for r in recordings], jobs)
     fs = prepared[0].sample_rate
     participants = tuple(dict.fromkeys(p.participant for p in prepared))
     by_part = {lab: [p for p in prepared if p.participant == lab] for lab in participants}

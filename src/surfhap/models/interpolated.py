@@ -25,10 +25,13 @@ force (N) blocks, and ``psd_at`` / ``moments_at`` of the model at a (speed, forc
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated, Literal
 
 import numba
 import numpy as np
+from pydantic import BeforeValidator, Field, field_validator, model_validator
 
+from surfhap.checked import FiniteArray, checked_dataclass
 from surfhap.signal.ar import ar_moments, ar_psd
 from surfhap.signal.lsf import _lsf_to_poly_into, lsf_is_valid, lsf_to_poly
 
@@ -192,7 +195,7 @@ def _synth_kernel(speed, force, z, pts, tris, inv, ar_lsf, ma_lsf, var, gain, li
     state[4] = cur_gain
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class InterpolatedARMABank:
     """LSF-interpolated ARMA models over (speed, force) (see the module docstring).
 
@@ -205,60 +208,48 @@ class InterpolatedARMABank:
     max_speed   : m/s and max_force N, the clamp limits.
     """
 
-    quantity: str
-    sample_rate: float
-    speeds: np.ndarray
-    forces: np.ndarray
-    ar_lsf: np.ndarray
-    ma_lsf: np.ndarray
-    variances: np.ndarray
-    gains: np.ndarray
-    triangles: np.ndarray
-    max_speed: float
-    max_force: float
+    quantity: Literal["acceleration", "cof"]
+    sample_rate: Annotated[float, Field(gt=0, allow_inf_nan=False)]
+    speeds: FiniteArray
+    forces: FiniteArray
+    ar_lsf: FiniteArray
+    ma_lsf: FiniteArray
+    variances: FiniteArray
+    gains: FiniteArray
+    triangles: Annotated[np.ndarray, BeforeValidator(lambda v: np.ascontiguousarray(np.asarray(v, dtype=np.int64).reshape(-1, 3)))]
+    max_speed: Annotated[float, Field(gt=0)]
+    max_force: Annotated[float, Field(gt=0)]
 
-    def __post_init__(self):
-        conv = {
-            "speeds": np.asarray(self.speeds, dtype=float).reshape(-1),
-            "forces": np.asarray(self.forces, dtype=float).reshape(-1),
-            "variances": np.asarray(self.variances, dtype=float).reshape(-1),
-            "gains": np.asarray(self.gains, dtype=float).reshape(-1),
-        }
-        k = conv["speeds"].size
-        ar = np.asarray(self.ar_lsf, dtype=float).reshape(k, -1)
-        ma = np.asarray(self.ma_lsf, dtype=float).reshape(k, -1) if np.size(self.ma_lsf) else np.zeros((k, 0))
-        tris = np.asarray(self.triangles, dtype=np.int64).reshape(-1, 3)
-        for name, arr in conv.items():
-            if arr.size != k:
-                raise ValueError(f"{name} has {arr.size} values, expected {k} (one per model)")
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"{name} must be finite")
-        if self.quantity not in ("acceleration", "cof"):
-            raise ValueError(f"quantity must be 'acceleration' or 'cof', got {self.quantity!r}")
-        if not (np.isfinite(self.sample_rate) and self.sample_rate > 0):
-            raise ValueError("sample_rate must be positive")
+    @field_validator("speeds", "forces", "gains", "variances")
+    @classmethod
+    def _vector(cls, v, info):
+        v = v.reshape(-1)
+        if info.field_name == "variances" and np.any(v < 0):
+            raise ValueError("must be >= 0")
+        return v
+
+    @model_validator(mode="after")
+    def _models(self):
+        k = self.speeds.size
         if k < 1:
             raise ValueError("an interpolated bank needs at least one model")
-        if np.any(conv["variances"] < 0):
-            raise ValueError("variances must be >= 0")
+        for name in ("forces", "variances", "gains"):
+            if getattr(self, name).size != k:
+                raise ValueError(f"{name} has {getattr(self, name).size} values, expected {k} (one per model)")
+        ar = np.ascontiguousarray(self.ar_lsf.reshape(k, -1))
+        ma = np.ascontiguousarray(self.ma_lsf.reshape(k, -1) if self.ma_lsf.size else np.zeros((k, 0)))
+        tris = self.triangles
         for i in range(k):
-            if not lsf_is_valid(ar[i]):
-                raise ValueError(f"model {i}: AR line spectral frequencies must increase strictly within (0, pi)")
-            if ma.shape[1] and not lsf_is_valid(ma[i]):
-                raise ValueError(f"model {i}: MA line spectral frequencies must increase strictly within (0, pi)")
+            for label, lsf in (("AR", ar[i]), ("MA", ma[i])):
+                if not lsf_is_valid(lsf):
+                    raise ValueError(f"model {i}: {label} line spectral frequencies must increase strictly within (0, pi)")
         if tris.size and (tris.min() < 0 or tris.max() >= k):
             raise ValueError(f"triangle vertex indices must be within 0..{k - 1}")
-        if not (self.max_speed > 0 and self.max_force > 0):
-            raise ValueError("max_speed and max_force must be > 0")
-        pts = np.column_stack([conv["speeds"], conv["forces"]])
+        pts = np.ascontiguousarray(np.column_stack([self.speeds, self.forces]))
         inv = _triangle_transforms(pts, tris) if tris.size else np.zeros((0, 2, 2))
-        for key, val in conv.items():
+        for key, val in (("ar_lsf", ar), ("ma_lsf", ma), ("_pts", pts), ("_inv", inv)):
             object.__setattr__(self, key, val)
-        object.__setattr__(self, "ar_lsf", np.ascontiguousarray(ar))
-        object.__setattr__(self, "ma_lsf", np.ascontiguousarray(ma))
-        object.__setattr__(self, "triangles", np.ascontiguousarray(tris))
-        object.__setattr__(self, "_pts", np.ascontiguousarray(pts))
-        object.__setattr__(self, "_inv", np.ascontiguousarray(inv))
+        return self
 
     # ---- TextureModel (shared with TextureBank) -------------------------------------------
     @property
