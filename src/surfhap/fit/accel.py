@@ -225,17 +225,11 @@ def fit_accel(
     order = int(1 + np.argmin(total[1:]))
     aic_order = int(1 + np.argmin(np.sum([s.aic for s in segments], axis=0)[1:]))
     bic_order = int(1 + np.argmin(np.sum([s.bic for s in segments], axis=0)[1:]))
-    lsfs, variances, speeds, forces = [], [], [], []
-    for s in segments:
-        phi, var = s.levinson.order(order)
-        lsfs.append(ar_to_lsf(phi))
-        variances.append(var)
-        speeds.append(s.speed)
-        forces.append(s.force)
-    lsfs = np.array(lsfs)
-    speeds = np.array(speeds)
-    forces = np.array(forces)
-    variances = np.array(variances)
+    models = [s.levinson.order(order) for s in segments]
+    lsfs = np.array([ar_to_lsf(phi) for phi, _ in models])
+    variances = np.array([var for _, var in models])
+    speeds = np.array([s.speed for s in segments])
+    forces = np.array([s.force for s in segments])
     # zero-variance edge models (HaTT): copies on the speed = 0 and force = 0 axes, and the origin
     vmax, fmax = speeds.max(), forces.max()
     sx, sy = max(np.ptp(speeds), vmax, 1e-6), max(np.ptp(forces), fmax, 1e-6)
