@@ -97,22 +97,14 @@ class AccelFit:
 
     def to_material(self, command: str = "surfhap fit accel", description: str = ""):
         """Material with Coulomb mu0 and the interpolated acceleration texture."""
-        from surfhap.models.material import (CoulombSpec, FrictionSpec, InterpolatedModelSpec, InterpolatedTextureSpec, Material,
-                                             MaterialFile)
+        from surfhap.models.material import CoulombSpec, FrictionSpec, InterpolatedTextureSpec, Material, MaterialFile
 
         prov = recording_provenance(self.recordings, command)
         prov_t = prov(f"{len(self.segments)} segments, AR({self.order}) by summed {self.criterion.upper()} (AIC minimum "
                       f"{self.aic_order}, BIC minimum {self.bic_order}); MA part empty: see docs/fitting.md")
         prov_f = (prov("mu0 = mean shear / mean normal over contact samples") if self.coulomb is not None
                   else prov("mu0 given on the command line (--mu0), not fitted", digest_note=False))
-        b = self.bank
-        texture = InterpolatedTextureSpec(
-            kind="interpolated-arma", quantity="acceleration", sample_rate=b.sample_rate, max_speed=float(b.max_speed),
-            max_force=float(b.max_force), triangles=[tuple(int(i) for i in t) for t in b.triangles],
-            models=[InterpolatedModelSpec(speed=float(b.speeds[i]), force=float(b.forces[i]), ar_lsf=[float(v) for v in b.ar_lsf[i]],
-                                          ma_lsf=[], variance=float(b.variances[i]), gain=float(b.gains[i]))
-                    for i in range(b.speeds.size)],
-            provenance=prov_t)
+        texture = InterpolatedTextureSpec.of_bank(self.bank, prov_t)
         spec = MaterialFile(name=self.name, description=description or f"Fitted from {len(self.recordings)} acceleration recording(s).",
                             friction=FrictionSpec(coulomb=CoulombSpec(mu0=self.mu0, provenance=prov_f)), texture=texture,
                             notes=list(self.notes))

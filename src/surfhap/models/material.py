@@ -188,6 +188,14 @@ class InterpolatedTextureSpec(_Strict):
         self.bank()  # the domain checks (LSFs within (0, pi), triangle indices ...), reported as a schema error
         return self
 
+    @classmethod
+    def of_bank(cls, b: "InterpolatedARMABank", provenance: Provenance) -> "InterpolatedTextureSpec":
+        """The file entry of a bank (the inverse of :meth:`bank`)."""
+        return cls(kind="interpolated-arma", quantity=b.quantity, sample_rate=b.sample_rate, max_speed=float(b.max_speed),
+                   max_force=float(b.max_force), triangles=[tuple(t) for t in b.triangles.tolist()], provenance=provenance,
+                   models=[InterpolatedModelSpec(speed=v, force=f, ar_lsf=ar, ma_lsf=ma, variance=var, gain=g) for v, f, ar, ma, var, g
+                           in zip(*(getattr(b, k).tolist() for k in ("speeds", "forces", "ar_lsf", "ma_lsf", "variances", "gains")))])
+
     def bank(self) -> "InterpolatedARMABank":
         """The texture model this entry describes."""
         from surfhap.models.interpolated import InterpolatedARMABank

@@ -12,6 +12,7 @@ kind it is.
 
 from __future__ import annotations
 
+from functools import cached_property
 from typing import Annotated, Literal, Protocol
 
 import numpy as np
@@ -147,11 +148,7 @@ class TextureBank:
         speed = np.where(speed == speed, speed, 0.0)  # NaN -> slowest model
         return np.searchsorted(self._midpoints, speed, side="left")
 
-    @property
+    @cached_property
     def _midpoints(self) -> np.ndarray:
-        mids = self.__dict__.get("_mids")
-        if mids is None:
-            refs = self.reference_speeds
-            mids = 0.5 * (refs[1:] + refs[:-1])
-            object.__setattr__(self, "_mids", mids)
-        return mids
+        refs = self.reference_speeds
+        return 0.5 * (refs[1:] + refs[:-1])
