@@ -194,30 +194,22 @@ def fit_friction(
 
     # low band
     step = max(1, int(round(fs / (decimate_to or 4.0 * cutoff))))
-    fn_l, v_l, mu_l, who = [], [], [], []
-    for k, lab in enumerate(participants):
-        for p in by_part[lab]:
-            for a, b in p.runs:
-                sl = slice(a + step // 2, b, step)
-                fn_l.append(p.normal_low[sl])
-                v_l.append(p.speed_low[sl])
-                mu_l.append(p.cof_low[sl])
-                who.append(np.full(len(p.normal_low[sl]), k))
-    low = {"fn": np.concatenate(fn_l), "v": np.concatenate(v_l), "mu": np.concatenate(mu_l), "participant": np.concatenate(who)}
-    qs_parts = []
-    coul_parts = []
-    for k, lab in enumerate(participants):
-        sel = low["participant"] == k
-        qs_parts.append(fit_quasi_static(low["fn"][sel], low["v"][sel], low["mu"][sel], label=lab))
-        ps = by_part[lab]
-        coul_parts.append(coulomb_from_sums(sum(p.shear_sum for p in ps), sum(p.normal_sum for p in ps),
-                                            sum(p.n_kept for p in ps), label=lab))
+    pieces = [(k, p, slice(a + step // 2, b, step)) for k, lab in enumerate(participants) for p in by_part[lab] for a, b in p.runs]
+    low = {key: np.concatenate([getattr(p, name)[sl] for _, p, sl in pieces])
+           for key, name in (("fn", "normal_low"), ("v", "speed_low"), ("mu", "cof_low"))}
+    low["participant"] = np.concatenate([np.full(len(p.normal_low[sl]), k) for k, p, sl in pieces])
+
+    def coulomb_of(ps, label="pooled"):
+        return coulomb_from_sums(sum(p.shear_sum for p in ps), sum(p.normal_sum for p in ps), sum(p.n_kept for p in ps), label)
+
+    sel = [low["participant"] == k for k in range(len(participants))]
+    qs_parts = [fit_quasi_static(low["fn"][m], low["v"][m], low["mu"][m], label=lab) for m, lab in zip(sel, participants)]
+    coul_parts = [coulomb_of(by_part[lab], lab) for lab in participants]
     summary = summarize_fits(qs_parts) if len(qs_parts) > 1 else None
     pooled = fit_quasi_static(low["fn"], low["v"], low["mu"], label="pooled",
                               x0=None if summary is None else summary.theta)
     chosen = summary if summary is not None else pooled
-    coulomb = coulomb_from_sums(sum(p.shear_sum for p in prepared), sum(p.normal_sum for p in prepared),
-                                sum(p.n_kept for p in prepared))
+    coulomb = coulomb_of(prepared)
 
     # high band
     notes = []

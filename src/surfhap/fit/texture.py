@@ -135,12 +135,8 @@ def fit_velocity_texture(
         n_eff, taper, fill_below = float(n_total), 0.0, None
         sel = select_order_burg([s for g in groups for s in g], max_order=max_order, criterion=criterion)
     model = ARModel(sel.coefficients, sel.variance, reference_speed)
-    psds = []
-    freqs = None
-    for g in groups:
-        freqs, p = welch_spans(g, sample_rate, nperseg=nperseg)
-        psds.append(p)
-    psds = np.array(psds)
+    spectra = [welch_spans(g, sample_rate, nperseg=nperseg) for g in groups]
+    freqs, psds = spectra[0][0], np.array([p for _, p in spectra])
     mean_psd = psds.mean(axis=0)
     model_psd = model.psd(sample_rate, freqs)
     model_psd[0] /= 2.0

@@ -192,12 +192,6 @@ class TopSurface:
         z, f = hit_one(float(x), float(y), *self._args)
         return (z if f >= 0 else np.nan), f
 
-    def hit_points(self, xy: np.ndarray) -> np.ndarray:
-        """(n, 3) float hit points (x, y, z); z is NaN off the mesh."""
-        xy = np.asarray(xy, dtype=float)
-        z, _ = self.query(xy)
-        return np.column_stack([xy, z])
-
     def normals_of(self, face: np.ndarray) -> np.ndarray:
         """(n, 3) unit normals, oriented upward (nz >= 0), of the faces ``face`` (n,) int;
         NaN rows for -1."""
