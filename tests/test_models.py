@@ -6,11 +6,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from surfhap.errors import MaterialFormatError, UnknownMaterialError
+from surfhap.errors import ConfigError, MaterialFormatError, UnknownMaterialError
 from surfhap.exchange.material_json import read_material_json
 from surfhap.exchange.materials import builtin_names, load_material
 from surfhap.models.friction import QuasiStaticLaw
+from surfhap.models.interpolated import InterpolatedARMABank
 from surfhap.models.texture import ARModel, TextureBank
+from surfhap.models.trajectory import Trajectory
 
 
 def test_table_one_ordering_in_si_units():
@@ -140,3 +142,22 @@ def test_input_errors_are_one_line_whatever_the_input_holds(tmp_path):
         read_material_json(p)
     assert str(p) in str(err.value) and len(str(err.value).splitlines()) == 1
     assert str(InputError("bad\nvalue", source="f.json", field="x\ry")) == "f.json: x y: bad value"
+
+
+@pytest.mark.parametrize("build, field", [
+    (lambda: Trajectory([0, 1], [0, 1], [0, 1], [0, -1]), "load"),
+    (lambda: Trajectory([0, 0], [0, 1], [0, 1], [0, 1]), "t"),
+    (lambda: Trajectory([0, 1], [0, np.nan], [0, 1], [0, 1]), "x"),
+    (lambda: ARModel([1.5], 1.0), "coefficients"),
+    (lambda: ARModel([0.5], -1.0), "variance"),
+    (lambda: TextureBank("force", 1000.0, (ARModel([0.5], 1.0),)), "quantity"),
+    (lambda: TextureBank("cof", 1000.0, (ARModel([0.5], 1.0, 0.1), ARModel([0.2], 1.0, 0.1))), "models"),
+    (lambda: InterpolatedARMABank.from_models("cof", 1000.0, [0.1], [1.0], [[0.5]], [-1.0]), "variances"),
+    (lambda: InterpolatedARMABank.from_models("cof", 1000.0, [0.1], [1.0], [[0.5]], [1.0], max_speed=0.0), "max_speed"),
+])
+def test_bad_model_parameters_are_one_config_error_naming_the_field(build, field):
+    """The parameter types are pydantic (surfhap.checked): a bad value is one ConfigError line
+    whose field is the parameter's name, positional arguments included."""
+    with pytest.raises(ConfigError) as exc:
+        build()
+    assert exc.value.field == field and "\n" not in str(exc.value)

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from surfhap.render.shape_renderer import ShapeConfig, ShapeRenderer
 from surfhap.shape.calibration import ShapeCalibration
-from surfhap.shape.edges import dihedral_angles, sharpness, tick_intensity
+from surfhap.shape.edges import edge_tick_one
 from surfhap.shape.scan import straight_scan
 from surfhap.shape.scenes import builtin_shape
 
@@ -68,30 +68,49 @@ def test_smooth_bump_has_no_ticks_by_default_but_does_at_180():
     assert not np.any(scan(builtin_shape("frustum-bump"), 0.001, edges=False).edge)
 
 
+def _step(n1, n2, p1, p2, theta_min=0.0, threshold=180.0):
+    """edge_tick_one for one step from p1 on a face of up normal n1 to p2 on one of n2."""
+    normals = np.array([n1, n2], dtype=float)
+    return edge_tick_one(normals, 0, 1, *map(float, p1), *map(float, p2), theta_min, threshold)
+
+
 def test_dihedral_angle_convexity():
-    up = np.array([[0.0, 0.0, 1.0]])
-    side = np.array([[2.0, 0.0, 1.0]]) / np.sqrt(5)
-    # top plateau -> descending side: convex
-    th, cv = dihedral_angles(up, side, np.array([[0.0, 0, 1]]), np.array([[1.0, 0, 0]]))
-    assert cv[0] and th[0] == pytest.approx(THETA_TOP)
-    # ground -> ascending side of a hole wall going down is convex; ground -> rising wall concave
-    rising = np.array([[-2.0, 0.0, 1.0]]) / np.sqrt(5)
-    th, cv = dihedral_angles(up, rising, np.array([[0.0, 0, 0]]), np.array([[1.0, 0, 1]]))
-    assert not cv[0] and th[0] == pytest.approx(180 + (180 - THETA_TOP))
-    th, cv = dihedral_angles(up, up, np.zeros((1, 3)), np.ones((1, 3)))
-    assert not cv[0] and th[0] == 180.0
+    up = np.array([0.0, 0.0, 1.0])
+    side = np.array([2.0, 0.0, 1.0]) / np.sqrt(5)
+    # top plateau -> descending side: convex, theta = 180 - angle between the normals
+    tick, th = _step(up, side, (0.0, 0, 1), (1.0, 0, 0))
+    assert tick > 0 and th == pytest.approx(THETA_TOP)
+    # ground -> rising wall: concave (180 + phi), never a tick
+    rising = np.array([-2.0, 0.0, 1.0]) / np.sqrt(5)
+    tick, th = _step(up, rising, (0.0, 0, 0), (1.0, 0, 1))
+    assert tick == 0 and th == pytest.approx(180 + (180 - THETA_TOP))
+    assert _step(up, up, (0, 0, 0), (1, 1, 1)) == (0.0, 180.0)
+
+
+def _paper_tick(theta, theta_min):
+    """Kim et al. eq. 10 (S = -(theta - 180) / (180 - theta_min), within [0, 1]) and eq. 11 (Ie = 0.7 S + 0.3)."""
+    s = min(max(-(theta - 180.0) / (180.0 - theta_min), 0.0), 1.0)
+    return 0.7 * s + 0.3
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.floats(min_value=0, max_value=360), st.floats(min_value=0, max_value=179.9))
-def test_tick_intensity_within_limits(theta, theta_min):
-    i = tick_intensity(sharpness(np.array([theta]), theta_min))
-    assert 0.3 <= i[0] <= 1.0
+@given(st.floats(min_value=0.01, max_value=179.9), st.floats(min_value=0, max_value=179.9))
+def test_tick_intensity_is_eq_10_11_within_limits(phi, theta_min):
+    # a convex step bending down by phi degrees: theta = 180 - phi
+    a = np.radians(phi)
+    tick, th = _step((0.0, 0.0, 1.0), (np.sin(a), 0.0, np.cos(a)), (0.0, 0.0, 0.0), (1.0, 0.0, -1.0), theta_min)
+    assert th == pytest.approx(180.0 - phi, abs=1e-9)
+    assert 0.3 <= tick <= 1.0 and tick == pytest.approx(_paper_tick(th, theta_min), abs=1e-12)
 
 
 def test_sharpness_end_points():
-    np.testing.assert_allclose(sharpness(np.array([180.0, 100.0, 140.0]), 100.0), [0.0, 1.0, 0.5])
-    np.testing.assert_allclose(tick_intensity(np.array([0.0, 0.5, 1.0])), [0.3, 0.65, 1.0])
+    for phi, expected in ((80.0, 1.0), (40.0, 0.65)):  # theta 100 = theta_min: S = 1; theta 140: S = 0.5
+        a = np.radians(phi)
+        tick, _ = _step((0.0, 0.0, 1.0), (np.sin(a), 0.0, np.cos(a)), (0, 0, 0), (1.0, 0.0, -1.0), 100.0)
+        assert tick == pytest.approx(expected)
+    # above the threshold: no tick, the angle is still reported
+    tick, th = _step((0.0, 0.0, 1.0), (np.sin(0.5), 0.0, np.cos(0.5)), (0, 0, 0), (1.0, 0.0, -1.0), 100.0, 135.0)
+    assert tick == 0.0 and th > 135.0
 
 
 @pytest.mark.parametrize("speed,rate,y", [(0.05, 60, 0.001), (0.2, 100, -0.003), (0.1, 60, 0.01)])

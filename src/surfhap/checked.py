@@ -12,16 +12,30 @@ error with :func:`first_error`.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+import numpy as np
+from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
 from pydantic.dataclasses import dataclass as _pydantic_dataclass
 
 from surfhap.errors import ConfigError
 
-__all__ = ["Checked", "checked_dataclass", "first_error"]
+__all__ = ["Checked", "checked_dataclass", "first_error", "FiniteArray"]
 
 _CONFIG = ConfigDict(extra="forbid", arbitrary_types_allowed=True)
+
+
+def _finite_array(value) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if not np.all(np.isfinite(a)):
+        raise ValueError("contains NaN or inf")
+    return a
+
+
+#: a float array field (any shape; lists accepted) whose values are all finite
+FiniteArray = Annotated[np.ndarray, BeforeValidator(_finite_array)]
 
 
 def first_error(exc: ValidationError) -> tuple[str, str]:
@@ -52,11 +66,14 @@ def checked_dataclass(cls):
     :class:`~surfhap.errors.ConfigError` naming the field, as :class:`Checked`."""
     dc = _pydantic_dataclass(frozen=True, config=_CONFIG)(cls)
     validate = dc.__init__
+    names = [f.name for f in dataclasses.fields(dc) if f.init]
 
     @functools.wraps(validate)
     def __init__(self, *args, **kwargs):
-        try:
-            validate(self, *args, **kwargs)
+        if len(args) > len(names):
+            raise TypeError(f"{cls.__name__} takes at most {len(names)} positional arguments")
+        try:  # positional arguments by name, so that an error names the field, not its position
+            validate(self, **dict(zip(names, args)), **kwargs)
         except ValidationError as exc:
             field, msg = first_error(exc)
             raise ConfigError(msg, field=field) from None

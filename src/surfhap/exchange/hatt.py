@@ -269,22 +269,13 @@ def _slug(name: str) -> str:
 def hatt_to_material(ms: HattModelSet, source: str, sha256: str | None = None, command: str | None = None):
     """A :class:`~surfhap.models.material.Material`: Coulomb mu from ``<mu>``, interpolated
     ARMA acceleration texture (for Zhao et al.'s drive law, f_texture = m_eff x acc)."""
-    from surfhap.models.material import (CoulombSpec, FrictionSpec, InterpolatedModelSpec, InterpolatedTextureSpec, Material,
-                                         MaterialFile, Provenance)
+    from surfhap.models.material import CoulombSpec, FrictionSpec, InterpolatedTextureSpec, Material, MaterialFile, Provenance
 
     cmd = command or f"surfhap import hatt (read {Path(source).name})"
     note = "Penn Haptic Texture Toolkit model set supplied by the user; HaTT files may not be redistributed"
     prov = Provenance(source="recording", recording=Path(source).name, sha256=sha256, command=cmd, note=note)
     bank = hatt_to_bank(ms)
-    texture = InterpolatedTextureSpec(
-        kind="interpolated-arma", quantity="acceleration", sample_rate=ms.sample_rate, max_speed=float(bank.max_speed),
-        max_force=float(bank.max_force), triangles=[tuple(int(i) for i in t) for t in bank.triangles],
-        models=[InterpolatedModelSpec(speed=float(bank.speeds[i]), force=float(bank.forces[i]),
-                                      ar_lsf=[float(x) for x in bank.ar_lsf[i]], ma_lsf=[float(x) for x in bank.ma_lsf[i]],
-                                      variance=float(bank.variances[i]), gain=float(bank.gains[i]))
-                for i in range(bank.speeds.size)],
-        provenance=prov,
-    )
+    texture = InterpolatedTextureSpec.of_bank(bank, prov)
     spec = MaterialFile(
         name=_slug(ms.material), description=f"HaTT model set '{ms.material}' (texture {ms.texture})",
         friction=FrictionSpec(coulomb=CoulombSpec(mu0=ms.mu, provenance=prov)), texture=texture,

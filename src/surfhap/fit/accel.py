@@ -25,7 +25,7 @@ from scipy.signal import butter, resample_poly, sosfiltfilt
 from surfhap.errors import ConfigError, RecordingFormatError
 from surfhap.exchange.recordings import Recording
 from surfhap.fit.friction import CoulombFit, coulomb_from_sums
-from surfhap.fit.material_fit import _map
+from surfhap.fit.material_fit import _map, recording_provenance
 from surfhap.models.interpolated import InterpolatedARMABank
 from surfhap.results import Result, jsonable
 from surfhap.signal.ar import information_criteria, levinson_durbin
@@ -98,31 +98,14 @@ class AccelFit(Result):
 
     def to_material(self, command: str = "surfhap fit accel", description: str = ""):
         """Material with Coulomb mu0 and the interpolated acceleration texture."""
-        from surfhap.models.material import (CoulombSpec, FrictionSpec, InterpolatedModelSpec, InterpolatedTextureSpec, Material,
-                                             MaterialFile, Provenance)
-        import hashlib
+        from surfhap.models.material import CoulombSpec, FrictionSpec, InterpolatedTextureSpec, Material, MaterialFile
 
-        names = ", ".join(r[0] for r in self.recordings)
-        digest = hashlib.sha256("".join(r[2] for r in self.recordings).encode()).hexdigest()
-        note = "sha256 is taken over the per-file SHA-256 hex digests, in the order listed"
-        prov_t = Provenance(source="recording", recording=names, sha256=digest, command=command,
-                            note=f"{len(self.segments)} segments, AR({self.order}) by summed {self.criterion.upper()} "
-                                 f"(AIC minimum {self.aic_order}, BIC minimum {self.bic_order}); MA part empty: "
-                                 f"see docs/fitting.md; {note}")
-        if self.coulomb is not None:
-            prov_f = Provenance(source="recording", recording=names, sha256=digest, command=command,
-                                note=f"mu0 = mean shear / mean normal over contact samples; {note}")
-        else:
-            prov_f = Provenance(source="recording", recording=names, sha256=digest, command=command,
-                                note="mu0 given on the command line (--mu0), not fitted")
-        b = self.bank
-        texture = InterpolatedTextureSpec(
-            kind="interpolated-arma", quantity="acceleration", sample_rate=b.sample_rate, max_speed=float(b.max_speed),
-            max_force=float(b.max_force), triangles=[tuple(int(i) for i in t) for t in b.triangles],
-            models=[InterpolatedModelSpec(speed=float(b.speeds[i]), force=float(b.forces[i]), ar_lsf=[float(v) for v in b.ar_lsf[i]],
-                                          ma_lsf=[], variance=float(b.variances[i]), gain=float(b.gains[i]))
-                    for i in range(b.speeds.size)],
-            provenance=prov_t)
+        prov = recording_provenance(self.recordings, command)
+        prov_t = prov(f"{len(self.segments)} segments, AR({self.order}) by summed {self.criterion.upper()} (AIC minimum "
+                      f"{self.aic_order}, BIC minimum {self.bic_order}); MA part empty: see docs/fitting.md")
+        prov_f = (prov("mu0 = mean shear / mean normal over contact samples") if self.coulomb is not None
+                  else prov("mu0 given on the command line (--mu0), not fitted", digest_note=False))
+        texture = InterpolatedTextureSpec.of_bank(self.bank, prov_t)
         spec = MaterialFile(name=self.name, description=description or f"Fitted from {len(self.recordings)} acceleration recording(s).",
                             friction=FrictionSpec(coulomb=CoulombSpec(mu0=self.mu0, provenance=prov_f)), texture=texture,
                             notes=list(self.notes))
@@ -244,17 +227,11 @@ def fit_accel(
     order = int(1 + np.argmin(total[1:]))
     aic_order = int(1 + np.argmin(np.sum([s.aic for s in segments], axis=0)[1:]))
     bic_order = int(1 + np.argmin(np.sum([s.bic for s in segments], axis=0)[1:]))
-    lsfs, variances, speeds, forces = [], [], [], []
-    for s in segments:
-        phi, var = s.levinson.order(order)
-        lsfs.append(ar_to_lsf(phi))
-        variances.append(var)
-        speeds.append(s.speed)
-        forces.append(s.force)
-    lsfs = np.array(lsfs)
-    speeds = np.array(speeds)
-    forces = np.array(forces)
-    variances = np.array(variances)
+    models = [s.levinson.order(order) for s in segments]
+    lsfs = np.array([ar_to_lsf(phi) for phi, _ in models])
+    variances = np.array([var for _, var in models])
+    speeds = np.array([s.speed for s in segments])
+    forces = np.array([s.force for s in segments])
     # zero-variance edge models (HaTT): copies on the speed = 0 and force = 0 axes, and the origin
     vmax, fmax = speeds.max(), forces.max()
     sx, sy = max(np.ptp(speeds), vmax, 1e-6), max(np.ptp(forces), fmax, 1e-6)

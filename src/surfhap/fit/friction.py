@@ -24,7 +24,7 @@ from scipy.optimize import least_squares
 
 from surfhap.models.friction import QUASI_STATIC_RANGES, CoulombLaw, QuasiStaticLaw
 
-__all__ = ["PARAMETERS", "CoulombFit", "QuasiStaticFit", "fit_coulomb", "coulomb_from_sums", "fit_quasi_static", "summarize_fits", "quasi_static_model"]
+__all__ = ["PARAMETERS", "CoulombFit", "QuasiStaticFit", "coulomb_from_sums", "fit_quasi_static", "summarize_fits", "quasi_static_model"]
 
 PARAMETERS = tuple(QUASI_STATIC_RANGES)  # ("a", "b", "c", "d", "q")
 _LOWER = np.array([QUASI_STATIC_RANGES[k][0] for k in PARAMETERS]) + np.array([1e-9, 0, 0, 0, 0])  # a > 0
@@ -44,18 +44,8 @@ class CoulombFit:
         return CoulombLaw(self.mu0)
 
 
-def fit_coulomb(shear: np.ndarray, normal: np.ndarray, label: str = "pooled") -> CoulombFit:
-    """Coulomb coefficient from contact samples shear (n,) N and normal (n,) N (see also
-    :func:`coulomb_from_sums`)."""
-    shear = np.asarray(shear, dtype=float)
-    normal = np.asarray(normal, dtype=float)
-    if normal.size == 0 or not np.mean(normal) > 0:
-        raise ValueError("no contact samples to fit mu0")
-    return CoulombFit(float(np.mean(np.abs(shear)) / np.mean(normal)), int(normal.size), label)
-
-
 def coulomb_from_sums(shear_sum: float, normal_sum: float, n: int, label: str = "pooled") -> CoulombFit:
-    """mu0 = sum(shear) / sum(normal) over n contact samples (= ratio of the means)."""
+    """mu0 = sum(shear) / sum(normal) over n contact samples (= mean shear / mean normal)."""
     if not normal_sum > 0:
         raise ValueError("no contact samples to fit mu0")
     return CoulombFit(float(shear_sum / normal_sum), int(n), label)

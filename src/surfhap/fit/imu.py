@@ -17,13 +17,13 @@ before, so fixed-order fits are unchanged.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from surfhap.models.texture import ARModel, TextureBank
 from surfhap.results import Result, jsonable
-from surfhap.signal.ar import OrderSelection, autocovariance, information_criteria, levinson_durbin
+from surfhap.signal.ar import OrderSelection, check_criterion, levinson_durbin, order_selection, yule_walker
 from surfhap.signal.bands import BandSplit
 from surfhap.signal.filters import dft321
 from surfhap.signal.spectra import average_spectra
@@ -78,9 +78,7 @@ def fit_imu_texture(accel: np.ndarray, sample_rate: float, *, cutoff: float = 3.
     combined = dft321(accel)
     high = BandSplit(cutoff=cutoff).high(combined, sample_rate)
     top = max(max_order, order or 0)
-    criterion = criterion.lower()
-    if criterion not in ("aic", "bic"):
-        raise ValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
+    criterion = check_criterion(criterion)
     if order is not None and order < 1:
         raise ValueError("order must be >= 1")
     if high.size <= top + 1:
@@ -88,10 +86,10 @@ def fit_imu_texture(accel: np.ndarray, sample_rate: float, *, cutoff: float = 3.
     trim = int(round(sample_rate / cutoff))
     core = high[trim:high.size - trim] if high.size > 2 * trim + 4 * (top + 1) else high
     avg = average_spectra([[core]], sample_rate, top, taper=0.5, fill_below=2.0 * cutoff)
-    aic, bic = information_criteria(levinson_durbin(avg.autocovariance, top).variances, avg.n_effective)
-    chosen = int(1 + np.argmin((aic if criterion == "aic" else bic)[1:]))
-    used = chosen if order is None else int(order)
-    phi, var = levinson_durbin(autocovariance(high, used), used).order(used)
-    selection = OrderSelection(chosen, *levinson_durbin(autocovariance(high, chosen), chosen).order(chosen),
-                               np.arange(1, top + 1), aic[1:], bic[1:], criterion, int(round(avg.n_effective)))
+    # the order from the tapered, notch-filled spectrum; the coefficients by Yule–Walker on the whole high band
+    selection = order_selection(levinson_durbin(avg.autocovariance, top), avg.n_effective, criterion)
+    chosen_phi, chosen_var = yule_walker(high, selection.order)
+    selection = replace(selection, coefficients=chosen_phi, variance=chosen_var)
+    used = selection.order if order is None else int(order)
+    phi, var = yule_walker(high, used)
     return ImuTextureFit(high, selection, used, phi, float(var), float(sample_rate), float(cutoff))

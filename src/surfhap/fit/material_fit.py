@@ -43,11 +43,20 @@ def _map(fn, items, jobs: int):
     return Parallel(n_jobs=jobs)(delayed(fn)(*it) for it in items)
 
 
-def recording_provenance(recordings: Sequence[Recording]) -> tuple[str, str]:
-    """(comma-separated file names, sha256 over the per-file SHA-256 hex digests in order)."""
-    names = ", ".join(r.source for r in recordings)
-    h = hashlib.sha256("".join(r.sha256 for r in recordings).encode()).hexdigest()
-    return names, h
+def recording_provenance(recordings: Sequence[tuple], command: str):
+    """A function ``note -> Provenance`` for parameters fitted from ``recordings``, the
+    (source, participant, sha256) of each file: their names, comma-separated, and a sha256 over
+    their SHA-256 hex digests in order (said in the note unless ``digest_note=False``)."""
+    from surfhap.models.material import Provenance
+
+    names = ", ".join(r[0] for r in recordings)
+    digest = hashlib.sha256("".join(r[2] for r in recordings).encode()).hexdigest()
+
+    def prov(what: str, digest_note: bool = True) -> Provenance:
+        note = f"{what}; sha256 is taken over the per-file SHA-256 hex digests, in the order listed" if digest_note else what
+        return Provenance(source="recording", recording=names, sha256=digest, command=command, note=note)
+
+    return prov
 
 
 @dataclass(frozen=True)
@@ -87,16 +96,9 @@ class FrictionFit(Result):
 
     def to_material(self, command: str = "surfhap fit friction", description: str = ""):
         """A :class:`~surfhap.models.material.Material` with recording provenance."""
-        from surfhap.models.material import (ARModelSpec, CoulombSpec, FrictionSpec, Material, MaterialFile, Provenance,
-                                             QuasiStaticSpec, TextureSpec)
+        from surfhap.models.material import ARModelSpec, CoulombSpec, FrictionSpec, Material, MaterialFile, QuasiStaticSpec, TextureSpec
 
-        names = ", ".join(r[0] for r in self.recordings)
-        digest = hashlib.sha256("".join(r[2] for r in self.recordings).encode()).hexdigest()
-        note = "sha256 is taken over the per-file SHA-256 hex digests, in the order listed"
-
-        def prov(what):
-            return Provenance(source="recording", recording=names, sha256=digest, command=command, note=f"{what}; {note}")
-
+        prov = recording_provenance(self.recordings, command)
         qs = self.quasi_static
         friction = FrictionSpec(
             coulomb=CoulombSpec(mu0=self.coulomb.mu0, provenance=prov("mu0 = mean shear / mean normal over contact samples")),
@@ -141,10 +143,6 @@ class FrictionFit(Result):
         from surfhap.report.fit_figures import plot_friction_fit
 
         return plot_friction_fit(self, ax, kind)
-
-
-def _prepare(rec, cutoff):
-    return prepare_friction_recording(rec, cutoff)
 
 
 def _velocity_job(groups, labels, fs, vref, max_order, criterion, estimator, f_lo, taper, fill_below):
@@ -199,37 +197,29 @@ def fit_friction(
     refs = tuple(float(v) for v in reference_speeds)
     if not refs or any(not (v > 0) for v in refs) or len(set(refs)) != len(refs):
         raise ConfigError("reference velocities must be distinct and > 0", source="--reference-velocities")
-    prepared: list[PreparedRecording] = _map(_prepare, [(r, cutoff) for r in recordings], jobs)
+    prepared: list[PreparedRecording] = _map(prepare_friction_recording, [(r, cutoff) for r in recordings], jobs)
     fs = prepared[0].sample_rate
     participants = tuple(dict.fromkeys(p.participant for p in prepared))
     by_part = {lab: [p for p in prepared if p.participant == lab] for lab in participants}
 
     # low band
     step = max(1, int(round(fs / (decimate_to or 4.0 * cutoff))))
-    fn_l, v_l, mu_l, who = [], [], [], []
-    for k, lab in enumerate(participants):
-        for p in by_part[lab]:
-            for a, b in p.runs:
-                sl = slice(a + step // 2, b, step)
-                fn_l.append(p.normal_low[sl])
-                v_l.append(p.speed_low[sl])
-                mu_l.append(p.cof_low[sl])
-                who.append(np.full(len(p.normal_low[sl]), k))
-    low = {"fn": np.concatenate(fn_l), "v": np.concatenate(v_l), "mu": np.concatenate(mu_l), "participant": np.concatenate(who)}
-    qs_parts = []
-    coul_parts = []
-    for k, lab in enumerate(participants):
-        sel = low["participant"] == k
-        qs_parts.append(fit_quasi_static(low["fn"][sel], low["v"][sel], low["mu"][sel], label=lab))
-        ps = by_part[lab]
-        coul_parts.append(coulomb_from_sums(sum(p.shear_sum for p in ps), sum(p.normal_sum for p in ps),
-                                            sum(p.n_kept for p in ps), label=lab))
+    pieces = [(k, p, slice(a + step // 2, b, step)) for k, lab in enumerate(participants) for p in by_part[lab] for a, b in p.runs]
+    low = {key: np.concatenate([getattr(p, name)[sl] for _, p, sl in pieces])
+           for key, name in (("fn", "normal_low"), ("v", "speed_low"), ("mu", "cof_low"))}
+    low["participant"] = np.concatenate([np.full(len(p.normal_low[sl]), k) for k, p, sl in pieces])
+
+    def coulomb_of(ps, label="pooled"):
+        return coulomb_from_sums(sum(p.shear_sum for p in ps), sum(p.normal_sum for p in ps), sum(p.n_kept for p in ps), label)
+
+    sel = [low["participant"] == k for k in range(len(participants))]
+    qs_parts = [fit_quasi_static(low["fn"][m], low["v"][m], low["mu"][m], label=lab) for m, lab in zip(sel, participants)]
+    coul_parts = [coulomb_of(by_part[lab], lab) for lab in participants]
     summary = summarize_fits(qs_parts) if len(qs_parts) > 1 else None
     pooled = fit_quasi_static(low["fn"], low["v"], low["mu"], label="pooled",
                               x0=None if summary is None else summary.theta)
     chosen = summary if summary is not None else pooled
-    coulomb = coulomb_from_sums(sum(p.shear_sum for p in prepared), sum(p.normal_sum for p in prepared),
-                                sum(p.n_kept for p in prepared))
+    coulomb = coulomb_of(prepared)
 
     # high band
     notes = []

@@ -35,8 +35,7 @@ class PreparedRecording:
     All arrays are (m,) over the kept samples; ``runs`` (k, 2) holds [start, stop) of each
     contact run in them (spans never cross a run boundary).
     normal N, speed m/s (magnitude), cof_low, cof_high (cof = low + high), normal_low N,
-    speed_low m/s; ``run_start_times`` (k,) s; ``shear_sum`` / ``normal_sum`` N over the
-    kept samples (for Coulomb mu0).
+    speed_low m/s; ``shear_sum`` / ``normal_sum`` N over the kept samples (for Coulomb mu0).
     """
 
     source: str
@@ -51,22 +50,12 @@ class PreparedRecording:
     normal_low: np.ndarray
     speed_low: np.ndarray
     runs: np.ndarray
-    run_start_times: np.ndarray
     shear_sum: float
     normal_sum: float
-    n_recorded: int
 
     @property
     def n_kept(self) -> int:
         return int(self.normal.size)
-
-    @property
-    def cof(self) -> np.ndarray:
-        return self.cof_low + self.cof_high
-
-    @property
-    def contact_fraction(self) -> float:
-        return self.n_kept / max(self.n_recorded, 1)
 
 
 def prepare_friction_recording(rec: Recording, cutoff: float = 3.5, min_run: float = 0.1,
@@ -106,5 +95,4 @@ def prepare_friction_recording(rec: Recording, cutoff: float = 3.5, min_run: flo
     for a, b in runs:
         keep[a:b] = True
     return PreparedRecording(rec.source, rec.participant, rec.sha256, fs, float(cutoff), runs=out_runs,
-                             run_start_times=rec.time[runs[:, 0]].copy(), shear_sum=float(np.sum(fsh[keep])),
-                             normal_sum=float(np.sum(fn[keep])), n_recorded=rec.n, **arrays)
+                             shear_sum=float(np.sum(fsh[keep])), normal_sum=float(np.sum(fn[keep])), **arrays)

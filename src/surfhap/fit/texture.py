@@ -28,7 +28,7 @@ import numpy as np
 
 from surfhap.models.texture import ARModel
 from surfhap.results import Result, jsonable
-from surfhap.signal.ar import OrderSelection, information_criteria, levinson_durbin
+from surfhap.signal.ar import OrderSelection, check_criterion, levinson_durbin, order_selection
 from surfhap.signal.burg import select_order_burg
 from surfhap.signal.spectra import average_spectra, log_spectral_distance, similarity_index, welch_spans
 
@@ -122,9 +122,7 @@ def fit_velocity_texture(
     """
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
-    criterion = criterion.lower()
-    if criterion not in ("aic", "bic"):
-        raise ValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
+    criterion = check_criterion(criterion)
     keep = [(lab, [np.asarray(s, dtype=float) for s in g]) for lab, g in zip(labels, groups) if sum(len(s) for s in g) > 0]
     if not keep:
         raise ValueError("no spliced data")
@@ -139,23 +137,14 @@ def fit_velocity_texture(
         raise ValueError(f"only {n_total} spliced samples (need >= 100)")
     if estimator == "yule-walker":
         avg = average_spectra(groups, sample_rate, max_order, taper=taper, fill_below=fill_below)
-        lev = levinson_durbin(avg.autocovariance, max_order)
         n_eff = avg.n_effective
-        aic, bic = information_criteria(lev.variances, n_eff)
-        crit = aic[1:] if criterion == "aic" else bic[1:]
-        order = int(1 + np.argmin(crit))
-        phi, var = lev.order(order)
-        sel = OrderSelection(order, phi, var, np.arange(1, max_order + 1), aic[1:], bic[1:], criterion, int(round(n_eff)))
+        sel = order_selection(levinson_durbin(avg.autocovariance, max_order), n_eff, criterion)
     else:
         n_eff, taper, fill_below = float(n_total), 0.0, None
         sel = select_order_burg([s for g in groups for s in g], max_order=max_order, criterion=criterion)
     model = ARModel(sel.coefficients, sel.variance, reference_speed)
-    psds = []
-    freqs = None
-    for g in groups:
-        freqs, p = welch_spans(g, sample_rate, nperseg=nperseg)
-        psds.append(p)
-    psds = np.array(psds)
+    spectra = [welch_spans(g, sample_rate, nperseg=nperseg) for g in groups]
+    freqs, psds = spectra[0][0], np.array([p for _, p in spectra])
     mean_psd = psds.mean(axis=0)
     model_psd = model.psd(sample_rate, freqs)
     model_psd[0] /= 2.0

@@ -11,10 +11,9 @@ fingertip on glass. Measure your own display (force vs voltage) and pass its ``k
 
 from __future__ import annotations
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-__all__ = ["EPSILON_0", "ElectrostaticStack", "electrostatic_constant", "electrostatic_force"]
+__all__ = ["EPSILON_0", "ElectrostaticStack", "electrostatic_constant"]
 
 EPSILON_0 = 8.8541878128e-12  # F/m, vacuum permittivity (CODATA 2018)
 
@@ -49,8 +48,3 @@ def electrostatic_constant(stack: ElectrostaticStack) -> float:
     series = s.insulator_thickness / s.insulator_permittivity + s.stratum_corneum_thickness / s.stratum_corneum_permittivity
     return EPSILON_0 * s.contact_area / (2.0 * series * (s.insulator_thickness + s.stratum_corneum_thickness))
 
-
-def electrostatic_force(voltage: np.ndarray, k: float) -> np.ndarray:
-    """f_e = k V^2 (N) for voltage (n,) V."""
-    v = np.asarray(voltage, dtype=float)
-    return k * v * v

@@ -25,10 +25,13 @@ force (N) blocks, and ``psd_at`` / ``moments_at`` of the model at a (speed, forc
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated, Literal
 
 import numba
 import numpy as np
+from pydantic import BeforeValidator, Field, field_validator, model_validator
 
+from surfhap.checked import FiniteArray, checked_dataclass
 from surfhap.signal.ar import ar_moments, ar_psd
 from surfhap.signal.lsf import _lsf_to_poly_into, lsf_is_valid, lsf_to_poly
 
@@ -114,9 +117,28 @@ def _nearest(x, y, pts, scale_x, scale_y):
 
 
 @numba.njit(cache=True, nogil=True)
+def _clamp(speed, force, limits):
+    """The HaTT clamp (module docstring, step 1) of one speed m/s and force N; NaN counts as 0.
+    limits: max_speed, max_force, min_speed, min_force (after the margins), scale_x, scale_y."""
+    x = min(abs(speed), limits[0]) if speed == speed else 0.0
+    y = min(force, limits[1]) if force == force else 0.0
+    return (0.0 if x < limits[2] else x), (0.0 if y < limits[3] else y)
+
+
+@numba.njit(cache=True, nogil=True)
+def _vertices(x, y, pts, tris, inv, start, limits):
+    """(triangle, i0, i1, i2, w0, w1, w2): the vertices of the triangle holding the clamped
+    (x, y) and their barycentric weights, or triangle -1 and the nearest vertex with weight 1."""
+    k, l0, l1, l2 = _locate(x, y, pts, tris, inv, start)
+    if k >= 0:
+        return k, tris[k, 0], tris[k, 1], tris[k, 2], l0, l1, l2
+    i = _nearest(x, y, pts, limits[4], limits[5])
+    return k, i, i, i, 1.0, 0.0, 0.0
+
+
+@numba.njit(cache=True, nogil=True)
 def _synth_kernel(speed, force, z, pts, tris, inv, ar_lsf, ma_lsf, var, gain, limits, yh, eh, state, out,
-                  lsf_a, lsf_b, poly_a, poly_b, wa1, wa2, wb1, wb2, tri_out):
-    # limits: max_speed, max_force, min_speed, min_force, scale_x, scale_y
+                  lsf_a, lsf_b, poly_a, poly_b, wa1, wa2, wb1, wb2):
     # state: [last_tri, last_x, last_y, cur_var, cur_gain, ypos, epos]
     n = speed.shape[0]
     p = ar_lsf.shape[1]
@@ -127,34 +149,11 @@ def _synth_kernel(speed, force, z, pts, tris, inv, ar_lsf, ma_lsf, var, gain, li
     cur_var = state[3]
     cur_gain = state[4]
     for t in range(n):
-        x = abs(speed[t])
-        yv = force[t]
-        if not (x == x):
-            x = 0.0
-        if not (yv == yv):
-            yv = 0.0
-        if x > limits[0]:
-            x = limits[0]
-        if yv > limits[1]:
-            yv = limits[1]
-        if x < limits[2]:
-            x = 0.0
-        if yv < limits[3]:
-            yv = 0.0
+        x, yv = _clamp(speed[t], force[t], limits)
         if x != last_x or yv != last_y:
-            k, l0, l1, l2 = _locate(x, yv, pts, tris, inv, last_tri)
+            k, i0, i1, i2, l0, l1, l2 = _vertices(x, yv, pts, tris, inv, last_tri, limits)
             if k >= 0:
-                i0 = tris[k, 0]
-                i1 = tris[k, 1]
-                i2 = tris[k, 2]
                 last_tri = k
-            else:
-                i0 = _nearest(x, yv, pts, limits[4], limits[5])
-                i1 = i0
-                i2 = i0
-                l0 = 1.0
-                l1 = 0.0
-                l2 = 0.0
             for j in range(p):
                 lsf_a[j] = l0 * ar_lsf[i0, j] + l1 * ar_lsf[i1, j] + l2 * ar_lsf[i2, j]
             for j in range(q):
@@ -165,9 +164,6 @@ def _synth_kernel(speed, force, z, pts, tris, inv, ar_lsf, ma_lsf, var, gain, li
             _lsf_to_poly_into(lsf_b, poly_b, wb1, wb2)
             last_x = x
             last_y = yv
-            tri_out[t] = k
-        else:
-            tri_out[t] = last_tri
         e = np.sqrt(max(cur_var, 0.0)) * z[t]
         acc = 0.0
         for i in range(p):
@@ -192,7 +188,7 @@ def _synth_kernel(speed, force, z, pts, tris, inv, ar_lsf, ma_lsf, var, gain, li
     state[4] = cur_gain
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class InterpolatedARMABank:
     """LSF-interpolated ARMA models over (speed, force) (see the module docstring).
 
@@ -205,60 +201,48 @@ class InterpolatedARMABank:
     max_speed   : m/s and max_force N, the clamp limits.
     """
 
-    quantity: str
-    sample_rate: float
-    speeds: np.ndarray
-    forces: np.ndarray
-    ar_lsf: np.ndarray
-    ma_lsf: np.ndarray
-    variances: np.ndarray
-    gains: np.ndarray
-    triangles: np.ndarray
-    max_speed: float
-    max_force: float
+    quantity: Literal["acceleration", "cof"]
+    sample_rate: Annotated[float, Field(gt=0, allow_inf_nan=False)]
+    speeds: FiniteArray
+    forces: FiniteArray
+    ar_lsf: FiniteArray
+    ma_lsf: FiniteArray
+    variances: FiniteArray
+    gains: FiniteArray
+    triangles: Annotated[np.ndarray, BeforeValidator(lambda v: np.ascontiguousarray(np.asarray(v, dtype=np.int64).reshape(-1, 3)))]
+    max_speed: Annotated[float, Field(gt=0)]
+    max_force: Annotated[float, Field(gt=0)]
 
-    def __post_init__(self):
-        conv = {
-            "speeds": np.asarray(self.speeds, dtype=float).reshape(-1),
-            "forces": np.asarray(self.forces, dtype=float).reshape(-1),
-            "variances": np.asarray(self.variances, dtype=float).reshape(-1),
-            "gains": np.asarray(self.gains, dtype=float).reshape(-1),
-        }
-        k = conv["speeds"].size
-        ar = np.asarray(self.ar_lsf, dtype=float).reshape(k, -1)
-        ma = np.asarray(self.ma_lsf, dtype=float).reshape(k, -1) if np.size(self.ma_lsf) else np.zeros((k, 0))
-        tris = np.asarray(self.triangles, dtype=np.int64).reshape(-1, 3)
-        for name, arr in conv.items():
-            if arr.size != k:
-                raise ValueError(f"{name} has {arr.size} values, expected {k} (one per model)")
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"{name} must be finite")
-        if self.quantity not in ("acceleration", "cof"):
-            raise ValueError(f"quantity must be 'acceleration' or 'cof', got {self.quantity!r}")
-        if not (np.isfinite(self.sample_rate) and self.sample_rate > 0):
-            raise ValueError("sample_rate must be positive")
+    @field_validator("speeds", "forces", "gains", "variances")
+    @classmethod
+    def _vector(cls, v, info):
+        v = v.reshape(-1)
+        if info.field_name == "variances" and np.any(v < 0):
+            raise ValueError("must be >= 0")
+        return v
+
+    @model_validator(mode="after")
+    def _models(self):
+        k = self.speeds.size
         if k < 1:
             raise ValueError("an interpolated bank needs at least one model")
-        if np.any(conv["variances"] < 0):
-            raise ValueError("variances must be >= 0")
+        for name in ("forces", "variances", "gains"):
+            if getattr(self, name).size != k:
+                raise ValueError(f"{name} has {getattr(self, name).size} values, expected {k} (one per model)")
+        ar = np.ascontiguousarray(self.ar_lsf.reshape(k, -1))
+        ma = np.ascontiguousarray(self.ma_lsf.reshape(k, -1) if self.ma_lsf.size else np.zeros((k, 0)))
+        tris = self.triangles
         for i in range(k):
-            if not lsf_is_valid(ar[i]):
-                raise ValueError(f"model {i}: AR line spectral frequencies must increase strictly within (0, pi)")
-            if ma.shape[1] and not lsf_is_valid(ma[i]):
-                raise ValueError(f"model {i}: MA line spectral frequencies must increase strictly within (0, pi)")
+            for label, lsf in (("AR", ar[i]), ("MA", ma[i])):
+                if not lsf_is_valid(lsf):
+                    raise ValueError(f"model {i}: {label} line spectral frequencies must increase strictly within (0, pi)")
         if tris.size and (tris.min() < 0 or tris.max() >= k):
             raise ValueError(f"triangle vertex indices must be within 0..{k - 1}")
-        if not (self.max_speed > 0 and self.max_force > 0):
-            raise ValueError("max_speed and max_force must be > 0")
-        pts = np.column_stack([conv["speeds"], conv["forces"]])
+        pts = np.ascontiguousarray(np.column_stack([self.speeds, self.forces]))
         inv = _triangle_transforms(pts, tris) if tris.size else np.zeros((0, 2, 2))
-        for key, val in conv.items():
+        for key, val in (("ar_lsf", ar), ("ma_lsf", ma), ("_pts", pts), ("_inv", inv)):
             object.__setattr__(self, key, val)
-        object.__setattr__(self, "ar_lsf", np.ascontiguousarray(ar))
-        object.__setattr__(self, "ma_lsf", np.ascontiguousarray(ma))
-        object.__setattr__(self, "triangles", np.ascontiguousarray(tris))
-        object.__setattr__(self, "_pts", np.ascontiguousarray(pts))
-        object.__setattr__(self, "_inv", np.ascontiguousarray(inv))
+        return self
 
     # ---- TextureModel (shared with TextureBank) -------------------------------------------
     @property
@@ -283,25 +267,12 @@ class InterpolatedARMABank:
         sy = max(float(np.ptp(self.forces)), 1e-6)
         return np.array([self.max_speed - SPEED_MARGIN, self.max_force - FORCE_MARGIN, MIN_SPEED, MIN_FORCE, sx, sy])
 
-    def clamp(self, speed, force) -> tuple[np.ndarray, np.ndarray]:
-        """The HaTT clamp of (n,) speeds m/s and forces N (module docstring, step 1)."""
-        lim = self.limits
-        x = np.minimum(np.abs(np.asarray(speed, dtype=float)), lim[0])
-        y = np.minimum(np.asarray(force, dtype=float), lim[1])
-        return np.where(x < lim[2], 0.0, x), np.where(y < lim[3], 0.0, y)
-
     def interpolate(self, speed: float, force: float) -> InterpolatedModel:
         """The interpolated model at one (speed m/s, force N), after the clamp."""
-        x, y = (float(v[()]) for v in self.clamp(speed, force))
-        k, l0, l1, l2 = _locate(x, y, self._pts, self.triangles, self._inv, -1)
-        if k >= 0:
-            idx = self.triangles[k].copy()
-            w = np.array([l0, l1, l2])
-        else:
-            lim = self.limits
-            i = _nearest(x, y, self._pts, lim[4], lim[5])
-            idx = np.array([i, i, i])
-            w = np.array([1.0, 0.0, 0.0])
+        lim = self.limits
+        x, y = _clamp(float(speed), float(force), lim)
+        k, *idx, w0, w1, w2 = _vertices(x, y, self._pts, self.triangles, self._inv, -1, lim)
+        idx, w = np.array(idx), np.array([w0, w1, w2])
         ar = w @ self.ar_lsf[idx]
         ma = w @ self.ma_lsf[idx] if self.ma_order else np.zeros(0)
         return InterpolatedModel(lsf_to_poly(ar), lsf_to_poly(ma), float(w @ self.variances[idx]), float(w @ self.gains[idx]),
@@ -341,8 +312,7 @@ class InterpolatedSynthesizer:
 
     ``process(speed, load)``: speed (n,) m/s and normal force (n,) N -> (n,) samples. The
     model is re-interpolated whenever (speed, force) changes; histories persist across
-    changes and blocks. ``triangle`` holds the triangle used per sample of the last block
-    (-1: nearest vertex). Same seed, same output, whatever the block sizes.
+    changes and blocks. Same seed, same output, whatever the block sizes.
     """
 
     def __init__(self, bank: InterpolatedARMABank, seed: int | np.random.Generator | None = 0, max_block: int = 1 << 16):
@@ -359,9 +329,7 @@ class InterpolatedSynthesizer:
         self._poly_b = np.zeros(q + 1)
         self._w = [np.zeros(p + 3), np.zeros(p + 3), np.zeros(q + 3), np.zeros(q + 3)]
         self._noise = np.empty(self.max_block)
-        self._tri = np.empty(self.max_block, dtype=np.int64)
         self._limits = bank.limits
-        self.triangle = np.zeros(0, dtype=np.int64)
         self.reset()
 
     def reset(self) -> None:
@@ -381,18 +349,12 @@ class InterpolatedSynthesizer:
         n = speed.shape[0]
         force = np.zeros(n) if load is None else np.ascontiguousarray(np.broadcast_to(load, (n,)), dtype=np.float64)
         if n > self.max_block:
-            outs, tris = [], []
-            for i in range(0, n, self.max_block):
-                outs.append(self.process(speed[i : i + self.max_block], force[i : i + self.max_block]))
-                tris.append(self.triangle)
-            self.triangle = np.concatenate(tris)
-            return np.concatenate(outs)
+            return np.concatenate([self.process(speed[i : i + self.max_block], force[i : i + self.max_block])
+                                   for i in range(0, n, self.max_block)])
         z = self._noise[:n]
         self._rng.standard_normal(out=z)
         out = np.empty(n)
         b = self.bank
         _synth_kernel(speed, force, z, b._pts, b.triangles, b._inv, b.ar_lsf, b.ma_lsf, b.variances, b.gains, self._limits,
-                      self._yh, self._eh, self._state, out, self._lsf_a, self._lsf_b, self._poly_a, self._poly_b,
-                      self._w[0], self._w[1], self._w[2], self._w[3], self._tri[:n])
-        self.triangle = self._tri[:n].copy()
+                      self._yh, self._eh, self._state, out, self._lsf_a, self._lsf_b, self._poly_a, self._poly_b, *self._w)
         return out

@@ -22,7 +22,6 @@ from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 from surfhap.models.friction import LAW_CONFIG, CoulombLaw, QuasiStaticLaw
 from surfhap.models.texture import ARModel, TextureBank
-from surfhap.signal.ar import ar_is_stable
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -104,15 +103,6 @@ class ARModelSpec(_Strict):
     reference_speed: float | None = Field(default=None, ge=0, le=5, description="m/s")
     order_selection: str | None = Field(default=None, description="how the order was chosen")
 
-    @field_validator("coefficients")
-    @classmethod
-    def _stable(cls, v: list[float]) -> list[float]:
-        if not all(math.isfinite(c) for c in v):
-            raise ValueError("coefficients must be finite")
-        if not ar_is_stable(v):
-            raise ValueError("AR model is unstable (a pole on or outside the unit circle)")
-        return v
-
 
 class TextureCalibrationSpec(_Strict):
     """Strength of a texture recorded in another modality than a textural CoF (e.g. stick
@@ -151,6 +141,16 @@ class TextureSpec(_Strict):
     provenance: Provenance
     calibration: TextureCalibrationSpec | None = None
 
+    @model_validator(mode="after")
+    def _models(self):
+        self.bank()  # the domain checks (stable, finite, distinct speeds), reported as a schema error
+        return self
+
+    def bank(self) -> TextureBank:
+        """The texture model this entry describes."""
+        return TextureBank(self.quantity, self.sample_rate,
+                           tuple(ARModel(m.coefficients, m.variance, m.reference_speed) for m in self.models))
+
 
 class InterpolatedModelSpec(_Strict):
     """One vertex of an interpolated ARMA bank (HaTT style): speed m/s, force N, AR and MA
@@ -163,15 +163,6 @@ class InterpolatedModelSpec(_Strict):
     ma_lsf: list[float] = Field(default_factory=list, max_length=400)
     variance: float = Field(ge=0)
     gain: float = 1.0
-
-    @field_validator("ar_lsf", "ma_lsf")
-    @classmethod
-    def _increasing(cls, v: list[float]) -> list[float]:
-        if not all(math.isfinite(x) for x in v):
-            raise ValueError("line spectral frequencies must be finite")
-        if v and not (v[0] > 0 and v[-1] < math.pi and all(b > a for a, b in zip(v, v[1:]))):
-            raise ValueError("line spectral frequencies must increase strictly within (0, pi)")
-        return v
 
 
 class InterpolatedTextureSpec(_Strict):
@@ -194,11 +185,16 @@ class InterpolatedTextureSpec(_Strict):
         q = {len(m.ma_lsf) for m in self.models}
         if len(p) != 1 or len(q) != 1:
             raise ValueError("all models of an interpolated bank need the same AR and MA orders")
-        k = len(self.models)
-        if any(not 0 <= i < k for t in self.triangles for i in t):
-            raise ValueError(f"triangle indices must be within 0..{k - 1}")
-        self.bank()  # the domain checks (degenerate triangles ...), reported as a schema error
+        self.bank()  # the domain checks (LSFs within (0, pi), triangle indices ...), reported as a schema error
         return self
+
+    @classmethod
+    def of_bank(cls, b: "InterpolatedARMABank", provenance: Provenance) -> "InterpolatedTextureSpec":
+        """The file entry of a bank (the inverse of :meth:`bank`)."""
+        return cls(kind="interpolated-arma", quantity=b.quantity, sample_rate=b.sample_rate, max_speed=float(b.max_speed),
+                   max_force=float(b.max_force), triangles=[tuple(t) for t in b.triangles.tolist()], provenance=provenance,
+                   models=[InterpolatedModelSpec(speed=v, force=f, ar_lsf=ar, ma_lsf=ma, variance=var, gain=g) for v, f, ar, ma, var, g
+                           in zip(*(getattr(b, k).tolist() for k in ("speeds", "forces", "ar_lsf", "ma_lsf", "variances", "gains")))])
 
     def bank(self) -> "InterpolatedARMABank":
         """The texture model this entry describes."""
@@ -250,22 +246,10 @@ class Material:
 
     @classmethod
     def from_spec(cls, spec: MaterialFile) -> "Material":
-        fr = spec.friction
-        coulomb, quasi = fr.coulomb, fr.quasi_static  # the laws themselves (with their provenance)
-        texture = None
-        if isinstance(spec.texture, InterpolatedTextureSpec):
-            texture = spec.texture.bank()
-        elif spec.texture is not None:
-            t = spec.texture
-            texture = TextureBank(
-                t.quantity,
-                t.sample_rate,
-                tuple(ARModel(m.coefficients, m.variance, m.reference_speed) for m in t.models),
-            )
-        scale = None
-        if isinstance(spec.texture, TextureSpec) and spec.texture.calibration is not None:
-            scale = spec.texture.calibration.relative_scale
-        return cls(spec.name, coulomb, quasi, texture, spec, scale)
+        fr = spec.friction  # the laws themselves (with their provenance)
+        calibration = spec.texture.calibration if isinstance(spec.texture, TextureSpec) else None
+        return cls(spec.name, fr.coulomb, fr.quasi_static, None if spec.texture is None else spec.texture.bank(), spec,
+                   None if calibration is None else calibration.relative_scale)
 
     @property
     def low_frequency_law(self) -> CoulombLaw | QuasiStaticLaw:

@@ -40,8 +40,9 @@ class ARSynthesizer:
     """Texture synthesis at the bank's control rate.
 
     ``process(speed, load=None)`` takes (n,) finger speeds (m/s) at the control rate (the load
-    is accepted for the common synthesiser protocol and not used) and returns (n,) texture samples (the bank's quantity: mu_t, or acceleration in m/s^2). The last
-    ``model_index`` array tells which model produced each sample.
+    is accepted for the common synthesiser protocol and not used) and returns (n,) texture
+    samples (the bank's quantity: mu_t, or acceleration in m/s^2); ``model_index`` (n,) tells
+    which model produced each sample of the last call.
     """
 
     def __init__(self, bank: TextureBank, seed: int | np.random.Generator | None = 0, max_block: int = 1 << 16):
@@ -72,16 +73,13 @@ class ARSynthesizer:
         speed = np.asarray(speed, dtype=np.float64)
         n = speed.shape[0]
         if n > self.max_block:
-            outs, idxs = [], []
-            for i in range(0, n, self.max_block):
-                outs.append(self.process(speed[i : i + self.max_block]))
-                idxs.append(self.model_index)
+            outs, idxs = zip(*[(self.process(speed[i : i + self.max_block]), self.model_index)
+                               for i in range(0, n, self.max_block)])
             self.model_index = np.concatenate(idxs)
             return np.concatenate(outs)
-        idx = self.bank.select(speed)
         noise = self._noise[:n]
         self._rng.standard_normal(out=noise)
         out = np.empty(n)
-        _ar_bank_kernel(noise, idx, self._coefs, self._orders, self._sigmas, self._buf, self.p_max, out)
-        self.model_index = idx
+        self.model_index = self.bank.select(speed)
+        _ar_bank_kernel(noise, self.model_index, self._coefs, self._orders, self._sigmas, self._buf, self.p_max, out)
         return out

@@ -12,11 +12,13 @@ kind it is.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Protocol
+from functools import cached_property
+from typing import Annotated, Literal, Protocol
 
 import numpy as np
+from pydantic import Field, field_validator
 
+from surfhap.checked import FiniteArray, checked_dataclass
 from surfhap.signal.ar import ar_is_stable, ar_moments, ar_psd
 
 __all__ = ["ARModel", "TextureBank", "TextureModel", "TextureSynthesizer", "TEXTURE_QUANTITIES"]
@@ -47,7 +49,7 @@ class TextureModel(Protocol):
     def moments_at(self, speed: float, load: float) -> tuple[float, float]: ...
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class ARModel:
     """One AR model ``x[n] = sum phi_j x[n-j] + w[n]``, ``w ~ N(0, variance)``.
 
@@ -56,17 +58,17 @@ class ARModel:
     reference_speed : m/s, or None for a model used at every speed.
     """
 
-    coefficients: np.ndarray
-    variance: float
+    coefficients: FiniteArray
+    variance: Annotated[float, Field(ge=0, allow_inf_nan=False)]
     reference_speed: float | None = None
 
-    def __post_init__(self):
-        phi = np.asarray(self.coefficients, dtype=float).reshape(-1)
-        object.__setattr__(self, "coefficients", phi)
-        if not np.all(np.isfinite(phi)) or not np.isfinite(self.variance) or self.variance < 0:
-            raise ValueError("AR coefficients and variance must be finite, variance >= 0")
+    @field_validator("coefficients")
+    @classmethod
+    def _stable(cls, phi):
+        phi = phi.reshape(-1)
         if not ar_is_stable(phi):
             raise ValueError("AR model is unstable (a root of A(z) on or outside the unit circle)")
+        return phi
 
     @property
     def order(self) -> int:
@@ -86,7 +88,7 @@ class ARModel:
         return cache[rate]
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class TextureBank:
     """AR models of one quantity at one control rate, keyed by reference speed.
 
@@ -96,28 +98,21 @@ class TextureBank:
                   ``reference_speed=None``.
     """
 
-    quantity: str
-    sample_rate: float
-    models: tuple[ARModel, ...] = field(default_factory=tuple)
+    quantity: Literal[TEXTURE_QUANTITIES]
+    sample_rate: Annotated[float, Field(gt=0, allow_inf_nan=False)]
+    models: Annotated[tuple[ARModel, ...], Field(min_length=1)]
 
-    def __post_init__(self):
-        if self.quantity not in TEXTURE_QUANTITIES:
-            raise ValueError(f"quantity must be one of {TEXTURE_QUANTITIES}, got {self.quantity!r}")
-        if not (np.isfinite(self.sample_rate) and self.sample_rate > 0):
-            raise ValueError("sample_rate must be positive")
-        models = tuple(self.models)
-        if not models:
-            raise ValueError("a texture bank needs at least one model")
+    @field_validator("models")
+    @classmethod
+    def _by_speed(cls, models):
         speeds = [m.reference_speed for m in models]
-        if any(s is None for s in speeds):
+        if None in speeds:
             if len(models) != 1:
                 raise ValueError("only a single-model bank may omit reference_speed")
-        else:
-            order = np.argsort(speeds)
-            models = tuple(models[i] for i in order)
-            if len(set(speeds)) != len(speeds):
-                raise ValueError("reference speeds must be distinct")
-        object.__setattr__(self, "models", models)
+            return models
+        if len(set(speeds)) != len(speeds):
+            raise ValueError("reference speeds must be distinct")
+        return tuple(models[i] for i in np.argsort(speeds))
 
     @property
     def reference_speeds(self) -> np.ndarray:
@@ -153,11 +148,7 @@ class TextureBank:
         speed = np.where(speed == speed, speed, 0.0)  # NaN -> slowest model
         return np.searchsorted(self._midpoints, speed, side="left")
 
-    @property
+    @cached_property
     def _midpoints(self) -> np.ndarray:
-        mids = self.__dict__.get("_mids")
-        if mids is None:
-            refs = self.reference_speeds
-            mids = 0.5 * (refs[1:] + refs[:-1])
-            object.__setattr__(self, "_mids", mids)
-        return mids
+        refs = self.reference_speeds
+        return 0.5 * (refs[1:] + refs[:-1])

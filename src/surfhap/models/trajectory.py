@@ -10,7 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from pydantic import field_validator, model_validator
 
+from surfhap.checked import FiniteArray, checked_dataclass
 from surfhap.errors import ConfigError
 # the plausibility bounds of a finger (one definition, shared with the force-feedback engine)
 from surfhap.models.finger import ACCELERATION_WINDOW, MAX_ACCELERATION, MAX_LOAD, MAX_SPEED
@@ -20,32 +22,35 @@ __all__ = ["Trajectory", "constant_scan", "strokes", "DEFAULT_SENSOR_RATE", "MAX
 
 DEFAULT_SENSOR_RATE = 125.0  # Hz, the force-sensor rate of Otake et al. 2021 (Sec. II)
 
-@dataclass(frozen=True)
+@checked_dataclass
 class Trajectory:
     """Touch samples: t (n,) s strictly increasing, x and y (n,) m, load (n,) N (0 = lifted)."""
 
-    t: np.ndarray
-    x: np.ndarray
-    y: np.ndarray
-    load: np.ndarray
+    t: FiniteArray
+    x: FiniteArray
+    y: FiniteArray
+    load: FiniteArray
     name: str = "trajectory"
 
-    def __post_init__(self):
-        arrs = [np.asarray(a, dtype=float) for a in (self.t, self.x, self.y, self.load)]
-        n = arrs[0].shape
-        if any(a.ndim != 1 or a.shape != n for a in arrs):
+    @field_validator("t")
+    @classmethod
+    def _increasing(cls, t):
+        if t.ndim == 1 and not (t.size >= 2 and np.all(np.diff(t) > 0)):
+            raise ValueError("must be strictly increasing, with at least two samples")
+        return t
+
+    @field_validator("load")
+    @classmethod
+    def _pressing(cls, load):
+        if np.any(load < 0):
+            raise ValueError("must be >= 0")
+        return load
+
+    @model_validator(mode="after")
+    def _one_length(self):
+        if any(a.ndim != 1 or a.shape != self.t.shape for a in (self.t, self.x, self.y, self.load)):
             raise ValueError("t, x, y and load must be 1-D arrays of one length")
-        if n[0] < 2:
-            raise ValueError("a trajectory needs at least two samples")
-        for label, a in zip(("t", "x", "y", "load"), arrs):
-            if not np.all(np.isfinite(a)):
-                raise ValueError(f"{label} contains NaN or inf")
-        if not np.all(np.diff(arrs[0]) > 0):
-            raise ValueError("t must be strictly increasing")
-        if np.any(arrs[3] < 0):
-            raise ValueError("load must be >= 0")
-        for name, a in zip(("t", "x", "y", "load"), arrs):
-            object.__setattr__(self, name, a)
+        return self
 
     @property
     def duration(self) -> float:

@@ -12,7 +12,6 @@ Rendering (processors, grains, drive) lives in :mod:`surfhap.render.shape_render
 """
 
 from surfhap.shape.calibration import ScanPlan, ShapeCalibration, calibrate
-from surfhap.shape.edges import dihedral_angles, edge_ticks, sharpness, tick_intensity
 from surfhap.shape.gradient import intensity_from_fsq, lateral_force, signed_sqrt
 from surfhap.shape.heightmap import heightmap_mesh, heightmap_surface, read_heightmap_image
 from surfhap.shape.profiles import Profile1D, formative_profile
@@ -31,8 +30,6 @@ __all__ = [
     "builtin_shape",
     "builtin_shape_names",
     "calibrate",
-    "dihedral_angles",
-    "edge_ticks",
     "formative_profile",
     "frustum_bump",
     "gaussian_bump",
@@ -43,9 +40,7 @@ __all__ = [
     "lateral_force",
     "parse_scan",
     "read_heightmap_image",
-    "sharpness",
     "signed_sqrt",
     "straight_scan",
-    "tick_intensity",
     "top_view",
 ]

@@ -37,59 +37,18 @@ import numpy as np
 
 from surfhap.shape.raycast import hit_one
 
-__all__ = [
-    "edge_ticks_walk",
-    "walk_spacing",
-    "EDGE_THRESHOLD_DEG",
-    "FLAT_TOLERANCE_DEG",
-    "dihedral_angles",
-    "sharpness",
-    "tick_intensity",
-    "edge_ticks",
-    "edge_tick_one",
-    "smallest_convex_dihedral",
-]
+__all__ = ["edge_ticks_walk", "walk_spacing", "EDGE_THRESHOLD_DEG", "FLAT_TOLERANCE_DEG", "edge_tick_one",
+           "smallest_convex_dihedral"]
 
 EDGE_THRESHOLD_DEG = 135.0  # Kim et al. Fig. 10: convex edges with theta < 135 deg are "relatively sharp"
 FLAT_TOLERANCE_DEG = 1e-4  # deg; normals closer than this are coplanar (float noise of arccos near 1 is ~1e-6 deg)
 
 
-def dihedral_angles(n1: np.ndarray, n2: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Dihedral angle between face pairs seen from above.
-
-    n1, n2 : (n, 3) float unit normals oriented up of the first and second face.
-    p1, p2 : (n, 3) float points on the first and second face (hit points or centroids).
-    Returns ``(theta (n,) float degrees in [0, 360], convex (n,) bool)``; coplanar pairs
-    get theta = 180 and convex = False.
-    """
-    n1 = np.asarray(n1, dtype=float)
-    n2 = np.asarray(n2, dtype=float)
-    cosphi = np.clip(np.einsum("ij,ij->i", n1, n2), -1.0, 1.0)
-    phi = np.degrees(np.arccos(cosphi))
-    bend = np.einsum("ij,ij->i", n1 - n2, np.asarray(p2, dtype=float) - np.asarray(p1, dtype=float))
-    flat = ~(phi > FLAT_TOLERANCE_DEG)
-    convex = (bend < 0) & ~flat
-    theta = np.where(flat, 180.0, np.where(convex, 180.0 - phi, 180.0 + phi))
-    return theta, convex
-
-
-def sharpness(theta: np.ndarray, theta_min: float) -> np.ndarray:
-    """Eq. 10: ``S = -(theta - 180) / (180 - theta_min)``, clipped to [0, 1]. theta in degrees."""
-    span = 180.0 - float(theta_min)
-    if not span > 0:
-        raise ValueError(f"theta_min must be below 180 deg, got {theta_min}")
-    return np.clip(-(np.asarray(theta, dtype=float) - 180.0) / span, 0.0, 1.0)
-
-
-def tick_intensity(s: np.ndarray) -> np.ndarray:
-    """Eq. 11: ``Ie = 0.7 S + 0.3``, in [0.3, 1.0] for S in [0, 1]."""
-    return 0.7 * np.clip(np.asarray(s, dtype=float), 0.0, 1.0) + 0.3
-
-
 @numba.njit(cache=True, nogil=True)
 def edge_tick_one(normals, f1, f2, x1, y1, z1, x2, y2, z2, theta_min, threshold_deg):
     """Eq. 10-11 for one step from hit (x1, y1, z1) on face f1 to (x2, y2, z2) on face f2
-    (compiled, scalar; shared by :func:`edge_ticks` and the live touch step).
+    (compiled, scalar: the one form of eq. 10-11 and of the dihedral angle, used by the touch
+    step, walking mode and :func:`smallest_convex_dihedral`).
 
     normals (nf, 3) float up normals; theta_min, threshold_deg in degrees. Returns
     ``(tick, theta)``: the tick intensity Ie (0 unless a convex edge with theta <=
@@ -116,44 +75,16 @@ def edge_tick_one(normals, f1, f2, x1, y1, z1, x2, y2, z2, theta_min, threshold_
 
 
 @numba.njit(cache=True, nogil=True)
-def _ticks_loop(face, pts, f0, p0, normals, theta_min, threshold, tick, theta):
-    pf = f0
-    px = p0[0]
-    py = p0[1]
-    pz = p0[2]
-    for i in range(face.shape[0]):
-        tick[i], theta[i] = edge_tick_one(normals, pf, face[i], px, py, pz, pts[i, 0], pts[i, 1], pts[i, 2],
-                                          theta_min, threshold)
-        pf = face[i]
-        px = pts[i, 0]
-        py = pts[i, 1]
-        pz = pts[i, 2]
-
-
-def edge_ticks(face: np.ndarray, points: np.ndarray, up_normals: np.ndarray, theta_min: float, *,
-               threshold_deg: float = EDGE_THRESHOLD_DEG, prev: tuple[int, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Edge ticks along a sequence of hits (a loop over :func:`edge_tick_one`).
-
-    face       : (n,) int hit faces (-1 off the mesh).
-    points     : (n, 3) float hit points.
-    up_normals : (nf, 3) float face normals oriented up.
-    theta_min  : smallest convex dihedral angle of the object, degrees.
-    prev       : (face, point (3,)) of the hit before this block, or None.
-    Returns ``(tick (n,) float, theta (n,) float)``: the tick intensity Ie where a convex
-    edge with theta <= threshold_deg was crossed since the previous sample (0 elsewhere), and
-    the dihedral angle of every face change (NaN where the face did not change).
-    """
-    if not 180.0 - float(theta_min) > 0:
-        raise ValueError(f"theta_min must be below 180 deg, got {theta_min}")
-    face = np.ascontiguousarray(face, dtype=np.int64)
-    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
-    n = face.shape[0]
-    f0, p0 = (-1, np.full(3, np.nan)) if prev is None else (int(prev[0]), np.asarray(prev[1], dtype=np.float64).reshape(3))
-    tick = np.zeros(n)
-    theta = np.full(n, np.nan)
-    _ticks_loop(face, pts, f0, np.ascontiguousarray(p0), np.ascontiguousarray(up_normals, dtype=np.float64),
-                float(theta_min), float(threshold_deg), tick, theta)
-    return tick, theta
+def _smallest_convex(adj, normals, centroids):
+    # the smallest theta over the face pairs adj (k, 2) whose edge is convex (a tick at threshold 180 deg)
+    best = np.inf
+    for k in range(adj.shape[0]):
+        a, b = adj[k, 0], adj[k, 1]
+        tick, theta = edge_tick_one(normals, a, b, centroids[a, 0], centroids[a, 1], centroids[a, 2],
+                                    centroids[b, 0], centroids[b, 1], centroids[b, 2], 0.0, 180.0)
+        if tick > 0.0 and theta < best:
+            best = theta
+    return best if best < np.inf else 0.0
 
 
 def smallest_convex_dihedral(surface) -> float:
@@ -167,15 +98,8 @@ def smallest_convex_dihedral(surface) -> float:
     if adj.size == 0:
         return 0.0
     top = surface.top_faces
-    adj = adj[top[adj[:, 0]] & top[adj[:, 1]]]
-    if adj.size == 0:
-        return 0.0
-    nrm = surface.up_normals
-    cen = surface.centroids
-    theta, convex = dihedral_angles(nrm[adj[:, 0]], nrm[adj[:, 1]], cen[adj[:, 0]], cen[adj[:, 1]])
-    if not np.any(convex):
-        return 0.0
-    return float(theta[convex].min())
+    adj = np.ascontiguousarray(adj[top[adj[:, 0]] & top[adj[:, 1]]])
+    return float(_smallest_convex(adj, surface.up_normals, np.ascontiguousarray(surface.centroids))) if adj.size else 0.0
 
 
 def walk_spacing(surface) -> float:

@@ -23,7 +23,7 @@ def hit_one(px, py, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, s
     verts (nv, 3) float, faces (nf, 3) int64, esign (nf,) float orientation of each face's xy
     projection (0 = vertical, never hit), zmax (nf,) float; x0, y0, inv_cw, inv_ch, nx, ny,
     start (nx*ny + 1,) int64, items (k,) int64: the grid of
-    :func:`surfhap.shape.topsurface.build_grid`. Returns ``(z, face)``; ``(-inf, -1)`` when
+    :func:`surfhap.shape.topsurface._build_grid`. Returns ``(z, face)``; ``(-inf, -1)`` when
     the ray misses (NaN or infinite coordinates miss).
     """
     best_z = -np.inf

@@ -99,19 +99,27 @@ def _grid_mesh(xs: np.ndarray, ys: np.ndarray, z: np.ndarray) -> tuple[np.ndarra
     return v, f.astype(np.int64)
 
 
+def _gaussian_mesh(resolution: float, centre: tuple[float, float], half: float, bumps) -> tuple[np.ndarray, np.ndarray]:
+    """Grid step ``resolution`` m over the square of half-width ``half`` cm around ``centre`` (cm)
+    of the sum of ``sign`` x Gaussian bump at each ``(cx, cy, sign)`` of ``bumps`` (cm)."""
+    _check_resolution(resolution)
+    n = int(round(2 * half * CM / resolution)) + 1
+    xs = (np.linspace(-half, half, n) + centre[0]) * CM
+    ys = (np.linspace(-half, half, n) + centre[1]) * CM
+    X, Y = np.meshgrid(xs, ys)
+    z = np.zeros_like(X)
+    for cx, cy, sign in bumps:
+        z += sign * gaussian_height(X - cx * CM, Y - cy * CM)
+    return _grid_mesh(xs, ys, z)
+
+
 def gaussian_bump(resolution: float = 0.0005, hole: bool = False, centre: tuple[float, float] = (0.0, 0.0),
                   patch: float = PATCH) -> tuple[np.ndarray, np.ndarray]:
     """Gaussian bump (or hole) on a ``patch`` cm square, grid step ``resolution`` m.
 
     Returns (vertices (nv, 3) float m, faces (nf, 3) int).
     """
-    _check_resolution(resolution)
-    n = int(round(patch * CM / resolution)) + 1
-    xs = (np.linspace(-patch / 2, patch / 2, n) + centre[0]) * CM
-    ys = (np.linspace(-patch / 2, patch / 2, n) + centre[1]) * CM
-    X, Y = np.meshgrid(xs, ys)
-    z = gaussian_height(X - centre[0] * CM, Y - centre[1] * CM)
-    return _grid_mesh(xs, ys, -z if hole else z)
+    return _gaussian_mesh(resolution, centre, patch / 2, [(*centre, -1.0 if hole else 1.0)])
 
 
 def frustum_bump(hole: bool = False, centre: tuple[float, float] = (0.0, 0.0), patch: float = PATCH,
@@ -166,16 +174,8 @@ class Scene:
         """(vertices (nv, 3) float m, faces (nf, 3) int) of the 12 x 12 cm scene; Gaussian
         scenes are gridded at ``resolution`` m."""
         if self.profile == "gaussian":
-            _check_resolution(resolution)
-            n = int(round(2 * PATCH * CM / resolution)) + 1
-            xs = np.linspace(-PATCH, PATCH, n) * CM
-            X, Y = np.meshgrid(xs, xs)
-            z = np.zeros_like(X)
-            for p in POSITIONS:
-                cx, cy = _CENTRES[p]
-                sign = 1.0 if p in self.bumps else -1.0
-                z += sign * gaussian_height(X - cx * CM, Y - cy * CM)
-            return _grid_mesh(xs, xs, z)
+            return _gaussian_mesh(resolution, (0.0, 0.0), PATCH, [(*_CENTRES[p], 1.0 if p in self.bumps else -1.0)
+                                                                 for p in POSITIONS])
         verts, faces = [], []
         off = 0
         for p in POSITIONS:

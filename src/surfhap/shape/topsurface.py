@@ -20,7 +20,6 @@ except along their edges, where their neighbours answer; they are skipped.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
 from typing import NamedTuple
@@ -31,7 +30,7 @@ import numpy as np
 from surfhap.errors import MeshFormatError
 from surfhap.shape.raycast import hit_one
 
-__all__ = ["TopSurface", "TopHits", "build_grid", "query_grid"]
+__all__ = ["TopSurface", "TopHits"]
 
 # Largest number of grid cells (memory bound: 8 bytes per cell for the CSR offsets).
 _MAX_CELLS = 4_000_000
@@ -45,35 +44,10 @@ class TopHits(NamedTuple):
     face: np.ndarray
 
 
-@dataclass(frozen=True)
-class _Grid:
-    x0: float
-    y0: float
-    inv_cw: float  # 1 / cell width
-    inv_ch: float  # 1 / cell height
-    nx: int
-    ny: int
-    start: np.ndarray  # (nx*ny + 1,) int64 CSR offsets
-    items: np.ndarray  # (k,) int64 face indices, each cell sorted by descending zmax
-
-
 @numba.njit(cache=True, nogil=True)
-def _count_cells(bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, counts):
-    for f in range(bx0.shape[0]):
-        if not ok[f]:
-            continue
-        i0 = min(max(int((bx0[f] - x0) * inv_cw), 0), nx - 1)
-        i1 = min(max(int((bx1[f] - x0) * inv_cw), 0), nx - 1)
-        j0 = min(max(int((by0[f] - y0) * inv_ch), 0), ny - 1)
-        j1 = min(max(int((by1[f] - y0) * inv_ch), 0), ny - 1)
-        for j in range(j0, j1 + 1):
-            for i in range(i0, i1 + 1):
-                counts[j * nx + i] += 1
-
-
-@numba.njit(cache=True, nogil=True)
-def _fill_cells(order, bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, fill, items):
-    # faces are visited in descending zmax order, so each cell's list comes out sorted
+def _bin_cells(order, bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, fill, items, count_only):
+    # count_only: fill[c] += the faces over cell c; else items[fill[c]++] = face. Faces are
+    # visited in descending zmax order, so each cell's list comes out sorted
     for k in range(order.shape[0]):
         f = order[k]
         if not ok[f]:
@@ -85,7 +59,8 @@ def _fill_cells(order, bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, f
         for j in range(j0, j1 + 1):
             for i in range(i0, i1 + 1):
                 c = j * nx + i
-                items[fill[c]] = f
+                if not count_only:
+                    items[fill[c]] = f
                 fill[c] += 1
 
 
@@ -93,19 +68,8 @@ def _fill_cells(order, bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, f
 def _query_kernel(xy, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items, z_out, f_out):
     for n in range(xy.shape[0]):
         z, f = hit_one(xy[n, 0], xy[n, 1], verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items)
-        if f < 0:
-            z_out[n] = np.nan
-        else:
-            z_out[n] = z
+        z_out[n] = z if f >= 0 else np.nan
         f_out[n] = f
-
-
-@numba.njit(cache=True, nogil=True)
-def _query_point(px, py, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items):
-    z, f = hit_one(px, py, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items)
-    if f < 0:
-        return np.nan, f
-    return z, f
 
 
 def _validate(vertices, faces, source):
@@ -124,12 +88,14 @@ def _validate(vertices, faces, source):
     return v, f
 
 
-def build_grid(vertices: np.ndarray, faces: np.ndarray, cells_per_face: float = 1.0):
+def _build_grid(vertices: np.ndarray, faces: np.ndarray, cells_per_face: float = 1.0):
     """Bin the xy projections of the triangles into a uniform grid.
 
-    vertices (nv, 3) float, faces (nf, 3) int. Returns ``(grid, esign, zmax)``: the grid,
-    the orientation sign (nf,) float of each triangle's xy projection (0 for vertical ones,
-    which are left out), and each triangle's highest z (nf,) float.
+    vertices (nv, 3) float, faces (nf, 3) int. Returns ``(esign, zmax, grid)``: the
+    orientation sign (nf,) float of each triangle's xy projection (0 for vertical ones,
+    which are left out), each triangle's highest z (nf,) float, and the grid
+    ``(x0, y0, 1 / cell width, 1 / cell height, nx, ny, start (nx*ny + 1,) int64 CSR offsets,
+    items (k,) int64 face indices, each cell sorted by descending zmax)``.
     """
     v = vertices
     tri = v[faces]  # (nf, 3, 3)
@@ -156,32 +122,14 @@ def build_grid(vertices: np.ndarray, faces: np.ndarray, cells_per_face: float = 
     cell = np.sqrt(w * h / target) if w > 1e-300 and h > 1e-300 else max(w, h) / target
     nx = int(min(max(np.ceil(w / cell), 1), _MAX_CELLS))
     ny = int(min(max(np.ceil(h / cell), 1), max(_MAX_CELLS // nx, 1)))
-    inv_cw = nx / w
-    inv_ch = ny / h
-    counts = np.zeros(nx * ny, dtype=np.int64)
-    _count_cells(bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, counts)
-    start = np.zeros(nx * ny + 1, dtype=np.int64)
-    np.cumsum(counts, out=start[1:])
-    items = np.empty(int(start[-1]), dtype=np.int64)
-    fill = start[:-1].copy()
+    cells = (bx0, bx1, by0, by1, x0, y0, float(nx / w), float(ny / h), nx, ny, ok)
     order = np.argsort(-zmax, kind="stable").astype(np.int64)
-    _fill_cells(order, bx0, bx1, by0, by1, x0, y0, inv_cw, inv_ch, nx, ny, ok, fill, items)
-    grid = _Grid(x0, y0, float(inv_cw), float(inv_ch), nx, ny, start, items)
-    return grid, np.ascontiguousarray(esign), np.ascontiguousarray(zmax)
-
-
-def query_grid(xy: np.ndarray, vertices: np.ndarray, faces: np.ndarray, grid: _Grid, esign: np.ndarray,
-               zmax: np.ndarray) -> TopHits:
-    """Highest hits of vertical rays at ``xy`` (n, 2) float; see :class:`TopHits`."""
-    xy = np.ascontiguousarray(xy, dtype=np.float64)
-    if xy.ndim != 2 or xy.shape[1] != 2:
-        raise ValueError(f"xy must be an (n, 2) array, got shape {xy.shape}")
-    n = xy.shape[0]
-    z = np.empty(n)
-    f = np.empty(n, dtype=np.int64)
-    _query_kernel(xy, vertices, faces, esign, zmax, grid.x0, grid.y0, grid.inv_cw, grid.inv_ch, grid.nx, grid.ny,
-                  grid.start, grid.items, z, f)
-    return TopHits(z, f)
+    start = np.zeros(nx * ny + 1, dtype=np.int64)
+    _bin_cells(order, *cells, start[1:], start[:0], True)
+    np.cumsum(start, out=start)
+    items = np.empty(int(start[-1]), dtype=np.int64)
+    _bin_cells(order, *cells, start[:-1].copy(), items, False)
+    return np.ascontiguousarray(esign), np.ascontiguousarray(zmax), (x0, y0, float(nx / w), float(ny / h), nx, ny, start, items)
 
 
 class TopSurface:
@@ -197,12 +145,12 @@ class TopSurface:
         self.faces = f
         self.name = name
         self.source = source
-        self._grid, self._esign, self._zmax = build_grid(v, f)
-        if not np.any(self._esign != 0):
+        esign, zmax, grid = _build_grid(v, f)
+        if not np.any(esign != 0):
             raise MeshFormatError("no triangle faces upward or downward: nothing can be touched from above",
                                   source=source or name)
-        g = self._grid
-        self._args = (v, f, self._esign, self._zmax, g.x0, g.y0, g.inv_cw, g.inv_ch, g.nx, g.ny, g.start, g.items)
+        # the mesh and its grid, as every compiled query (hit_one) takes them
+        self._args = (v, f, esign, zmax, *grid)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -226,7 +174,12 @@ class TopSurface:
     def query(self, xy: np.ndarray) -> TopHits:
         """Highest hits under the points ``xy`` (n, 2) float: ``TopHits(z (n,), face (n,))``,
         NaN / -1 where the vertical ray misses the mesh."""
-        return query_grid(xy, *self._args[:2], self._grid, self._esign, self._zmax)
+        xy = np.ascontiguousarray(xy, dtype=np.float64)
+        if xy.ndim != 2 or xy.shape[1] != 2:
+            raise ValueError(f"xy must be an (n, 2) array, got shape {xy.shape}")
+        z, f = np.empty(xy.shape[0]), np.empty(xy.shape[0], dtype=np.int64)
+        _query_kernel(xy, *self._args, z, f)
+        return TopHits(z, f)
 
     def query_normals(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Like :meth:`query`, plus the hit faces' upward unit normals: ``(z (n,), face (n,),
@@ -236,13 +189,8 @@ class TopSurface:
 
     def query_point(self, x: float, y: float) -> tuple[float, int]:
         """One point: ``(z, face)``, ``(nan, -1)`` off the mesh. The cheapest call for a live loop."""
-        return _query_point(float(x), float(y), *self._args)
-
-    def hit_points(self, xy: np.ndarray) -> np.ndarray:
-        """(n, 3) float hit points (x, y, z); z is NaN off the mesh."""
-        xy = np.asarray(xy, dtype=float)
-        z, _ = self.query(xy)
-        return np.column_stack([xy, z])
+        z, f = hit_one(float(x), float(y), *self._args)
+        return (z if f >= 0 else np.nan), f
 
     def normals_of(self, face: np.ndarray) -> np.ndarray:
         """(n, 3) unit normals, oriented upward (nz >= 0), of the faces ``face`` (n,) int;

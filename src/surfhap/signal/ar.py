@@ -29,6 +29,8 @@ __all__ = [
     "information_criteria",
     "select_order",
     "OrderSelection",
+    "check_criterion",
+    "order_selection",
     "ar_moments",
     "ar_psd",
     "ar_is_stable",
@@ -172,6 +174,24 @@ class OrderSelection(Result):
         return plot_order_selection(self, ax=ax)
 
 
+def check_criterion(criterion: str) -> str:
+    """``criterion`` lower-cased, if it is "aic" or "bic" (else ValueError)."""
+    if criterion.lower() not in ("aic", "bic"):
+        raise ValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
+    return criterion.lower()
+
+
+def order_selection(lev: LevinsonResult, n: float, criterion: str = "aic", min_order: int = 1) -> OrderSelection:
+    """The AIC (or BIC) minimum over orders ``min_order..P`` of one Levinson–Durbin (or Burg)
+    pass over ``n`` (equivalent) samples, as an :class:`OrderSelection`."""
+    criterion = check_criterion(criterion)
+    aic, bic = information_criteria(lev.variances, n)
+    sl = slice(min_order, None)
+    order = int(min_order + np.argmin(aic[sl] if criterion == "aic" else bic[sl]))
+    phi, var = lev.order(order)
+    return OrderSelection(order, phi, var, np.arange(min_order, lev.variances.size), aic[sl], bic[sl], criterion, int(round(n)))
+
+
 def select_order(
     x: np.ndarray,
     max_order: int = 100,
@@ -184,9 +204,7 @@ def select_order(
     x : (n,) float. One FFT autocovariance plus one Levinson–Durbin recursion gives all
     orders at once; the coefficients at the chosen order are the Yule–Walker ("mle") ones.
     """
-    criterion = criterion.lower()
-    if criterion not in ("aic", "bic"):
-        raise ValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
+    check_criterion(criterion)
     x = np.asarray(x, dtype=float)
     if not 0 <= min_order <= max_order:
         raise ValueError("need 0 <= min_order <= max_order")
@@ -195,12 +213,7 @@ def select_order(
     if not np.all(np.isfinite(x)):
         raise ValueError("signal contains NaN or inf")
     lev = levinson_durbin(autocovariance(x, max_order, demean=demean), max_order)
-    aic, bic = information_criteria(lev.variances, x.size)
-    sl = slice(min_order, max_order + 1)
-    crit = aic[sl] if criterion == "aic" else bic[sl]
-    order = int(min_order + np.argmin(crit))
-    phi, var = lev.order(order)
-    return OrderSelection(order, phi, var, np.arange(min_order, max_order + 1), aic[sl], bic[sl], criterion, x.size)
+    return order_selection(lev, x.size, criterion, min_order)
 
 
 def ar_psd(coefficients: np.ndarray, variance: float, sample_rate: float, freqs: np.ndarray,

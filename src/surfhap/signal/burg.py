@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from surfhap.signal.ar import LevinsonResult, OrderSelection, information_criteria
+from surfhap.signal.ar import LevinsonResult, OrderSelection, check_criterion, order_selection
 
 __all__ = ["burg", "burg_all_orders", "select_order_burg"]
 
@@ -92,17 +92,9 @@ def select_order_burg(
 ) -> OrderSelection:
     """Order by AIC (or BIC) with Burg estimates; same result type as
     :func:`surfhap.signal.ar.select_order`. ``n`` is the total number of samples."""
-    criterion = criterion.lower()
-    if criterion not in ("aic", "bic"):
-        raise ValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
+    check_criterion(criterion)
     segs = _as_segments(x)
     if any(not np.all(np.isfinite(s)) for s in segs):
         raise ValueError("signal contains NaN or inf")
     lev = burg_all_orders(segs, max_order, demean=demean)
-    n = sum(s.size for s in segs if s.size > max_order)
-    aic, bic = information_criteria(lev.variances, n)
-    sl = slice(min_order, max_order + 1)
-    crit = aic[sl] if criterion == "aic" else bic[sl]
-    order = int(min_order + np.argmin(crit))
-    phi, var = lev.order(order)
-    return OrderSelection(order, phi, var, np.arange(min_order, max_order + 1), aic[sl], bic[sl], criterion, n)
+    return order_selection(lev, sum(s.size for s in segs if s.size > max_order), criterion, min_order)
