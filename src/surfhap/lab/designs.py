@@ -42,7 +42,7 @@ from surfhap.lab.counterbalance import balanced_assignment, balanced_latin_squar
 from surfhap.checked import first_error
 from surfhap.lab.schema import Choice, DesignSpec, ParticipantPlan, Stimulus, Study, Trial
 
-__all__ = ["build_study", "TEMPLATES", "template", "study_template", "trial_counts", "ZHAO_MATERIALS", "square_frequencies"]
+__all__ = ["build_study", "TEMPLATES", "template", "study_template", "ZHAO_MATERIALS", "square_frequencies"]
 
 OTAKE2021_MATERIALS = ["leather", "cork", "denim", "drawing-paper"]  # 001 Sec. III
 OTAKE2022_MATERIALS = ["leather", "cork", "denim", "wood"]  # 003 Sec. II
@@ -316,14 +316,6 @@ def build_study(design: DesignSpec, software_version: str = "") -> Study:
         from surfhap import __version__ as software_version
     return Study(design=design, params=params.model_dump(mode="json"), software_version=software_version,
                  participants=plans)
-
-
-def trial_counts(study: Study) -> dict[str, int]:
-    """Trials per block label of the first participant."""
-    out: dict[str, int] = {}
-    for t in study.participants[0].trials:
-        out[t.block_label] = out.get(t.block_label, 0) + 1
-    return out
 
 
 #: built-in designs with the papers' defaults (participants as in each paper)
