@@ -137,14 +137,6 @@ class Calibration(Result):
         return DeviceCurve.of(self.input, self.device_fit.coefficients, self.level_max,
                               f"{self.curve} fit of {len(self.levels)} tribometer recordings")
 
-    def force(self, level: np.ndarray) -> np.ndarray:
-        """Device curve: force (N) at level (m,)."""
-        return self.device_curve.force(level)
-
-    def inverse(self, force: np.ndarray) -> np.ndarray:
-        """Level (m,) that makes the device curve give ``force`` (m,) N (its inverse on the rising branch)."""
-        return self.device_curve.drive_for_force(force)
-
     def to_display_json(self, source: str, command: str) -> dict:
         """The display file (``surfhap-display`` version 1) as a JSON-ready dict."""
         doc = {

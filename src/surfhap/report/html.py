@@ -40,13 +40,10 @@ class Page:
         body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
         self._parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
 
-    def image(self, src: str, alt: str) -> None:
-        self._parts.append(f'<img src="{html.escape(src)}" alt="{html.escape(alt)}">')
-
     def figure(self, fig, folder, name: str, alt: str, *, dpi: int = 110) -> None:
         """Save ``fig`` as ``folder/name`` (a PNG) and show it here."""
         fig.savefig(Path(folder) / name, dpi=dpi)
-        self.image(name, alt)
+        self._parts.append(f'<img src="{html.escape(name)}" alt="{html.escape(alt)}">')
 
     def write(self, path) -> Path:
         """Write the page to ``path``; returns it."""
