@@ -87,10 +87,7 @@ class StimulusPlayer:
             from surfhap.exchange.materials import load_material
             from surfhap.render.chain import ChainConfig, TextureChain
 
-            kw = {}
-            for key in ("square_frequency", "square_amplitude"):
-                if key in render:
-                    kw[key] = float(render[key])
+            kw = {key: float(render[key]) for key in ("square_frequency", "square_amplitude") if key in render}
             mat = load_material(str(render["material"]))
             cfg = ChainConfig(method=str(render.get("method", "auto")), drive_rate=rate, seed=self.seed,
                               limits=limits, display=self.display, **kw)
