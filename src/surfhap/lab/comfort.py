@@ -124,8 +124,7 @@ class ComfortRunner:
 
         self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}-comfort.jsonl",
                             config={"participant": self.plan.id, "procedure": "comfort staircase",
-                                    "staircase": {k: (list(v) if isinstance(v, tuple) else v)
-                                                  for k, v in self.params.model_dump().items()},
+                                    "staircase": self.params.model_dump(mode="json"),
                                     "material": self.material, "square_frequency": COMFORT_FREQUENCY},
                             software_version=__version__)
         self.stair = Staircase(self.params)
