@@ -353,7 +353,7 @@ def _comfort_section(folder: Path) -> Section | None:
             rows.append([d["participant"], "-" if d["comfort_voltage"] is None else f"{d['comfort_voltage']:.1f}",
                          len(d["levels_V"]), d["stopped_by"]])
         except (KeyError, TypeError):
-            raise StudyFormatError("not a comfort result", source=str(p), field="levels_V") from None
+            raise StudyFormatError("not a comfort result", source=str(p), field="comfort_voltage") from None
     if not rows:
         return None
     volts = [float(r[1]) for r in rows if r[1] != "-"]
