@@ -51,8 +51,9 @@ def test_voltage_gives_k_and_mu_panel():
     assert c2 == pytest.approx(mu * k, rel=0.03)
     # inverse map: the level that gives a force gives that force back
     f = np.array([0.01, 0.03, 0.06])
-    assert np.allclose(cal.force(cal.inverse(f)), f, atol=1e-5)
-    assert np.allclose(cal.inverse(f), np.sqrt(f / (mu * k)), rtol=0.02)
+    curve = cal.device_curve
+    assert np.allclose(curve.force(curve.drive_for_force(f)), f, atol=1e-5)
+    assert np.allclose(curve.drive_for_force(f), np.sqrt(f / (mu * k)), rtol=0.02)
 
 
 def test_intensity_with_gain_gives_k():

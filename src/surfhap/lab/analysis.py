@@ -1,19 +1,6 @@
-"""Statistics of perception studies (scipy / statsmodels; results are objects with named fields).
-
-* :func:`proportions`: pooled proportions with Wilson, Clopper-Pearson ("beta") or normal
-  ("normal") intervals (statsmodels ``proportion_confint``);
-* :func:`participant_means`: the mean over participants of each participant's proportion with
-  a normal interval mean +- z sd / sqrt(n) - the form of Otake et al. 2022 Tables II-III, whose
-  printed intervals match the population sd (ddof = 0), the default here;
-* :func:`binomial_test` (chance level), :func:`z_test_one` / :func:`z_test_two` (proportions),
-  :func:`t_test` (one-sample, paired, independent), all with ``alternative``;
-* :func:`bonferroni`: adjusted p-values (statsmodels ``multipletests``), capped at 1;
-* :func:`confusion`: confusion matrix, row = presented, column = answered;
-* :func:`pearson`: correlation with its t-test and Fisher-z interval;
-* :func:`rm_anova`: repeated-measures ANOVA (statsmodels ``AnovaRM``; balanced data, one value
-  per subject and cell, averaged over repetitions);
-* :func:`discrimination_score`: KinesTouch ``|2p - 1|`` for a preference rate p (Table 3).
-"""
+"""Statistics of perception studies on scipy / statsmodels, results as objects with named fields:
+proportions with intervals, participant means, binomial / z / t tests, Bonferroni, confusion
+matrices, Pearson correlation, repeated-measures ANOVA and KinesTouch discrimination scores."""
 
 from __future__ import annotations
 
@@ -68,7 +55,8 @@ def _conf(confidence: float) -> float:
 
 def proportions(successes: Sequence[float], n: Sequence[float], labels: Sequence[str] | None = None,
                 method: str = "wilson", confidence: float = 0.95, title: str = "") -> ProportionResult:
-    """Pooled proportions successes/n with intervals (statsmodels ``proportion_confint``)."""
+    """Pooled proportions successes/n with Wilson, Clopper-Pearson ("beta") or normal intervals
+    (statsmodels ``proportion_confint``)."""
     from statsmodels.stats.proportion import proportion_confint
 
     s = np.asarray(successes, dtype=float)
@@ -88,7 +76,8 @@ def participant_means(values: Sequence[Sequence[float]], labels: Sequence[str] |
     """Mean over participants of per-participant proportions, with a normal interval.
 
     values: one sequence per label, holding each participant's proportion (e.g. 0, 0.5, 1 for
-    two trials). Interval: mean +- z_(1-a/2) sd_ddof / sqrt(n_participants)."""
+    two trials). Interval: mean +- z_(1-a/2) sd_ddof / sqrt(n_participants), the form of Otake
+    et al. 2022 Tables II-III, whose printed intervals match the population sd (ddof = 0)."""
     from scipy.stats import norm
 
     z = norm.ppf(0.5 + _conf(confidence) / 2)
@@ -121,6 +110,9 @@ class TestResult:
     estimate: float | None = None
 
 
+_SM_ALTERNATIVE = {"two-sided": "two-sided", "greater": "larger", "less": "smaller"}  # statsmodels' names
+
+
 def binomial_test(k: int, n: int, p0: float, alternative: str = "greater") -> TestResult:
     """Exact binomial test of k successes in n against chance p0 (scipy ``binomtest``)."""
     from scipy.stats import binomtest
@@ -133,7 +125,7 @@ def z_test_one(k: float, n: float, p0: float, alternative: str = "two-sided") ->
     """z test of a proportion k/n against p0 (statsmodels ``proportions_ztest``, null variance)."""
     from statsmodels.stats.proportion import proportions_ztest
 
-    alt = {"two-sided": "two-sided", "greater": "larger", "less": "smaller"}[alternative]
+    alt = _SM_ALTERNATIVE[alternative]
     z, p = proportions_ztest(k, n, value=p0, alternative=alt, prop_var=p0)
     return TestResult("z (one proportion)", float(z), float(p), None, alternative, k / n)
 
@@ -142,7 +134,7 @@ def z_test_two(k1: float, n1: float, k2: float, n2: float, alternative: str = "t
     """Two-proportion z test with pooled variance (statsmodels ``proportions_ztest``)."""
     from statsmodels.stats.proportion import proportions_ztest
 
-    alt = {"two-sided": "two-sided", "greater": "larger", "less": "smaller"}[alternative]
+    alt = _SM_ALTERNATIVE[alternative]
     with np.errstate(invalid="ignore", divide="ignore"):  # both 0 % or both 100 %: z undefined (nan)
         z, p = proportions_ztest([k1, k2], [n1, n2], alternative=alt)
     return TestResult("z (two proportions)", float(z), float(p), None, alternative, k1 / n1 - k2 / n2)

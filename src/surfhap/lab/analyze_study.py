@@ -240,14 +240,11 @@ def _identification(study, recs):
 def _ratings(study, recs):
     out = []
     mats = list(study.params["materials"])
-    adj = [r for r in recs if r["task"] == "rating"]
+    by_cell = _by([r for r in recs if r["task"] == "rating"], "material", "adjective", "source")
     for a in study.params["adjectives"]:
         real, virt, labs = [], [], []
         for m in mats:
-            rr = [float(r["answer"]) for r in adj if r["condition"]["material"] == m and r["condition"]["adjective"] == a
-                  and r["condition"]["source"] == "real"]
-            rv = [float(r["answer"]) for r in adj if r["condition"]["material"] == m and r["condition"]["adjective"] == a
-                  and r["condition"]["source"] == "virtual"]
+            rr, rv = ([float(r["answer"]) for r in by_cell.get((m, a, src), ())] for src in ("real", "virtual"))
             if rr and rv:
                 real.append(np.mean(rr))
                 virt.append(np.mean(rv))
@@ -347,15 +344,15 @@ _ANALYSES = {"nafc": _nafc, "realism": _realism, "identification": _identificati
 
 def _comfort_section(folder: Path) -> Section | None:
     """Comfort voltages measured with 'study comfort' (logs/<P>-comfort.json), if any."""
-    import json
+    from surfhap.lab.comfort import read_comfort
 
     rows = []
     for p in sorted((folder / "logs").glob("*-comfort.json")):
+        d = read_comfort(p)
         try:
-            d = json.loads(p.read_text())
             rows.append([d["participant"], "-" if d["comfort_voltage"] is None else f"{d['comfort_voltage']:.1f}",
                          len(d["levels_V"]), d["stopped_by"]])
-        except (ValueError, KeyError, TypeError):
+        except (KeyError, TypeError):
             raise StudyFormatError("not a comfort result", source=str(p), field="comfort_voltage") from None
     if not rows:
         return None

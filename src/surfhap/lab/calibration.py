@@ -68,14 +68,9 @@ class LevelMeasure:
 
 def _guarded(on: np.ndarray, guard_samples: int) -> tuple[np.ndarray, np.ndarray]:
     """(on, off) masks without the ``guard_samples`` after each switch (and at the start)."""
-    n = on.size
-    switch = np.zeros(n, dtype=bool)
-    switch[0] = True
-    switch[1:] = on[1:] != on[:-1]
-    idx = np.nonzero(switch)[0]
-    near = np.zeros(n, dtype=bool)
-    for i in idx:
-        near[i:i + guard_samples] = True
+    switches = np.flatnonzero(np.r_[True, on[1:] != on[:-1]])
+    k = np.arange(on.size)
+    near = k - switches[np.searchsorted(switches, k, side="right") - 1] < guard_samples  # samples since the last switch
     return on & ~near, ~on & ~near
 
 
@@ -142,14 +137,6 @@ class Calibration(Result):
         return DeviceCurve.of(self.input, self.device_fit.coefficients, self.level_max,
                               f"{self.curve} fit of {len(self.levels)} tribometer recordings")
 
-    def force(self, level: np.ndarray) -> np.ndarray:
-        """Device curve: force (N) at level (m,)."""
-        return self.device_curve.force(level)
-
-    def inverse(self, force: np.ndarray) -> np.ndarray:
-        """Level (m,) that makes the device curve give ``force`` (m,) N (its inverse on the rising branch)."""
-        return self.device_curve.drive_for_force(force)
-
     def to_display_json(self, source: str, command: str) -> dict:
         """The display file (``surfhap-display`` version 1) as a JSON-ready dict."""
         doc = {
@@ -170,12 +157,9 @@ class Calibration(Result):
                 "static_increase_N": [m.increase for m in self.measures],
                 "amplitude_N": [m.amplitude for m in self.measures],
                 "mu_per_recording": [m.mu for m in self.measures],
-                "static_fit": {"coefficients": list(self.static_fit.coefficients),
-                               "residuals_N": self.static_fit.residuals.tolist(), "rmse_N": self.static_fit.rmse,
-                               "r2": self.static_fit.r2},
-                "amplitude_fit": {"coefficients": list(self.amplitude_fit.coefficients),
-                                  "residuals_N": self.amplitude_fit.residuals.tolist(),
-                                  "rmse_N": self.amplitude_fit.rmse, "r2": self.amplitude_fit.r2},
+                **{name: {"coefficients": list(fit.coefficients), "residuals_N": fit.residuals.tolist(),
+                          "rmse_N": fit.rmse, "r2": fit.r2}
+                   for name, fit in (("static_fit", self.static_fit), ("amplitude_fit", self.amplitude_fit))},
                 "k_residuals_N": self.k_residuals.tolist(),
                 "volts_per_unit_intensity": self.volts_per_unit,
                 "recordings": list(self.sources),

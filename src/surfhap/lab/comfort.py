@@ -35,7 +35,7 @@ from surfhap.lab.session import SAFETY_V_MAX
 from surfhap.lab.staircase import Staircase, StaircaseParams
 from surfhap.lab.triallog import TrialLog, now_iso
 
-__all__ = ["ComfortRunner", "default_comfort_params", "comfort_voltage_of", "required_comfort_voltage",
+__all__ = ["ComfortRunner", "default_comfort_params", "comfort_voltage_of", "read_comfort", "required_comfort_voltage",
            "comfort_ceiling", "COMFORT_FREQUENCY", "COMFORT_TARGET"]
 
 COMFORT_FREQUENCY = 100.0  # Hz, inside Zhao et al.'s 30-300 Hz baseline range (design choice)
@@ -67,16 +67,21 @@ def comfort_ceiling(threshold: float | None, params: StaircaseParams) -> float |
     return float(min(max(v, params.min_level), params.max_level))
 
 
+def read_comfort(path: Path) -> dict:
+    """A comfort result (``logs/<P>-comfort.json``, written by :class:`ComfortRunner`) with
+    ``comfort_voltage`` a float or None; StudyFormatError when it is not one."""
+    try:
+        d = json.loads(path.read_text())
+        d["comfort_voltage"] = None if d["comfort_voltage"] is None else float(d["comfort_voltage"])
+    except (ValueError, KeyError, TypeError):
+        raise StudyFormatError("not a comfort result", source=str(path), field="comfort_voltage") from None
+    return d
+
+
 def comfort_voltage_of(study_dir: str | Path, participant: str) -> float | None:
     """The participant's comfort voltage from ``logs/<P>-comfort.json``, if measured."""
     p = Path(study_dir) / "logs" / f"{participant}-comfort.json"
-    if not p.is_file():
-        return None
-    try:
-        v = json.loads(p.read_text())["comfort_voltage"]
-    except (ValueError, KeyError, TypeError):
-        raise StudyFormatError("not a comfort result", source=str(p), field="comfort_voltage") from None
-    return None if v is None else float(v)
+    return read_comfort(p)["comfort_voltage"] if p.is_file() else None
 
 
 def required_comfort_voltage(study_dir: str | Path, participant: str) -> float | None:
@@ -85,9 +90,10 @@ def required_comfort_voltage(study_dir: str | Path, participant: str) -> float |
     :class:`~surfhap.errors.StudyFormatError` (one line) when one was started but gave no
     threshold (no reversal) or is unfinished: a session must not start without it."""
     folder = Path(study_dir)
-    v = comfort_voltage_of(folder, participant)
     result = folder / "logs" / f"{participant}-comfort.json"
-    if v is not None and "staircase_threshold_V" not in json.loads(result.read_text()):
+    doc = read_comfort(result) if result.is_file() else {"comfort_voltage": None}
+    v = doc["comfort_voltage"]
+    if v is not None and "staircase_threshold_V" not in doc:
         # written by surfhap before 3-up/1-down: its voltage was judged uncomfortable half the time
         raise StudyFormatError("measured with the old 1-up/1-down comfort rule (uncomfortable half the time); run "
                                "'study comfort' again or give --comfort-voltage", source=str(result),
@@ -118,8 +124,7 @@ class ComfortRunner:
 
         self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}-comfort.jsonl",
                             config={"participant": self.plan.id, "procedure": "comfort staircase",
-                                    "staircase": {k: (list(v) if isinstance(v, tuple) else v)
-                                                  for k, v in self.params.model_dump().items()},
+                                    "staircase": self.params.model_dump(mode="json"),
                                     "material": self.material, "square_frequency": COMFORT_FREQUENCY},
                             software_version=__version__)
         self.stair = Staircase(self.params)

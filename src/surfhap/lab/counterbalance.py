@@ -14,16 +14,9 @@ def balanced_latin_square(n: int) -> np.ndarray:
     Row r is the order for participant r (mod n)."""
     if n < 1:
         raise ValueError("n must be >= 1")
-    first = [0]
-    lo, hi = 1, n - 1
-    for j in range(1, n):
-        if j % 2 == 1:
-            first.append(lo)
-            lo += 1
-        else:
-            first.append(hi)
-            hi -= 1
-    return (np.array(first)[None, :] + np.arange(n)[:, None]) % n
+    j = np.arange(n)
+    first = np.where(j % 2 == 1, (j + 1) // 2, (n - j // 2) % n)  # 0, 1, n-1, 2, n-2, ...
+    return (first[None, :] + j[:, None]) % n
 
 
 def participant_rng(seed: int, index: int) -> np.random.Generator:

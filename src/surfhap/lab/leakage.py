@@ -48,6 +48,11 @@ def _onsets(on: np.ndarray) -> np.ndarray:
     return np.nonzero(on[1:] & ~on[:-1])[0] + 1
 
 
+def _step_decay(t: np.ndarray, a: float, tau: float, c: float) -> np.ndarray:
+    """The friction increase after a DC step at t = 0: a exp(-2 t / tau) + c, 0 before it."""
+    return np.where(t >= 0, a * np.exp(-2.0 * np.maximum(t, 0.0) / tau) + c, 0.0)
+
+
 def fit_leakage(recordings: Sequence[TribometerRecording]) -> LeakageFit:
     """Leakage time constant from DC-drive recordings (see the module docstring)."""
     from scipy.optimize import curve_fit
@@ -75,8 +80,7 @@ def fit_leakage(recordings: Sequence[TribometerRecording]) -> LeakageFit:
         fit_sl = slice(edge, pre + m - edge)
 
         def model(_x, a, tau, c, t=t, sos=sos, sl=fit_sl):
-            y = np.where(t >= 0, a * np.exp(-2.0 * np.maximum(t, 0.0) / tau) + c, 0.0)
-            return sosfiltfilt(sos, y)[sl]
+            return sosfiltfilt(sos, _step_decay(t, a, tau, c))[sl]
 
         a0 = max(float(np.max(prof) - prof[-1]), 1e-9)
         try:
@@ -90,7 +94,7 @@ def fit_leakage(recordings: Sequence[TribometerRecording]) -> LeakageFit:
                               source=rec.source, field="lateral_force")
         taus.append(float(tau))
         if first is None:
-            first = (t, prof, np.where(t >= 0, a * np.exp(-2.0 * np.maximum(t, 0.0) / tau) + c, 0.0))
+            first = (t, prof, _step_decay(t, a, tau, c))
     if not taus:
         raise ConfigError("no DC recordings given", field="leakage")
     return LeakageFit(float(np.mean(taus)), np.array(taus), *first)

@@ -119,8 +119,7 @@ class Staircase:
         self._levels: list[float] = []
         self._responses: list[bool] = []
         self._rev_trials: list[int] = []
-        self._run_pos = 0
-        self._run_neg = 0
+        self._run = 0
         self._direction = 0  # -1 down, +1 up, 0 none yet
 
     @property
@@ -135,37 +134,26 @@ class Staircase:
     def _step(self, sign: int) -> None:
         p = self.params
         s = p.steps[min(self.n_reversals, len(p.steps) - 1)]
-        if p.step_type == "db":
-            new = self.level * 10.0 ** (sign * s / 20.0)
-        else:
-            new = self.level + sign * s
+        new = self.level * 10.0 ** (sign * s / 20.0) if p.step_type == "db" else self.level + sign * s
         self.level = float(min(max(new, p.min_level), p.max_level))
 
     def update(self, positive: bool) -> None:
         """Record the response to the current level and move to the next level."""
         if self.finished:
             raise ConfigError("the staircase has finished", field="staircase")
+        positive = bool(positive)
+        # consecutive answers of this kind (a step restarts the count)
+        self._run = self._run + 1 if self._responses and self._responses[-1] == positive else 1
         trial = len(self._levels)
         self._levels.append(self.level)
-        self._responses.append(bool(positive))
-        if positive:
-            self._run_pos += 1
-            self._run_neg = 0
-            if self._run_pos >= self.params.down:
-                self._run_pos = 0
-                self._move(-1, trial)
-        else:
-            self._run_neg += 1
-            self._run_pos = 0
-            if self._run_neg >= self.params.up:
-                self._run_neg = 0
-                self._move(+1, trial)
-
-    def _move(self, sign: int, trial: int) -> None:
-        if self._direction != 0 and sign != self._direction:
-            self._rev_trials.append(trial)
-        self._direction = sign
-        self._step(sign)
+        self._responses.append(positive)
+        if self._run >= (self.params.down if positive else self.params.up):
+            self._run = 0
+            sign = -1 if positive else +1
+            if self._direction != 0 and sign != self._direction:
+                self._rev_trials.append(trial)
+            self._direction = sign
+            self._step(sign)
 
     def result(self) -> StaircaseResult:
         p = self.params

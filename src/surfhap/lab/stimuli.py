@@ -87,10 +87,7 @@ class StimulusPlayer:
             from surfhap.exchange.materials import load_material
             from surfhap.render.chain import ChainConfig, TextureChain
 
-            kw = {}
-            for key in ("square_frequency", "square_amplitude"):
-                if key in render:
-                    kw[key] = float(render[key])
+            kw = {key: float(render[key]) for key in ("square_frequency", "square_amplitude") if key in render}
             mat = load_material(str(render["material"]))
             cfg = ChainConfig(method=str(render.get("method", "auto")), drive_rate=rate, seed=self.seed,
                               limits=limits, display=self.display, **kw)
@@ -101,16 +98,17 @@ class StimulusPlayer:
                 chain = TextureChain(mat, replace(cfg, alpha=self.gain * chain.params.alpha))
             return chain, "physical"
         if "profile1d" in render:
-            return self._profile_chain(str(render["profile1d"]), str(render.get("mapping", "IP0.5")), rate, limits,
-                                       str(render.get("grain", "area-even"))), "surface"
+            return self._shape_chain(None, rate, limits, str(render.get("grain", "area-even")),
+                                     (str(render["profile1d"]), str(render.get("mapping", "IP0.5")))), "surface"
         name = render.get("scene") or render.get("mesh")
         if name and name != "flat" and render.get("haptic", True):
             return self._shape_chain(str(name), rate, limits, str(render.get("grain", "area-even"))), "surface"
         return None, "physical"  # real sample, visual only, flat, force-feedback effect: nothing to drive
 
-    def _shape_chain(self, name: str, rate: int, limits, grain: str):
-        """A built-in shape or scene (in its physical size, centred on the touch surface) or a
-        mesh file (scaled as by 'surfhap serve --mesh')."""
+    def _shape_chain(self, name: str | None, rate: int, limits, grain: str, profile: tuple[str, str] | None = None):
+        """A built-in shape or scene (in its physical size, centred on the touch surface), a
+        mesh file (scaled as by 'surfhap serve --mesh'), or with ``profile`` (shape, mapping)
+        one of Kim et al.'s 1-D profiles (on the Gaussian bump's geometry, without edges)."""
         from surfhap.live.shape_live import LiveShapeRenderer
         from surfhap.render.shape_renderer import ShapeConfig
         from surfhap.shape.calibration import calibrate
@@ -118,25 +116,15 @@ class StimulusPlayer:
         from surfhap.shape.topsurface import TopSurface
 
         sp = self.session.space
-        surface = builtin_shape(name)
-        if surface is None:  # a mesh file, scaled as by 'surfhap serve --mesh'
+        surface = builtin_shape("gaussian-bump" if profile else name)
+        if surface is None:
             surface = TopSurface.from_file(name, size=0.9 * min(sp.width, sp.height))
-        cfg = ShapeConfig(drive_rate=rate, seed=self.seed, grain=grain, limits=limits,
-                          display=self.display,
-                          alpha=self.gain * self.display.calibrated_alpha)
-        return LiveShapeRenderer(surface, calibrate(surface, fz=cfg.fz), cfg, surface_size=(sp.width, sp.height))
-
-    def _profile_chain(self, shape: str, mapping: str, rate: int, limits, grain: str):
-        from surfhap.render.shape_renderer import ShapeConfig
-        from surfhap.shape.calibration import calibrate
-        from surfhap.shape.scenes import builtin_shape
-
-        sp = self.session.space
-        surface = builtin_shape("gaussian-bump")  # carries the renderer's geometry; the profile sets the intensity
-        cfg = ShapeConfig(drive_rate=rate, seed=self.seed, grain=grain, limits=limits, edges=False,
-                          display=self.display,
-                          alpha=self.gain * self.display.calibrated_alpha)
-        return make_profile_renderer(shape, mapping, surface, calibrate(surface, fz=cfg.fz), cfg, (sp.width, sp.height))
+        cfg = ShapeConfig(drive_rate=rate, seed=self.seed, grain=grain, limits=limits, edges=profile is None,
+                          display=self.display, alpha=self.gain * self.display.calibrated_alpha)
+        cal, size = calibrate(surface, fz=cfg.fz), (sp.width, sp.height)
+        if profile:
+            return make_profile_renderer(*profile, surface, cal, cfg, size)
+        return LiveShapeRenderer(surface, cal, cfg, surface_size=size)
 
     def select(self, render: dict) -> str:
         """Play ``render`` from now on; returns what is played ("muted" or a description)."""

@@ -47,6 +47,7 @@ def synthetic_tribometer(level: float, input: str = "intensity", *, mu_panel: fl
     t = np.arange(n) / sample_rate
     on = (np.floor(t / switch_period) % 2 == 1)
     fn = normal_force * (1.0 + 0.05 * np.sin(2 * np.pi * 0.37 * t)) + rng.normal(0.0, noise, n)
+    gate, source = on, f"synthetic-{input}-{level:g}"
     if input == "voltage":
         df = mu_panel * k * level ** 2
         pp = amplitude_ratio * df
@@ -56,16 +57,12 @@ def synthetic_tribometer(level: float, input: str = "intensity", *, mu_panel: fl
             a = leakage_time_constant / (leakage_time_constant + 1.0 / sample_rate)
             v = np.where(on, level, 0.0)
             v_eff = lfilter([a, -a], [1.0, -a], v)  # v_eff[n] = a (v_eff[n-1] + v[n] - v[n-1])
-            df = mu_panel * k * v_eff ** 2  # a steady DC drive: no vibration
-            f_leak = mu_panel * fn + df + rng.normal(0.0, noise, n)
-            return TribometerRecording.from_arrays(input=input, lateral_force=f_leak, normal_force=fn,
-                                                   level=np.where(on, level, 0.0), sample_rate=sample_rate,
-                                                   source=f"synthetic-dc-{level:g}")
+            df = mu_panel * k * v_eff ** 2  # the leaking charge acts on and off; a steady DC drive: no vibration
+            gate, pp, source = 1.0, 0.0, f"synthetic-dc-{level:g}"
     else:
         df = static[0] + static[1] * level + static[2] * level ** 2
         pp = amplitude[0] + amplitude[1] * level + amplitude[2] * level ** 2
     vib = 0.5 * pp * np.sin(2 * np.pi * vibration_frequency * t)
-    f = mu_panel * fn + on * (df + vib) + rng.normal(0.0, noise, n)
+    f = mu_panel * fn + gate * (df + vib) + rng.normal(0.0, noise, n)
     return TribometerRecording.from_arrays(input=input, lateral_force=f, normal_force=fn,
-                                           level=np.where(on, level, 0.0), sample_rate=sample_rate,
-                                           source=f"synthetic-{input}-{level:g}")
+                                           level=np.where(on, level, 0.0), sample_rate=sample_rate, source=source)

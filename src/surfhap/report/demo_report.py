@@ -58,14 +58,19 @@ def _speed_figure(name: str, runs) -> Figure:
     return fig
 
 
+def _means(r) -> tuple[float, float, float]:
+    """(median touching speed m/s, mean of G mu_low fn N, mean simulated added friction N) after 0.5 s."""
+    warm = r.t > 0.5
+    return (float(np.median(r.speed[r.load > 0])), r.rendering_gain * float(np.mean((r.mu_low * r.load)[warm])),
+            float(np.mean(r.added_friction[warm])))
+
+
 def _law_figure(results) -> Figure:
     fig, (ax,) = figure_axes(None, 1, (7, 4.2))
     for i, (name, runs) in enumerate(results.items()):
-        v = [float(np.median(r.speed[r.load > 0])) for r in runs]
-        sim = [float(np.mean(r.added_friction[r.t > 0.5])) for r in runs]
-        law = [r.rendering_gain * float(np.mean((r.mu_low * r.load)[r.t > 0.5])) for r in runs]
-        ax.plot(np.array(v) * 1e3, law, "-", color=f"C{i}", lw=1)
-        ax.plot(np.array(v) * 1e3, sim, "o", color=f"C{i}", label=name)
+        v, law, sim = np.array([_means(r) for r in runs]).T
+        ax.plot(v * 1e3, law, "-", color=f"C{i}", lw=1)
+        ax.plot(v * 1e3, sim, "o", color=f"C{i}", label=name)
     ax.set(xlabel="scan speed (mm/s)", ylabel="mean added friction (N)",
            title="simulated display (dots) vs G·mu_low(fn, v)·fn (lines)")
     ax.legend(fontsize=8)
@@ -126,16 +131,14 @@ def write_demo_report(results: DemoResults, out_dir: str | Path) -> Path:
     for name, runs in results.items():
         for r in runs:
             s = r.summary()
-            warm = r.t > 0.5
-            law_mean = r.rendering_gain * float(np.mean((r.mu_low * r.load)[warm]))
-            sim_mean = float(np.mean(r.added_friction[warm]))
+            v, law_mean, sim_mean = _means(r)
             f, p, e = render_spectrum(r)
             dev = "n/a"
             if e is not None and f.size:
                 top = min(500.0, 0.25 * (r.texture_rate or r.control_rate))
                 _, d = spectral_deviation_db(f, p, e, 3.5, top)
                 dev = f"{np.max(np.abs(d)):.2f} dB (3.5–{top:g} Hz)"
-            rows.append([name, s["method"], f"{np.median(r.speed[r.load > 0]) * 1e3:.0f}", f"{r.texture_rate or '-'}",
+            rows.append([name, s["method"], f"{v * 1e3:.0f}", f"{r.texture_rate or '-'}",
                          f"{law_mean:.4f}", f"{sim_mean:.4f}", f"{100 * (sim_mean / law_mean - 1):+.2f} %",
                          dev, f"{s['max_abs_voltage']:.1f}", f"{s['clipped_fraction']:.1%}", f"{s['saturated_fraction']:.1%}"])
     page.table(["material", "method", "speed mm/s", "texture rate Hz", "G·law N", "simulated N", "error",

@@ -13,20 +13,9 @@ from matplotlib.figure import Figure
 from surfhap.report.axes import figure_axes, plain_log_ticks
 from surfhap.report.figures import plot_order_selection
 
-__all__ = [
-    "plot_band_split",
-    "plot_friction_law",
-    "plot_aic_curves",
-    "plot_velocity_spectrum",
-    "plot_spectra",
-    "plot_similarity",
-    "plot_friction_fit",
-    "plot_accel_segments",
-    "plot_accel_models",
-    "plot_accel_aic",
-    "plot_accel_fit",
-]
-
+__all__ = ["plot_band_split", "plot_friction_law", "plot_aic_curves", "plot_velocity_spectrum", "plot_spectra",
+           "plot_similarity", "plot_friction_fit", "plot_accel_segments", "plot_accel_models", "plot_accel_aic",
+           "plot_accel_fit"]
 
 
 def plot_band_split(fit, ax=None) -> Figure:
@@ -131,9 +120,7 @@ def plot_friction_fit(fit, ax=None, kind: str = "summary") -> Figure:
         if fit.textures:
             plot_velocity_spectrum(fit.textures[len(fit.textures) // 2], ax=axs[5])
         return fig
-    if kind not in table:
-        raise ValueError(f"kind must be one of {', '.join(['summary', *table])}")
-    return table[kind](fit, ax)
+    return _one_kind(table, kind, fit, ax)
 
 
 def plot_accel_segments(fit, ax=None, source: str | None = None) -> Figure:
@@ -195,9 +182,13 @@ def plot_accel_fit(fit, ax=None, kind: str = "summary", source: str | None = Non
         plot_accel_segments(fit, axs[:2], source)
         plot_accel_models(fit, axs[2:])
         return fig
-    if kind == "segments":
-        return plot_accel_segments(fit, ax, source)
-    table = {"models": plot_accel_models, "aic": plot_accel_aic}
+    table = {"segments": lambda f, a: plot_accel_segments(f, a, source), "models": plot_accel_models,
+             "aic": plot_accel_aic}
+    return _one_kind(table, kind, fit, ax)
+
+
+def _one_kind(table: dict, kind: str, fit, ax) -> Figure:
+    """``table[kind](fit, ax)``, or a ValueError listing the kinds (with "summary")."""
     if kind not in table:
-        raise ValueError("kind must be one of summary, segments, models, aic")
+        raise ValueError(f"kind must be one of {', '.join(['summary', *table])}")
     return table[kind](fit, ax)

@@ -3,23 +3,19 @@
 
 from __future__ import annotations
 
-import html
 from pathlib import Path
 
 import numpy as np
 
-from surfhap.report.html import Page
+from surfhap.report.html import start_page
 
 __all__ = ["write_friction_report", "write_accel_report"]
 
 
+
 def write_friction_report(fit, out_dir: str | Path, command: str = "") -> Path:
     """Write ``out_dir/index.html`` and its figures for a FrictionFit; returns the page path."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    page = Page(f"Friction fit — {fit.name}")
-    if command:
-        page.raw(f"<p class=note>command: <code>{html.escape(command)}</code></p>")
+    out, page = start_page(out_dir, f"Friction fit — {fit.name}", command)
     page.paragraph(f"{len(fit.recordings)} recording(s), {len(fit.participants)} participant(s), {fit.sample_rate:g} Hz, "
                    f"cut-off {fit.cutoff:g} Hz, estimator {fit.estimator}, order by {fit.criterion.upper()}.")
     page.heading("Band split")
@@ -59,11 +55,7 @@ def write_friction_report(fit, out_dir: str | Path, command: str = "") -> Path:
 
 def write_accel_report(fit, out_dir: str | Path, command: str = "") -> Path:
     """Write ``out_dir/index.html`` and its figures for an AccelFit; returns the page path."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    page = Page(f"Acceleration fit — {fit.name}")
-    if command:
-        page.raw(f"<p class=note>command: <code>{html.escape(command)}</code></p>")
+    out, page = start_page(out_dir, f"Acceleration fit — {fit.name}", command)
     for note in fit.notes:
         page.paragraph(note)
     page.paragraph(f"Coulomb mu0 = {fit.mu0:.4f}" + (" (fitted)" if fit.coulomb is not None else " (given)"))

@@ -6,7 +6,7 @@ import html
 from datetime import datetime, timezone
 from pathlib import Path
 
-__all__ = ["Page"]
+__all__ = ["Page", "start_page"]
 
 _STYLE = """
 body{font-family:system-ui,-apple-system,Segoe UI,sans-serif;margin:2rem auto;max-width:1150px;color:#222;padding:0 1rem}
@@ -40,13 +40,10 @@ class Page:
         body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
         self._parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
 
-    def image(self, src: str, alt: str) -> None:
-        self._parts.append(f'<img src="{html.escape(src)}" alt="{html.escape(alt)}">')
-
     def figure(self, fig, folder, name: str, alt: str, *, dpi: int = 110) -> None:
         """Save ``fig`` as ``folder/name`` (a PNG) and show it here."""
         fig.savefig(Path(folder) / name, dpi=dpi)
-        self.image(name, alt)
+        self._parts.append(f'<img src="{html.escape(name)}" alt="{html.escape(alt)}">')
 
     def write(self, path) -> Path:
         """Write the page to ``path``; returns it."""
@@ -59,3 +56,13 @@ class Page:
                 f"<meta name=viewport content='width=device-width,initial-scale=1'><style>{_STYLE}</style></head><body>"
                 f"<h1>{html.escape(self.title)}</h1><p class=note>made by surfhap, {stamp}</p>"
                 + "\n".join(self._parts) + "</body></html>\n")
+
+
+def start_page(out_dir: str | Path, title: str, command: str = "") -> tuple[Path, Page]:
+    """The output folder ``out_dir`` (created) and a page titled ``title`` noting ``command``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    page = Page(title)
+    if command:
+        page.raw(f"<p class=note>command: <code>{html.escape(command)}</code></p>")
+    return out, page

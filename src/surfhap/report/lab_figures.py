@@ -58,9 +58,7 @@ def plot_confusion(result, ax=None) -> Figure:
 def plot_proportions(result, ax=None, chance: float | None = None) -> Figure:
     """Bar chart of proportions with their confidence intervals."""
     fig, (ax,) = figure_axes(ax, 1, (6, 3.5))
-    p = np.asarray(result.proportion, dtype=float)
-    lo = np.asarray(result.ci_low, dtype=float)
-    hi = np.asarray(result.ci_high, dtype=float)
+    p, lo, hi = (np.asarray(a, dtype=float) for a in (result.proportion, result.ci_low, result.ci_high))
     x = np.arange(p.size)
     ax.bar(x, p, color="C0", alpha=0.8)
     ax.errorbar(x, p, yerr=np.maximum([p - lo, hi - p], 0.0), fmt="none", ecolor="k", capsize=4)  # hi is 1 - 1e-16 at n/n

@@ -7,7 +7,7 @@ from pathlib import Path
 from matplotlib.figure import Figure
 
 from surfhap.report.axes import figure_axes
-from surfhap.report.html import Page
+from surfhap.report.html import start_page
 
 __all__ = ["write_study_report", "plot_study"]
 
@@ -27,9 +27,7 @@ def plot_study(result, ax=None) -> Figure:
 
 def write_study_report(result, folder: str | Path) -> Path:
     """Write ``index.html`` and one PNG per figure into ``folder``; returns the HTML path."""
-    out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
-    page = Page(f"surfhap study: {result.name}")
+    out, page = start_page(folder, f"surfhap study: {result.name}")
     page.paragraph(f"{result.kind} study, {len(result.participants)} participants "
                    f"({', '.join(result.participants)}), {result.n_trials} trials logged.")
     if result.incomplete:
