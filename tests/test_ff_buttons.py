@@ -13,7 +13,8 @@ from surfhap.ff.buttons import Button, ButtonPresses
 from surfhap.ff.scene import load_scene
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.sim.ff_device import SimDevice
-from surfhap.sim.ff_sim import SimFinger, simulate_ff
+from surfhap.live.ff_loop import simulate_ff
+from surfhap.sim.ff_device import SimFinger
 from surfhap.models.trajectory import Trajectory
 
 B = [Button("a", 0.0, 0.0, 0.01, 0.01, 1e-3, 5e-4), Button("b", 0.02, 0.0, 0.03, 0.01, 1e-3, 5e-4)]

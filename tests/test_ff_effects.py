@@ -11,7 +11,7 @@ from surfhap.ff.effects import TickState
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.models.trajectory import Trajectory, constant_scan
 from surfhap.sim.ff_device import SimDevice, SimFinger
-from surfhap.sim.ff_sim import simulate_ff
+from surfhap.live.ff_loop import simulate_ff
 
 LAT = 0.040  # s, touch latency of the simulated tablet (004: "a few dozens of ms")
 

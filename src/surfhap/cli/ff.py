@@ -123,7 +123,7 @@ def simulate_cmd(
     from surfhap.ff.engine import FFEngine
     from surfhap.ff.scene import load_scene
     from surfhap.sim.ff_device import SimDevice, SimFinger
-    from surfhap.sim.ff_sim import simulate_ff
+    from surfhap.live.ff_loop import simulate_ff
 
     if touch_latency_ms is None:
         touch_latency_ms = PAPER_LATENCY_MS

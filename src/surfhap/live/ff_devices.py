@@ -12,8 +12,8 @@ Protocol :class:`FFDevice` (called from the haptic thread only, once per tick, n
 
 ``sim``: :class:`SimDeviceBackend`, a :class:`surfhap.sim.ff_device.SimDevice` stepped on
 every write by as many of its own ticks as wall-clock periods have passed (so that missed
-haptic ticks do not slow the simulated physics down; the finger's load, as reported by the
-touch source, presses on it).
+haptic ticks do not slow the simulated physics down); the finger's load, as reported by the
+touch source, presses on it, or (``ff simulate``) a simulated finger's force.
 
 ``osc``: :class:`OscDeviceBackend` talks to a device bridge (e.g. a CHAI3D program) over UDP
 under the bridge contract (:mod:`surfhap.live.ff_bridge_wire`, docs/forcefeedback.md):
@@ -75,13 +75,15 @@ def parse_osc_url(text: str, option: str, *, listen: bool = False) -> tuple[str,
 
 
 class SimDeviceBackend:
-    """The simulated device; ``finger_load`` (N) is pressed onto the screen while touched."""
+    """The simulated device; ``finger_load`` (N) is pressed onto the screen while touched, or
+    with ``finger`` (:class:`surfhap.sim.ff_device.SimFinger`) its ``force_on_screen``."""
 
     name = "sim"
 
-    def __init__(self, device, gain: float):
+    def __init__(self, device, gain: float, finger=None):
         self.device = device
         self.gain = float(gain)
+        self.finger = finger
         self.finger_load = 0.0
         self._cmd = np.zeros(3)
         self._ext = np.zeros(3)
@@ -107,10 +109,11 @@ class SimDeviceBackend:
         self._cmd[0], self._cmd[1], self._cmd[2] = force[0] * g, force[1] * g, force[2] * g
         self._ext[2] = -self.finger_load
         dev = self.device
+        ext = self._ext if self.finger is None else self.finger.force_on_screen(t, dev.v)
         n = 1 if self._t is None else int(round((t - self._t) * dev.rate))
         n = 1 if n < 1 else (50 if n > 50 else n)
         for _ in range(n):
-            dev.step(self._cmd, self._ext)
+            dev.step(self._cmd, ext)
         self._t = t if self._t is None else self._t + n * dev.dt
         if abs(t - self._t) > 0.05:  # a long stall: re-anchor instead of catching up
             self._t = t
