@@ -78,7 +78,7 @@ def test_simulated_pushes_click_the_buttons_whose_click_force_they_pass(peak):
     res = simulate_ff(eng, SimFinger(_presses_trajectory(peak, sc)), SimDevice(gain=FALCON.gain))
     # independent reference: a spring of stiffness k is pushed down d by the force k d
     ks = [sc.effects[0].k_mat.value((b.x0 + b.x1) / 2, (b.y0 + b.y1) / 2) for b in sc.buttons]
-    expect = [b.name for b, k in zip(sc.buttons, ks) if k * b.click_depth < 0.85 * peak]
+    expect = [b.name for b, k in zip(sc.buttons, ks) if k * b.click_depth_m < 0.85 * peak]
     assert expect and (peak < 1.0) == (len(expect) < 4)
     assert [name for _, name in res.presses()] == expect
     assert eng.button_presses.presses == [int(b.name in expect) for b in sc.buttons]

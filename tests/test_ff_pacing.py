@@ -20,15 +20,18 @@ class LateClock:
 
     simulated = False
 
-    def __init__(self, delays):
-        self.delays, self.deadlines, self.t = list(delays), [], 0.0
+    def __init__(self, delays, hook=None):
+        self.delays, self.deadlines, self.t, self.hook = list(delays), [], 0.0, hook
 
     def now(self) -> float:
         return self.t
 
     def wait_until(self, deadline: float) -> float:
         self.deadlines.append(deadline)
-        self.t = max(self.t, deadline + self.delays[len(self.deadlines) - 1])
+        k = len(self.deadlines) - 1
+        self.t = max(self.t, deadline + (self.delays[k] if k < len(self.delays) else 0.0))
+        if self.hook is not None:
+            self.hook(k)
         return self.t
 
 
@@ -65,6 +68,28 @@ def test_the_wall_clock_keeps_each_wait_s_lateness():
     for _ in range(6):
         assert c.wait_until(t0 - 1.0) >= t0  # a deadline 1 s ago: no sleep, at least 1 s late
     assert c.waits == 6 and c.lateness().size == 4 and np.all(c.lateness() >= 1.0)
+
+
+def test_the_haptic_loop_is_run_on_its_clock():
+    """``ff run``'s haptic thread is the runtime's run() on the loop's clock: a stall on that
+    clock is counted as missed ticks, and the stop ramps to zero before the loop ends."""
+    from surfhap.ff import FALCON, FFEngine, Stiffness
+    from surfhap.live.ff_devices import SimDeviceBackend
+    from surfhap.live.ff_loop import FFLoop
+    from surfhap.render.kinematics import TouchPredictor
+    from surfhap.sim.ff_device import SimDevice
+
+    eng = FFEngine([Stiffness(300.0)], FALCON, TouchPredictor(), rate=1000.0)
+    be = SimDeviceBackend(SimDevice(gain=FALCON.gain), FALCON.gain)
+    loop = None
+    clock = LateClock([0.0] * 50 + [5.2e-3], hook=lambda k: k == 300 and loop.request_stop())
+    loop = FFLoop(eng, be, clock=clock, realtime=False)
+    eng.reset()
+    be.start()
+    loop._run()  # the haptic thread's body, here on the test's thread
+    st = loop.stats()
+    assert st["missed"] == 5 and st["error"] is None and loop.done.is_set()
+    assert st["ticks"] == len(clock.deadlines) > 300 and np.all(eng.safety.out == 0.0)
 
 
 def _in_thread(fn):

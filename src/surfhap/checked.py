@@ -59,7 +59,11 @@ def checked_dataclass(cls):
             validate(self, *args, **kwargs)
         except ValidationError as exc:
             field, msg = first_error(exc)
+            head, _, rest = field.partition(".")
+            if head.isdigit() and int(head) < len(names):  # a positional argument: its field's name
+                field = ".".join(filter(None, (names[int(head)], rest)))
             raise ConfigError(msg, field=field) from None
 
+    names = list(dc.__dataclass_fields__)
     dc.__init__ = __init__
     return dc
