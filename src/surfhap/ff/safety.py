@@ -31,7 +31,7 @@ The newtons are converted into device units (``gain``) by the backend, after thi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections import namedtuple
 
 import numpy as np
 
@@ -42,20 +42,8 @@ from surfhap.ff.tick_kernel import MAX_STEP
 __all__ = ["ForceSafety", "ForceSafetyCounters", "MAX_STEP"]
 
 
-@dataclass(frozen=True)
-class ForceSafetyCounters:
-    """Tick counts since the last reset."""
-
-    ticks: int
-    clamped: int
-    slew_limited: int
-    faults: int
-    device_lost: int
-    workspace: int
-    stopped: int
-    stale: int = 0
-    rejected: int = 0
-    braked: int = 0
+# tick counts since the last reset, one per kernel counter (kernel.COUNTERS names them once)
+ForceSafetyCounters = namedtuple("ForceSafetyCounters", kernel.COUNTERS)
 
 
 class ForceSafety:

@@ -38,7 +38,6 @@ import logging
 import math
 import sys
 import threading
-from dataclasses import asdict
 
 import numpy as np
 
@@ -275,7 +274,7 @@ class FFLoop:
             period_error_ms={"p50": pct(50), "p99": pct(99), "p999": pct(99.9), "max": pct(100)},
             touches_received=self.touches._write, touches_dropped=self.touches.dropped,
             touches_stale=self.touches_stale + self.engine.touch_stale, touches_rejected=self.engine.touch_rejected,
-            safety={k: v for k, v in asdict(c).items() if k != "ticks"},
+            safety={k: v for k, v in c._asdict().items() if k != "ticks"},
             device=self.backend.info(), scheduling=self.scheduling,
             error=None if self.error is None else repr(self.error),
         )
