@@ -2,6 +2,7 @@
 button's click depth, with hysteresis; in the engine, the simulation, its figure and OSC."""
 
 import json
+import math
 import socket
 
 import numpy as np
@@ -12,9 +13,8 @@ from surfhap.ff import FALCON, FFEngine
 from surfhap.ff.buttons import Button, ButtonPresses
 from surfhap.ff.scene import load_scene
 from surfhap.render.kinematics import TouchPredictor
-from surfhap.sim.ff_device import SimDevice
 from surfhap.live.ff_loop import simulate_ff
-from surfhap.sim.ff_device import SimFinger
+from surfhap.sim.ff_device import SimDevice, SimFinger
 from surfhap.models.trajectory import Trajectory
 
 B = [Button("a", 0.0, 0.0, 0.01, 0.01, 1e-3, 5e-4), Button("b", 0.02, 0.0, 0.03, 0.01, 1e-3, 5e-4)]
@@ -59,6 +59,20 @@ def test_scene_buttons_validated():
         with pytest.raises(SceneFormatError) as e:
             load_scene(p)
     assert "buttons.2" in str(e.value) and "bad.json" in str(e.value)
+
+
+def test_a_bad_button_is_one_config_error_naming_the_field():
+    """Issue 20: one pydantic type for a scene file's button and the detector's (no second
+    hand-written validator): a library caller gets the scene file's checks and field names."""
+    from surfhap.errors import ConfigError
+
+    for args, field in (((0.0, 0.0, 0.01, 0.01, 0.06, 5e-4), "click_depth_m"),
+                        ((0.0, 0.0, 0.01, 0.01, 1e-3, -1e-4), "release_depth_m"),
+                        ((0.0, 0.0, 0.01, math.nan, 1e-3, 5e-4), "y1"),
+                        ((0.0, 0.0, 0.01, 0.01, 1e-3, 2e-3), "(top)")):
+        with pytest.raises(ConfigError) as e:
+            Button("a", *args)
+        assert e.value.field == field
 
 
 def _presses_trajectory(peak_load: float, sc):

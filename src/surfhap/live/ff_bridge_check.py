@@ -83,7 +83,7 @@ class BridgeCheck:
 
     def __init__(self, host: str, port: int, settings: BridgeSettings = BridgeSettings(),
                  listen: tuple = ("127.0.0.1", 9101), token: int | None = None):
-        self.host, self.port, self.listen, self.s = host, port, listen, settings
+        self.host, self.port, self.listen, self.settings = host, port, listen, settings
         self.token = new_token() if token is None else int(token)
         self.tolerance = settings.tolerance_ms * 1e-3
         self._seq = 0
@@ -173,7 +173,7 @@ class BridgeCheck:
                              "relative to X0)"))
         rows.append(self._axes_row())
         rows.append(self._nonfinite_row())
-        if self.s.full_scale:
+        if self.settings.full_scale:
             rows.append(self._clamp_row())
         rows.append(self._watchdog_row())
         return rows
@@ -183,7 +183,7 @@ class BridgeCheck:
 
     def _sequence_row(self) -> CheckRow:
         back = sum(1 for a, b in zip(self.log, self.log[1:]) if b.seq <= a.seq)
-        f = self.s.force * self.s.gain
+        f = self.settings.force * self.settings.gain
         seen = []
         for _ in range(5):  # until positions come back within the 12 ms (a busy host may delay them)
             start, t_last = self._stream((f, 0.0, 0.0), 0.05, min_positions=5)
@@ -200,7 +200,7 @@ class BridgeCheck:
         return CheckRow("sequence", ok, detail)
 
     def _axes_row(self) -> CheckRow:
-        f = self.s.force * self.s.gain
+        f = self.settings.force * self.settings.gain
         bad = []
         for i, axis in enumerate("xyz"):
             cmd = [0.0, 0.0, 0.0]
@@ -235,14 +235,14 @@ class BridgeCheck:
         seen = [r.a for r in self.log[start:]]
         peak = max((max(abs(v) for v in a) for a in seen), default=math.nan)
         self._stream((0.0, 0.0, 0.0), 0.03)
-        ok = bool(seen) and peak <= self.s.limit * (1 + 1e-6)
-        return CheckRow("clamp", ok, f"+-1e6 applied as at most {peak:.2f} (limit {self.s.limit:g})")
+        ok = bool(seen) and peak <= self.settings.limit * (1 + 1e-6)
+        return CheckRow("clamp", ok, f"+-1e6 applied as at most {peak:.2f} (limit {self.settings.limit:g})")
 
     def _watchdog_row(self) -> CheckRow:
-        f = self.s.force * self.s.gain
+        f = self.settings.force * self.settings.gain
         bound = BRIDGE_WATCHDOG_S + self.tolerance
         worst, fails = 0.0, []
-        for _ in range(max(1, self.s.trials)):
+        for _ in range(max(1, self.settings.trials)):
             start, t_last = self._stream((0.0, 0.0, f), 0.1, min_positions=10)
             self._listen(bound + 0.15)
             after = [r for r in self.log[start:] if r.t > t_last]
