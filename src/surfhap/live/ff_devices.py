@@ -16,15 +16,11 @@ haptic ticks do not slow the simulated physics down); the finger's load, as repo
 touch source, presses on it, or (``ff simulate``) a simulated finger's force.
 
 ``osc``: :class:`OscDeviceBackend` talks to a device bridge (e.g. a CHAI3D program) over UDP
-under the bridge contract (:mod:`surfhap.live.ff_bridge_wire`, docs/forcefeedback.md):
-``/surfhap/ff/force token seq fx fy fz`` every tick (device units = gain x N), and
-``/surfhap/ff/position token seq x y z ax ay az`` back (m, relative to X0). A position is
-used only when it comes from the bridge's own address (the host and port of ``--device``),
-carries this session's token (:class:`surfhap.live.ff_bridge_wire.PositionReceiver`, shared
-with ``ff bridge-check``) and a sequence number above the last one accepted; anything
-else is dropped and counted (``dropped_sender``, ``dropped_token``, ``dropped_sequence``,
-``rejected`` for a malformed message), so no other local process can move the device's
-idea of where the screen is.
+under the bridge contract (:mod:`surfhap.live.ff_bridge_wire`, docs/forcefeedback.md). A
+position is used only from the bridge's own address with this session's token
+(:class:`~surfhap.live.ff_bridge_wire.PositionReceiver`, shared with ``ff bridge-check``) and a
+sequence number above the last one accepted; anything else is dropped and counted
+(``dropped_sender``, ``dropped_token``, ``dropped_sequence``, ``rejected``).
 """
 
 from __future__ import annotations
