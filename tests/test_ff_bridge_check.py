@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from surfhap.live.ff_bridge_check import check_bridge
+from surfhap.live.ff_bridge_check import BridgeSettings, check_bridge
 
 sys.path.insert(0, str(Path(__file__).parent))
 from live_support.ff_bridges import ReferenceBridge  # noqa: E402
@@ -72,8 +72,8 @@ def test_bridge_check_passes_a_compliant_bridge_and_fails_one_that_holds_its_for
 def test_bridge_check_names_the_broken_contract_item(kw, failing):
     listen = free_udp_port()
     with ReferenceBridge(("127.0.0.1", listen), **kw) as bridge:
-        rows = check_bridge("127.0.0.1", bridge.port, listen=("127.0.0.1", listen), tolerance=0.3, trials=1,
-                            full_scale=True)
+        rows = check_bridge("127.0.0.1", bridge.port, BridgeSettings(tolerance_ms=300, trials=1, full_scale=True),
+                            listen=("127.0.0.1", listen))
     assert [r.name for r in rows] == ROWS[:-1] + ["clamp", "watchdog"]
     assert failing in [r.name for r in rows if not r.passed], rows
 
@@ -91,6 +91,9 @@ def test_bridge_check_without_a_bridge_fails_the_reply_row():
     (["osc://127.0.0.1:9000", "--listen", "nowhere"], "--listen"),
     (["osc://127.0.0.1:9000", "--force", "50"], "--force"),
     (["osc://127.0.0.1:9000", "--tolerance-ms", "-1"], "--tolerance-ms"),
+    (["osc://127.0.0.1:9000", "--trials", "0"], "--trials"),
+    (["osc://127.0.0.1:9000", "--gain", "0.05"], "--gain"),
+    (["osc://127.0.0.1:9000", "--limit", "0"], "--limit"),
 ])
 def test_bridge_check_bad_input_is_one_line_exit_2(args, option):
     r = bridge_check(*args)
@@ -99,12 +102,25 @@ def test_bridge_check_bad_input_is_one_line_exit_2(args, option):
     assert len(lines) == 1 and option in lines[0], r.stderr
 
 
+def test_bridge_settings_are_checked_where_they_are_built():
+    """Issue 20: the settings are one pydantic type (no hand-written range checks in the CLI):
+    a bad value is one ConfigError naming the field, for a library caller too."""
+    from surfhap.errors import ConfigError
+
+    for kw, field in (({"force": 5.0}, "force"), ({"trials": 21}, "trials"), ({"tolerance_ms": -1.0}, "tolerance_ms"),
+                      ({"gain": math.nan}, "gain")):
+        with pytest.raises(ConfigError) as e:
+            BridgeSettings(**kw)
+        assert e.value.field == field
+
+
 def test_bridge_check_drives_full_scale_only_when_asked():
     """Without --clamp no force above the check's small --force reaches the bridge (a device
     under a hand never gets the full-scale step); the table has no clamp row."""
     listen = free_udp_port()
     with ReferenceBridge(("127.0.0.1", listen), limit=1e9) as bridge:  # passes any force through
-        rows = check_bridge("127.0.0.1", bridge.port, listen=("127.0.0.1", listen), tolerance=0.3, trials=1)
+        rows = check_bridge("127.0.0.1", bridge.port, BridgeSettings(tolerance_ms=300, trials=1),
+                            listen=("127.0.0.1", listen))
         with bridge.lock:
             commands = list(bridge.commands)
     assert [r.name for r in rows] == ROWS

@@ -2,6 +2,7 @@
 button's click depth, with hysteresis; in the engine, the simulation, its figure and OSC."""
 
 import json
+import math
 import socket
 
 import numpy as np
@@ -12,8 +13,8 @@ from surfhap.ff import FALCON, FFEngine
 from surfhap.ff.buttons import Button, ButtonPresses
 from surfhap.ff.scene import load_scene
 from surfhap.render.kinematics import TouchPredictor
-from surfhap.sim.ff_device import SimDevice
-from surfhap.sim.ff_sim import SimFinger, simulate_ff
+from surfhap.live.ff_loop import simulate_ff
+from surfhap.sim.ff_device import SimDevice, SimFinger
 from surfhap.models.trajectory import Trajectory
 
 B = [Button("a", 0.0, 0.0, 0.01, 0.01, 1e-3, 5e-4), Button("b", 0.02, 0.0, 0.03, 0.01, 1e-3, 5e-4)]
@@ -60,6 +61,20 @@ def test_scene_buttons_validated():
     assert "buttons.2" in str(e.value) and "bad.json" in str(e.value)
 
 
+def test_a_bad_button_is_one_config_error_naming_the_field():
+    """Issue 20: one pydantic type for a scene file's button and the detector's (no second
+    hand-written validator): a library caller gets the scene file's checks and field names."""
+    from surfhap.errors import ConfigError
+
+    for args, field in (((0.0, 0.0, 0.01, 0.01, 0.06, 5e-4), "click_depth_m"),
+                        ((0.0, 0.0, 0.01, 0.01, 1e-3, -1e-4), "release_depth_m"),
+                        ((0.0, 0.0, 0.01, math.nan, 1e-3, 5e-4), "y1"),
+                        ((0.0, 0.0, 0.01, 0.01, 1e-3, 2e-3), "(top)")):
+        with pytest.raises(ConfigError) as e:
+            Button("a", *args)
+        assert e.value.field == field
+
+
 def _presses_trajectory(peak_load: float, sc):
     """One 0.75 s push on the centre of each button in turn, load ramped 0 -> peak -> 0."""
     t = np.arange(0.0, 3.0, 1 / 60)
@@ -77,7 +92,7 @@ def test_simulated_pushes_click_the_buttons_whose_click_force_they_pass(peak):
     res = simulate_ff(eng, SimFinger(_presses_trajectory(peak, sc)), SimDevice(gain=FALCON.gain))
     # independent reference: a spring of stiffness k is pushed down d by the force k d
     ks = [sc.effects[0].k_mat.value((b.x0 + b.x1) / 2, (b.y0 + b.y1) / 2) for b in sc.buttons]
-    expect = [b.name for b, k in zip(sc.buttons, ks) if k * b.click_depth < 0.85 * peak]
+    expect = [b.name for b, k in zip(sc.buttons, ks) if k * b.click_depth_m < 0.85 * peak]
     assert expect and (peak < 1.0) == (len(expect) < 4)
     assert [name for _, name in res.presses()] == expect
     assert eng.button_presses.presses == [int(b.name in expect) for b in sc.buttons]

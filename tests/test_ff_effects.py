@@ -11,7 +11,7 @@ from surfhap.ff.effects import TickState
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.models.trajectory import Trajectory, constant_scan
 from surfhap.sim.ff_device import SimDevice, SimFinger
-from surfhap.sim.ff_sim import simulate_ff
+from surfhap.live.ff_loop import simulate_ff
 
 LAT = 0.040  # s, touch latency of the simulated tablet (004: "a few dozens of ms")
 
@@ -161,7 +161,7 @@ def test_effects_merge_per_axis_most_compliant():
     for _ in range(200):
         f = law.compute(s)
     assert f[1] == pytest.approx(-FALCON.k_max * 0.01)  # reference back at X0
-    idle = Idle().tick(s)
+    idle = own_law(Idle(), s)
     assert idle[2] == pytest.approx(FALCON.k_max * 0.002)
 
 
@@ -170,9 +170,9 @@ def test_map_switches_effect_off_outside_its_region():
     eff = Stiffness(buttons)
     s = TickState()
     s.fx = s.fy = 0.02
-    assert eff.update(s) and eff.kz == 300.0
+    assert eff.terms(s)[2] == 300.0
     s.fx = 0.1
-    assert not eff.update(s)
+    assert eff.terms(s) is None
     assert math.isnan(buttons.value(0.1, 0.1))
 
 
@@ -189,20 +189,30 @@ def test_lift_off_a_high_floor_does_not_slam_the_screen_into_the_walls():
     assert abs(r.screen[-1, 2]) < 1e-3
 
 
+def own_law(effect, s):
+    """An effect's own law from its terms: ``ff + K (X0 + h e_z - X_t)`` with X0 = 0 (zeros where
+    it does not apply)."""
+    r = effect.terms(s)
+    if r is None:
+        return np.zeros(3)
+    kx, ky, kz, h, ffx, ffy, ffz = r
+    return np.array([ffx - kx * s.px, ffy - ky * s.py, ffz + kz * (h - s.pz)])
+
+
 def test_each_effect_tick_is_its_paper_law():
-    """tick() alone: eq. 1 (Stiffness), 2 (Shape), 3 fixed (Roughness), 4 fixed (Sliding), 5 (Idle)."""
+    """Each effect alone: eq. 1 (Stiffness), 2 (Shape), 3 fixed (Roughness), 4 fixed (Sliding), 5 (Idle)."""
     km = FALCON.k_max
     s = TickState()
     s.touched = True
     s.fx, s.fy, s.fvx, s.fvy, s.speed = 0.05, 0.06, 0.1, 0.0, 0.1
     s.px, s.py, s.pz, s.vx, s.vy = 0.002, -0.001, -0.003, 0.04, 0.01
     X = np.array([s.px, s.py, s.pz])
-    np.testing.assert_allclose(Stiffness(300.0).tick(s), -np.diag([km, km, 300.0]) @ X)  # eq. 1, X0 = 0
-    np.testing.assert_allclose(Shape(0.01).tick(s), km * (np.array([0, 0, 0.01]) - X))  # eq. 2
-    np.testing.assert_allclose(Idle().tick(s), -km * X)  # eq. 5
-    sl = Sliding(1.0, nu=20.0).tick(s)  # eq. 4 as implemented: nu (alpha f_dot - v_screen), normal held
+    np.testing.assert_allclose(own_law(Stiffness(300.0), s), -np.diag([km, km, 300.0]) @ X)  # eq. 1, X0 = 0
+    np.testing.assert_allclose(own_law(Shape(0.01), s), km * (np.array([0, 0, 0.01]) - X))  # eq. 2
+    np.testing.assert_allclose(own_law(Idle(), s), -km * X)  # eq. 5
+    sl = own_law(Sliding(1.0, nu=20.0), s)  # eq. 4 as implemented: nu (alpha f_dot - v_screen), normal held
     np.testing.assert_allclose(sl, [20.0 * (0.1 - 0.04), 20.0 * (0.0 - 0.01), -km * s.pz])
     rough = Roughness(2e-4, 1e-3)
     for _ in range(3):  # the phase advances by 2 pi speed dt / lambda per tick
-        f = rough.tick(s)
+        f = own_law(rough, s)
     np.testing.assert_allclose(f[2], km * (2e-4 * np.sin(3 * 2 * np.pi * 0.1 * s.dt / 1e-3) - s.pz))

@@ -12,6 +12,7 @@ from surfhap.exchange.trajectory_csv import write_trajectory_csv
 from surfhap.ff import FALCON, FFEngine, Sliding, Stiffness
 from surfhap.live.ff_devices import SimDeviceBackend
 from surfhap.live.ff_loop import FFLoop
+from surfhap.runtime.clock import SimClock
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.models.trajectory import Trajectory
 from surfhap.sim.ff_device import SimDevice
@@ -115,14 +116,6 @@ def test_ff_simulate_exits_3_with_one_line_when_an_effect_fails(tmp_path, capsys
     assert np.all(f[-1, :2] == 0.0)
 
 
-class _SimClock:
-    def __init__(self):
-        self.t = 0.0
-
-    def __call__(self) -> float:
-        return self.t
-
-
 def _fail_in_loop(where: str):
     """The buttons scene held by the simulated device on a simulated clock for 0.5 s, then a
     failure ``where`` ('drain': the touch drain raises; 'tick': the engine's tick raises after
@@ -133,7 +126,7 @@ def _fail_in_loop(where: str):
     eng = FFEngine(sc.effects, FALCON, TouchPredictor(), rate=FALCON_RATE)
     dev = SimDevice(rate=FALCON_RATE, gain=FALCON.gain)
     be = SimDeviceBackend(dev, FALCON.gain)
-    clock = _SimClock()
+    clock = SimClock()
     loop = FFLoop(eng, be, clock=clock)
     be.start()
 

@@ -35,6 +35,7 @@ from hypothesis import HealthCheck, event as tally, given, settings, strategies 
 from surfhap.ff import FALCON, DeviceParams, Effect, FFEngine, RectsField, Roughness, Shape, Sliding, Stiffness
 from surfhap.live.ff_devices import SimDeviceBackend
 from surfhap.live.ff_loop import FFLoop
+from surfhap.runtime.clock import SimClock
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.sim.ff_device import SimDevice
 
@@ -58,14 +59,6 @@ class Boom(Effect):
         if s.t >= self.at:
             raise RuntimeError("boom")
         return None
-
-
-class Clock:
-    def __init__(self):
-        self.t = 0.0
-
-    def __call__(self) -> float:
-        return self.t
 
 
 class Adversary:
@@ -157,7 +150,7 @@ def effects(boom_at: float):
 @given(events=st.lists(event, min_size=1, max_size=25), device=devices,
        stop_at=st.one_of(st.none(), st.integers(0, 400)), boom_at=st.one_of(st.just(math.inf), st.floats(0.0, 0.3)))
 def test_ff_loop_holds_every_limit_for_any_input(events, device, stop_at, boom_at):
-    clock = Clock()
+    clock = SimClock()
     eng = FFEngine(effects(boom_at), device, TouchPredictor(latency=0.04, alpha=0.15, velocity_alpha=0.45),
                    rate=RATE, touch_latency=0.04)
     be = Adversary(device)
@@ -290,7 +283,7 @@ def test_device_position_stamps_pass_the_one_arrival_law():
 
     period = 1.0 / RATE
     for offset in (-3 * period, 0.0, 0.5 * period, 0.99 * period, 2 * period, math.inf, math.nan):
-        clock = Clock()
+        clock = SimClock()
         eng = FFEngine([Stiffness(300.0)], FALCON, TouchPredictor(), rate=RATE)
         be = Adversary(FALCON)
         loop = FFLoop(eng, be, clock=clock)

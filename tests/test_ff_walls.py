@@ -16,7 +16,7 @@ from surfhap.ff.scene import builtin_scene_names, load_scene
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.models.trajectory import Trajectory
 from surfhap.sim.ff_device import SimDevice, SimFinger
-from surfhap.sim.ff_sim import simulate_ff
+from surfhap.live.ff_loop import simulate_ff
 
 RATE = 1000.0
 ARRIVAL = 0.05  # m/s, largest speed towards a wall within its last brake_margin

@@ -187,7 +187,7 @@ def test_ff_page_panel_shows_device_position_force_and_button_press():
     # shown pressed: the screen is below the release depth (the press itself, past the click depth,
     # is tests/test_ff_buttons.py's; the first frame the page shows pressed may come a few ticks
     # after it, once a starved loop let the screen spring back a little, still pressed)
-    assert json.loads(pressed["pos"])[2] < -easy.release_depth + 1e-4
+    assert json.loads(pressed["pos"])[2] < -easy.release_depth_m + 1e-4
     # 0.5 N on the 100 N/m button: about -5 mm, still pressed
     assert json.loads(settled["pos"])[2] < -3e-3 and settled["buttonText"] == "easy PRESSED"
     assert released["buttonText"] == "–"

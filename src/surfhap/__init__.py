@@ -81,7 +81,7 @@ _LAZY_MODULES = {
     "surfhap.ff.engine": ("FFEngine",),
     "surfhap.ff.params": ("DeviceParams",),
     "surfhap.ff.scene": ("load_ff_scene",),
-    "surfhap.sim.ff_sim": ("simulate_ff",),
+    "surfhap.live.ff_loop": ("simulate_ff",),
     "surfhap.sim.ff_device": ("SimDevice", "SimFinger"),
 }
 # the namespaces (subpackages and facade modules), imported on first attribute access

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import fields
 from pathlib import Path
 from typing import Optional
 
@@ -123,7 +124,7 @@ def simulate_cmd(
     from surfhap.ff.engine import FFEngine
     from surfhap.ff.scene import load_scene
     from surfhap.sim.ff_device import SimDevice, SimFinger
-    from surfhap.sim.ff_sim import simulate_ff
+    from surfhap.live.ff_loop import simulate_ff
 
     if touch_latency_ms is None:
         touch_latency_ms = PAPER_LATENCY_MS
@@ -147,10 +148,8 @@ def simulate_cmd(
     res = simulate_ff(eng, SimFinger(tr, touch_rate=touch_rate, latency=lat, mu=mu), SimDevice(gain=dev.gain),
                       name=f"{sc.name} / {tr.name}")
     out.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(out / "ff_simulation.npz", t=res.t, force=res.force, screen=res.screen, screen_v=res.screen_v,
-                        finger=res.finger, finger_v=res.finger_v, sliding=res.sliding, finger_est=res.finger_est,
-                        touched=res.touched, mask=res.mask, load=res.load, effects=np.array(res.effects),
-                        button=res.button, buttons=np.array(res.buttons, dtype=str))
+    np.savez_compressed(out / "ff_simulation.npz", **{f.name: np.array(getattr(res, f.name), dtype=str if
+                        f.name == "buttons" else None) for f in fields(res) if f.name != "name"})
     summary = res.summary()
     summary.update(error=None if eng.error is None else _one_line(eng.error),
                    scene=sc.source, trajectory=str(trajectory) if trajectory else tr.name, device=dev.name,

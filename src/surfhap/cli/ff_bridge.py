@@ -26,7 +26,7 @@ def bridge_check_cmd(
 ) -> None:
     """Test a running bridge: reply, rate, sequence numbers, units, axes, non-finite forces and
     the 20 ms watchdog, with small forces; --clamp adds the full-scale clamp row."""
-    from surfhap.live.ff_bridge_check import check_bridge
+    from surfhap.live.ff_bridge_check import BridgeSettings, check_bridge
     from surfhap.live.ff_devices import parse_osc_url
     from surfhap.live.netaddr import parse_host_port
 
@@ -34,20 +34,13 @@ def bridge_check_cmd(
     if port == 0:
         raise ConfigError("the bridge's port must be within 1-65535", source="URL")
     lh, lp = parse_host_port(listen, "--listen", listen=True)
-    if not 0.1 < gain <= 1000.0:
-        raise ConfigError("must be within 0.1-1000", source="--gain")
-    limit = gain * 8.0 if limit is None else limit
-    if not 0.0 < limit <= 1e5:
-        raise ConfigError("must be within 0-1e5 device units", source="--limit")
-    if not 0.1 <= force <= 4.0:
-        raise ConfigError("must be within 0.1-4 N", source="--force")
-    if not 0.0 <= tolerance_ms <= 1000.0:
-        raise ConfigError("must be within 0-1000 ms", source="--tolerance-ms")
-    if not 1 <= trials <= 20:
-        raise ConfigError("must be within 1-20", source="--trials")
     try:
-        rows = check_bridge(host, port, listen=(lh, lp), gain=gain, limit=limit, force=force,
-                            tolerance=tolerance_ms * 1e-3, trials=trials, full_scale=clamp)
+        settings = BridgeSettings(gain=gain, limit=gain * 8.0 if limit is None else limit, force=force,
+                                  tolerance_ms=tolerance_ms, trials=trials, full_scale=clamp)
+    except ConfigError as exc:
+        raise ConfigError(exc.message, source="--" + (exc.field or "").replace("_", "-")) from None
+    try:
+        rows = check_bridge(host, port, settings, listen=(lh, lp))
     except socket.gaierror as exc:
         raise ConfigError(f"cannot resolve {host!r} ({exc.strerror or exc})", source="URL") from None
     except OSError as exc:

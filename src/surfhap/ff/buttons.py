@@ -23,29 +23,36 @@ hysteresis, tick by tick, without allocating:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import Annotated
+
+from pydantic import Field, FiniteFloat, model_validator
+
+from surfhap.checked import checked_dataclass
 
 __all__ = ["Button", "ButtonPresses"]
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class Button:
-    """One button: rectangle ``[x0, x1] x [y0, y1]`` in content coordinates (m), click and
-    release depths (m, normal displacement of the screen, release < click)."""
+    """One button (also the ``buttons`` entry of a scene file): rectangle ``[x0, x1] x [y0, y1]``
+    in content coordinates (m), click and release depths (m, normal displacement of the
+    screen; release < click: the hysteresis band)."""
 
-    name: str
-    x0: float
-    y0: float
-    x1: float
-    y1: float
-    click_depth: float
-    release_depth: float
+    name: Annotated[str, Field(min_length=1, max_length=64)]
+    x0: FiniteFloat
+    y0: FiniteFloat
+    x1: FiniteFloat
+    y1: FiniteFloat
+    click_depth_m: Annotated[float, Field(gt=0.0, le=0.05)]
+    release_depth_m: Annotated[float, Field(ge=0.0, le=0.05)]
 
-    def __post_init__(self):
+    @model_validator(mode="after")
+    def _check(self):
         if not (self.x1 > self.x0 and self.y1 > self.y0):
-            raise ValueError(f"button {self.name!r}: needs x1 > x0 and y1 > y0")
-        if not (0.0 <= self.release_depth < self.click_depth and math.isfinite(self.click_depth)):
-            raise ValueError(f"button {self.name!r}: needs 0 <= release_depth < click_depth")
+            raise ValueError("a button needs x1 > x0 and y1 > y0")
+        if not self.release_depth_m < self.click_depth_m:
+            raise ValueError("release_depth_m must be below click_depth_m (hysteresis)")
+        return self
 
     def contains(self, x: float, y: float) -> bool:
         return self.x0 <= x <= self.x1 and self.y0 <= y <= self.y1
@@ -93,21 +100,21 @@ class ButtonPresses:
             self._cur = i
             # a fresh touch arms the button (the screen may already move under the landing
             # finger); sliding onto it arms it only while the screen is above its click depth
-            self.armed = i >= 0 and (landed or depth < self.buttons[i].click_depth)
-            if not (self.armed and depth >= self.buttons[i].click_depth):
+            self.armed = i >= 0 and (landed or depth < self.buttons[i].click_depth_m)
+            if not (self.armed and depth >= self.buttons[i].click_depth_m):
                 return -1
         if i < 0:
             return -1
         b = self.buttons[i]
         if self.pressed >= 0:
-            if depth < b.release_depth:
+            if depth < b.release_depth_m:
                 self.pressed = -1
                 self.events += 1
                 self.armed = True
             return self.pressed
-        if depth < b.release_depth:
+        if depth < b.release_depth_m:
             self.armed = True
-        elif self.armed and depth >= b.click_depth:
+        elif self.armed and depth >= b.click_depth_m:
             self.pressed = i
             self.presses[i] += 1
             self.events += 1

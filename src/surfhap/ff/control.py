@@ -35,7 +35,6 @@ together with the safety stage in one call (:meth:`surfhap.ff.safety.ForceSafety
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from surfhap.ff import tick_kernel as kernel
@@ -112,8 +111,3 @@ class ControlLaw:
                 bit <<= 1
         self.mask = mask
         return float(kx), float(ky), float(kz), float(h), float(hv), float(fx), float(fy), float(fz)
-
-    def active_names(self, mask: int | None = None) -> list[str]:
-        """Names of the effects in ``mask`` (default: the last tick's); [] = idle."""
-        m = self.mask if mask is None else int(mask)
-        return [e.name for i, e in enumerate(self.effects) if m >> i & 1]

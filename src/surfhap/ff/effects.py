@@ -8,12 +8,9 @@ of the control law (eq. 8) as a tuple ``(kx, ky, kz, h, ffx, ffy, ffz)``:
 * ``h``            : m, its offset of the normal reference ``X0 + h e_z``;
 * ``ffx, ffy, ffz``: N, its feed-forward force (moving force, grating, attraction).
 
-``update(s) -> bool`` does the same and keeps the terms as attributes of those names.
-
-``tick(s)`` returns the effect's own law alone as a (3,) float array of newtons in the
-device frame (see :mod:`surfhap.ff.params`), i.e. eqs. 1-5: ``ff + K (X0 + h e_z - X_t)``
-(with X0 = 0). :class:`surfhap.ff.control.ControlLaw` merges several effects into one
-force (eq. 8). Parameters that vary over the picture come from :mod:`surfhap.ff.fields`
+An effect alone is its paper law (eqs. 1-5), ``ff + K (X0 + h e_z - X_t)`` (X0 = 0, N in the
+device frame of :mod:`surfhap.ff.params`); :class:`surfhap.ff.control.ControlLaw` merges
+several effects into one force (eq. 8). Parameters that vary over the picture come from :mod:`surfhap.ff.fields`
 (a NaN value switches the effect off at that point).
 """
 
@@ -21,8 +18,6 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-
-import numpy as np
 
 from surfhap.ff.fields import ConstantField, Field
 from surfhap.ff.params import K_MAX
@@ -60,7 +55,7 @@ def _field(v) -> Field:
 
 
 class Effect(ABC):
-    """Base class; subclasses set ``name`` and implement ``update``. ``vibration``: the
+    """Base class; subclasses set ``name`` and implement :meth:`terms`. ``vibration``: the
     effect's offset ``h`` is a vibration that bypasses the reference rate limit (Roughness)."""
 
     name = "effect"
@@ -68,38 +63,14 @@ class Effect(ABC):
 
     def __init__(self, k_max: float = K_MAX):
         self.k_max = float(k_max)
-        self.out = np.zeros(3)
         self.reset()
 
     def reset(self) -> None:
-        self._terms(self.k_max, self.k_max, self.k_max, 0.0)
-
-    def _terms(self, kx: float, ky: float, kz: float, h: float, ffx: float = 0.0, ffy: float = 0.0, ffz: float = 0.0):
-        self.kx, self.ky, self.kz, self.h = kx, ky, kz, h
-        self.ffx, self.ffy, self.ffz = ffx, ffy, ffz
+        """Back to the start (an effect with state overrides it)."""
 
     @abstractmethod
     def terms(self, s: TickState):
         """None (not here) or ``(kx, ky, kz, h, ffx, ffy, ffz)`` for this tick."""
-
-    def update(self, s: TickState) -> bool:
-        """Evaluate :meth:`terms` and keep them as attributes; False where inactive."""
-        r = self.terms(s)
-        if r is None:
-            return False
-        self._terms(*r)
-        return True
-
-    def tick(self, s: TickState) -> np.ndarray:
-        """This effect's own law (N, (3,) device frame); zeros where it does not apply."""
-        out = self.out
-        if not self.update(s):
-            out[0] = out[1] = out[2] = 0.0
-            return out
-        out[0] = self.ffx - self.kx * s.px
-        out[1] = self.ffy - self.ky * s.py
-        out[2] = self.ffz + self.kz * (self.h - s.pz)
-        return out
 
 
 class Idle(Effect):
@@ -180,7 +151,6 @@ class Roughness(Effect):
         super().__init__(k_max)
 
     def reset(self) -> None:
-        super().reset()
         self.phase = 0.0  # rad
 
     def terms(self, s: TickState):

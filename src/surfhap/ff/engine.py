@@ -1,44 +1,30 @@
 """The force-feedback engine: touch kinematics -> effects (control law) -> safety stage.
 
-One object, driven tick by tick by a clock that is not its business (the 1 kHz haptic
-thread of :mod:`surfhap.live.ff_loop`, or the offline loop of :mod:`surfhap.sim.ff_sim`):
+Driven tick by tick by a clock that is not its business (:class:`surfhap.live.ff_loop.FFLoop`
+on the runtime's wall or simulated clock): ``touch(t, x, y, load)`` per touch sample (screen
+coordinates in m as the tablet reports them, load N, 0 = lifted, ``t`` its arrival in s);
+``tick(t, px, py, pz, t_pos)`` once per haptic tick with the freshest device position (m,
+relative to X0) and its stamp; it returns the safe force (3,) N in the device frame.
 
-* ``touch(t, x, y, load)`` whenever a touch sample arrives (screen coordinates in m as the
-  tablet reports them, load N, 0 = lifted; ``t`` its time stamp in s on the engine clock);
-* ``tick(t, px, py, pz, t_pos)`` once per haptic tick with the freshest device position
-  (m, relative to X0) and its time; returns the safe force (3,) N in the device frame.
+Screen -> world: the content is drawn compensated (shifted by ``-X_t``) so that it stays still
+in the world; the finger's world position is ``f_screen + X_t,xy`` with ``X_t`` taken when the
+touch was *sampled* (``touch_latency`` s before it arrived; the engine keeps 0.5 s of
+positions). Mixing a late touch with the current screen position would feed the screen's own
+motion back with the touch latency (Sliding unstable for gain nu * latency / m > pi / 2).
+Prediction (``predictor``: :class:`surfhap.render.kinematics.TouchPredictor`, passed in) runs
+on the world stream and is extrapolated between samples for at most ``max_extrapolate``.
 
-Screen -> world: the touch position is on the moving screen; the content is drawn
-compensated (shifted by ``-X_t``, the live loop's feedback) so that it stays still in the
-world. The finger's world (= content) position is therefore ``f_screen + X_t,xy``, with
-``X_t`` taken *when the touch was sampled*: ``touch_latency`` s before the sample arrived
-(the engine keeps the last 0.5 s of device positions). Prediction then runs on the world
-stream, which is the person's smooth hand motion. Mixing a late touch position with the
-current screen position instead would feed the screen's own motion back with the touch
-latency, and makes the Sliding effect unstable (delayed velocity feedback with gain
-nu * latency / m > pi / 2 for the paper's numbers). Between touch samples the predicted
-position is extrapolated with the predicted velocity (for at most ``max_extrapolate``).
+Watchdogs, on the safety stage's own clock (:class:`surfhap.ff.safety.ForceSafety`; a caller's
+stamp orders samples and can only make them older): no touch for ``touch_timeout`` -> Idle; no
+device position for ``device_timeout`` -> zero force. A touch stamp older than the previous
+one, non-finite or in the future is stale (rejected, or the finger counts as lifted); positions
+beyond ``TOUCH_BOUND``, loads beyond ``MAX_LOAD`` and jumps faster than ``MAX_SPEED`` are
+rejected (``touch_rejected``); the finger's acceleration is bounded by ``MAX_ACCELERATION``
+(the finger bounds of :mod:`surfhap.models.finger`).
 
-Prediction: ``predictor`` is the live side's :class:`surfhap.render.kinematics.TouchPredictor`
-(or any object with ``reset()``, ``update(t, x, y)`` and ``x``, ``y``, ``vx``, ``vy``
-attributes); it is passed in because this layer does not import the live package.
-
-Watchdogs: no touch sample for ``touch_timeout`` (100 ms) -> untouched (Idle); no device
-position for ``device_timeout`` (10 ms) -> zero force (in the safety stage). Both run on the
-safety stage's own clock (:class:`surfhap.ff.safety.ForceSafety`): a caller's time stamp
-orders samples and can only make them older. A touch stamp older than the previous one,
-non-finite or in the future (beyond one period after the next tick) is stale: rejected, or
-(future) the finger counts as lifted. Touch positions beyond ``TOUCH_BOUND``, loads beyond
-``MAX_LOAD`` and samples implying a finger faster than ``MAX_SPEED`` are rejected too
-(counted in ``touch_rejected``); the finger's acceleration is bounded by ``MAX_ACCELERATION``
-(the finger bounds of :mod:`surfhap.models.finger`, the ones trajectory files are held to).
-
-Failure: an exception in an effect or the control law is kept in ``error`` and turns the
-tick into a stop: the safety stage still runs on every tick and ramps the force down (and
-lowers the tablet) within its limits.
-
-Buttons: with a scene's GUI buttons the engine also reports, each tick, the button being
-pressed (``button``: index, -1 = none; :mod:`surfhap.ff.buttons`).
+Failure: an exception in an effect or the control law is kept in ``error`` and turns the tick
+into a stop; the safety stage still runs on every tick and ramps the force down. With a
+scene's GUI buttons, ``button`` is the pressed one each tick (-1 = none; :mod:`surfhap.ff.buttons`).
 """
 
 from __future__ import annotations

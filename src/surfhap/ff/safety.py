@@ -17,18 +17,13 @@ whole loop in ``tests/test_ff_loop_property.py``) guarantees:
   distance to the wall less ``brake_margin``); beyond the box ``|X_t,i| <= workspace_i`` a
   component pushing further out is dropped and a damped wall spring pushes back in.
 
-Clock and stamps. The stage keeps its own clock: it advances by the caller's tick interval,
-but by at least one period per tick and at most ``MAX_STEP`` (a stopped, backwards, non-finite
-or runaway caller clock cannot stop it). A position's stamp ``t_pos`` (caller clock) has been
-through the arrival law upstream (:func:`surfhap.runtime.clock.arrival_stamp`, applied by the
-live loop; a future or non-finite stamp becomes ``STALE`` = -inf). Here it only orders
-samples and can only make a sample *older*: a new stamp is taken as arriving on this tick,
-aged by ``t - t_pos`` when that is positive (never younger than this tick, so no stamp can
-extend the watchdog). A non-finite stamp or one older than the last is *stale* (counted):
-that tick the output ramps towards zero.
-
-The per-axis arithmetic runs compiled (:mod:`surfhap.ff.tick_kernel`); this class holds its
-state arrays and is the Python face of it.
+Clock and stamps: the stage keeps its own clock, advanced by the caller's tick interval but by
+at least one period and at most ``MAX_STEP`` per tick (a stopped, backwards, non-finite or
+runaway caller clock cannot stop it). A position's stamp ``t_pos`` has been through the arrival
+law upstream (:func:`surfhap.runtime.clock.arrival_stamp`); here it only orders samples and can
+only age them (never younger than this tick). A non-finite stamp or one older than the last is
+stale (counted): the output ramps towards zero. The arithmetic runs compiled
+(:mod:`surfhap.ff.tick_kernel`); this class holds its state arrays.
 
 The newtons are converted into device units (``gain``) by the backend, after this stage.
 """
@@ -36,7 +31,7 @@ The newtons are converted into device units (``gain``) by the backend, after thi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections import namedtuple
 
 import numpy as np
 
@@ -47,20 +42,8 @@ from surfhap.ff.tick_kernel import MAX_STEP
 __all__ = ["ForceSafety", "ForceSafetyCounters", "MAX_STEP"]
 
 
-@dataclass(frozen=True)
-class ForceSafetyCounters:
-    """Tick counts since the last reset."""
-
-    ticks: int
-    clamped: int
-    slew_limited: int
-    faults: int
-    device_lost: int
-    workspace: int
-    stopped: int
-    stale: int = 0
-    rejected: int = 0
-    braked: int = 0
+# tick counts since the last reset, one per kernel counter (kernel.COUNTERS names them once)
+ForceSafetyCounters = namedtuple("ForceSafetyCounters", kernel.COUNTERS)
 
 
 class ForceSafety:

@@ -157,28 +157,6 @@ EffectSpec = Annotated[Union[StiffnessSpec, ShapeSpec, RoughnessSpec, SlidingSpe
                        PField(discriminator="type")]
 
 
-class ButtonSpec(BaseModel):
-    """A GUI button (press events, :mod:`surfhap.ff.buttons`): rectangle in m, click and
-    release depths of the screen's normal displacement in m."""
-
-    model_config = _STRICT
-    name: str = PField(min_length=1, max_length=64)
-    x0: float
-    y0: float
-    x1: float
-    y1: float
-    click_depth_m: float = PField(gt=0.0, le=0.05)
-    release_depth_m: float = PField(ge=0.0, le=0.05)
-
-    @model_validator(mode="after")
-    def _check(self):
-        if not (self.x1 > self.x0 and self.y1 > self.y0):
-            raise ValueError("a button needs x1 > x0 and y1 > y0")
-        if not self.release_depth_m < self.click_depth_m:
-            raise ValueError("release_depth_m must be below click_depth_m (hysteresis)")
-        return self
-
-
 class SceneSpec(BaseModel):
     """The JSON schema of a scene file (see the module docstring)."""
 
@@ -190,7 +168,7 @@ class SceneSpec(BaseModel):
     size_m: tuple[float, float]
     picture: MapSpec | None = None
     effects: list[EffectSpec] = PField(min_length=1, max_length=30)
-    buttons: list[ButtonSpec] = PField(default_factory=list, max_length=64)
+    buttons: list[Button] = PField(default_factory=list, max_length=64)
     provenance: dict[str, str] = PField(default_factory=dict)
 
     @model_validator(mode="after")
@@ -220,7 +198,7 @@ class FFScene:
     @property
     def buttons(self) -> list[Button]:
         """The scene's GUI buttons (press events), [] for none."""
-        return [Button(b.name, b.x0, b.y0, b.x1, b.y1, b.click_depth_m, b.release_depth_m) for b in self.spec.buttons]
+        return list(self.spec.buttons)
 
     def picture_array(self, n: int = 200) -> np.ndarray:
         """(ny, nx) picture sampled for display (zeros if the scene has none)."""

@@ -1,13 +1,10 @@
-"""The compiled per-tick arithmetic of the force loop: the safety stage's per-axis work and the
-control law's merged eq. 8, in numba kernels over small arrays (as :mod:`surfhap.render.drive_kernel`
-does for the texture laws).
-
-The effects' terms (Python objects reading maps) are merged by :class:`surfhap.ff.control.ControlLaw`;
-everything after them runs here, in one call per tick: :func:`force` is the control law's tail
-(bumpless reference, damping, eq. 8) followed by :func:`limit`, the safety stage's output
-(workspace brake and wall, stop landing, clamp, slew) -- the safety limits still applied last.
-:func:`observe` takes the device position (clock, stamp, plausibility, velocity filter).
-The semantics are documented in :mod:`surfhap.ff.safety` and :mod:`surfhap.ff.control`.
+"""The compiled per-tick arithmetic of the force loop (numba kernels over small arrays, as
+:mod:`surfhap.render.drive_kernel` does for the texture laws), semantics in
+:mod:`surfhap.ff.safety` and :mod:`surfhap.ff.control`: :func:`observe` takes the device
+position (clock, stamp, plausibility, velocity filter); :func:`force` is the control law's tail
+after the effects' merged terms (bumpless reference, damping, eq. 8) followed by
+:func:`limit`, the safety stage's output (workspace brake and wall, stop landing, clamp, slew)
+-- the safety limits applied last, in one call per tick.
 
 Layouts (float64 arrays, indices below):
 

@@ -27,13 +27,17 @@ positions arrive; ``tolerance`` (s) is added to the 20 ms for the delivery on a 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Annotated
 
+from pydantic import Field
+
+from surfhap.checked import checked_dataclass
 from surfhap.runtime.clock import now, sleep_until
 from surfhap.live.ff_bridge_wire import (BRIDGE_WATCHDOG_S, MIN_POSITION_RATE_HZ, PositionReceiver, encode_force,
                                          new_token)
 
-__all__ = ["CheckRow", "BridgeCheck", "check_bridge"]
+__all__ = ["CheckRow", "BridgeSettings", "BridgeCheck", "check_bridge"]
 
 UNITS_BOUND_M = 0.1  # a position further than this from X0 is not metres of a desk device
 
@@ -53,31 +57,37 @@ class _Received:
     a: tuple
 
 
-@dataclass
-class BridgeCheck:
-    """One check run against the bridge at ``host:port``; :meth:`run` returns the rows.
+@checked_dataclass
+class BridgeSettings:
+    """What :class:`BridgeCheck` sends and how it judges.
 
-    gain      : device units per N (4.5, a Falcon through CHAI3D).
-    limit     : device units, the largest applied force per axis the bridge may report.
-    force     : N, the force used for the axes and watchdog rows.
-    tolerance : s, added to the 20 ms watchdog for delivery delays.
-    full_scale: also run the clamp row (30 ms at the bridge's full limit: the device free).
+    gain        : device units per N (4.5, a Falcon through CHAI3D).
+    limit       : device units, the largest applied force per axis the bridge may report.
+    force       : N, the force used for the axes and watchdog rows.
+    tolerance_ms: ms, added to the 20 ms watchdog for delivery delays.
+    trials      : watchdog trials; the worst counts.
+    full_scale  : also run the clamp row (30 ms at the bridge's full limit: the device free).
     """
 
-    host: str
-    port: int
-    listen: tuple = ("127.0.0.1", 9101)
-    gain: float = 4.5
-    limit: float = 36.0
-    force: float = 1.0
-    tolerance: float = 0.005
-    trials: int = 3
+    gain: Annotated[float, Field(gt=0.1, le=1000.0)] = 4.5
+    limit: Annotated[float, Field(gt=0.0, le=1e5)] = 36.0
+    force: Annotated[float, Field(ge=0.1, le=4.0)] = 1.0
+    tolerance_ms: Annotated[float, Field(ge=0.0, le=1000.0)] = 5.0
+    trials: Annotated[int, Field(ge=1, le=20)] = 3
     full_scale: bool = False
-    token: int = field(default_factory=new_token)
 
-    def __post_init__(self):
+
+class BridgeCheck:
+    """One check run against the bridge at ``host:port`` (positions expected on ``listen``,
+    with the session ``token``); :meth:`run` returns the rows."""
+
+    def __init__(self, host: str, port: int, settings: BridgeSettings = BridgeSettings(),
+                 listen: tuple = ("127.0.0.1", 9101), token: int | None = None):
+        self.host, self.port, self.listen, self.settings = host, port, listen, settings
+        self.token = new_token() if token is None else int(token)
+        self.tolerance = settings.tolerance_ms * 1e-3
         self._seq = 0
-        self.receiver = PositionReceiver(self.host, self.port, self.listen, self.token)
+        self.receiver = PositionReceiver(host, port, listen, self.token)
         self.log: list[_Received] = []
 
     # --------------------------------------------------------------- wire
@@ -163,7 +173,7 @@ class BridgeCheck:
                              "relative to X0)"))
         rows.append(self._axes_row())
         rows.append(self._nonfinite_row())
-        if self.full_scale:
+        if self.settings.full_scale:
             rows.append(self._clamp_row())
         rows.append(self._watchdog_row())
         return rows
@@ -173,7 +183,7 @@ class BridgeCheck:
 
     def _sequence_row(self) -> CheckRow:
         back = sum(1 for a, b in zip(self.log, self.log[1:]) if b.seq <= a.seq)
-        f = self.force * self.gain
+        f = self.settings.force * self.settings.gain
         seen = []
         for _ in range(5):  # until positions come back within the 12 ms (a busy host may delay them)
             start, t_last = self._stream((f, 0.0, 0.0), 0.05, min_positions=5)
@@ -190,7 +200,7 @@ class BridgeCheck:
         return CheckRow("sequence", ok, detail)
 
     def _axes_row(self) -> CheckRow:
-        f = self.force * self.gain
+        f = self.settings.force * self.settings.gain
         bad = []
         for i, axis in enumerate("xyz"):
             cmd = [0.0, 0.0, 0.0]
@@ -225,14 +235,14 @@ class BridgeCheck:
         seen = [r.a for r in self.log[start:]]
         peak = max((max(abs(v) for v in a) for a in seen), default=math.nan)
         self._stream((0.0, 0.0, 0.0), 0.03)
-        ok = bool(seen) and peak <= self.limit * (1 + 1e-6)
-        return CheckRow("clamp", ok, f"+-1e6 applied as at most {peak:.2f} (limit {self.limit:g})")
+        ok = bool(seen) and peak <= self.settings.limit * (1 + 1e-6)
+        return CheckRow("clamp", ok, f"+-1e6 applied as at most {peak:.2f} (limit {self.settings.limit:g})")
 
     def _watchdog_row(self) -> CheckRow:
-        f = self.force * self.gain
+        f = self.settings.force * self.settings.gain
         bound = BRIDGE_WATCHDOG_S + self.tolerance
         worst, fails = 0.0, []
-        for _ in range(max(1, self.trials)):
+        for _ in range(max(1, self.settings.trials)):
             start, t_last = self._stream((0.0, 0.0, f), 0.1, min_positions=10)
             self._listen(bound + 0.15)
             after = [r for r in self.log[start:] if r.t > t_last]
@@ -252,6 +262,7 @@ class BridgeCheck:
         return CheckRow("watchdog", ok, detail)
 
 
-def check_bridge(host: str, port: int, **kw) -> list[CheckRow]:
+def check_bridge(host: str, port: int, settings: BridgeSettings = BridgeSettings(),
+                 listen: tuple = ("127.0.0.1", 9101)) -> list[CheckRow]:
     """Run :class:`BridgeCheck` against ``host:port``; the rows, one per contract item."""
-    return BridgeCheck(host, port, **kw).run()
+    return BridgeCheck(host, port, settings, listen).run()

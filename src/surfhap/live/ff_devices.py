@@ -12,19 +12,15 @@ Protocol :class:`FFDevice` (called from the haptic thread only, once per tick, n
 
 ``sim``: :class:`SimDeviceBackend`, a :class:`surfhap.sim.ff_device.SimDevice` stepped on
 every write by as many of its own ticks as wall-clock periods have passed (so that missed
-haptic ticks do not slow the simulated physics down; the finger's load, as reported by the
-touch source, presses on it).
+haptic ticks do not slow the simulated physics down); the finger's load, as reported by the
+touch source, presses on it, or (``ff simulate``) a simulated finger's force.
 
 ``osc``: :class:`OscDeviceBackend` talks to a device bridge (e.g. a CHAI3D program) over UDP
-under the bridge contract (:mod:`surfhap.live.ff_bridge_wire`, docs/forcefeedback.md):
-``/surfhap/ff/force token seq fx fy fz`` every tick (device units = gain x N), and
-``/surfhap/ff/position token seq x y z ax ay az`` back (m, relative to X0). A position is
-used only when it comes from the bridge's own address (the host and port of ``--device``),
-carries this session's token (:class:`surfhap.live.ff_bridge_wire.PositionReceiver`, shared
-with ``ff bridge-check``) and a sequence number above the last one accepted; anything
-else is dropped and counted (``dropped_sender``, ``dropped_token``, ``dropped_sequence``,
-``rejected`` for a malformed message), so no other local process can move the device's
-idea of where the screen is.
+under the bridge contract (:mod:`surfhap.live.ff_bridge_wire`, docs/forcefeedback.md). A
+position is used only from the bridge's own address with this session's token
+(:class:`~surfhap.live.ff_bridge_wire.PositionReceiver`, shared with ``ff bridge-check``) and a
+sequence number above the last one accepted; anything else is dropped and counted
+(``dropped_sender``, ``dropped_token``, ``dropped_sequence``, ``rejected``).
 """
 
 from __future__ import annotations
@@ -75,13 +71,15 @@ def parse_osc_url(text: str, option: str, *, listen: bool = False) -> tuple[str,
 
 
 class SimDeviceBackend:
-    """The simulated device; ``finger_load`` (N) is pressed onto the screen while touched."""
+    """The simulated device; ``finger_load`` (N) is pressed onto the screen while touched, or
+    with ``finger`` (:class:`surfhap.sim.ff_device.SimFinger`) its ``force_on_screen``."""
 
     name = "sim"
 
-    def __init__(self, device, gain: float):
+    def __init__(self, device, gain: float, finger=None):
         self.device = device
         self.gain = float(gain)
+        self.finger = finger
         self.finger_load = 0.0
         self._cmd = np.zeros(3)
         self._ext = np.zeros(3)
@@ -107,10 +105,11 @@ class SimDeviceBackend:
         self._cmd[0], self._cmd[1], self._cmd[2] = force[0] * g, force[1] * g, force[2] * g
         self._ext[2] = -self.finger_load
         dev = self.device
+        ext = self._ext if self.finger is None else self.finger.force_on_screen(t, dev.v)
         n = 1 if self._t is None else int(round((t - self._t) * dev.rate))
         n = 1 if n < 1 else (50 if n > 50 else n)
         for _ in range(n):
-            dev.step(self._cmd, self._ext)
+            dev.step(self._cmd, ext)
         self._t = t if self._t is None else self._t + n * dev.dt
         if abs(t - self._t) > 0.05:  # a long stall: re-anchor instead of catching up
             self._t = t

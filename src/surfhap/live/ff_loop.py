@@ -1,33 +1,34 @@
-"""The live force-feedback loop: a 1 kHz haptic thread and a 60 Hz position-feedback thread.
+"""The force-feedback loop on the one runtime: a 1 kHz haptic tick and a 60 Hz position feedback.
 
-Real-time contract of the haptic thread (004 Sec. 4.2: "a haptic thread running at about
-1000 Hz" and "an additional 60 Hz thread ... to send the Falcon position to the tablet"):
+Real-time contract (004 Sec. 4.2: "a haptic thread running at about 1000 Hz" and "an
+additional 60 Hz thread ... to send the Falcon position to the tablet"):
 
-* every tick (period ``1/rate``): drain the touch ring (bounded), read the device position,
-  run :class:`surfhap.ff.engine.FFEngine` (kinematics, effects, control law, safety stage)
-  and write the force to the device backend. Nothing in a tick sleeps, logs, allocates
-  arrays or takes a lock that a producer holds for long;
-* ticks are scheduled on absolute deadlines by :class:`surfhap.live.pacing.Pacer` (sleep to
-  just before the deadline, spin the rest; no drift); a tick that starts more than one period
-  late counts the periods it skipped as *missed* and re-anchors the schedule. The thread asks
-  for ``SCHED_FIFO`` (:func:`surfhap.live.pacing.enter_realtime`; the mode granted is in
-  :meth:`FFLoop.stats` as ``scheduling``, a refusal is logged once);
-* the period error (start time minus deadline) of every tick is kept in a preallocated
-  ring for the statistics (:meth:`FFLoop.stats`);
+* :class:`FFLoop` is the engine *and* the sink of :func:`surfhap.runtime.loop.run`: a tick is a
+  block of one frame at the engine's rate. ``render(1, t)`` drains the touch ring (bounded),
+  reads the device position, runs :class:`surfhap.ff.engine.FFEngine` (kinematics, effects,
+  control law, safety stage last) and returns the safe force; ``emit`` writes it to the device
+  backend. Nothing in a tick sleeps, logs, allocates arrays or takes a lock that a producer
+  holds for long;
+* ``ff run`` (:meth:`FFLoop.start`): a thread runs ``run`` on a
+  :class:`~surfhap.runtime.clock.WallClock`, the one pacer (absolute deadlines, a sleep then a
+  spin of :data:`~surfhap.runtime.clock.SPIN`); a tick more than one period late counts the
+  periods it skipped as missed (``underruns``) and re-anchors the schedule. The clock keeps each
+  tick's period error (start minus deadline) for :meth:`FFLoop.stats`. The thread asks for
+  ``SCHED_FIFO`` (:func:`~surfhap.runtime.clock.enter_realtime`; the mode granted is the
+  ``scheduling`` statistic, a refusal is logged once);
+* ``ff simulate`` (:func:`simulate_ff`): the same loop on a
+  :class:`~surfhap.runtime.clock.SimClock` with the simulated device and finger;
 * stop (Ctrl-C, SIGTERM, ``request_stop``): the safety stage ramps the lateral force to zero at
   its slew rate and puts the tablet down (weight compensation lowered over its ``land_time``),
-  the loop runs until the output is zero (at most ``stop_timeout``), then writes one zero
-  force and ends;
+  the loop runs until the output is zero (at most ``stop_timeout``, counted in ticks), then
+  writes one zero force and ends;
 * failure: an exception anywhere in a tick (touch drain, device read / write, an effect) is
-  kept in ``error`` and turns into a stop: the tick still runs the safety stage, so the output
-  ramps down within its limits (the command exits 3).
+  kept in ``error`` and turns into a stop through the safety stage (the command exits 3).
 
 The feedback thread sends, at ``feedback_rate``, the device position and the content offset
-(``-X_t``, so the tablet draws the content still in the world) to ``feedback(...)``,
-a callable (an OSC sender, see :class:`OscFeedback`).
-
-Touch samples reach the loop through :meth:`FFLoop.push_touch`, the same call the existing
-touch sources use (:class:`surfhap.live.sources.OscTouchSource`, ``ReplaySource``).
+(``-X_t``, so the tablet draws the content still in the world) to ``feedback(...)`` (an OSC
+sender, :class:`OscFeedback`). Touch samples arrive through :meth:`FFLoop.push_touch`, the
+call every touch source uses.
 """
 
 from __future__ import annotations
@@ -42,55 +43,52 @@ import numpy as np
 
 from surfhap.ff.engine import FFEngine
 from surfhap.ff.tick_kernel import warm_up
-from surfhap.runtime.clock import STALE, arrival_stamp, now, sleep_until
-from surfhap.live.ff_devices import FFDevice
-from surfhap.live.pacing import SPIN, Pacer, enter_realtime
+from surfhap.live.ff_devices import FFDevice, SimDeviceBackend
 from surfhap.live.queues import TouchRing
+from surfhap.runtime.clock import SPIN, STALE, Clock, SimClock, WallClock, arrival_stamp, enter_realtime, now
+from surfhap.runtime.loop import run
+from surfhap.sim.ff_sim import FFSimResult
 
-__all__ = ["FFLoop", "OscFeedback", "FFLoopStats", "WorldTouchAdapter"]
+__all__ = ["FFLoop", "OscFeedback", "WorldTouchAdapter", "simulate_ff"]
 
 log = logging.getLogger("surfhap.live")
 
 
-class FFLoopStats(dict):
-    """Loop statistics (a dict, JSON-ready): ticks, missed, period error percentiles (ms), ..."""
-
-
 class FFLoop:
-    """Run ``engine`` against ``backend`` at ``rate`` Hz in a thread.
+    """Run ``engine`` against ``backend`` at the engine's rate (``start()``: in a thread).
 
     engine        : :class:`surfhap.ff.engine.FFEngine`.
     backend       : device backend (:class:`surfhap.live.ff_devices.FFDevice`).
     feedback      : callable ``(t, px, py, pz, dx, dy, fx, fy, fz)`` at ``feedback_rate`` Hz, or None.
     stop_timeout  : s, longest ramp-down on stop (default: the safety stage's landing and ramp).
-    history       : ticks of period error kept for the statistics.
-    clock         : the time base of touch arrival stamps (default :func:`now`; tests driving
-                    :meth:`tick_once` pass their simulated clock).
-    realtime      : ask for real-time scheduling of the haptic thread (see :mod:`surfhap.live.pacing`).
+    history       : ticks of period error kept for the statistics (the wall clock's ring).
+    clock         : the runtime clock (default a :class:`WallClock`); also the time base of the
+                    arrival stamps (tests driving :meth:`tick_once` pass a :class:`SimClock`).
+    realtime      : ask for real-time scheduling of the haptic thread.
     """
 
+    block_frames = 1  # a tick is a block of one frame
+
     def __init__(self, engine: FFEngine, backend: FFDevice, *, feedback=None, feedback_rate: float = 60.0,
-                 stop_timeout: float | None = None, history: int = 1 << 17, spin: float = SPIN, clock=now,
+                 stop_timeout: float | None = None, history: int = 1 << 17, clock: Clock | None = None,
                  realtime: bool = True):
         self.engine = engine
-        self.clock = clock
+        self.clock = WallClock(SPIN, history) if clock is None else clock
         self.backend = backend
-        self.rate = engine.rate
+        self.rate = self.drive_rate = engine.rate
         self.period = 1.0 / self.rate
         self.feedback = feedback
         self.feedback_rate = float(feedback_rate)
         # long enough for the safety stage to put the tablet down and ramp to zero
         self.stop_timeout = engine.safety.stop_duration + 0.1 if stop_timeout is None else float(stop_timeout)
-        self.spin = float(spin)
         self.realtime = bool(realtime)
         self.scheduling = "not started"
         self._switch: float | None = None
         self.touches = TouchRing(1024)
         self.touches_stale = 0
         self._buf = np.zeros((64, 6))
-        self._err = np.zeros(int(history))
         self.ticks = 0
-        self.missed = 0
+        self.counters = {"underruns": 0}  # missed ticks, counted by run()
         self._stop = threading.Event()
         self.done = threading.Event()
         self._thread = None
@@ -100,17 +98,18 @@ class FFLoop:
         self.feedback_snapshot = self._last  # the tick the feedback thread is reporting (read it from feedback)
         self.error = None
         self._stop_left = None  # ticks left for the stop ramp (None = not stopping)
+        self._go = True
+        self._t = 0.0
 
     # ------------------------------------------------------------- producers
     def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan,
                    t_arrival: float | None = None) -> bool:
         """Hand one validated touch sample to the loop (any thread). x, y m; load N (0 = lifted).
 
-        The loop stamps the arrival itself on its clock; a caller's ``t_arrival`` can only make
-        the sample older (:func:`surfhap.runtime.clock.arrival_stamp`, the law the texture engine
-        uses too). A future or non-finite ``t_arrival`` is stale: counted in ``touches_stale``
-        and dropped."""
-        ta = arrival_stamp(t_arrival, self.clock())
+        The loop stamps the arrival on its clock; a caller's ``t_arrival`` can only make the
+        sample older (:func:`surfhap.runtime.clock.arrival_stamp`, the texture engine's law too).
+        A future or non-finite ``t_arrival`` is stale: counted in ``touches_stale`` and dropped."""
+        ta = arrival_stamp(t_arrival, self.clock.now())
         if ta == STALE:
             self.touches_stale += 1
             return False
@@ -122,13 +121,13 @@ class FFLoop:
         # switch interval (process-wide; restored on stop) bounds how long it waits
         self._switch = sys.getswitchinterval()
         sys.setswitchinterval(min(self._switch, 0.0002))
-        # the objects alive now (modules, numpy, numba: ~10^5) are never scanned again by the
-        # cyclic collector: a full collection over them stalls whichever thread runs it for
-        # 50-100 ms, the haptic thread included (unfrozen on stop)
+        # the objects alive now (~10^5) are never scanned again by the cyclic collector: a full
+        # collection over them stalls the haptic thread for 50-100 ms (unfrozen on stop)
         gc.freeze()
         warm_up()  # the compiled tick, before the first deadline
         self.engine.reset()
         self._stop_left = None
+        self._go = True
         self.backend.start()
         self._thread = threading.Thread(target=self._run, name="surfhap-ff-haptic", daemon=True)
         self._thread.start()
@@ -154,7 +153,7 @@ class FFLoop:
             gc.unfreeze()
             self._switch = None
 
-    # ------------------------------------------------------------- threads
+    # ------------------------------------------------------------- the tick
     def _drain(self) -> None:
         buf = self._buf
         n = self.touches.pop_into(buf)
@@ -173,13 +172,15 @@ class FFLoop:
             log.debug("ff haptic loop failed", exc_info=exc)
         self._stop.set()
 
-    def tick_once(self, t: float) -> bool:
-        """One haptic tick at time ``t`` (s, the loop's ``clock``): drain the touches, read the
-        device (its stamp through :func:`arrival_stamp`), tick the engine (its safety stage runs on every tick, also after an exception)
-        and write the force. False once a stop has ramped to zero (or used its
-        ``stop_timeout`` worth of ticks: counted in ticks, so a stalled loop still ramps). The
-        thread calls it on its deadlines; tests call it directly with a simulated clock."""
+    def render(self, frames: int = 1, now: float | None = None) -> np.ndarray:
+        """One haptic tick at ``now`` (s, the loop's clock): drain the touches, read the device
+        (its stamp through :func:`arrival_stamp`), tick the engine (its safety stage runs on every
+        tick, also after an exception); returns the safe force (3,) N for :meth:`emit`. Once a
+        stop has ramped to zero (or used its ``stop_timeout`` worth of ticks: counted in ticks,
+        so a stalled loop still ramps) ``running`` turns False."""
+        t = self._t = float(now)
         eng, be = self.engine, self.backend
+        self.ticks += 1
         px = py = pz = t_pos = math.nan
         try:
             self._drain()
@@ -189,9 +190,8 @@ class FFLoop:
             px, py, pz, t_pos = be.read(t)
         except Exception as exc:  # noqa: BLE001 - no position: the safety stage ramps to zero
             self._fail(exc)
-        # the one arrival law (runtime/clock.py), as for touches: the device's stamp may only make
-        # the position older than its hand-over; a future or non-finite one is STALE
-        t_pos = arrival_stamp(t_pos, self.clock())
+        # the one arrival law, as for touches: a future or non-finite stamp is STALE
+        t_pos = arrival_stamp(t_pos, self.clock.now())
         if self._stop.is_set() and self._stop_left is None:
             eng.stop()
             self._stop_left = math.ceil(self.stop_timeout * self.rate)
@@ -210,29 +210,34 @@ class FFLoop:
             f = saf.limit(0.0, 0.0, 0.0, True)  # this tick's clock advanced once: a ramp, never a jump
         if eng.error is not None:
             self._fail(eng.error)
-        try:
-            be.write(f, t)
-        except Exception as exc:  # noqa: BLE001
-            self._fail(exc)
         self._last = (px, py, pz, float(f[0]), float(f[1]), float(f[2]), int(eng.mask), eng.button)
         if self._stop_left is not None:
             self._stop_left -= 1
             if (f[0] == 0.0 and f[1] == 0.0 and f[2] == 0.0) or self._stop_left <= 0:
-                return False
-        return True
+                self._go = False
+        return f
 
+    def emit(self, force: np.ndarray) -> None:
+        """Write the tick's force to the device (a failure turns into a stop)."""
+        try:
+            self.backend.write(force, self._t)
+        except Exception as exc:  # noqa: BLE001
+            self._fail(exc)
+
+    def running(self) -> bool:
+        return self._go
+
+    def tick_once(self, t: float) -> bool:
+        """:meth:`render` and :meth:`emit` at ``t`` (tests drive the loop tick by tick); False
+        once the loop has ended."""
+        self.emit(self.render(1, t))
+        return self._go
+
+    # ------------------------------------------------------------- threads
     def _run(self) -> None:
         self.scheduling = enter_realtime() if self.realtime else "normal"
-        err, n_err = self._err, self._err.shape[0]
-        pacer = Pacer(self.period, spin=self.spin)
         try:
-            go = True
-            while go:
-                t, late, skipped = pacer.wait()
-                err[self.ticks % n_err] = late
-                self.ticks += 1
-                self.missed += skipped
-                go = self.tick_once(t)
+            run(None, self, self.clock, self, keep_running=self.running, buffer=0.0)
         except Exception as exc:  # noqa: BLE001 - the safety stage itself failed: last resort below
             self._fail(exc)
         finally:
@@ -243,11 +248,11 @@ class FFLoop:
             self.done.set()
 
     def _run_feedback(self) -> None:
-        period = 1.0 / self.feedback_rate
+        wall = WallClock(spin=0.0)
         deadline = now()
         while not self.done.is_set():
-            deadline += period
-            self._send_feedback(sleep_until(deadline, 0.0))
+            deadline += 1.0 / self.feedback_rate
+            self._send_feedback(wall.wait_until(deadline))
         self._send_feedback(now())  # the final state (the force at zero after the stop) reaches the tablet too
 
     def _send_feedback(self, t: float) -> None:
@@ -259,23 +264,76 @@ class FFLoop:
             log.debug("ff feedback failed", exc_info=True)
 
     # ------------------------------------------------------------- results
-    def stats(self) -> FFLoopStats:
-        """Period-error distribution (ms), missed ticks, engine and safety counters."""
-        n = min(self.ticks, self._err.shape[0])
-        e = self._err[:n] * 1e3
-        pct = (lambda q: float(np.percentile(e, q)) if n else 0.0)
+    def stats(self) -> dict:
+        """Period-error distribution (ms), missed ticks, engine and safety counters (JSON-ready)."""
+        e = (self.clock.lateness() if isinstance(self.clock, WallClock) else np.zeros(0)) * 1e3
+        pct = (lambda q: float(np.percentile(e, q)) if e.size else 0.0)
         c = self.engine.safety.counters
-        return FFLoopStats(
-            ticks=self.ticks, missed=self.missed, rate_hz=self.rate,
-            period_error_ms={"p50": pct(50), "p99": pct(99), "p999": pct(99.9), "max": float(e.max()) if n else 0.0},
+        return dict(
+            ticks=self.ticks, missed=self.counters["underruns"], rate_hz=self.rate,
+            period_error_ms={"p50": pct(50), "p99": pct(99), "p999": pct(99.9), "max": pct(100)},
             touches_received=self.touches._write, touches_dropped=self.touches.dropped,
             touches_stale=self.touches_stale + self.engine.touch_stale, touches_rejected=self.engine.touch_rejected,
-            safety={"clamped": c.clamped, "slew_limited": c.slew_limited, "faults": c.faults,
-                    "device_lost": c.device_lost, "workspace": c.workspace, "stopped": c.stopped,
-                    "stale": c.stale, "rejected": c.rejected, "braked": c.braked},
+            safety={k: v for k, v in c._asdict().items() if k != "ticks"},
             device=self.backend.info(), scheduling=self.scheduling,
             error=None if self.error is None else repr(self.error),
         )
+
+
+def simulate_ff(engine, finger, device, settle: float = 0.3, tail: float = 0.2,
+                name: str = "ff simulation") -> FFSimResult:
+    """``ff simulate``: the loop on a simulated clock with the simulated ``device``
+    (:class:`~surfhap.sim.ff_device.SimDevice`, stepped by the backend on every write, pushed by
+    the ``finger``) and the ``finger``'s touch reports (:class:`~surfhap.sim.ff_device.SimFinger`,
+    delivered when the simulated tablet sends them), from ``settle`` s before the finger's
+    trajectory to ``tail`` s after it (or until a failure's stop has ramped down); the per-tick
+    record. The device's gain is the engine's ``device.gain`` (the backend multiplies the safe
+    force by it, the device divides its command by it)."""
+    if abs(device.rate - engine.rate) > 1e-9:
+        raise ValueError("device and engine rates differ")
+    t0 = finger.t0 - settle
+    n = int(round((finger.t1 + tail - t0) * engine.rate)) + 1
+    loop = FFLoop(engine, SimDeviceBackend(device, engine.device.gain, finger=finger), clock=SimClock(t0),
+                  realtime=False)
+    engine.reset()
+    loop.backend.start()
+    rec = _Record(loop, finger, device, n)
+    run(rec, loop, loop.clock, rec, total_frames=n, keep_running=loop.running, lead=0.0)
+    k = rec.k
+    r = {key: v[:k] for key, v in rec.cols.items()}
+    return FFSimResult(r["t"], r["force"], r["screen"], r["screen_v"], r["finger"], r["finger_v"], r["sliding"],
+                       r["finger_est"], r["touched"], r["mask"], r["load"], [e.name for e in engine.law.effects],
+                       name, r["button"], engine.button_presses.names)
+
+
+class _Record:
+    """The simulation's touch source (the finger's reports, due at their delivery time) and its
+    sink (records each tick, then hands the force to the loop, which steps the device)."""
+
+    def __init__(self, loop: FFLoop, finger, device, n: int):
+        self.loop, self.finger, self.device, self.k = loop, finger, device, 0
+        self.cols = {"t": np.zeros(n), "load": np.zeros(n), "touched": np.zeros(n, dtype=bool),
+                     "mask": np.zeros(n, dtype=np.int64), "button": np.full(n, -1, dtype=np.int64),
+                     **{c: np.zeros((n, 3)) for c in ("force", "screen", "screen_v")},
+                     **{c: np.zeros((n, 2)) for c in ("finger", "finger_v", "sliding", "finger_est")}}
+
+    def deliver(self, until: float) -> None:
+        self.finger.record_screen(until, self.device.p)
+        for tr, x, y, ld, ts in self.finger.touches(until):
+            self.loop.push_touch(0, x, y, ld, t_event=ts, t_arrival=tr)
+
+    def emit(self, force: np.ndarray) -> None:
+        c, k, t, dev, eng = self.cols, self.k, self.loop._t, self.device, self.loop.engine
+        fx, fy = self.finger.position(t)
+        fvx, fvy = self.finger.velocity(t)
+        st = eng.state
+        c["t"][k], c["force"][k], c["screen"][k], c["screen_v"][k] = t, force, dev.p, dev.v
+        c["finger"][k], c["finger_v"][k] = (fx, fy), (fvx, fvy)
+        c["sliding"][k], c["finger_est"][k] = (fvx - dev.v[0], fvy - dev.v[1]), (st.fx, st.fy)
+        c["touched"][k], c["mask"][k], c["button"][k], c["load"][k] = st.touched, eng.mask, eng.button, \
+            self.finger.load(t)
+        self.k += 1
+        self.loop.emit(force)
 
 
 class OscFeedback:

@@ -2,7 +2,10 @@
 law for a stamp handed in by a caller (:func:`arrival_stamp`), and the three :class:`Clock`
 implementations :func:`surfhap.runtime.loop.run` is driven by.
 
-* :class:`WallClock` - monotonic time (:func:`now`); blocks are paced to it.
+* :class:`WallClock` - monotonic time (:func:`now`); blocks (and force-feedback ticks, blocks of
+  one frame) are paced to it: the one pacer, a sleep to ``spin`` s before each deadline and a
+  busy wait for the rest (``time.sleep`` alone overshoots by the OS timer slack, ~0.1 ms, and
+  by far more on a loaded machine); it keeps each wait's lateness for the statistics.
 * :class:`SimClock` - simulated: as fast as possible; ``wait_until`` jumps to the deadline,
   so touch samples replayed at their stamps arrive exactly at their stamps.
 * :class:`AudioClock` - stamps from the sound card: a block is stamped with the moment its
@@ -11,11 +14,23 @@ implementations :func:`surfhap.runtime.loop.run` is driven by.
 
 from __future__ import annotations
 
+import logging
 import math
+import os
+import threading
 import time
 from typing import Protocol, runtime_checkable
 
-__all__ = ["now", "sleep_until", "arrival_stamp", "STALE", "Clock", "WallClock", "SimClock", "AudioClock"]
+import numpy as np
+
+__all__ = ["now", "sleep_until", "arrival_stamp", "STALE", "Clock", "WallClock", "SimClock", "AudioClock",
+           "enter_realtime", "SPIN", "FIFO_PRIORITY"]
+
+log = logging.getLogger("surfhap.live")
+
+SPIN = 0.0003  # s, busy wait before a 1 kHz deadline: above a woken thread's usual latency (~0.05-0.2 ms)
+FIFO_PRIORITY = 20  # SCHED_FIFO priority (1-99): above every ordinary process, below kernel threads (50)
+_fallback_logged = threading.Event()
 
 now = time.perf_counter
 
@@ -64,15 +79,30 @@ class Clock(Protocol):
 
 
 class WallClock:
-    """Monotonic wall time (:func:`now`); ``wait_until`` sleeps."""
+    """Monotonic wall time (:func:`now`); ``wait_until`` sleeps to ``spin`` s before the
+    deadline and spins the rest. ``late`` keeps the lateness (s, wake-up minus deadline) of
+    the last ``history`` waits (a ring; ``waits`` counts them all)."""
 
     simulated = False
+
+    def __init__(self, spin: float = 0.0001, history: int = 0):
+        self.spin = float(spin)
+        self.late = np.zeros(int(history))
+        self.waits = 0
 
     def now(self) -> float:
         return now()
 
     def wait_until(self, deadline: float) -> float:
-        return sleep_until(deadline)
+        t = sleep_until(deadline, self.spin)
+        if self.late.size:
+            self.late[self.waits % self.late.size] = t - deadline
+        self.waits += 1
+        return t
+
+    def lateness(self) -> np.ndarray:
+        """s, the lateness of the waits kept (oldest first not guaranteed)."""
+        return self.late[:min(self.waits, self.late.size)]
 
 
 class SimClock:
@@ -107,3 +137,34 @@ class AudioClock(WallClock):
         if (dac == 0.0 and cur == 0.0) or not 0.0 <= lat <= 1.0:  # False for NaN: nominal
             lat = nominal_latency
         return t_now + lat
+
+
+def enter_realtime(priority: int = FIFO_PRIORITY) -> str:
+    """Raise the *calling thread* to ``SCHED_FIFO`` (Linux; root or CAP_SYS_NICE / an
+    ``rtprio`` limit), which pre-empts every ordinary process, a CPU-bound neighbour included:
+    ``"fifo"``; else the lowest nice value granted for the thread (``"nice"``) or ``"normal"``.
+    The fallback is logged once per process (a loop at normal priority beside a CPU-bound
+    process misses deadlines)."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))  # 0 = this thread (Linux)
+        return "fifo"
+    except (AttributeError, OSError) as exc:
+        why = f"SCHED_FIFO refused ({exc})"
+    mode = "normal"
+    try:
+        tid = threading.get_native_id()
+        for nice in (-20, -10, -5, -1):
+            try:
+                os.setpriority(os.PRIO_PROCESS, tid, nice)  # a thread id: this thread only
+                mode = "nice"
+                break
+            except OSError:
+                continue
+    except (AttributeError, OSError):
+        pass
+    if not _fallback_logged.is_set():
+        _fallback_logged.set()
+        log.warning("real-time scheduling not granted: %s; the haptic thread runs at %s priority and may "
+                    "miss deadlines beside a CPU-bound process (run as root, or grant CAP_SYS_NICE / an "
+                    "rtprio limit)", why, "raised nice" if mode == "nice" else "normal")
+    return mode

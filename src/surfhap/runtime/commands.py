@@ -1,15 +1,18 @@
 """Typed commands for a running engine (:meth:`surfhap.live.engine.LiveEngine.send`).
 
-One small frozen dataclass per command, checked on construction; the engine raises for
-anything else, so a misspelt command is an error, never silently ignored.
+One small frozen dataclass per command, checked on construction (pydantic, a bad value is
+one :class:`~surfhap.errors.ConfigError` naming the field); the engine raises for anything
+else, so a misspelt command is an error, never silently ignored.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+from typing import Annotated
 
-from surfhap.errors import ConfigError
+from pydantic import Field
+
+from surfhap.checked import checked_dataclass
 
 __all__ = ["Stop", "SetGain", "SwapRenderer", "Command"]
 
@@ -19,16 +22,11 @@ class Stop:
     """Ramp the output to zero over the engine's ``stop_ramp``, then silence."""
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class SetGain:
     """Output gain in [0, 1], applied inside the output safety pass (so a step is rise-limited)."""
 
-    gain: float
-
-    def __post_init__(self):
-        g = self.gain
-        if isinstance(g, bool) or not isinstance(g, (int, float)) or not (math.isfinite(g) and 0.0 <= g <= 1.0):
-            raise ConfigError(f"must be a number within 0-1, got {g!r}", field="gain")
+    gain: Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False, strict=True)]
 
 
 @dataclass(frozen=True)

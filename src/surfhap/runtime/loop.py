@@ -1,16 +1,20 @@
 """The one block loop: :func:`run` connects a touch source, an engine (a renderer behind its
 safety stages), a clock and a sink.
 
-``surfhap render`` (offline), ``play``, ``serve`` and the study runner all go through it; only
-the clock and the sink differ:
+``surfhap render`` (offline), ``play``, ``serve``, the study runner, ``ff simulate`` and
+``ff run`` all go through it (the force-feedback loop is a block of one frame at its 1 kHz
+tick rate, :class:`surfhap.live.ff_loop.FFLoop`); only the clock and the sink differ:
 
-* a wall clock (:class:`~surfhap.runtime.clock.WallClock`) paces one block per block period,
-  buffered like a sound card: a block later than ``max(buffer, period)`` counts as an underrun
-  and the schedule is re-anchored instead of bursting; ``now`` is the actual render time;
+* a wall clock (:class:`~surfhap.runtime.clock.WallClock`) paces one block per block period on
+  absolute deadlines (no drift), buffered like a sound card: a block later than
+  ``max(buffer, period)`` counts the periods it skipped as underruns (missed ticks) and the
+  schedule is re-anchored on the same phase instead of bursting; ``now`` is the actual render
+  time;
 * a simulated clock (:class:`~surfhap.runtime.clock.SimClock`) runs as fast as possible:
   block ``b`` is emitted at ``b * frames / drive_rate`` s, and before it a replayed source
-  (:class:`Replay`) delivers every sample stamped up to a horizon past everything the block
-  can compute from, so each sample is in force from the model sample at its stamp;
+  (:class:`Replay`) delivers every sample stamped up to ``lead`` s past the block (default: a
+  horizon past everything a texture block can compute from, so each sample is in force from
+  the model sample at its stamp; 0 for a force-feedback tick, which takes what has arrived);
 * an audio callback (:class:`~surfhap.runtime.clock.AudioClock`) calls ``engine.render`` itself
   from PortAudio's thread with the DAC time (:mod:`surfhap.live.backends.sound`).
 """
@@ -49,7 +53,7 @@ class Replay(Protocol):
 
 def run(source, engine: BlockEngine, clock: Clock, sink: BlockSink, *, frames: int | None = None,
         total_frames: int | None = None, keep_running: Callable[[], bool] | None = None,
-        buffer: float = 0.005) -> int:
+        buffer: float = 0.005, lead: float | None = None) -> int:
     """Render blocks of ``frames`` (default the engine's block) into ``sink.emit`` until
     ``total_frames`` have been emitted (the last block cut to fit) or ``keep_running()`` is
     False; returns the frames emitted. ``source``: a :class:`Replay` fed on a simulated
@@ -60,7 +64,8 @@ def run(source, engine: BlockEngine, clock: Clock, sink: BlockSink, *, frames: i
     period = frames / rate
     slack = max(buffer, period)
     replay = source if clock.simulated and isinstance(source, Replay) else None
-    lead = 2.0 * period + 0.005  # s: past the last model sample a block can compute from
+    if lead is None:
+        lead = 2.0 * period + 0.005  # s: past the last model sample a block can compute from
     t0 = clock.now()
     deadline = t0
     emitted = 0
@@ -73,9 +78,10 @@ def run(source, engine: BlockEngine, clock: Clock, sink: BlockSink, *, frames: i
                 replay.deliver(t + lead)
         else:
             t = clock.wait_until(deadline)
-            if t - deadline > slack:
-                engine.counters["underruns"] += 1
-                deadline = t
+            if t - deadline > slack:  # re-anchor on the same phase: the periods skipped are missed
+                skipped = int((t - deadline) / period)
+                engine.counters["underruns"] += skipped
+                deadline += skipped * period
             deadline += period
         sink.emit(engine.render(n, t))
         emitted += n

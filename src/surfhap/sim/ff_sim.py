@@ -1,9 +1,6 @@
-"""Offline closed loop: force-feedback engine + simulated device + simulated finger.
-
-:func:`simulate_ff` runs the very engine the live loop runs, tick by tick at its rate, on
-the simulated clock: touch reports reach the engine when the simulated tablet delivers
-them, the engine's force (after the safety stage) goes to the simulated device through the
-device gain, and the finger presses and drags the screen.
+"""The record of an offline force-feedback run (``ff simulate``): the loop itself is the live
+one on a simulated clock (:func:`surfhap.live.ff_loop.simulate_ff`), with the simulated device
+and finger of :mod:`surfhap.sim.ff_device`.
 """
 
 from __future__ import annotations
@@ -13,9 +10,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from surfhap.results import Result, jsonable
-from surfhap.sim.ff_device import SimDevice, SimFinger
 
-__all__ = ["FFSimResult", "simulate_ff"]
+__all__ = ["FFSimResult"]
 
 
 @dataclass
@@ -85,52 +81,3 @@ class FFSimResult(Result):
         from surfhap.report.ff_figures import plot_ff_result
 
         return plot_ff_result(self, ax)
-
-
-def simulate_ff(engine, finger: SimFinger, device: SimDevice, settle: float = 0.3, tail: float = 0.2,
-                name: str = "ff simulation") -> FFSimResult:
-    """Run ``engine`` against ``device`` and ``finger`` from ``settle`` s before the finger's
-    trajectory to ``tail`` s after it; returns the per-tick record.
-
-    The device's gain must match the engine's ``device.gain`` (the backend multiplies the
-    safe force by it, the device divides its command by it)."""
-    rate = engine.rate
-    dt = 1.0 / rate
-    if abs(device.rate - rate) > 1e-9:
-        raise ValueError("device and engine rates differ")
-    t0 = finger.t0 - settle
-    n = int(round((finger.t1 + tail - t0) * rate)) + 1
-    t = t0 + np.arange(n) * dt
-    rec = {k: np.zeros((n, 3 if k.startswith(("force", "screen")) else 2))
-           for k in ("force", "screen", "screen_v", "finger", "finger_v", "sliding", "finger_est")}
-    touched = np.zeros(n, dtype=bool)
-    mask = np.zeros(n, dtype=np.int64)
-    button = np.full(n, -1, dtype=np.int64)
-    load = np.zeros(n)
-    gain = engine.device.gain
-    cmd = np.zeros(3)
-    engine.reset()
-    st = engine.state
-    for k in range(n):
-        tk = float(t[k])
-        p = device.p
-        finger.record_screen(tk, p)
-        for tr, x, y, ld, ts in finger.touches(tk):
-            engine.touch(tr, x, y, ld, t_event=ts)
-        f = engine.tick(tk, float(p[0]), float(p[1]), float(p[2]), tk)
-        cmd[0], cmd[1], cmd[2] = f[0] * gain, f[1] * gain, f[2] * gain
-        rec["force"][k] = f
-        rec["screen"][k] = p
-        rec["screen_v"][k] = device.v
-        rec["finger"][k] = finger.position(tk)
-        rec["finger_v"][k] = fv = finger.velocity(tk)
-        rec["sliding"][k] = (fv[0] - device.v[0], fv[1] - device.v[1])
-        rec["finger_est"][k] = (st.fx, st.fy)
-        touched[k] = st.touched
-        mask[k] = engine.mask
-        button[k] = engine.button
-        load[k] = finger.load(tk)
-        device.step(cmd, finger.force_on_screen(tk, device.v))
-    return FFSimResult(t, rec["force"], rec["screen"], rec["screen_v"], rec["finger"], rec["finger_v"], rec["sliding"],
-                       rec["finger_est"], touched, mask, load, [e.name for e in engine.law.effects], name,
-                       button, engine.button_presses.names)
