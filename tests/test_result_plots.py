@@ -124,7 +124,7 @@ def _ff_sim():
     from surfhap.models.trajectory import Trajectory
     from surfhap.render.kinematics import TouchPredictor
     from surfhap.sim.ff_device import SimDevice, SimFinger
-    from surfhap.sim.ff_sim import simulate_ff
+    from surfhap.live.ff_loop import simulate_ff
 
     t = np.arange(0.0, 0.5, 1 / 120)
     tr = Trajectory(t, 0.1 + 0.02 * t, np.full(t.size, 0.07), np.full(t.size, 0.5))
