@@ -169,13 +169,10 @@ def progress_bar(description: str, enabled: bool = True):
 def parse_key_values(text: str, option: str, keys: dict[str, float | None]) -> dict[str, float]:
     """Parse ``"speed=0.1,load=0.5"`` into floats; ``keys`` maps allowed keys to defaults
     (None = required)."""
+    from surfhap.exchange.files import parse_pairs
+
     out: dict[str, float] = {}
-    for part in filter(None, (p.strip() for p in text.split(","))):
-        if "=" not in part:
-            raise ConfigError(f"expected key=value, got {part!r}", source=option)
-        key, value = (s.strip() for s in part.split("=", 1))
-        if key not in keys:
-            raise ConfigError(f"unknown key {key!r} (known: {', '.join(keys)})", source=option)
+    for key, value in parse_pairs(text, option, keys, ConfigError).items():
         try:
             out[key] = float(value)
         except ValueError:

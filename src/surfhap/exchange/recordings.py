@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import RecordingFormatError, writing
-from surfhap.exchange.files import file_sha256, load_npz, npz_number, numeric, write_text
+from surfhap.exchange.files import file_sha256, load_npz, npz_number, numeric, parse_pairs, write_text
 from surfhap.exchange.table import UNITS, read_csv_table, resolve_columns
 
 __all__ = [
@@ -61,17 +61,7 @@ _CHANNEL_UNITS = {channel: UNITS[si] for channel, si in CHANNELS.items()}
 
 def parse_column_map(text: str | None, option: str = "--columns") -> dict[str, str]:
     """``"speed=v_x[mm/s],normal_force=Fz"`` -> {"speed": "v_x[mm/s]", "normal_force": "Fz"}."""
-    out: dict[str, str] = {}
-    if not text:
-        return out
-    for part in filter(None, (p.strip() for p in text.split(","))):
-        if "=" not in part:
-            raise RecordingFormatError(f"expected channel=column, got {part!r}", source=option)
-        key, value = (s.strip() for s in part.split("=", 1))
-        if key not in CHANNELS:
-            raise RecordingFormatError(f"unknown channel {key!r} (known: {', '.join(CHANNELS)})", source=option)
-        out[key] = value
-    return out
+    return parse_pairs(text or "", option, CHANNELS, RecordingFormatError, what="channel=column")
 
 
 @dataclass(frozen=True)
