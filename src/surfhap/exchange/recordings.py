@@ -33,7 +33,7 @@ import numpy as np
 
 from surfhap.errors import RecordingFormatError, writing
 from surfhap.exchange.files import file_sha256, load_npz, npz_number, numeric, parse_pairs, write_text
-from surfhap.exchange.table import UNITS, read_csv_table, resolve_columns
+from surfhap.exchange.table import UNITS, read_csv_table, resolve_columns, time_step
 
 __all__ = [
     "CHANNELS",
@@ -159,15 +159,7 @@ def _finish(source, time, sample_rate, data, participant, trial, digest, meta) -
     if time.size < 16:
         raise RecordingFormatError(f"only {time.size} samples; a recording needs at least 16", source=source, field="time")
     _check_finite(source, "time", time, None)
-    dt = np.diff(time)
-    if np.any(dt <= 0):
-        i = int(np.argmax(dt <= 0))
-        raise RecordingFormatError(f"not strictly increasing at row {i + 2} ({time[i]:.6g} s then {time[i + 1]:.6g} s)", source=source, field="time")
-    med = float(np.median(dt))
-    if np.max(np.abs(dt - med)) > 0.05 * med:
-        i = int(np.argmax(np.abs(dt - med)))
-        raise RecordingFormatError(f"not uniformly sampled: step of {dt[i]:.6g} s at row {i + 2}, median step {med:.6g} s; resample first",
-                                   source=source, field="time")
+    time_step(time, source, RecordingFormatError)
     for name, x in data.items():
         _check_finite(source, name, x, time)
     if "speed" not in data and "position" in data:
