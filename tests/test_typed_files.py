@@ -81,6 +81,6 @@ def test_fit_imu_job_stores_the_command_it_is_given(tmp_path):
                header="time,accel_x,accel_y,accel_z")
     base = sys.modules["surfhap"].__path__[0] + "/models/builtin/leather.json"
     target = tmp_path / "m.json"
-    fit_imu_to_file(FitImuJob(rec, base, target, order=4, command="surfhap fit imu r.csv --order 4"))
+    fit_imu_to_file(FitImuJob("r", rec, base, target, order=4, command="surfhap fit imu r.csv --order 4"))
     prov = json.loads(target.read_text())["texture"]["provenance"]
     assert prov["command"] == "surfhap fit imu r.csv --order 4"

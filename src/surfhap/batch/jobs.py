@@ -79,10 +79,12 @@ def render_to_folder(material, trajectory, config, out: Path, *, fmt: str = "aut
 
 @dataclass(frozen=True)
 class RenderJob:
-    """One point of a render grid: material (Material), trajectory (Trajectory), config
-    (ChainConfig), out (folder), amp_gain (V per DAC full scale or None), figure,
-    ``params`` (the grid values of this point, for the index) and fmt (render file format)."""
+    """One point of a render grid: name (its folder's name and index row), material (Material),
+    trajectory (Trajectory), config (ChainConfig), out (folder), amp_gain (V per DAC full scale
+    or None), figure, ``params`` (the material and grid values of this point, for the index)
+    and fmt (render file format)."""
 
+    name: str
     material: Any
     trajectory: Any
     config: Any
@@ -114,11 +116,12 @@ def run_render_job(job: RenderJob) -> dict:
 
 @dataclass(frozen=True)
 class FitImuJob:
-    """One IMU recording to fit: recording (CSV), into (base material JSON), target (material
-    JSON written), order (fixed AR order or None), max_order, cutoff (Hz), unit_scale
+    """One IMU recording to fit: name (index row), recording (CSV), into (base material JSON),
+    target (material JSON written, in the job's folder ``out``), order (fixed AR order or None), max_order, cutoff (Hz), unit_scale
     (m/s^2 per file unit), note, and ``command``: the command that reproduces this one fit,
     stored in the texture's provenance (the CLI writes it; the library never builds CLI text)."""
 
+    name: str
     recording: Path
     into: Path
     target: Path
@@ -128,6 +131,14 @@ class FitImuJob:
     unit_scale: float = 1.0
     note: str | None = None
     command: str = ""
+
+    @property
+    def out(self) -> Path:
+        return Path(self.target).parent
+
+    @property
+    def params(self) -> dict:
+        return {"recording": str(self.recording)}
 
 
 def fit_imu_to_file(job: FitImuJob) -> dict:
