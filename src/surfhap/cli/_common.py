@@ -171,12 +171,7 @@ def parse_key_values(text: str, option: str, keys: dict[str, float | None]) -> d
     (None = required)."""
     from surfhap.exchange.files import parse_pairs
 
-    out: dict[str, float] = {}
-    for key, value in parse_pairs(text, option, keys, ConfigError).items():
-        try:
-            out[key] = float(value)
-        except ValueError:
-            raise ConfigError(f"{value!r} is not a number", source=option, field=key) from None
+    out = parse_pairs(text, option, keys, ConfigError, numbers=True)
     for key, default in keys.items():
         if key not in out:
             if default is None:

@@ -70,13 +70,8 @@ def read_display_json(path: str | Path) -> DisplayModel:
 
 def parse_display_option(text: str, option: str = "--display") -> DisplayModel:
     """Parse ``k=5e-6,mu_panel=0.4,area=1e-4[,leakage=0.05]``."""
-    pairs = parse_pairs(text, option, DisplayValues.model_fields, ConfigError, what="key=value or a display JSON file")
-    values: dict[str, float] = {}
-    for key, value in pairs.items():
-        try:
-            values[key] = float(value)
-        except ValueError:
-            raise ConfigError(f"{value!r} is not a number", source=option, field=key) from None
+    values = parse_pairs(text, option, DisplayValues.model_fields, ConfigError, what="key=value or a display JSON file",
+                         numbers=True)
     if not values:
         raise ConfigError("give k=..., mu_panel=..., area=... or a display JSON file", source=option)
     spec = validated(DisplayValues, values, option, ConfigError)

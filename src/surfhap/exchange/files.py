@@ -18,16 +18,10 @@ import numpy as np
 
 from surfhap.errors import InputError, reading, writing
 
-__all__ = ["read_bytes", "read_text", "read_json_object", "validated", "read_model", "parse_pairs", "file_sha256",
+__all__ = ["read_text", "read_json_object", "validated", "read_model", "parse_pairs", "file_sha256",
            "load_npz", "npz_number", "numeric", "write_text"]
 
 _CHUNK = 1 << 20
-
-
-def read_bytes(path: str | Path, error: type[InputError] = InputError) -> bytes:
-    """The file's bytes; ``error`` naming it when it cannot be read."""
-    with reading(path, error):
-        return Path(path).read_bytes()
 
 
 def read_text(path: str | Path, error: type[InputError] = InputError) -> str:
@@ -68,19 +62,22 @@ def read_model(path: str | Path, model: Any, error: type[InputError] = InputErro
     return validated(model, read_json_object(path, error), str(path), error)
 
 
-def parse_pairs(text: str, source: str, known, error: type[InputError] = InputError, *,
-                what: str = "key=value") -> dict[str, str]:
-    """``"a=1,b=x[mm]"`` -> {"a": "1", "b": "x[mm]"}: the one parser of comma-separated pairs
-    (``--scan``, ``--display``, ``--columns``); a part without "=" or a key not in ``known`` is
-    ``error`` naming ``source`` (the option)."""
-    out: dict[str, str] = {}
+def parse_pairs(text: str, source: str, known, error: type[InputError] = InputError, *, what: str = "key=value",
+                numbers: bool = False) -> dict:
+    """``"a=1,b=x[mm]"`` -> {"a": "1", "b": "x[mm]"} (floats with ``numbers``): the one parser of
+    comma-separated pairs (``--scan``, ``--display``, ``--columns``). A part without "=", a key
+    not in ``known`` or (``numbers``) a value that is not a number is ``error`` naming ``source``."""
+    out: dict = {}
     for part in filter(None, (p.strip() for p in text.split(","))):
         if "=" not in part:
             raise error(f"expected {what}, got {part!r}", source=source)
         key, value = (s.strip() for s in part.split("=", 1))
         if key not in known:
             raise error(f"unknown key {key!r} (known: {', '.join(known)})", source=source)
-        out[key] = value
+        try:
+            out[key] = float(value) if numbers else value
+        except ValueError:
+            raise error(f"{value!r} is not a number", source=source, field=key) from None
     return out
 
 

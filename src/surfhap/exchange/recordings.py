@@ -128,11 +128,9 @@ def _check_finite(source: str, name: str, x: np.ndarray, t: np.ndarray | None) -
     bad = ~np.isfinite(x)
     if np.any(bad):
         i = int(np.argmax(bad))
-        j = i
-        while j < bad.size and bad[j]:
-            j += 1
+        run = int(np.argmin(bad[i:])) or bad.size - i  # up to the next finite sample, or to the end
         where = f"t = {t[i]:.6g} s" if t is not None and np.isfinite(t[i]) else f"sample {i}"
-        raise RecordingFormatError(f"NaN or missing values: a run of {j - i} sample(s) from row {i + 1} ({where}); "
+        raise RecordingFormatError(f"NaN or missing values: a run of {run} sample(s) from row {i + 1} ({where}); "
                                    "cut the recording or fill the gap before fitting", source=source, field=name)
 
 
