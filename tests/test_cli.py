@@ -44,7 +44,7 @@ def test_materials_lists_builtins(capsys):
     ("{ oops", ["render", "{file}", "--scan", "speed=0.1,load=0.3,duration=1"], "malformed JSON"),
     ("time,x,y,load\n0,0,0,0.3\n0.01,nan,0,0.3\n0.02,0.002,0,0.3\n", ["render", "cork", "--trajectory", "{file}"], "x: row 2: NaN"),
     ("time,x,load\n0,0,0.3\n0.01,0.001,0.3\n", ["render", "cork", "--trajectory", "{file}"], ": y: missing column"),
-    ("time,x,y,load\n0,0,0,0.3\n0,0.001,0,0.3\n", ["render", "cork", "--trajectory", "{file}"], "time: row 2: time does not increase"),
+    ("time,x,y,load\n0,0,0,0.3\n0,0.001,0,0.3\n", ["render", "cork", "--trajectory", "{file}"], "time: not strictly increasing at row 2"),
     (None, ["render", "cork", "--scan", "speed=0.1,load=0.3"], "--scan: duration: missing"),
     (None, ["render", "cork", "--scan", "speed=0.1,load=0.3,duration=1", "--carrier", "500"], "carrier: must be 0"),
     (None, ["render", "wood", "--method", "zhao", "--scan", "speed=0.1,load=0.3,duration=1"], "no Coulomb mu0"),

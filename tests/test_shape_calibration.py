@@ -66,7 +66,7 @@ def test_json_round_trip(tmp_path, suzanne):
 def test_bad_calibration_files(tmp_path):
     p = tmp_path / "bad.json"
     p.write_text("{not json")
-    with pytest.raises(ConfigError, match="not JSON"):
+    with pytest.raises(ConfigError, match="malformed JSON"):
         read_calibration(p)
     p.write_text(json.dumps({"fmin": 1.0}))
     with pytest.raises(ConfigError, match="fmax"):

@@ -13,13 +13,14 @@ from surfhap.batch.schedulers import JobOutcome
 __all__ = ["index_rows", "write_index"]
 
 
-def index_rows(names: Sequence[str], params: Sequence[dict], outs: Sequence[Path], outcomes: Sequence[JobOutcome],
-               root: Path) -> list[dict]:
-    """Rows: job, the job's parameters, status ("ok" | "failed"), error, seconds, out
-    (relative to ``root``) and the job's summary figures (empty on failure)."""
+def index_rows(jobs: Sequence, outcomes: Sequence[JobOutcome], root: Path) -> list[dict]:
+    """Rows of the jobs (each with ``name``, ``params`` and ``out``, see :mod:`surfhap.batch.jobs`):
+    job, the job's parameters, status ("ok" | "failed"), error, seconds, out (relative to
+    ``root``) and the job's summary figures (empty on failure)."""
     rows = []
-    for name, p, out, o in zip(names, params, outs, outcomes):
-        row = {"job": name, **p, "status": "ok" if o.ok else "failed", "error": o.error or "",
+    for job, o in zip(jobs, outcomes):
+        out = job.out
+        row = {"job": job.name, **job.params, "status": "ok" if o.ok else "failed", "error": o.error or "",
                "seconds": round(o.seconds, 3), "out": str(Path(out).relative_to(root)) if Path(out).is_relative_to(root) else str(out)}
         if o.ok and isinstance(o.value, dict):
             row.update(o.value)

@@ -7,7 +7,6 @@ job spec and returns a small dict of summary figures (the big arrays stay on dis
 
 from __future__ import annotations
 
-import shlex
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -80,10 +79,12 @@ def render_to_folder(material, trajectory, config, out: Path, *, fmt: str = "aut
 
 @dataclass(frozen=True)
 class RenderJob:
-    """One point of a render grid: material (Material), trajectory (Trajectory), config
-    (ChainConfig), out (folder), amp_gain (V per DAC full scale or None), figure,
-    ``params`` (the grid values of this point, for the index) and fmt (render file format)."""
+    """One point of a render grid: name (its folder's name and index row), material (Material),
+    trajectory (Trajectory), config (ChainConfig), out (folder), amp_gain (V per DAC full scale
+    or None), figure, ``params`` (the material and grid values of this point, for the index)
+    and fmt (render file format)."""
 
+    name: str
     material: Any
     trajectory: Any
     config: Any
@@ -115,11 +116,12 @@ def run_render_job(job: RenderJob) -> dict:
 
 @dataclass(frozen=True)
 class FitImuJob:
-    """One IMU recording to fit: recording (CSV), into (base material JSON), target (material
-    JSON written), order (fixed AR order or None), max_order, cutoff (Hz), unit_scale
-    (m/s^2 per file unit), note, and ``out_given`` (whether --out was given, for the
-    provenance command)."""
+    """One IMU recording to fit: name (index row), recording (CSV), into (base material JSON),
+    target (material JSON written, in the job's folder ``out``), order (fixed AR order or None), max_order, cutoff (Hz), unit_scale
+    (m/s^2 per file unit), note, and ``command``: the command that reproduces this one fit,
+    stored in the texture's provenance (the CLI writes it; the library never builds CLI text)."""
 
+    name: str
     recording: Path
     into: Path
     target: Path
@@ -128,7 +130,15 @@ class FitImuJob:
     cutoff: float = 3.5
     unit_scale: float = 1.0
     note: str | None = None
-    out_given: bool = True
+    command: str = ""
+
+    @property
+    def out(self) -> Path:
+        return Path(self.target).parent
+
+    @property
+    def params(self) -> dict:
+        return {"recording": str(self.recording)}
 
 
 def fit_imu_to_file(job: FitImuJob) -> dict:
@@ -147,14 +157,6 @@ def fit_imu_to_file(job: FitImuJob) -> dict:
     how = f"fixed at {order}" if order is not None else f"aic over 1..{max_order}"
     aic_note = (f"AIC over 1..{max(max_order, order or 0)} chooses {fit.selection.aic_order} (BIC {fit.selection.bic_order}; "
                 f"edge-trimmed, tapered, notch below {2 * cutoff:g} Hz continued flat)")
-    command = ["surfhap", "fit", "imu", str(job.recording), "--into", str(job.into)]
-    if job.out_given:
-        command += ["--out", str(job.target)]
-    if order is not None:
-        command += ["--order", str(order)]
-    command += ["--max-order", str(max_order), "--cutoff", f"{cutoff:g}", "--unit-scale", f"{unit_scale:g}"]
-    if note:
-        command += ["--note", note]
     recording = Path(job.recording)
     recording_label = f"{recording.parent.name}/{rec.name}" if recording.parent.name else rec.name
     texture = TextureSpec(
@@ -163,7 +165,7 @@ def fit_imu_to_file(job: FitImuJob) -> dict:
         models=[ARModelSpec(coefficients=[float(c) for c in fit.coefficients], variance=fit.variance,
                             reference_speed=None, order_selection=f"{how}; {aic_note}")],
         provenance=Provenance(source="recording", recording=recording_label, sha256=rec.sha256,
-                              command=shlex.join(command), note=note),
+                              command=job.command or None, note=note),
     )
     spec = base.spec.model_copy(update={"texture": texture})
     write_material_json(MaterialFile.model_validate(spec.model_dump()), job.target)

@@ -17,7 +17,7 @@ import contextlib
 import re
 import time
 import traceback
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -284,12 +284,8 @@ def run_jobs(fn: Callable[[Any], Any], items: Sequence[Any], spec: SchedulerSpec
     if not items:
         return []
     with open_scheduler(spec, preload) as sched:
-        for done, outcome in enumerate(_iter(sched, fn, items), 1):
+        for done, outcome in enumerate(sched.map(fn, list(items)), 1):
             outcomes[outcome.index] = outcome
             if progress is not None:
                 progress(outcome, done, len(items))
     return [o for o in outcomes if o is not None]
-
-
-def _iter(sched, fn, items) -> Iterator[JobOutcome]:
-    yield from sched.map(fn, list(items))

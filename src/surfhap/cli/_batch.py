@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import re
+import shlex
 from pathlib import Path
 
 import typer
@@ -14,7 +15,7 @@ from surfhap.cli._common import error_line, stderr, stdout
 from surfhap.cli._signals import EXIT_INTERRUPTED, StopSignals
 from surfhap.errors import ConfigError
 
-__all__ = ["GRID_HELP", "split_inputs", "parse_grid", "render_batch", "fit_imu_batch"]
+__all__ = ["GRID_HELP", "split_inputs", "parse_grid", "render_batch", "fit_imu_command", "fit_imu_batch"]
 
 GRID_KEYS = ("load", "speed", "duration", "length", "rate")
 GRID_HELP = ("Render a grid: 'KEY=V1,V2,...' with KEY one of load (N), speed (m/s), duration (s), length (m), rate (Hz); "
@@ -56,17 +57,7 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9._+-]+", "-", text).strip("-") or "job"
 
 
-def _scan_values(scan: str | None) -> dict[str, float]:
-    from surfhap.cli._common import parse_key_values
-    from surfhap.cli._scan import SCAN_KEYS
-
-    if scan is None:
-        return {}
-    kv = parse_key_values(scan, "--scan", {k: float("nan") for k in SCAN_KEYS})
-    return {k: v for k, v in kv.items() if v == v}
-
-
-def _run(fn, items, names, params, outs, root: Path, spec, what: str, preload: tuple[str, ...] = ()) -> int:
+def _run(fn, items, root: Path, spec, what: str, preload: tuple[str, ...] = ()) -> int:
     """Run the jobs with a progress bar on stderr, write the index, print one line; returns
     the exit code (0 all done, 1 when a job failed)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
@@ -87,14 +78,15 @@ def _run(fn, items, names, params, outs, root: Path, spec, what: str, preload: t
 
         with StopSignals() as guard:  # Ctrl-C or SIGTERM: keep what finished, mark the rest, no traceback
             outcomes = guard.call(run_jobs, fn, items, spec, progress=progress, preload=preload)
-    if outcomes is None:
+    interrupted = outcomes is None
+    if interrupted:
         outcomes = [finished.get(i, JobOutcome(i, False, None, "interrupted", 0.0)) for i in range(len(items))]
-        paths = write_index(index_rows(names, params, outs, outcomes, root), root, where)
+    rows = index_rows(items, outcomes, root)
+    paths = write_index(rows, root, where)
+    if interrupted:
         done = sum(o.ok for o in finished.values())
         error_line(f"interrupted: {done} of {len(items)} jobs done; index -> {paths['csv']} ({guard.name})")
         return EXIT_INTERRUPTED
-    rows = index_rows(names, params, outs, outcomes, root)
-    paths = write_index(rows, root, where)
     bad = [r for r in rows if r["status"] != "ok"]
     for r in bad:
         error_line(f"{r['job']}: {r['error']}")
@@ -109,7 +101,8 @@ def render_batch(materials: list[str], scan: str | None, trajectory: Path | None
     exits 1 when a job failed."""
     from surfhap.batch.jobs import RENDER_JOB_MODULES, RenderJob, run_render_job
     from surfhap.batch.schedulers import parse_scheduler
-    from surfhap.cli._scan import trajectory_from_options
+    from surfhap.cli._common import parse_key_values
+    from surfhap.cli._scan import SCAN_KEYS, scan_trajectory, trajectory_from_options
     from surfhap.exchange.materials import load_material
 
     spec = parse_scheduler(scheduler, jobs)
@@ -119,25 +112,31 @@ def render_batch(materials: list[str], scan: str | None, trajectory: Path | None
     if (trajectory is None and scan is None and not axes) or (trajectory is not None and scan is not None):
         raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")
     mats = {m: load_material(m) for m in dict.fromkeys(materials)}
-    base = _scan_values(scan)
+    given = {} if scan is None else parse_key_values(scan, "--scan", dict.fromkeys(SCAN_KEYS, float("nan")))
+    base = {k: v for k, v in given.items() if v == v}  # the keys given: the grid and the defaults fill the rest
     recorded = trajectory_from_options(None, trajectory) if trajectory is not None else None
-    items, names, params, outs = [], [], [], []
+    items = []
     for m, point in itertools.product(mats, itertools.product(*axes.values())):
         p = dict(zip(axes, point))
-        traj = recorded
-        if traj is None:
-            kv = {**base, **p}
-            traj = trajectory_from_options(",".join(f"{k}={v!r}" for k, v in kv.items()), None)
+        traj = recorded if recorded is not None else scan_trajectory({**base, **p})
         name = _slug(mats[m].name) + "".join(f"_{k}{v:g}" for k, v in p.items())
-        if name in names:
+        if any(job.name == name for job in items):
             raise ConfigError(f"two jobs would write the folder {name!r}", source="MATERIAL")
-        items.append(RenderJob(mats[m], traj, config, Path(out) / name, amp_gain=amp_gain, figure=figure, params=p, fmt=fmt))
-        names.append(name)
-        params.append({"material": mats[m].name, **p})
-        outs.append(Path(out) / name)
-    code = _run(run_render_job, items, names, params, outs, Path(out), spec, f"rendering {len(items)} jobs", RENDER_JOB_MODULES)
+        items.append(RenderJob(name, mats[m], traj, config, Path(out) / name, amp_gain=amp_gain, figure=figure,
+                               params={"material": mats[m].name, **p}, fmt=fmt))
+    code = _run(run_render_job, items, Path(out), spec, f"rendering {len(items)} jobs", RENDER_JOB_MODULES)
     if code:
         raise typer.Exit(code)
+
+
+def fit_imu_command(recording: Path, into: Path, out: Path | None, order: int | None, max_order: int, cutoff: float,
+                    unit_scale: float, note: str | None) -> str:
+    """The ``surfhap fit imu`` command of one recording (the texture provenance; a batch job's too)."""
+    command = ["surfhap", "fit", "imu", str(recording), "--into", str(into)]
+    command += ["--out", str(out)] if out is not None else []
+    command += ["--order", str(order)] if order is not None else []
+    command += ["--max-order", str(max_order), "--cutoff", f"{cutoff:g}", "--unit-scale", f"{unit_scale:g}"]
+    return shlex.join(command + (["--note", note] if note else []))
 
 
 def recordings_in(paths: list[Path]) -> list[Path]:
@@ -169,10 +168,9 @@ def fit_imu_batch(recordings: list[Path], into: Path, out: Path, jobs: int, sche
     dupes = sorted({n for n in names if names.count(n) > 1})
     if dupes:
         raise ConfigError(f"two recordings would write the folder {dupes[0]!r}", source="RECORDING")
-    outs = [Path(out) / n for n in names]
-    items = [FitImuJob(f, into, o / "material.json", **fit) for f, o in zip(files, outs)]
-    params = [{"recording": str(f)} for f in files]
-    code = _run(run_fit_imu_job, items, names, params, outs, Path(out), spec, f"fitting {len(items)} recordings",
-                FIT_IMU_JOB_MODULES)
+    targets = [Path(out) / n / "material.json" for n in names]
+    items = [FitImuJob(n, f, into, t, command=fit_imu_command(f, into, t, **fit), **fit)
+             for n, f, t in zip(names, files, targets)]
+    code = _run(run_fit_imu_job, items, Path(out), spec, f"fitting {len(items)} recordings", FIT_IMU_JOB_MODULES)
     if code:
         raise typer.Exit(code)

@@ -169,17 +169,9 @@ def progress_bar(description: str, enabled: bool = True):
 def parse_key_values(text: str, option: str, keys: dict[str, float | None]) -> dict[str, float]:
     """Parse ``"speed=0.1,load=0.5"`` into floats; ``keys`` maps allowed keys to defaults
     (None = required)."""
-    out: dict[str, float] = {}
-    for part in filter(None, (p.strip() for p in text.split(","))):
-        if "=" not in part:
-            raise ConfigError(f"expected key=value, got {part!r}", source=option)
-        key, value = (s.strip() for s in part.split("=", 1))
-        if key not in keys:
-            raise ConfigError(f"unknown key {key!r} (known: {', '.join(keys)})", source=option)
-        try:
-            out[key] = float(value)
-        except ValueError:
-            raise ConfigError(f"{value!r} is not a number", source=option, field=key) from None
+    from surfhap.exchange.files import parse_pairs
+
+    out = parse_pairs(text, option, keys, ConfigError, numbers=True)
     for key, default in keys.items():
         if key not in out:
             if default is None:

@@ -24,63 +24,54 @@ LOAD_RANGE_HELP = "Loads the gain plan must serve, 'LOW,HIGH' in N (default 0.1,
 SPEED_RANGE_HELP = "Speeds the gain plan must serve, 'LOW,HIGH' in m/s (default 0.02,0.3)."
 CONFIG_HELP = "TOML file with a \\[display] section (file, k, mu_panel, area, leakage_time_constant, load_range, speed_range)."
 
-_TOML_KEYS = ("file", "k", "mu_panel", "area", "leakage_time_constant", "load_range", "speed_range")
-
-
-def parse_range(text, source: str, field: str | None = None) -> tuple[float, float]:
-    """'LOW,HIGH' (or a 2-list from TOML) -> (low, high) floats."""
-    parts = text.split(",") if isinstance(text, str) else list(text) if isinstance(text, (list, tuple)) else None
-    if parts is None or len(parts) != 2:
-        raise ConfigError("expected LOW,HIGH", source=source, field=field)
+def parse_range(text: str, source: str) -> tuple[float, float]:
+    """'LOW,HIGH' -> (low, high) floats."""
     try:
-        lo, hi = (float(p) for p in parts)
-    except (TypeError, ValueError):
-        raise ConfigError(f"expected two numbers, got {text!r}", source=source, field=field) from None
+        lo, hi = (float(p) for p in text.split(","))
+    except ValueError:
+        raise ConfigError(f"expected LOW,HIGH (two numbers), got {text!r}", source=source) from None
     return lo, hi
 
 
-def _read_config(path: Path) -> dict:
+def _read_config(path: Path):
+    """The ``[display]`` section of a config file, validated (unknown keys refused)."""
+    from pydantic import Field
+
+    from surfhap.exchange.display_file import DisplayValues
+    from surfhap.exchange.files import validated
+
+    class DisplaySection(DisplayValues):
+        file: str | None = None
+        load_range: list[float] | None = Field(None, min_length=2, max_length=2)  # [low, high] N
+        speed_range: list[float] | None = Field(None, min_length=2, max_length=2)  # [low, high] m/s
+
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:
         raise ConfigError(f"cannot read file ({exc.strerror})", source=str(path)) from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"malformed TOML ({exc})", source=str(path)) from None
-    sec = raw.get("display", {})
-    if not isinstance(sec, dict):
-        raise ConfigError("must be a table", source=str(path), field="display")
-    for key in sec:
-        if key not in _TOML_KEYS:
-            raise ConfigError(f"unknown key (known: {', '.join(_TOML_KEYS)})", source=str(path), field=f"display.{key}")
-    return sec
+    return validated(DisplaySection, raw.get("display", {}), str(path), ConfigError, prefix="display.")
 
 
 def resolve_display_and_range(display: str | None, load_range: str | None, speed_range: str | None,
                               config: Path | None):
     """Returns (DisplayModel, OperatingRange) from the options; ConfigError names the culprit."""
-    from surfhap.exchange.display_file import display_from_values, load_display
+    from surfhap.exchange.display_file import DisplayValues, display_from_values, load_display
     from surfhap.render.gain_plan import OperatingRange
 
-    sec = _read_config(Path(config)) if config is not None else {}
+    sec = _read_config(Path(config)) if config is not None else None
     src = str(config) if config is not None else ""
-    if display is not None:
+    if display is not None or sec is None:
         model = load_display(display)
-    elif sec:
-        base = load_display(str(Path(config).parent / sec["file"])) if "file" in sec else None
-        vals = {}
-        for key, arg in (("k", "k"), ("mu_panel", "mu_panel"), ("area", "area"), ("leakage_time_constant", "leakage")):
-            if key in sec:
-                v = sec[key]
-                if not isinstance(v, (int, float)) or isinstance(v, bool) or not (0 < v < float("inf")):
-                    raise ConfigError("must be a number > 0", source=src, field=f"display.{key}")
-                vals[arg] = float(v)
-        model = display_from_values(**vals, source=f"{src} [display]", base=base) if (vals or base is None) else base
     else:
-        model = load_display(None)
-    loads = parse_range(load_range, "--load-range") if load_range is not None else (
-        parse_range(sec["load_range"], src, "display.load_range") if "load_range" in sec else OperatingRange().loads)
-    speeds = parse_range(speed_range, "--speed-range") if speed_range is not None else (
-        parse_range(sec["speed_range"], src, "display.speed_range") if "speed_range" in sec else OperatingRange().speeds)
+        base = load_display(str(Path(config).parent / sec.file)) if sec.file else None
+        vals = sec.model_dump(include=set(DisplayValues.model_fields), exclude_none=True)
+        model = display_from_values(**vals, source=f"{src} [display]", base=base) if (vals or base is None) else base
+    default = OperatingRange()
+    loads = parse_range(load_range, "--load-range") if load_range is not None else tuple((sec and sec.load_range) or default.loads)
+    speeds = (parse_range(speed_range, "--speed-range") if speed_range is not None
+              else tuple((sec and sec.speed_range) or default.speeds))
     try:
         rng = OperatingRange(loads=loads, speeds=speeds)
     except ConfigError as exc:

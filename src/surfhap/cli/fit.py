@@ -11,7 +11,7 @@ from typing import List, Optional
 
 import typer
 
-from surfhap.cli._batch import fit_imu_batch
+from surfhap.cli._batch import fit_imu_batch, fit_imu_command
 from surfhap.cli._common import stdout
 from surfhap.cli._options import JobsOption, SchedulerOption
 from surfhap.errors import ConfigError
@@ -45,7 +45,8 @@ def fit_imu(
             raise ConfigError("give the folder to write the fitted materials into", source="--out")
         return fit_imu_batch(recording, into, out, jobs, scheduler, **fit)
     target = out or into
-    row = fit_imu_to_file(FitImuJob(recording[0], into, target, out_given=out is not None, **fit))
+    row = fit_imu_to_file(FitImuJob(recording[0].stem, recording[0], into, target,
+                                    command=fit_imu_command(recording[0], into, out, **fit), **fit))
     stdout.print(f"{target}: texture AR({row['order']}) at {row['sample_rate']:g} Hz from {row['name']} ({row['aic_note']})")
 
 

@@ -42,6 +42,24 @@ def _check_jobs(jobs: int, scheduler: str | None) -> int:
     return -1 if scheduler and jobs == 1 else jobs  # on a cluster, let the scheduler spread the work
 
 
+def _fit_and_write(fit_fn, recordings: list[Path], columns: str | None, material: str, out: Path, jobs: int,
+                   scheduler: str | None, **params):
+    """Read the recordings, run ``fit_fn`` (stoppable by Ctrl-C/SIGTERM, on the Dask cluster when
+    given), write the material to ``out``; returns the fit and the provenance command."""
+    from surfhap.batch.schedulers import joblib_backend
+    from surfhap.exchange.material_json import write_material_json
+    from surfhap.exchange.recordings import parse_column_map, read_recordings
+
+    n_jobs = _check_jobs(jobs, scheduler)
+    recs = read_recordings(recordings, parse_column_map(columns))
+    command = _command()
+    with StopSignals() as guard, joblib_backend(scheduler):
+        fit = guard.call(fit_fn, recs, material, jobs=n_jobs, **params)
+    guard.finish(f"the fit did not finish; {out} not written")
+    write_material_json(fit.to_material(command=command), out)
+    return fit, command
+
+
 @fit_app.command("friction")
 def fit_friction_cmd(
     recordings: List[Path] = typer.Argument(..., help="Friction recordings (CSV or NPZ): time, normal_force, shear_force or cof, speed or position."),
@@ -64,9 +82,6 @@ def fit_friction_cmd(
     scheduler: SchedulerOption = None,
 ) -> None:
     """Fit Coulomb mu0, the quasi-static law and AR textures per reference velocity (Otake et al.)."""
-    from surfhap.exchange.material_json import write_material_json
-    from surfhap.exchange.recordings import parse_column_map, read_recordings
-    from surfhap.batch.schedulers import joblib_backend
     from surfhap.fit.material_fit import fit_friction
     from surfhap.fit.texture import ESTIMATORS
 
@@ -74,19 +89,11 @@ def fit_friction_cmd(
         raise ConfigError(f"must be one of {', '.join(ESTIMATORS)}", source="--estimator")
     if criterion.lower() not in ("aic", "bic"):
         raise ConfigError("must be aic or bic", source="--criterion")
-    n_jobs = _check_jobs(jobs, scheduler)
-    speeds = _speeds_mm(reference_velocities)
-    speeds = tuple(v / 1000.0 if v > 5 else v for v in speeds)
-    recs = read_recordings(recordings, parse_column_map(columns))
-    command = _command()
-    with StopSignals() as guard, joblib_backend(scheduler):
-        fit = guard.call(fit_friction, recs, material, cutoff=cutoff, reference_speeds=speeds,
-                         tolerance=tolerance / 1000.0, min_span=min_span / 1000.0, max_order=max_order,
-                         criterion=criterion.lower(), estimator=estimator,
-                         edge_trim=None if edge_trim is None else edge_trim / 1000.0, jobs=n_jobs)
-    guard.finish(f"the fit did not finish; {out} not written")
-    mat = fit.to_material(command=command)
-    write_material_json(mat, out)
+    speeds = tuple(v / 1000.0 if v > 5 else v for v in _speeds_mm(reference_velocities))
+    fit, command = _fit_and_write(fit_friction, recordings, columns, material, out, jobs, scheduler, cutoff=cutoff,
+                                  reference_speeds=speeds, tolerance=tolerance / 1000.0, min_span=min_span / 1000.0,
+                                  max_order=max_order, criterion=criterion.lower(), estimator=estimator,
+                                  edge_trim=None if edge_trim is None else edge_trim / 1000.0)
     qs = fit.quasi_static
     stdout.print(f"{out}: mu0 {fit.coulomb.mu0:.3f}; quasi-static a={qs.params['a']:.3f} b={qs.params['b']:.3f} "
                  f"c={qs.params['c']:.3f} d={qs.params['d']:.3f} q={qs.params['q']:.3f} (R² {qs.r2:.2f}); "
@@ -117,20 +124,11 @@ def fit_accel_cmd(
     scheduler: SchedulerOption = None,
 ) -> None:
     """Segment, fit AR per segment and interpolate over (speed, force) (HaTT / Zhao et al.)."""
-    from surfhap.exchange.material_json import write_material_json
-    from surfhap.exchange.recordings import parse_column_map, read_recordings
     from surfhap.fit.accel import fit_accel
-    from surfhap.batch.schedulers import joblib_backend
 
-    n_jobs = _check_jobs(jobs, scheduler)
-    recs = read_recordings(recordings, parse_column_map(columns))
-    command = _command()
-    with StopSignals() as guard, joblib_backend(scheduler):
-        fit = guard.call(fit_accel, recs, material, texture_rate=texture_rate, highpass=highpass, max_order=max_order,
-                         criterion=criterion, min_segment=min_segment / 1000.0, mu0=mu0, jobs=n_jobs,
-                         max_segment=max_segment or None)
-    guard.finish(f"the fit did not finish; {out} not written")
-    write_material_json(fit.to_material(command=command), out)
+    fit, command = _fit_and_write(fit_accel, recordings, columns, material, out, jobs, scheduler,
+                                  texture_rate=texture_rate, highpass=highpass, max_order=max_order, criterion=criterion,
+                                  min_segment=min_segment / 1000.0, mu0=mu0, max_segment=max_segment or None)
     stdout.print(f"{out}: {len(fit.segments)} segments, AR({fit.order}) models (AIC {fit.aic_order}, BIC {fit.bic_order}) over (speed, force), "
                  f"{fit.bank.triangles.shape[0]} triangles; mu0 {fit.mu0:.3f}")
     if report is not None:

@@ -176,14 +176,6 @@ def run(
     guard.finish("paused; every answered trial is in the log (run again to resume)")
 
 
-def _first_material(runner) -> str:
-    for t in runner.plan.trials:
-        for s in t.stimuli:
-            if "material" in s.render:
-                return str(s.render["material"])
-    return "cork"
-
-
 def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float, guard: StopSignals,
               lsl: bool = False) -> None:
     """Serve the page until the runner is finished or ``guard`` caught SIGINT/SIGTERM; then
@@ -205,7 +197,9 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
     if output is not None:
         from surfhap.live.session import build_session
 
-        session = build_session(_first_material(runner), parse_output(output), amp_gain=amp_gain, display=runner.display)
+        first = next((str(s.render["material"]) for t in runner.plan.trials for s in t.stimuli if "material" in s.render),
+                     "cork")
+        session = build_session(first, parse_output(output), amp_gain=amp_gain, display=runner.display)
         player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max, display=runner.display)
         player.mute()
         session.start()

@@ -14,17 +14,28 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from pydantic import ValidationError
+from pydantic import AliasChoices, BaseModel, ConfigDict, Field
 
 from surfhap.errors import ConfigError
-from surfhap.exchange.files import read_text, write_text
+from surfhap.exchange.files import parse_pairs, read_model, validated, write_text
 from surfhap.models.device_curve import DeviceCurve
 from surfhap.models.display import DisplayFile
 from surfhap.models.panel import DisplayModel
 
-__all__ = ["read_display_json", "write_display_json", "parse_display_option", "load_display", "display_from_values"]
+__all__ = ["DisplayValues", "read_display_json", "write_display_json", "parse_display_option", "load_display",
+           "display_from_values"]
 
-_KEYS = ("k", "mu_panel", "area", "leakage")
+
+class DisplayValues(BaseModel):
+    """Display values given by hand (``--display k=...`` or a config's ``[display]`` section):
+    ``k`` N/V^2, ``mu_panel``, ``area`` m^2, ``leakage`` (or ``leakage_time_constant``) s; each a
+    finite number > 0, unknown keys refused."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+    k: float | None = Field(None, gt=0)
+    mu_panel: float | None = Field(None, gt=0)
+    area: float | None = Field(None, gt=0)
+    leakage: float | None = Field(None, gt=0, validation_alias=AliasChoices("leakage", "leakage_time_constant"))
 
 
 def display_from_values(k: float | None = None, mu_panel: float | None = None, area: float | None = None,
@@ -39,61 +50,32 @@ def display_from_values(k: float | None = None, mu_panel: float | None = None, a
                         device_curve=device_curve if device_curve is not None else base.device_curve, source=source)
 
 
-def _validate(raw: dict, src: str) -> DisplayFile:
-    try:
-        return DisplayFile.model_validate(raw)
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        field = ".".join(str(p) for p in first.get("loc", ())) or None
-        raise ConfigError(first.get("msg", "invalid value"), source=src, field=field) from None
-
-
 def write_display_json(doc: dict, path: str | Path) -> Path:
     """Write a display file (``doc`` as :meth:`surfhap.lab.calibration.Calibration.to_display_json`
     makes it) after validating it as the reader will: a file the renderers refuse is never written."""
-    _validate(doc, str(path))
+    validated(DisplayFile, doc, str(path), ConfigError)
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     return write_text(path, json.dumps(doc, indent=2) + "\n")
 
 
 def read_display_json(path: str | Path) -> DisplayModel:
     """Read and validate a display file; raises ConfigError(source=file, field=...) on any problem."""
-    path = Path(path)
-    src = str(path)
-    text = read_text(path, ConfigError)
-    try:
-        raw = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"malformed JSON ({exc})", source=src) from None
-    if not isinstance(raw, dict):
-        raise ConfigError("top level must be a JSON object", source=src)
-    spec = _validate(raw, src)
-    source = f"{path.name} ({spec.provenance.source})"
+    spec = read_model(path, DisplayFile, ConfigError)
+    source = f"{Path(path).name} ({spec.provenance.source})"
     if spec.k is None:
         source += "; k not measured: the assumed stack value"
     return display_from_values(spec.k, spec.mu_panel, spec.area, spec.leakage_time_constant, spec.device_curve,
-                              source=source)
+                               source=source)
 
 
 def parse_display_option(text: str, option: str = "--display") -> DisplayModel:
     """Parse ``k=5e-6,mu_panel=0.4,area=1e-4[,leakage=0.05]``."""
-    values: dict[str, float] = {}
-    for part in filter(None, (p.strip() for p in text.split(","))):
-        if "=" not in part:
-            raise ConfigError(f"expected key=value or a display JSON file, got {part!r}", source=option)
-        key, value = (s.strip() for s in part.split("=", 1))
-        if key not in _KEYS:
-            raise ConfigError(f"unknown key (known: {', '.join(_KEYS)})", source=option, field=key)
-        try:
-            val = float(value)
-        except ValueError:
-            raise ConfigError(f"{value!r} is not a number", source=option, field=key) from None
-        if not (val > 0 and val < float("inf")):
-            raise ConfigError("must be a finite number > 0", source=option, field=key)
-        values[key] = val
+    values = parse_pairs(text, option, DisplayValues.model_fields, ConfigError, what="key=value or a display JSON file",
+                         numbers=True)
     if not values:
         raise ConfigError("give k=..., mu_panel=..., area=... or a display JSON file", source=option)
-    return display_from_values(**values, source=f"{option} {text}")
+    spec = validated(DisplayValues, values, option, ConfigError)
+    return display_from_values(**spec.model_dump(exclude_none=True), source=f"{option} {text}")
 
 
 def load_display(text: str | Path | None, option: str = "--display") -> DisplayModel:

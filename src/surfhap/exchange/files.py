@@ -10,27 +10,75 @@ line naming the file (and the field), never a traceback.
 from __future__ import annotations
 
 import hashlib
+import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from surfhap.errors import InputError, reading, writing
 
-__all__ = ["read_bytes", "read_text", "file_sha256", "load_npz", "npz_number", "numeric", "write_text"]
+__all__ = ["read_text", "read_json_object", "validated", "read_model", "parse_pairs", "file_sha256",
+           "load_npz", "npz_number", "numeric", "write_text"]
 
 _CHUNK = 1 << 20
-
-
-def read_bytes(path: str | Path, error: type[InputError] = InputError) -> bytes:
-    """The file's bytes; ``error`` naming it when it cannot be read."""
-    with reading(path, error):
-        return Path(path).read_bytes()
 
 
 def read_text(path: str | Path, error: type[InputError] = InputError) -> str:
     """The file's text (UTF-8, a BOM is dropped); ``error`` naming it when unreadable or not UTF-8."""
     with reading(path, error):
         return Path(path).read_bytes().decode("utf-8-sig")
+
+
+def read_json_object(path: str | Path, error: type[InputError] = InputError) -> dict:
+    """The file's top-level JSON object; ``error`` naming the file when unreadable, malformed or not an object."""
+    text = read_text(path, error)
+    try:
+        raw = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise error(f"malformed JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", source=str(path)) from None
+    if not isinstance(raw, dict):
+        raise error("top level must be a JSON object", source=str(path))
+    return raw
+
+
+def validated(model: Any, raw: object, source: str, error: type[InputError] = InputError, *, prefix: str = ""):
+    """``model.model_validate(raw)`` (a pydantic model class); the first error as ``error``
+    naming ``source`` and the dotted field (after ``prefix``, e.g. "display.")."""
+    from pydantic import ValidationError
+
+    from surfhap.checked import first_error
+
+    try:
+        return model.model_validate(raw)
+    except ValidationError as exc:
+        field, msg = first_error(exc)
+        field = (prefix.rstrip(".") if field == "(top)" else prefix + field) if prefix else field
+        raise error(msg, source=source, field=field) from None
+
+
+def read_model(path: str | Path, model: Any, error: type[InputError] = InputError):
+    """A JSON file validated as ``model`` (:func:`read_json_object`, then :func:`validated`)."""
+    return validated(model, read_json_object(path, error), str(path), error)
+
+
+def parse_pairs(text: str, source: str, known, error: type[InputError] = InputError, *, what: str = "key=value",
+                numbers: bool = False) -> dict:
+    """``"a=1,b=x[mm]"`` -> {"a": "1", "b": "x[mm]"} (floats with ``numbers``): the one parser of
+    comma-separated pairs (``--scan``, ``--display``, ``--columns``). A part without "=", a key
+    not in ``known`` or (``numbers``) a value that is not a number is ``error`` naming ``source``."""
+    out: dict = {}
+    for part in filter(None, (p.strip() for p in text.split(","))):
+        if "=" not in part:
+            raise error(f"expected {what}, got {part!r}", source=source)
+        key, value = (s.strip() for s in part.split("=", 1))
+        if key not in known:
+            raise error(f"unknown key {key!r} (known: {', '.join(known)})", source=source)
+        try:
+            out[key] = float(value) if numbers else value
+        except ValueError:
+            raise error(f"{value!r} is not a number", source=source, field=key) from None
+    return out
 
 
 def file_sha256(path: str | Path, error: type[InputError] = InputError) -> str:

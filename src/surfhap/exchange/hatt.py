@@ -18,7 +18,6 @@ reads ``.xml`` files through :func:`read_hatt_material`.
 
 from __future__ import annotations
 
-import hashlib
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -27,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import MaterialFormatError
+from surfhap.exchange.files import file_sha256
 from surfhap.exchange.material_json import write_material_json
 from surfhap.signal.lsf import lsf_is_valid, lsf_to_poly
 
@@ -290,7 +290,7 @@ def read_hatt_material(path: str | Path):
     path = Path(path)
     ms = read_hatt_xml(path)
     try:
-        return hatt_to_material(ms, str(path), hashlib.sha256(path.read_bytes()).hexdigest())
+        return hatt_to_material(ms, str(path), file_sha256(path, MaterialFormatError))
     except ValueError as exc:
         if isinstance(exc, MaterialFormatError):
             raise
@@ -315,7 +315,7 @@ def import_hatt_folder(folder: str | Path, out_dir: str | Path) -> list[Path]:
     written = []
     for f in files:
         ms = read_hatt_xml(f)
-        mat = hatt_to_material(ms, str(f), hashlib.sha256(f.read_bytes()).hexdigest(),
+        mat = hatt_to_material(ms, str(f), file_sha256(f, MaterialFormatError),
                                command=f"surfhap import hatt {folder} --out {out_dir}")
         written.append(write_material_json(mat, out_dir / f"{mat.name}.json"))
     return written

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import RecordingFormatError
-from surfhap.exchange.table import UNITS, read_csv_table
+from surfhap.exchange.table import UNITS, read_csv_table, time_step
 
 __all__ = ["ImuRecording", "read_imu_csv", "IMU_COLUMNS"]
 
@@ -39,11 +39,6 @@ def read_imu_csv(path: str | Path, unit_scale: float = 1.0) -> ImuRecording:
     src = str(path)
     table = read_csv_table(path, _CHANNELS, required=IMU_COLUMNS, min_rows=2, error=RecordingFormatError)
     t = table.columns["time"]
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        raise RecordingFormatError(f"row {int(np.nonzero(dt <= 0)[0][0]) + 2}: time does not increase", source=src, field="time")
-    rate = 1.0 / float(np.median(dt))
-    if np.max(np.abs(dt * rate - 1.0)) > 0.05:
-        raise RecordingFormatError("time is not uniformly sampled (within 5 %)", source=src, field="time")
+    rate = 1.0 / time_step(t, src, RecordingFormatError)
     accel = np.column_stack([table.columns[c] for c in IMU_COLUMNS[1:]]) * float(unit_scale)
     return ImuRecording(t, accel, round(rate, 6), path.name, table.sha256)

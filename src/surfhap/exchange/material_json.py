@@ -6,44 +6,22 @@ files and dispatches on the suffix.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from pydantic import ValidationError
-
 from surfhap.errors import MaterialFormatError
-from surfhap.exchange.files import read_text, write_text
+from surfhap.exchange.files import read_json_object, validated, write_text
 from surfhap.models.material import Material, MaterialFile
 
-__all__ = ["read_material_json", "write_material_json", "validation_error_to_format_error"]
-
-
-def validation_error_to_format_error(err: ValidationError, source: str, cls=MaterialFormatError):
-    """Turn the first pydantic error into one located error line."""
-    first = err.errors()[0]
-    field = ".".join(str(p) for p in first.get("loc", ())) or None
-    msg = first.get("msg", "invalid value")
-    return cls(msg, source=source, field=field)
+__all__ = ["read_material_json", "write_material_json"]
 
 
 def read_material_json(path: str | Path) -> Material:
     """Read and validate a material JSON file. Raises MaterialFormatError on any problem."""
-    path = Path(path)
-    text = read_text(path, MaterialFormatError)
-    try:
-        raw = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise MaterialFormatError(f"malformed JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", source=str(path)) from None
-    if not isinstance(raw, dict):
-        raise MaterialFormatError("top level must be a JSON object", source=str(path))
+    raw = read_json_object(path, MaterialFormatError)
     version = raw.get("schema_version")
     if version != 1:
         raise MaterialFormatError(f"unsupported schema_version {version!r} (this surfhap reads 1)", source=str(path), field="schema_version")
-    try:
-        spec = MaterialFile.model_validate(raw)
-    except ValidationError as exc:
-        raise validation_error_to_format_error(exc, str(path)) from None
-    return Material.from_spec(spec)
+    return Material.from_spec(validated(MaterialFile, raw, str(path), MaterialFormatError))
 
 
 def write_material_json(material: Material | MaterialFile, path: str | Path) -> Path:

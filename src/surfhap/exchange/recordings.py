@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import RecordingFormatError, writing
-from surfhap.exchange.files import file_sha256, load_npz, npz_number, numeric, write_text
-from surfhap.exchange.table import UNITS, read_csv_table, resolve_columns
+from surfhap.exchange.files import file_sha256, load_npz, npz_number, numeric, parse_pairs, write_text
+from surfhap.exchange.table import UNITS, read_csv_table, resolve_columns, time_step
 
 __all__ = [
     "CHANNELS",
@@ -61,17 +61,7 @@ _CHANNEL_UNITS = {channel: UNITS[si] for channel, si in CHANNELS.items()}
 
 def parse_column_map(text: str | None, option: str = "--columns") -> dict[str, str]:
     """``"speed=v_x[mm/s],normal_force=Fz"`` -> {"speed": "v_x[mm/s]", "normal_force": "Fz"}."""
-    out: dict[str, str] = {}
-    if not text:
-        return out
-    for part in filter(None, (p.strip() for p in text.split(","))):
-        if "=" not in part:
-            raise RecordingFormatError(f"expected channel=column, got {part!r}", source=option)
-        key, value = (s.strip() for s in part.split("=", 1))
-        if key not in CHANNELS:
-            raise RecordingFormatError(f"unknown channel {key!r} (known: {', '.join(CHANNELS)})", source=option)
-        out[key] = value
-    return out
+    return parse_pairs(text or "", option, CHANNELS, RecordingFormatError, what="channel=column")
 
 
 @dataclass(frozen=True)
@@ -138,11 +128,9 @@ def _check_finite(source: str, name: str, x: np.ndarray, t: np.ndarray | None) -
     bad = ~np.isfinite(x)
     if np.any(bad):
         i = int(np.argmax(bad))
-        j = i
-        while j < bad.size and bad[j]:
-            j += 1
+        run = int(np.argmin(bad[i:])) or bad.size - i  # up to the next finite sample, or to the end
         where = f"t = {t[i]:.6g} s" if t is not None and np.isfinite(t[i]) else f"sample {i}"
-        raise RecordingFormatError(f"NaN or missing values: a run of {j - i} sample(s) from row {i + 1} ({where}); "
+        raise RecordingFormatError(f"NaN or missing values: a run of {run} sample(s) from row {i + 1} ({where}); "
                                    "cut the recording or fill the gap before fitting", source=source, field=name)
 
 
@@ -169,15 +157,7 @@ def _finish(source, time, sample_rate, data, participant, trial, digest, meta) -
     if time.size < 16:
         raise RecordingFormatError(f"only {time.size} samples; a recording needs at least 16", source=source, field="time")
     _check_finite(source, "time", time, None)
-    dt = np.diff(time)
-    if np.any(dt <= 0):
-        i = int(np.argmax(dt <= 0))
-        raise RecordingFormatError(f"not strictly increasing at row {i + 2} ({time[i]:.6g} s then {time[i + 1]:.6g} s)", source=source, field="time")
-    med = float(np.median(dt))
-    if np.max(np.abs(dt - med)) > 0.05 * med:
-        i = int(np.argmax(np.abs(dt - med)))
-        raise RecordingFormatError(f"not uniformly sampled: step of {dt[i]:.6g} s at row {i + 2}, median step {med:.6g} s; resample first",
-                                   source=source, field="time")
+    time_step(time, source, RecordingFormatError)
     for name, x in data.items():
         _check_finite(source, name, x, time)
     if "speed" not in data and "position" in data:

@@ -14,17 +14,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.io import wavfile
 
-from surfhap.errors import ConfigError, writing
 from surfhap.exchange.files import write_text
 from surfhap.exchange.render_store import RENDER_CHANNELS as CHANNELS
-from surfhap.exchange.render_store import SUFFIXES, open_render_writer
+from surfhap.exchange.render_store import SUFFIXES, DriveWavWriter, open_render_writer
 
 if TYPE_CHECKING:  # exchange/ sits below render/: it writes the result's arrays, it does not compute
     from surfhap.render.offline import RenderResult
 
-__all__ = ["write_render", "write_drive_wav", "render_arrays", "render_file_spec", "render_file_attrs", "write_summary"]
+__all__ = ["write_render", "render_arrays", "render_file_spec", "render_file_attrs", "write_summary"]
 
 
 def render_arrays(result: RenderResult) -> dict[str, np.ndarray]:
@@ -54,20 +52,6 @@ def write_summary(path: str | Path, summary: dict, amp_gain: float) -> Path:
     return write_text(path, json.dumps(summary | {"amp_gain_v_per_unit": amp_gain}, indent=2, default=float) + "\n")
 
 
-def write_drive_wav(path: str | Path, drive: np.ndarray, drive_rate: int, amp_gain: float) -> Path:
-    """Write volts as float32 DAC units (``drive / amp_gain``); refuses values beyond +-1."""
-    if not (np.isfinite(amp_gain) and amp_gain > 0):
-        raise ConfigError("must be > 0 V per DAC unit", field="amp_gain")
-    units = (np.asarray(drive, dtype=float) / amp_gain).astype(np.float32)
-    peak = float(np.max(np.abs(units))) if units.size else 0.0
-    if peak > 1.0:
-        raise ConfigError(f"the drive reaches {peak:.3g} DAC full scales; raise the amplifier gain", field="amp_gain")
-    path = Path(path)
-    with writing(path):
-        wavfile.write(path, int(drive_rate), units)
-    return path
-
-
 def write_render(result: RenderResult, out_dir: str | Path, amp_gain: float | None = None,
                  format: str = "npz") -> dict[str, Path]:
     """Write drive.wav, render.npz (or render.h5 with ``format="h5"``) and summary.json into
@@ -75,10 +59,16 @@ def write_render(result: RenderResult, out_dir: str | Path, amp_gain: float | No
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     gain = float(amp_gain) if amp_gain is not None else float(result.v_max)
-    wav = write_drive_wav(out / "drive.wav", result.drive, result.drive_rate, gain)
+    wav = DriveWavWriter(out / "drive.wav", result.drive_rate, gain)  # refuses a drive beyond +-1 full scale
+    try:
+        wav(result.drive)
+    except BaseException:
+        wav.abort()
+        raise
+    wav.close()
     writer = open_render_writer(out, format, render_file_spec(result.control_rate, result.drive_rate, result.texture_quantity))
     for name, arr in render_arrays(result).items():
         writer(name, arr)
     writer.close(render_file_attrs(result))
-    return {"wav": wav, "render": out / f"render{SUFFIXES[format]}",
+    return {"wav": wav.path, "render": out / f"render{SUFFIXES[format]}",
             "summary": write_summary(out / "summary.json", result.summary(), gain)}

@@ -88,24 +88,18 @@ class RenderData:
         return list(self.channels) + [k for k in self._derived() if k not in self.channels]
 
 
-class _Writer:
-    """Shared part of the writers: ``writer(channel, block)`` appends a block, ``close(attrs)``
-    finishes the file, ``abort()`` closes and removes it. ``spec``: channel -> (rate Hz, unit)."""
-
-    def __init__(self, path: Path, spec: dict[str, tuple[float, str]]):
-        self.path, self.spec = Path(path), spec
-
-
-class H5Writer(_Writer):
+class H5Writer:
     """``render.h5``: chunked datasets grown one whole chunk at a time from a fixed buffer per
-    channel (constant memory, few HDF5 calls)."""
+    channel (constant memory, few HDF5 calls). As :class:`NpzWriter`: ``writer(channel, block)``
+    appends a block, ``close(attrs)`` finishes the file, ``abort()`` closes and removes it;
+    ``spec``: channel -> (rate Hz, unit)."""
 
     CHUNK = 1 << 16  # samples per chunk and per write
 
     def __init__(self, path, spec):
         import h5py
 
-        super().__init__(path, spec)
+        self.path, self.spec = Path(path), spec
         with writing(self.path):
             self._f = h5py.File(self.path, "w", rdcc_nbytes=0)  # whole chunks are written: no cache (it grew with the file)
         self._f.attrs["format"] = FORMAT
@@ -164,11 +158,11 @@ class H5Writer(_Writer):
         self.path.unlink(missing_ok=True)
 
 
-class NpzWriter(_Writer):
+class NpzWriter:
     """``render.npz``: blocks kept in memory, written once (uncompressed) at ``close``."""
 
     def __init__(self, path, spec):
-        super().__init__(path, spec)
+        self.path, self.spec = Path(path), spec
         self._blocks = {name: [] for name in spec}
 
     def __call__(self, channel, block):
@@ -191,11 +185,11 @@ class NpzWriter(_Writer):
         self._blocks = {}
 
 
-WRITERS: dict[str, type[_Writer]] = {"h5": H5Writer, "npz": NpzWriter}
+WRITERS: dict[str, type[H5Writer | NpzWriter]] = {"h5": H5Writer, "npz": NpzWriter}
 SUFFIXES = {"h5": ".h5", "npz": ".npz"}
 
 
-def open_render_writer(out_dir: str | Path, fmt: str, spec: dict[str, tuple[float, str]]) -> _Writer:
+def open_render_writer(out_dir: str | Path, fmt: str, spec: dict[str, tuple[float, str]]) -> H5Writer | NpzWriter:
     """A writer of ``render.<suffix>`` in ``out_dir`` for format ``fmt`` ("h5" or "npz")."""
     if fmt not in WRITERS:
         raise ConfigError(f"unknown format {fmt!r} (known: {', '.join(WRITERS)})", source="--format")

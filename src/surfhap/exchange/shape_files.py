@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import ConfigError, writing
-from surfhap.exchange.files import read_text, write_text
+from surfhap.exchange.files import read_json_object, write_text
 from surfhap.shape.calibration import ShapeCalibration
 
 __all__ = ["shape_arrays", "write_shape", "write_calibration", "read_calibration", "default_calibration_path"]
@@ -61,24 +61,9 @@ def write_calibration(cal: ShapeCalibration, path: str | Path) -> Path:
 
 
 def read_calibration(path: str | Path) -> ShapeCalibration:
-    """Read a calibration JSON; ConfigError naming the file for anything unusable."""
-    path = Path(path)
-    src = str(path)
-    text = read_text(path, ConfigError)
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"not JSON (line {exc.lineno}: {exc.msg})", source=src) from None
-    if not isinstance(data, dict):
-        raise ConfigError("expected a JSON object", source=src)
-    for key in ("fmin", "fmax"):
-        if key not in data:
-            raise ConfigError("missing (required)", source=src, field=key)
-        if not isinstance(data[key], (int, float)) or isinstance(data[key], bool):
-            raise ConfigError("must be a number", source=src, field=key)
+    """Read a calibration JSON; ConfigError naming the file (and the field) for anything unusable."""
+    data = read_json_object(path, ConfigError)
     try:
         return ShapeCalibration.from_dict(data)
     except ConfigError as exc:
-        raise ConfigError(exc.message, source=src, field=exc.field) from None
-    except TypeError as exc:
-        raise ConfigError(f"bad field ({exc})", source=src) from None
+        raise ConfigError(exc.message, source=str(path), field=exc.field) from None

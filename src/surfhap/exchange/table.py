@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import InputError, reading
-from surfhap.exchange.files import file_sha256, read_bytes
+from surfhap.exchange.files import file_sha256
 
-__all__ = ["Table", "UNITS", "read_csv_table", "split_header", "unit_factor", "resolve_columns", "read_source_bytes"]
+__all__ = ["Table", "UNITS", "read_csv_table", "split_header", "unit_factor", "resolve_columns", "time_step"]
 
 #: SI unit -> {accepted unit: factor to SI}; matched without spaces and case
 UNITS: dict[str, dict[str, float]] = {
@@ -92,11 +92,6 @@ def unit_factor(channel: str, unit: str | None, units: Mapping[str, float], sour
     return table[_unit_key(unit)]
 
 
-def read_source_bytes(path: Path, error: type[InputError]) -> bytes:
-    """The file's bytes; ``error`` naming the file when it cannot be read."""
-    return read_bytes(path, error)
-
-
 def resolve_columns(headers: list[str], channels: Mapping[str, Mapping[str, float]], rename: Mapping[str, str],
              source: str, error: type[InputError]) -> dict[str, tuple[int, float]]:
     """canonical channel -> (column index, factor to SI); ``rename`` maps a channel to a column
@@ -120,6 +115,26 @@ def resolve_columns(headers: list[str], channels: Mapping[str, Mapping[str, floa
         if name in channels and name not in out and i not in taken:
             out[name] = (i, unit_factor(name, unit, channels[name], source, headers[i], error))
     return out
+
+
+def time_step(t: np.ndarray, source: str, error: type[InputError], tolerance: float | None = 0.05,
+              row: int = 2) -> float:
+    """The median step (s) of a time column that increases strictly and (unless ``tolerance``
+    is None) is uniformly sampled within ``tolerance``; otherwise ``error`` naming the field
+    ``time`` and the 1-based data row (``row`` = the row of the second sample)."""
+    dt = np.diff(t)
+    bad = np.nonzero(~(dt > 0))[0]
+    if bad.size:
+        i = int(bad[0])
+        raise error(f"not strictly increasing at row {i + row} ({t[i]:.6g} s then {t[i + 1]:.6g} s)", source=source,
+                    field="time")
+    step = float(np.median(dt)) if dt.size else 0.0
+    dev = np.abs(dt - step)
+    if tolerance is not None and dt.size and dev.max() > tolerance * step:
+        i = int(np.argmax(dev))
+        raise error(f"not uniformly sampled within {tolerance:.0%}: step of {dt[i]:.6g} s at row {i + row}, median step "
+                    f"{step:.6g} s; resample first", source=source, field="time")
+    return step
 
 
 def _head(fh) -> tuple[dict[str, str], str | None, int]:

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import TrajectoryFormatError
-from surfhap.exchange.table import UNITS, read_csv_table
+from surfhap.exchange.table import UNITS, read_csv_table, time_step
 from surfhap.models.trajectory import Trajectory, implausible
 
 __all__ = ["read_trajectory_csv", "write_trajectory_csv", "TRAJECTORY_COLUMNS"]
@@ -29,10 +29,7 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     src = str(path)
     table = read_csv_table(path, _CHANNELS, required=TRAJECTORY_COLUMNS, min_rows=2, error=TrajectoryFormatError)
     cols = table.columns
-    dt = np.diff(cols["time"])
-    if np.any(dt <= 0):
-        i = int(np.nonzero(dt <= 0)[0][0]) + 2
-        raise TrajectoryFormatError(f"row {i}: time does not increase", source=src, field="time")
+    time_step(cols["time"], src, TrajectoryFormatError, tolerance=None)
     neg = np.nonzero(cols["load"] < 0)[0]
     if neg.size:
         raise TrajectoryFormatError(f"row {neg[0] + 1}: negative load", source=src, field="load")

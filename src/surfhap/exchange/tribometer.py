@@ -30,7 +30,7 @@ import numpy as np
 
 from surfhap.errors import RecordingFormatError, writing
 from surfhap.exchange.files import load_npz, npz_number, numeric, write_text
-from surfhap.exchange.table import UNITS, read_csv_table
+from surfhap.exchange.table import UNITS, read_csv_table, time_step
 
 __all__ = ["TRIBOMETER_CHANNELS", "INPUT_KINDS", "TribometerRecording", "read_tribometer", "write_tribometer_csv",
            "write_tribometer_npz"]
@@ -97,12 +97,9 @@ def _finish(source: str, kind: str, time, data: dict) -> TribometerRecording:
         arrays[name] = x
     if t.size < MIN_SAMPLES:
         raise _err(source, "time", f"need at least {MIN_SAMPLES} samples, got {t.size}")
-    dt = np.diff(t)
-    if not np.all(np.isfinite(t)) or np.any(dt <= 0):
-        raise _err(source, "time", "must be finite and strictly increasing")
-    step = float(np.median(dt))
-    if np.max(np.abs(dt - step)) > 0.01 * step:
-        raise _err(source, "time", "must be uniformly sampled (within 1 %)")
+    if not np.all(np.isfinite(t)):
+        raise _err(source, "time", f"not finite at sample {int(np.argmin(np.isfinite(t)))}")
+    step = time_step(t, source, RecordingFormatError, tolerance=0.01)
     lev = arrays["level"]
     if np.any(lev < 0):
         raise _err(source, "level", "must be >= 0 (0 = drive off)")

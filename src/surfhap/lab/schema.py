@@ -12,14 +12,13 @@ A malformed file raises :class:`~surfhap.errors.StudyFormatError` naming the fil
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
-from surfhap.checked import first_error
 from surfhap.errors import StudyFormatError
+from surfhap.exchange.files import read_model
 
 __all__ = ["DESIGN_FORMAT", "STUDY_FORMAT", "KINDS", "Choice", "Stimulus", "Trial", "ParticipantPlan", "DesignSpec",
            "Session", "Study", "load_design", "load_study"]
@@ -119,34 +118,12 @@ class Study(_Strict):
                                f"{' ...' if len(self.participants) > 8 else ''})", field="participant")
 
 
-def _read_json(path: Path) -> Any:
-    if not path.is_file():
-        raise StudyFormatError("not found", source=str(path), field="file")
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise StudyFormatError(f"not valid JSON ({exc})", source=str(path), field="file") from None
-
-
 def load_design(path: str | Path) -> DesignSpec:
     """Read and validate a design file."""
-    p = Path(path)
-    data = _read_json(p)
-    try:
-        return DesignSpec.model_validate(data)
-    except ValidationError as exc:
-        field, msg = first_error(exc)
-        raise StudyFormatError(msg, source=str(p), field=field) from None
+    return read_model(path, DesignSpec, StudyFormatError)
 
 
 def load_study(folder: str | Path) -> Study:
     """Read and validate ``STUDY/study.json`` (``folder`` may also be the file itself)."""
     p = Path(folder)
-    if p.is_dir():
-        p = p / "study.json"
-    data = _read_json(p)
-    try:
-        return Study.model_validate(data)
-    except ValidationError as exc:
-        field, msg = first_error(exc)
-        raise StudyFormatError(msg, source=str(p), field=field) from None
+    return read_model(p / "study.json" if p.is_dir() else p, Study, StudyFormatError)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -32,15 +33,15 @@ def now_iso() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
 
 
+@dataclass
 class LogContents:
     """Parsed log: ``sessions`` (session records), ``trials`` (trial records, file order),
     ``events``, ``dropped_tail`` (bytes of a partial last line, not counted)."""
 
-    def __init__(self, sessions: list[dict], trials: list[dict], events: list[dict], dropped_tail: int):
-        self.sessions = sessions
-        self.trials = trials
-        self.events = events
-        self.dropped_tail = dropped_tail
+    sessions: list[dict]
+    trials: list[dict]
+    events: list[dict]
+    dropped_tail: int
 
     @property
     def completed_ids(self) -> set[str]:
