@@ -22,45 +22,55 @@ The kernel runs in one compiled pass, allocates nothing and keeps its state in a
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated
 
 import numba
 import numpy as np
+from pydantic import Field, model_validator
+
+from surfhap.checked import checked_dataclass
 
 __all__ = ["SafetyLimits", "SafetyStage", "SafetyCounters", "OutputSafety", "OutputCounters"]
 
+_Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
-@dataclass(frozen=True)
+
+@checked_dataclass
 class SafetyLimits:
-    """Limits of the safety stage (SI units).
+    """Limits of the safety stage (SI units; all finite, > 0 unless stated).
 
     v_max            : V, largest drive magnitude ever output.
     rise_rate        : V/s, largest rise of the drive magnitude (default: 0 to v_max in 0.1 ms).
-    lift_threshold   : N, loads below this mean "finger lifted" -> 0 V.
+    lift_threshold   : N (>= 0, below max_load), loads below this mean "finger lifted" -> 0 V.
     max_load         : N, loads above this are absurd (sensor fault) -> 0 V.
-    absurd_factor    : drive inputs beyond absurd_factor * v_max are treated as faults.
+    absurd_factor    : (>= 1) drive inputs beyond absurd_factor * v_max are treated as faults.
     watchdog_timeout : s, touch-sample age after which the output ramps to zero.
     watchdog_ramp    : s, longest time the ramp to zero may take.
     clock_tolerance  : s, touch ages down to -clock_tolerance count as fresh (rounding).
     """
 
-    v_max: float = 250.0
-    rise_rate: float = 2.5e6
-    lift_threshold: float = 0.02
-    max_load: float = 50.0
-    absurd_factor: float = 4.0
-    watchdog_timeout: float = 0.050
-    watchdog_ramp: float = 0.005
-    clock_tolerance: float = 1.0e-3
+    v_max: _Positive = 250.0
+    rise_rate: _Positive = 2.5e6
+    lift_threshold: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.02
+    max_load: _Positive = 50.0
+    absurd_factor: Annotated[float, Field(ge=1, allow_inf_nan=False)] = 4.0
+    watchdog_timeout: _Positive = 0.050
+    watchdog_ramp: _Positive = 0.005
+    clock_tolerance: _Positive = 1.0e-3
 
-    def __post_init__(self):
-        for name in ("v_max", "rise_rate", "max_load", "absurd_factor", "watchdog_timeout", "watchdog_ramp", "clock_tolerance"):
-            val = getattr(self, name)
-            if not (np.isfinite(val) and val > 0):
-                raise ValueError(f"safety limit {name} must be finite and > 0, got {val}")
-        if not (np.isfinite(self.lift_threshold) and 0 <= self.lift_threshold < self.max_load):
-            raise ValueError("lift_threshold must be in [0, max_load)")
-        if self.absurd_factor < 1:
-            raise ValueError("absurd_factor must be >= 1")
+    @model_validator(mode="after")
+    def _lift_below_max_load(self):
+        if self.lift_threshold >= self.max_load:
+            raise ValueError("lift_threshold must be below max_load")
+        return self
+
+    def per_sample(self, drive_rate: float) -> tuple[float, float, float, float]:
+        """(v_max V, rise V per sample, watchdog ramp V per sample, absurd drive V) at
+        ``drive_rate`` Hz (> 0): the limits as the kernels apply them."""
+        fs = float(drive_rate)
+        if not (np.isfinite(fs) and fs > 0):
+            raise ValueError("drive_rate must be positive")
+        return self.v_max, self.rise_rate / fs, self.v_max / (self.watchdog_ramp * fs), self.absurd_factor * self.v_max
 
 
 @dataclass(frozen=True)
@@ -127,23 +137,12 @@ class SafetyStage:
     """
 
     def __init__(self, drive_rate: float, limits: SafetyLimits | None = None):
-        if not (np.isfinite(drive_rate) and drive_rate > 0):
-            raise ValueError("drive_rate must be positive")
+        self.limits = lim = limits or SafetyLimits()
+        v_max, rise, ramp, absurd = lim.per_sample(drive_rate)
         self.drive_rate = float(drive_rate)
-        self.limits = limits or SafetyLimits()
         self._state = np.zeros(1)
         self._counters = np.zeros(6, dtype=np.int64)
-        lim = self.limits
-        self._args = (
-            lim.v_max,
-            lim.rise_rate / self.drive_rate,
-            lim.v_max / (lim.watchdog_ramp * self.drive_rate),
-            lim.lift_threshold,
-            lim.max_load,
-            lim.absurd_factor * lim.v_max,
-            lim.watchdog_timeout,
-            lim.clock_tolerance,
-        )
+        self._args = (v_max, rise, ramp, lim.lift_threshold, lim.max_load, absurd, lim.watchdog_timeout, lim.clock_tolerance)
 
     def reset(self) -> None:
         """Forget the previous output (next onset starts from 0 V) and zero the counters."""
@@ -247,8 +246,6 @@ class OutputSafety:
     """
 
     def __init__(self, drive_rate: float, limits: SafetyLimits | None = None, ramp_seconds: float = 0.010):
-        if not (np.isfinite(drive_rate) and drive_rate > 0):
-            raise ValueError("drive_rate must be positive")
         if not (np.isfinite(ramp_seconds) and ramp_seconds > 0):
             raise ValueError("ramp_seconds must be positive")
         self.drive_rate = float(drive_rate)
@@ -261,14 +258,10 @@ class OutputSafety:
     def set_limits(self, limits: SafetyLimits) -> None:
         """Take new limits (e.g. those of a renderer switched in); the state is kept."""
         self.limits = lim = limits
-        fs = self.drive_rate
-        self._dt = 1.0 / fs
-        self._v_max = float(lim.v_max)
-        self._rise = float(lim.rise_rate / fs)
-        self._wd_step = float(lim.v_max / (lim.watchdog_ramp * fs))
+        self._v_max, self._rise, self._wd_step, self._absurd = lim.per_sample(self.drive_rate)
+        self._dt = 1.0 / self.drive_rate
         self._timeout = float(lim.watchdog_timeout)
         self._hard_age = float(lim.watchdog_timeout + lim.watchdog_ramp)
-        self._absurd = float(lim.absurd_factor * lim.v_max)
 
     def reset(self) -> None:
         """Silence remembered, stop ramp back to full, counters zeroed."""
@@ -286,10 +279,6 @@ class OutputSafety:
     def ramped_down(self) -> bool:
         """True once the stop ramp has reached zero."""
         return self._ramp_step > 0.0 and self._state[1] <= 0.0
-
-    @property
-    def last_magnitude(self) -> float:
-        return float(self._state[0])
 
     def process(self, x: np.ndarray, out: np.ndarray, age0: float, gain: float = 1.0, halt: bool = False) -> np.ndarray:
         """``x``, ``out``: (n,) float64 volts (may be the same array); ``age0``: s, age of the
