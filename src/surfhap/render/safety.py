@@ -16,7 +16,8 @@ The limits of :class:`SafetyStage` hold for *any* input sequence (property-teste
   fresh touch sample arrives.
 
 Polarity is free: a polarity carrier flips the sign without changing the magnitude.
-The kernel runs in one compiled pass, allocates nothing and keeps its state in a small array.
+Both passes run the one compiled kernel (``_safety_kernel``: each limit written once), which
+allocates nothing and keeps its state in a small array.
 """
 
 from __future__ import annotations
@@ -64,13 +65,18 @@ class SafetyLimits:
             raise ValueError("lift_threshold must be below max_load")
         return self
 
-    def per_sample(self, drive_rate: float) -> tuple[float, float, float, float]:
-        """(v_max V, rise V per sample, watchdog ramp V per sample, absurd drive V) at
-        ``drive_rate`` Hz (> 0): the limits as the kernels apply them."""
+    def kernel_args(self, drive_rate: float, hard_age: bool) -> tuple:
+        """The limits as the safety kernel applies them at ``drive_rate`` Hz (> 0): v_max V,
+        rise and watchdog-ramp steps V per sample, lift and max load N, absurd drive V, the
+        watchdog timeout s, the touch age (s) beyond which the output is 0 V at once
+        (``hard_age``: timeout + ramp, the output pass; else never, a renderer's stage) and
+        the clock tolerance s."""
         fs = float(drive_rate)
         if not (np.isfinite(fs) and fs > 0):
             raise ValueError("drive_rate must be positive")
-        return self.v_max, self.rise_rate / fs, self.v_max / (self.watchdog_ramp * fs), self.absurd_factor * self.v_max
+        return (self.v_max, self.rise_rate / fs, self.v_max / (self.watchdog_ramp * fs), self.lift_threshold, self.max_load,
+                self.absurd_factor * self.v_max, self.watchdog_timeout,
+                self.watchdog_timeout + self.watchdog_ramp if hard_age else np.inf, self.clock_tolerance)
 
 
 @dataclass(frozen=True)
@@ -85,20 +91,39 @@ class SafetyCounters:
     watchdog: int
 
 
-# state layout (float64): 0 previous magnitude
-# counters layout (int64): samples, clamped, rise_limited, faults, lifted, watchdog
+# The one safety kernel, of a renderer's stage and of the output pass.
+# state (float64): 0 previous emitted magnitude, 1 stop-ramp position (1 = full, 0 = stopped)
+# counters (int64): samples, clamped, rise_limited, faults, lifted, watchdog, halted
+# load, touch_age: (n,) per sample (a renderer's stage), or empty (the output pass: no load,
+# the touch age of sample i is age0 + i dt)
 @numba.njit(cache=True, nogil=True)
-def _safety_kernel(drive, load, touch_age, out, state, counters, v_max, rise_step, ramp_step,
-                   lift, max_load, absurd, timeout, tolerance):
+def _safety_kernel(x, load, touch_age, out, state, counters, gain, ramp_step, age0, dt, halt, v_max, rise_step,
+                   wd_step, lift, max_load, absurd, timeout, hard_age, tolerance):
+    finger = load.shape[0] > 0
     prev = state[0]
-    n = drive.shape[0]
-    for i in range(n):
-        x = drive[i]
-        ld = load[i]
-        age = touch_age[i]
+    ramp = state[1]
+    for i in range(out.shape[0]):
+        v = x[i]
         counters[0] += 1
-        if not (np.isfinite(x) and np.isfinite(ld) and np.isfinite(age)) or abs(x) > absurd \
-                or ld < 0.0 or ld > max_load or age < -tolerance:
+        scale = gain * ramp
+        if ramp_step > 0.0:
+            ramp -= ramp_step
+            if ramp < 1e-9:  # rounding of the repeated subtraction: end exactly at 0
+                ramp = 0.0
+        if halt:
+            counters[6] += 1
+            prev = 0.0
+            out[i] = 0.0
+            continue
+        if finger:
+            ld = load[i]
+            age = touch_age[i]
+            bad = not (np.isfinite(ld) and np.isfinite(age)) or ld < 0.0 or ld > max_load or age < -tolerance
+        else:
+            ld = lift
+            age = age0 + i * dt
+            bad = False
+        if bad or not (np.isfinite(v) and np.isfinite(scale)) or abs(v) > absurd:
             counters[3] += 1
             prev = 0.0
             out[i] = 0.0
@@ -108,96 +133,12 @@ def _safety_kernel(drive, load, touch_age, out, state, counters, v_max, rise_ste
             prev = 0.0
             out[i] = 0.0
             continue
-        mag = abs(x)
-        if mag > v_max:
-            mag = v_max
-            counters[1] += 1
-        if age > timeout:
-            counters[5] += 1
-            cap = prev - ramp_step
-            if cap < 0.0:
-                cap = 0.0
-            if mag > cap:
-                mag = cap
-        elif mag > prev + rise_step:
-            mag = prev + rise_step
-            counters[2] += 1
-        prev = mag
-        out[i] = mag if x >= 0.0 else -mag
-    state[0] = prev
-
-
-class SafetyStage:
-    """Stateful safety processor at the drive rate.
-
-    ``process(drive, load, touch_age)`` takes three (n,) float arrays: the drive in volts,
-    the finger load in newtons, and the age in seconds of the freshest touch sample at each
-    drive sample. It returns (n,) float volts that satisfy :class:`SafetyLimits`. The
-    returned array is ``out`` when given, else a new array.
-    """
-
-    def __init__(self, drive_rate: float, limits: SafetyLimits | None = None):
-        self.limits = lim = limits or SafetyLimits()
-        v_max, rise, ramp, absurd = lim.per_sample(drive_rate)
-        self.drive_rate = float(drive_rate)
-        self._state = np.zeros(1)
-        self._counters = np.zeros(6, dtype=np.int64)
-        self._args = (v_max, rise, ramp, lim.lift_threshold, lim.max_load, absurd, lim.watchdog_timeout, lim.clock_tolerance)
-
-    def reset(self) -> None:
-        """Forget the previous output (next onset starts from 0 V) and zero the counters."""
-        self._state[:] = 0.0
-        self._counters[:] = 0
-
-    def process(self, drive: np.ndarray, load: np.ndarray, touch_age: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-        drive = np.ascontiguousarray(drive, dtype=np.float64)
-        load = np.ascontiguousarray(load, dtype=np.float64)
-        touch_age = np.ascontiguousarray(touch_age, dtype=np.float64)
-        if not (drive.shape == load.shape == touch_age.shape) or drive.ndim != 1:
-            raise ValueError("drive, load and touch_age must be 1-D arrays of one length")
-        if out is None:
-            out = np.empty_like(drive)
-        _safety_kernel(drive, load, touch_age, out, self._state, self._counters, *self._args)
-        return out
-
-    @property
-    def counters(self) -> SafetyCounters:
-        return SafetyCounters(*(int(c) for c in self._counters))
-
-
-# state layout (float64): 0 previous emitted magnitude, 1 stop-ramp position (1 = full, 0 = stopped)
-# counters layout (int64): samples, clamped, rise_limited, faults, watchdog, halted
-@numba.njit(cache=True, nogil=True)
-def _output_kernel(x, out, state, counters, gain, ramp_step, age0, dt, v_max, rise_step, wd_step,
-                   timeout, hard_age, absurd, halt):
-    prev = state[0]
-    ramp = state[1]
-    n = out.shape[0]
-    for i in range(n):
-        v = x[i]
-        age = age0 + i * dt
-        counters[0] += 1
-        scale = gain * ramp
-        if ramp_step > 0.0:
-            ramp -= ramp_step
-            if ramp < 1e-9:  # rounding of the repeated subtraction: end exactly at 0
-                ramp = 0.0
-        if halt:
-            counters[5] += 1
-            prev = 0.0
-            out[i] = 0.0
-            continue
-        if not (np.isfinite(v) and np.isfinite(scale)) or abs(v) > absurd:
-            counters[3] += 1
-            prev = 0.0
-            out[i] = 0.0
-            continue
         mag = abs(v) * scale
         if mag > v_max:
             mag = v_max
             counters[1] += 1
         if not age <= timeout:  # stale, no touch yet (inf) or NaN
-            counters[4] += 1
+            counters[5] += 1
             cap = prev - wd_step
             if cap < 0.0 or not age <= hard_age:
                 cap = 0.0
@@ -210,6 +151,43 @@ def _output_kernel(x, out, state, counters, gain, ramp_step, age0, dt, v_max, ri
         out[i] = mag if v >= 0.0 else -mag
     state[0] = prev
     state[1] = ramp
+
+
+class SafetyStage:
+    """Stateful safety processor at the drive rate.
+
+    ``process(drive, load, touch_age)`` takes three (n,) float arrays: the drive in volts,
+    the finger load in newtons, and the age in seconds of the freshest touch sample at each
+    drive sample. It returns (n,) float volts that satisfy :class:`SafetyLimits`. The
+    returned array is ``out`` when given, else a new array.
+    """
+
+    def __init__(self, drive_rate: float, limits: SafetyLimits | None = None):
+        self.limits = limits or SafetyLimits()
+        self._args = self.limits.kernel_args(drive_rate, hard_age=False)
+        self.drive_rate = float(drive_rate)
+        self._state = np.array([0.0, 1.0])
+        self._counters = np.zeros(7, dtype=np.int64)
+
+    def reset(self) -> None:
+        """Forget the previous output (next onset starts from 0 V) and zero the counters."""
+        self._state[0] = 0.0
+        self._counters[:] = 0
+
+    def process(self, drive: np.ndarray, load: np.ndarray, touch_age: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        drive = np.ascontiguousarray(drive, dtype=np.float64)
+        load = np.ascontiguousarray(load, dtype=np.float64)
+        touch_age = np.ascontiguousarray(touch_age, dtype=np.float64)
+        if not (drive.shape == load.shape == touch_age.shape) or drive.ndim != 1:
+            raise ValueError("drive, load and touch_age must be 1-D arrays of one length")
+        if out is None:
+            out = np.empty_like(drive)
+        _safety_kernel(drive, load, touch_age, out, self._state, self._counters, 1.0, 0.0, 0.0, 0.0, False, *self._args)
+        return out
+
+    @property
+    def counters(self) -> SafetyCounters:
+        return SafetyCounters(*(int(c) for c in self._counters[:6]))
 
 
 @dataclass(frozen=True)
@@ -251,17 +229,16 @@ class OutputSafety:
         self.drive_rate = float(drive_rate)
         self.ramp_seconds = float(ramp_seconds)
         self._state = np.zeros(2)
-        self._counters = np.zeros(6, dtype=np.int64)
+        self._counters = np.zeros(7, dtype=np.int64)
+        self._no_finger = np.zeros(0)  # the output pass has no per-sample load: its touch age is age0 + i dt
         self.set_limits(limits or SafetyLimits())
         self.reset()
 
     def set_limits(self, limits: SafetyLimits) -> None:
         """Take new limits (e.g. those of a renderer switched in); the state is kept."""
-        self.limits = lim = limits
-        self._v_max, self._rise, self._wd_step, self._absurd = lim.per_sample(self.drive_rate)
+        self.limits = limits
+        self._args = limits.kernel_args(self.drive_rate, hard_age=True)
         self._dt = 1.0 / self.drive_rate
-        self._timeout = float(lim.watchdog_timeout)
-        self._hard_age = float(lim.watchdog_timeout + lim.watchdog_ramp)
 
     def reset(self) -> None:
         """Silence remembered, stop ramp back to full, counters zeroed."""
@@ -286,9 +263,8 @@ class OutputSafety:
         g = float(gain)
         if not 0.0 <= g <= 1.0:  # also catches NaN
             g = 0.0
-        _output_kernel(x, out, self._state, self._counters, g, self._ramp_step, float(age0), self._dt,
-                       self._v_max, self._rise, self._wd_step, self._timeout, self._hard_age, self._absurd,
-                       bool(halt))
+        _safety_kernel(x, self._no_finger, self._no_finger, out, self._state, self._counters, g, self._ramp_step,
+                       float(age0), self._dt, bool(halt), *self._args)
         return out
 
     def silence(self) -> None:
@@ -297,4 +273,5 @@ class OutputSafety:
 
     @property
     def counters(self) -> OutputCounters:
-        return OutputCounters(*(int(c) for c in self._counters))
+        c = self._counters
+        return OutputCounters(*(int(c[k]) for k in (0, 1, 2, 3, 5, 6)))
