@@ -17,7 +17,7 @@ SRC = REPO / "src" / "surfhap"
 LINT = Path(sys.executable).parent / "lint-imports"
 
 # top to bottom, as in pyproject.toml and docs/architecture.md
-LAYERS = ["cli | texture | io", "web", "report", "lab | (batch)", "fit | live", "sim | runtime", "render | ff", "shape", "exchange", "models", "signal"]
+LAYERS = ["cli | texture | io", "web", "report", "lab | (batch)", "fit | live", "sim", "runtime", "render | ff", "shape", "exchange", "models", "signal"]
 
 
 def _contracts() -> dict[str, dict]:

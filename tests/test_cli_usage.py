@@ -169,7 +169,7 @@ def test_import_surfhap_is_lazy_but_complete():
         import surfhap.render.chain
         # no public name shadows a subpackage: sh.render is the package, the renderer is sh.texture.render
         assert sh.render is sys.modules["surfhap.render"]
-        assert sh.texture.render.__module__ == "surfhap.render.offline"
+        assert sh.texture.render.__module__ == "surfhap.runtime.offline"
         for ns in (sh, sh.texture, sh.io, sh.lab):
             for name in ns.__all__:
                 getattr(ns, name)

@@ -130,8 +130,9 @@ def test_expected_texture_psd_of_builtin_materials_matches_the_render(name, gain
     over 5-25 Hz (where the 100 Hz texture's resampler is flat) within 1 dB, texture gain included."""
     from scipy.integrate import trapezoid
 
-    r = render(load_material(name), constant_scan(0.1, 0.5, 60.0), ChainConfig(seed=2, texture_gain=gain))
-    assert r.texture_relative_scale is not None and r.texture_rate == 100
+    mat = load_material(name)
+    r = render(mat, constant_scan(0.1, 0.5, 60.0), ChainConfig(seed=2, texture_gain=gain))
+    assert mat.texture_relative_scale is not None and r.texture_rate == 100
     f, p, e = render_spectrum(r)
     band = (f >= 5.0) & (f <= 25.0)
     ratio_db = 10 * np.log10(trapezoid(p[band], f[band]) / trapezoid(e[band], f[band]))

@@ -10,9 +10,7 @@ from surfhap.cli import main
 from surfhap.exchange.materials import load_material
 from surfhap.models.trajectory import constant_scan
 from surfhap.render.chain import ChainConfig
-from surfhap.render.offline import render
-from surfhap.render.preview import preview_of
-from surfhap.render.stream import stream_render
+from surfhap.runtime.offline import render, stream_render
 from surfhap.report.figures import law_line
 
 ZHAO_LOAD = 1.6  # N, Zhao et al.'s constant load (ChainConfig.constant_load)
@@ -29,7 +27,7 @@ def test_law_line_follows_the_simulated_mean_friction(leather, method):
     cfg = ChainConfig(method=method, seed=2)
     r = render(leather, traj, cfg)
     streamed = stream_render(leather, traj, cfg, lambda channel, block: None, block_seconds=0.7)
-    for pv in (preview_of(r), streamed.preview):  # the in-memory figure and the one `surfhap render` draws
+    for pv in (r.preview, streamed.preview):  # the in-memory figure and the one `surfhap render` draws
         line = law_line(pv)
         assert line.shape == pv.win_t.shape and np.all(pv.win_load > 0)
         # the tolerance: the textural force in the window (the friction deviates from the low band by
@@ -41,7 +39,7 @@ def test_law_line_follows_the_simulated_mean_friction(leather, method):
         assert abs(float(np.mean(pv.win_friction)) - float(np.mean(line))) < tol, (method, tol)
     if method == "zhao":  # an independent reference: Zhao's mu0 at his 1.6 N, scaled by the rendering gain
         expected = r.mu_panel * 0.4 + r.rendering_gain * leather.coulomb.mu0 * ZHAO_LOAD
-        assert float(np.mean(law_line(preview_of(r)))) == pytest.approx(expected, rel=1e-9)
+        assert float(np.mean(law_line(r.preview))) == pytest.approx(expected, rel=1e-9)
 
 
 def test_a_texture_under_one_percent_is_reported_in_one_line(tmp_path, capsys, leather):

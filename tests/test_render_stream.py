@@ -18,8 +18,7 @@ from surfhap.cli import main
 from surfhap.errors import ConfigError
 from surfhap.exchange.render_files import write_render
 from surfhap.exchange.render_store import read_render, store_dtype
-from surfhap.render.preview import preview_of
-from surfhap.render.stream import CHANNELS, stream_render
+from surfhap.runtime.offline import CHANNELS, stream_render
 from surfhap.models.trajectory import Trajectory
 
 REPO = Path(__file__).resolve().parents[1]
@@ -49,6 +48,34 @@ def test_streamed_drive_and_channels_equal_render_bitwise():
         np.testing.assert_array_equal(got[name], getattr(ref, name), err_msg=name)
     assert got["drive"].size == 60010 and not res.interrupted
     assert_same_summary(ref.summary(), res.summary())
+
+
+def test_render_and_stream_render_return_the_one_result_type_through_the_one_loop(monkeypatch):
+    """Both entry points return a RenderResult (the surfhap.results.Result base: summary,
+    to_dict, plot) and drive their blocks through surfhap.runtime.loop.run on a SimClock."""
+    import surfhap.runtime.offline as offline
+    from surfhap.render.offline import RenderResult
+    from surfhap.results import Result
+    from surfhap.runtime.clock import SimClock
+
+    clocks = []
+    real_run = offline.run
+
+    def spy(source, engine, clock, sink, **kw):
+        clocks.append(clock)
+        return real_run(source, engine, clock, sink, **kw)
+
+    monkeypatch.setattr(offline, "run", spy)
+    cork, traj = load_material("cork"), constant_scan(0.1, 0.3, 0.5)
+    mem = render(cork, traj)
+    streamed, _ = collect(cork, traj, ChainConfig())
+    assert type(mem) is type(streamed) is RenderResult and isinstance(mem, Result)
+    assert len(clocks) == 2 and all(isinstance(c, SimClock) for c in clocks)
+    assert mem.drive is not None and streamed.drive is None  # the streamed arrays went to the sink
+    assert json.loads(json.dumps(streamed.to_dict())) == json.loads(json.dumps(mem.to_dict()))
+    import surfhap as sh
+
+    assert {"render", "stream_render", "RenderResult"} <= set(sh.texture.__all__)
 
 
 def test_incremental_summary_equals_in_memory_with_saturation():
@@ -116,9 +143,21 @@ def test_preview_is_bounded_and_matches_the_in_memory_figure_data():
     cfg = ChainConfig(seed=4)
     short, long_ = constant_scan(0.1, 0.3, 3.0), strokes(0.1, 0.3, 90.0)
     res, _ = collect(cork, short, cfg)
-    ref = preview_of(render(cork, short, cfg))
-    for field in ("win_t", "win_friction", "win_target", "win_load", "drv", "env", "spec_added", "speed_max", "load_min"):
-        np.testing.assert_array_equal(getattr(res.preview, field), getattr(ref, field), err_msg=field)
+    ref = render(cork, short, cfg)  # the full arrays: each preview field is a slice or a bin of them
+    pv, fm, fd = res.preview, ref.control_rate, ref.drive_rate
+    a = int(round(pv.win_t[0] * fm))
+    w = slice(a, a + pv.win_t.size)
+    np.testing.assert_array_equal(pv.win_t, ref.t[w])
+    for field, full in (("win_friction", ref.friction_sim), ("win_target", ref.target), ("win_load", ref.load)):
+        np.testing.assert_array_equal(getattr(pv, field), full[w], err_msg=field)
+    d = int(round(pv.drv_t[0] * fd))
+    np.testing.assert_array_equal(pv.drv, ref.drive[d:d + pv.drv.size])
+    e = int(round(pv.env_t[0] * fm))
+    np.testing.assert_array_equal(pv.env, ref.voltage[e:e + pv.env.size])
+    np.testing.assert_array_equal(pv.spec_added, ref.added_friction[int(0.5 * fm):][:pv.spec_added.size])
+    per = int(round(pv.col_t[1] * fm))
+    np.testing.assert_array_equal(pv.speed_max, [ref.speed[i:i + per].max() for i in range(0, ref.t.size, per)])
+    np.testing.assert_array_equal(pv.load_min, [ref.load[i:i + per].min() for i in range(0, ref.t.size, per)])
     big, _ = collect(cork, long_, cfg, preview_columns=500)
     pv = big.preview
     assert pv.win_t.size <= 2001 and pv.drv.size <= 1001 and pv.col_t.size <= 500

@@ -153,3 +153,15 @@ def test_output_pass_applies_gain_and_stop_ramp():
     tail = g.process(np.full(40, 200.0), np.empty(40), 0.0, 0.5)
     np.testing.assert_allclose(tail[:20], 100.0 * (1 - np.arange(20) / 20), atol=1e-9)
     assert not np.any(tail[20:]) and g.ramped_down
+
+
+@pytest.mark.parametrize("field, value", [("v_max", float("nan")), ("rise_rate", 0.0), ("watchdog_timeout", float("inf")),
+                                          ("absurd_factor", 0.5), ("lift_threshold", -0.1), ("max_load", -1.0)])
+def test_a_bad_limit_is_one_config_error_naming_its_field(field, value):
+    from surfhap.errors import ConfigError
+
+    with pytest.raises(ConfigError) as err:
+        SafetyLimits(**{field: value})
+    assert err.value.field == field
+    with pytest.raises(ConfigError, match="lift_threshold"):
+        SafetyLimits(lift_threshold=2.0, max_load=1.0)

@@ -119,3 +119,11 @@ def test_grain_params_shape_the_waveforms():
     assert np.mean(env) == pytest.approx(50 * 0.002 * 0.5, rel=0.15)
     with pytest.raises(ValueError, match="tick_width"):
         GrainParams(tick_width=0.0)
+
+
+@pytest.mark.parametrize("field, value", [("fz", "heavy"), ("drive_rate", float("nan")), ("friction_rate", 30000),
+                                          ("carrier", 15000.0), ("edge_threshold_deg", 200.0), ("alpha", float("inf"))])
+def test_a_bad_shape_setting_is_one_config_error_naming_its_field(field, value):
+    with pytest.raises(ConfigError) as err:
+        ShapeConfig(**{field: value})
+    assert err.value.field == field

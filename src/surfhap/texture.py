@@ -7,7 +7,8 @@
     result = sh.texture.render(cork, sh.constant_scan(speed=0.1, load=0.5, duration=5.0))
     result.plot()
 
-Names: :func:`render` and :class:`RenderResult` (offline, in memory), :class:`TextureChain`
+Names: :func:`render` (in memory), :func:`stream_render` (block by block into a sink), their
+:class:`RenderResult`, :class:`TextureChain`
 and :class:`ChainConfig` (block by block), the drive laws (:class:`DriveParams`,
 :data:`METHODS`, :data:`LAWS`), gain planning (:func:`plan_gains`), fidelity metrics, the
 display (:class:`DisplayModel`, :class:`SimulatedDisplay`), the safety stage and
@@ -17,7 +18,8 @@ display (:class:`DisplayModel`, :class:`SimulatedDisplay`), the safety stage and
 from surfhap._lazy import lazy_names
 
 _MODULES = {
-    "surfhap.render.offline": ("render", "RenderResult"),
+    "surfhap.runtime.offline": ("render", "stream_render"),
+    "surfhap.render.offline": ("RenderResult",),
     "surfhap.render.chain": ("ChainConfig", "TextureChain"),
     "surfhap.render.drive": ("DriveParams", "METHODS", "LAWS", "make_drive_law", "rendering_gain"),
     "surfhap.render.fidelity": ("FidelityMetrics", "fidelity_metrics"),

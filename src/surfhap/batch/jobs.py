@@ -18,7 +18,7 @@ __all__ = ["RENDER_JOB_MODULES", "FIT_IMU_JOB_MODULES", "NPZ_MAX_SECONDS", "choo
 
 # The modules each job function imports as it runs (lazily, so the CLI starts fast); local
 # worker processes import them once, before the first job (schedulers.prestart / preload).
-RENDER_JOB_MODULES = ("surfhap.render.stream", "surfhap.render.chain", "surfhap.exchange.render_store",
+RENDER_JOB_MODULES = ("surfhap.runtime.offline", "surfhap.render.chain", "surfhap.exchange.render_store",
                       "surfhap.exchange.render_files", "surfhap.report.figures", "matplotlib.backends.backend_agg")
 FIT_IMU_JOB_MODULES = ("surfhap.fit.imu", "surfhap.exchange.imu_csv", "surfhap.exchange.material_json", "surfhap.models.material")
 
@@ -41,12 +41,12 @@ def render_to_folder(material, trajectory, config, out: Path, *, fmt: str = "aut
 
     ``material`` a Material, ``trajectory`` a Trajectory, ``config`` a ChainConfig; ``stop()``
     polled between blocks ends the render early with valid files and ``"interrupted": true`` in
-    the summary. Returns (StreamedRender, paths dict with keys wav, render, summary[, figure]).
+    the summary. Returns (RenderResult, paths dict with keys wav, render, summary[, figure]).
     """
     from surfhap.exchange.render_files import render_file_attrs, render_file_spec, write_summary
     from surfhap.exchange.render_store import DriveWavWriter, open_render_writer
     from surfhap.render.chain import TextureChain
-    from surfhap.render.stream import stream_render
+    from surfhap.runtime.offline import stream_render
 
     fmt = choose_format(fmt, trajectory.duration)
     out = Path(out)

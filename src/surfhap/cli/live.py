@@ -14,7 +14,7 @@ import json
 import logging
 import time
 from pathlib import Path
-from typing import List, Optional
+from typing import Annotated, List, Optional
 
 import typer
 
@@ -32,6 +32,9 @@ EXIT_BACKEND_FAILED = 3
 DEFAULT_SCAN = "speed=0.1,load=0.5,duration=3,length=0.08"
 ClockOption = typer.Option("wall", "--clock", help="wall: real time | sim: as fast as possible, the --trajectory's "
                            "samples arriving at their stamps (the drive equals `surfhap render` on it; no page).")
+DriveRateOption = Annotated[Optional[int], typer.Option("--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000).")]
+ChannelsOption = Annotated[Optional[str], typer.Option("--channels", help="Sound output: 0-based channels that carry the drive, e.g. '0' or '0,2' (default: all).")]
+BlockMsOption = Annotated[float, typer.Option("--block-ms", help="Block period, ms.")]
 
 
 def _clock(name: str):
@@ -42,15 +45,19 @@ def _clock(name: str):
     return SimClock() if name == "sim" else WallClock()
 
 
+def _print_status(session, output: str, touches: int, **extra) -> None:
+    """The status of a ``play`` or a simulated run as one JSON line."""
+    st = session.engine.status()
+    typer.echo(json.dumps({"material": session.title, "output": output, **extra, "touches": touches,
+                           **{k: st[k] for k in ("counters", "safety", "output_safety", "stopped", "failure")}},
+                          default=float))
+
+
 def _run_simulated(session, traj, output: str, clock) -> None:
     """``--clock sim``: the trajectory through the engine into the output, as fast as possible;
     prints the status as JSON."""
     n = session.run_simulated(traj, clock)
-    st = session.engine.status()
-    typer.echo(json.dumps({"material": session.title, "output": output, "clock": "sim", "frames": n,
-                           "touches": session.replay_sent, "counters": st["counters"], "safety": st["safety"],
-                           "output_safety": st["output_safety"], "stopped": st["stopped"], "failure": st["failure"]},
-                          default=float))
+    _print_status(session, output, session.replay_sent, clock="sim", frames=n)
 
 
 def _finish(engine, guard: StopSignals | None) -> None:
@@ -81,17 +88,6 @@ def _channels(text: str | None) -> tuple[int, ...] | None:
     if not chans or any(c < 0 or c > 255 for c in chans):
         raise ConfigError("channels must be within 0-255", source="--channels")
     return chans
-
-
-def _setup_logging(verbose: bool) -> None:
-    from surfhap.live.logfilter import install_rate_limit
-
-    root = logging.getLogger()
-    if not root.handlers:  # logging not configured by the caller (as in a test or an embedding app)
-        logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
-                            format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-        install_rate_limit(root)  # one line per kind per second, whatever a client provokes
-    logging.getLogger("surfhap").setLevel(logging.INFO)
 
 
 def _allowed_hosts(host: str, values: list[str]) -> tuple[str, ...]:
@@ -127,10 +123,10 @@ def serve_cmd(
     replay: Optional[Path] = typer.Option(None, "--replay", help="Also replay a trajectory CSV (time, x, y, load) as a touch source."),
     trajectory: TrajectoryOption = None,
     clock: str = ClockOption,
-    drive_rate: Optional[int] = typer.Option(None, "--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000)."),
+    drive_rate: DriveRateOption = None,
     amp_gain: LiveAmpGainOption = 250.0,
-    channels: Optional[str] = typer.Option(None, "--channels", help="Sound output: 0-based channels that carry the drive, e.g. '0' or '0,2' (default: all)."),
-    block_ms: float = typer.Option(1.0, "--block-ms", help="Block period, ms."),
+    channels: ChannelsOption = None,
+    block_ms: BlockMsOption = 1.0,
     touch_latency_ms: float = typer.Option(0.0, "--touch-latency-ms", help="Touch latency to compensate by prediction, ms (0 = off)."),
     smoothing: float = typer.Option(1.0, "--smoothing", help="Exponential smoothing of predicted positions, (0, 1] (1 = off; KinesTouch: 0.15)."),
     seed: SeedOption = 0,
@@ -148,21 +144,18 @@ def serve_cmd(
     (exit 130); exit 3 when the output backend failed."""
     require_modules("fastapi", "starlette", "uvicorn")  # the page; else: install surfhap[live]
     from surfhap.live.config import ServerConfig
+    from surfhap.live.logfilter import configure_logging
     from surfhap.live.session import backend_info, build_session
     from surfhap.web import create_app
     from surfhap.web.process import WebProcess
     from surfhap.web.server import ServerThread
 
-    _setup_logging(verbose)
+    configure_logging(verbose)  # rate-limited: one line per kind per second, whatever a client provokes
+    logging.getLogger("surfhap").setLevel(logging.INFO)
     disp = resolve_display(display, config)
     if mesh is not None:
         if material is not None:
             raise ConfigError("give --material or --mesh, not both", source="--mesh")
-        try:
-            import surfhap.render.shape_renderer  # noqa: F401
-        except ImportError:
-            raise ConfigError("mesh rendering is not available in this installation (surfhap.render.shape_renderer missing)",
-                              source="--mesh") from None
         if not mesh.is_file():
             raise ConfigError("no such file", source=str(mesh))
     if not 1 <= port <= 65535:
@@ -240,10 +233,10 @@ def play_cmd(
                                        f"(default {DEFAULT_SCAN})."),
     trajectory: TrajectoryOption = None,
     clock: str = ClockOption,
-    drive_rate: Optional[int] = typer.Option(None, "--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000)."),
+    drive_rate: DriveRateOption = None,
     amp_gain: LiveAmpGainOption = 250.0,
-    channels: Optional[str] = typer.Option(None, "--channels", help="Sound output: 0-based channels that carry the drive (default: all)."),
-    block_ms: float = typer.Option(1.0, "--block-ms", help="Block period, ms."),
+    channels: ChannelsOption = None,
+    block_ms: BlockMsOption = 1.0,
     seed: SeedOption = 0,
     display: DisplayOption = None,
     config: ConfigOption = None,
@@ -277,11 +270,7 @@ def play_cmd(
             guard.wait(0.05)
         finally:
             session.stop()
-    st = session.engine.status()
-    typer.echo(json.dumps({"material": session.title, "output": output, "touches": replay.sent,
-                           "counters": st["counters"], "safety": st["safety"], "output_safety": st["output_safety"],
-                           "latency": st["latency"], "stopped": st["stopped"], "failure": st["failure"]},
-                          default=float))
+    _print_status(session, output, replay.sent, latency=session.engine.status()["latency"])
     _finish(session.engine, guard)
 
 

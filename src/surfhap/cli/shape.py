@@ -14,7 +14,7 @@ frustum-bump, frustum-hole, or one of the 20 study scenes (see ``surfhap scenes`
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Annotated, Optional
 
 import typer
 from typer.core import TyperGroup
@@ -93,6 +93,14 @@ def _percentiles(text: str) -> tuple[float, float]:
     return lo, hi
 
 
+# the options that place a mesh (render and calibrate take the same)
+FzOption = Annotated[float, typer.Option("--fz", help="Assumed normal force of eq. 7, N.")]
+UpOption = Annotated[str, typer.Option("--up", help="Mesh axis pointing out of the screen: x, y, z, -x, -y, -z.")]
+ScaleOption = Annotated[float, typer.Option("--scale", help="Mesh units -> metres factor (0.01 for a mesh in cm).")]
+SizeOption = Annotated[Optional[float], typer.Option("--size", help="Rescale and centre the mesh so its larger xy side is SIZE m.")]
+ResolutionOption = Annotated[Optional[float], typer.Option("--resolution", help="Grid step (m) of built-in Gaussian shapes (default 0.0005, scenes 0.001).")]
+PixelSizeOption = Annotated[Optional[float], typer.Option("--pixel-size", help="Height maps: m per pixel.")]
+HeightOption = Annotated[Optional[float], typer.Option("--height", help="Height maps: height (m) of white.")]
 _MESH_HELP = "Mesh file (OBJ/STL/PLY/glTF/OFF), greyscale image (height map), or built-in name (suzanne, gaussian-bump, frustum-hole, a scene...)."
 
 
@@ -109,13 +117,13 @@ def render_cmd(
     edges: bool = typer.Option(True, "--edges/--no-edges", help="Edge emphasis ticks (Sec. 4.3)."),
     edge_threshold: float = typer.Option(135.0, "--edge-threshold", help="Convex edges up to this dihedral angle (deg) tick; 180 = every convex edge."),
     edge_walk: bool = typer.Option(False, "--edge-walk", help="Also find edges crossed between touch samples (narrow steps, height maps)."),
-    fz: float = typer.Option(1.0, "--fz", help="Assumed normal force of eq. 7, N."),
-    up: str = typer.Option("z", "--up", help="Mesh axis pointing out of the screen: x, y, z, -x, -y, -z."),
-    scale: float = typer.Option(1.0, "--scale", help="Mesh units -> metres factor (0.01 for a mesh in cm)."),
-    size: Optional[float] = typer.Option(None, "--size", help="Rescale and centre the mesh so its larger xy side is SIZE m."),
-    resolution: Optional[float] = typer.Option(None, "--resolution", help="Grid step (m) of built-in Gaussian shapes (default 0.0005, scenes 0.001)."),
-    pixel_size: Optional[float] = typer.Option(None, "--pixel-size", help="Height maps: m per pixel."),
-    height: Optional[float] = typer.Option(None, "--height", help="Height maps: height (m) of white."),
+    fz: FzOption = 1.0,
+    up: UpOption = "z",
+    scale: ScaleOption = 1.0,
+    size: SizeOption = None,
+    resolution: ResolutionOption = None,
+    pixel_size: PixelSizeOption = None,
+    height: HeightOption = None,
     drive_rate: int = typer.Option(20000, "--drive-rate", help="DAC rate, Hz (2000-48000)."),
     carrier: float = typer.Option(2000.0, "--carrier", help="Polarity carrier, Hz (2000-20000; 0 = off)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the grainy grain."),
@@ -166,13 +174,13 @@ def calibrate_cmd(
     method: str = typer.Option("sd", "--method", help="sd: mean -/+ k sd (the paper, k = 2) | percentile."),
     k: float = typer.Option(2.0, "--k", help="Number of standard deviations for --method sd."),
     percentiles: str = typer.Option("2.5,97.5", "--percentiles", help="LOWER,UPPER for --method percentile."),
-    fz: float = typer.Option(1.0, "--fz", help="Assumed normal force of eq. 7, N."),
-    up: str = typer.Option("z", "--up", help="Mesh axis pointing out of the screen."),
-    scale: float = typer.Option(1.0, "--scale", help="Mesh units -> metres factor."),
-    size: Optional[float] = typer.Option(None, "--size", help="Rescale and centre the mesh so its larger xy side is SIZE m."),
-    resolution: Optional[float] = typer.Option(None, "--resolution", help="Grid step (m) of built-in Gaussian shapes (default 0.0005, scenes 0.001)."),
-    pixel_size: Optional[float] = typer.Option(None, "--pixel-size", help="Height maps: m per pixel."),
-    height: Optional[float] = typer.Option(None, "--height", help="Height maps: height (m) of white."),
+    fz: FzOption = 1.0,
+    up: UpOption = "z",
+    scale: ScaleOption = 1.0,
+    size: SizeOption = None,
+    resolution: ResolutionOption = None,
+    pixel_size: PixelSizeOption = None,
+    height: HeightOption = None,
     figure: Optional[Path] = typer.Option(None, "--figure", help="Also write the Fsq histogram (PNG/PDF/SVG)."),
 ) -> None:
     """Measure the Fsq range of MESH by simulated scans (Kim et al. Sec. 4.2) and save it as JSON."""

@@ -107,7 +107,7 @@ def compare_materials(refs: Sequence[str], *, speed: float = 0.1, load: float = 
     from surfhap.models.trajectory import strokes
     from surfhap.render.chain import ChainConfig
     from surfhap.render.drive import DriveParams, make_drive_law
-    from surfhap.render.offline import render
+    from surfhap.runtime.offline import render
     from surfhap.render.safety import SafetyLimits
 
     if not refs:

@@ -26,7 +26,7 @@ def material_preview(material, width: int = 256, height: int = 64, seed: int = 0
 
     Returns ``{"w": width, "h": height, "data": [height * width ints 0-255, row-major]}``."""
     data = np.full((height, width), 0.5)
-    tex = getattr(material, "texture", None)
+    tex = material.texture
     if tex is not None:
         try:
             syn = tex.synthesizer(seed=seed)

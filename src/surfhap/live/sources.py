@@ -30,9 +30,11 @@ import logging
 import math
 import socket
 import threading
-from dataclasses import dataclass
+from typing import Annotated
 
-from surfhap.errors import ConfigError
+from pydantic import Field
+
+from surfhap.checked import checked_dataclass
 from surfhap.runtime.clock import now, sleep_until
 from surfhap.live.udpguard import UdpListener
 
@@ -45,26 +47,19 @@ OSC_ADDRESSES = ("/surfhap/touch", "/surfhap/touch/norm", "/surfhap/lift")
 MAX_DATAGRAM = 512
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class TouchSpace:
     """The touch surface: size in metres and the load at full pressure.
 
-    width, height : m (default: a 10.1" tablet, 0.217 x 0.136 m).
-    max_load      : N at pointer pressure 1 (pointer devices without pressure report 0.5).
-    default_load  : N used when a source gives no load.
+    width, height : m, 0.01-2 (default: a 10.1" tablet, 0.217 x 0.136 m).
+    max_load      : N at pointer pressure 1, 0.05-20 (pointer devices without pressure report 0.5).
+    default_load  : N used when a source gives no load, 0-20.
     """
 
-    width: float = 0.217
-    height: float = 0.136
-    max_load: float = 1.0
-    default_load: float = 0.5
-
-    def __post_init__(self):
-        for name, lo, hi in (("width", 0.01, 2.0), ("height", 0.01, 2.0), ("max_load", 0.05, 20.0),
-                             ("default_load", 0.0, 20.0)):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and lo <= v <= hi):
-                raise ConfigError(f"must be within {lo}-{hi}", field=name)
+    width: Annotated[float, Field(ge=0.01, le=2.0)] = 0.217
+    height: Annotated[float, Field(ge=0.01, le=2.0)] = 0.136
+    max_load: Annotated[float, Field(ge=0.05, le=20.0)] = 1.0
+    default_load: Annotated[float, Field(ge=0.0, le=20.0)] = 0.5
 
 
 class RateLimiter:
@@ -114,9 +109,6 @@ def finite_in_range(v, lo: float, hi: float) -> float | None:
     if not (math.isfinite(v) and lo <= v <= hi):
         return None
     return v
-
-
-_finite = finite_in_range
 
 
 class _Sender:
@@ -300,20 +292,18 @@ class OscTouchSource:
             self.engine.push_touch(src, 0.0, 0.0, 0.0, t_arrival=t_arr)
             self.accepted += 1
             return True
+        if address in ("/surfhap/touch", "/surfhap/touch/norm") and len(args) not in (2, 3):
+            form = "x y [load]" if address == "/surfhap/touch" else "u v [pressure]"
+            self.rejects.reject(peer, f"{address} needs {form}, got {len(args)} arguments")
+            return False
         if address == "/surfhap/touch":
-            if len(args) not in (2, 3):
-                self.rejects.reject(peer, f"{address} needs x y [load], got {len(args)} arguments")
-                return False
-            x = _finite(args[0], -0.01, sp.width + 0.01)
-            y = _finite(args[1], -0.01, sp.height + 0.01)
-            load = sp.default_load if len(args) == 2 else _finite(args[2], 0.0, 20.0)
+            x = finite_in_range(args[0], -0.01, sp.width + 0.01)
+            y = finite_in_range(args[1], -0.01, sp.height + 0.01)
+            load = sp.default_load if len(args) == 2 else finite_in_range(args[2], 0.0, 20.0)
         elif address == "/surfhap/touch/norm":
-            if len(args) not in (2, 3):
-                self.rejects.reject(peer, f"{address} needs u v [pressure], got {len(args)} arguments")
-                return False
-            u = _finite(args[0], 0.0, 1.0)
-            v = _finite(args[1], 0.0, 1.0)
-            p = 0.5 if len(args) == 2 else _finite(args[2], 0.0, 1.0)
+            u = finite_in_range(args[0], 0.0, 1.0)
+            v = finite_in_range(args[1], 0.0, 1.0)
+            p = 0.5 if len(args) == 2 else finite_in_range(args[2], 0.0, 1.0)
             x = None if u is None else u * sp.width
             y = None if v is None else v * sp.height
             load = None if p is None else p * sp.max_load

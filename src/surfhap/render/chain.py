@@ -1,7 +1,7 @@
 """The electrostatic texture chain: synthesis -> drive law -> resampling -> carrier -> safety.
 
 One :class:`TextureChain` turns blocks of finger state at the control rate into drive samples
-at the drive rate. Offline rendering (:func:`surfhap.render.offline.render`) and live
+at the drive rate. Offline rendering (:func:`surfhap.runtime.offline.render`) and live
 rendering run this same object; only the clock and the backend differ.
 
 The chain runs at ``control_rate`` (the control rate, 2 kHz by default, or the texture's model

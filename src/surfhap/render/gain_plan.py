@@ -169,13 +169,6 @@ def plan_gains(material: Material, method: str, display: DisplayModel | None = N
     shape = (loads.size, speeds.size)
     f_low = law.low_force(v, fn).reshape(shape)
     sq_amp_force = None
-    memo: dict = {}
-
-    def moments(v, fn):  # the texture's sd and slope sd at (v, fn): the model the renderer would use there
-        if (v, fn) not in memo:
-            memo[(v, fn)] = material.texture.moments_at(v, fn)
-        return memo[(v, fn)]
-
     if isinstance(law, Square):
         sq_amp_force = law.on_force
         f_999 = np.full(shape, sq_amp_force)
@@ -183,7 +176,8 @@ def plan_gains(material: Material, method: str, display: DisplayModel | None = N
     else:
         sd_x = sd_dx = np.zeros(fn.size)
         if law.uses_texture:
-            sd_x, sd_dx = np.array([moments(a, b) for a, b in zip(v, fn)]).T
+            # the texture's sd and slope sd at each grid point: the model the renderer would use there
+            sd_x, sd_dx = np.array([material.texture.moments_at(a, b) for a, b in zip(v, fn)]).T
         per_unit = law.texture_force_per_unit(v, fn)  # N per texture unit
         sd_tex = (per_unit * sd_x).reshape(shape)
         f_999 = f_low + z * sd_tex

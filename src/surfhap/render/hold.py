@@ -19,7 +19,7 @@ it holds until the next one. Offline (``surfhap render``) the samples of a traje
 at their stamps; live they arrive when the sensor delivers them, stamped by the engine
 (:func:`surfhap.runtime.clock.arrival_stamp`). Both go through this one hold, so a simulated
 run on a trajectory and its offline render give the same drive (tests/test_play_render_equality.py); the offline render
-(:func:`surfhap.render.offline.render_blocks`) and the offline shape render feed it a
+(:class:`surfhap.runtime.offline.OfflineEngine`) and the offline shape render feed it a
 trajectory's rows directly (:class:`TrajectoryRows`).
 
 Chain clock: model sample ``k`` of the renderer is at ``anchor + k / control_rate`` on the

@@ -18,8 +18,9 @@ from typing import Callable
 import numpy as np
 
 from surfhap.render.drive import rendering_gain
+from surfhap.render.expected import expected_texture_psd
 
-__all__ = ["PreviewRecorder", "RenderPreview", "preview_of"]
+__all__ = ["PreviewRecorder", "RenderPreview"]
 
 SETTLE_S = 0.5  # s skipped before the spectrum (filter start-up)
 
@@ -89,13 +90,13 @@ class PreviewRecorder:
     """Collects a :class:`RenderPreview` from blocks; memory independent of the duration.
 
     n_model: model samples the render will have; n_drive: drive samples it will have (an
-    estimate is fine: it only places the drive window). ``meta`` is the render's settings
-    object (material, method, carrier, ...), ``expected(freqs, v, fn)`` the model spectrum.
+    estimate is fine: it only places the drive window); low_band: the drive law's
+    :class:`~surfhap.render.drive.LowBand` (None: no law line).
     """
 
-    def __init__(self, n_model: int, n_drive: int, control_rate: int, drive_rate: int, meta, expected,
+    def __init__(self, n_model: int, n_drive: int, control_rate: int, drive_rate: int, low_band,
                  *, columns: int = 1200, spectrum_seconds: float = 30.0):
-        self.n, self.fm, self.fd, self.meta, self._expected = n_model, control_rate, drive_rate, meta, expected
+        self.n, self.fm, self.fd, self.low_band = n_model, control_rate, drive_rate, low_band
         t_last = (n_model - 1) / control_rate if n_model else 0.0
         self.span = min(1.0, t_last) if n_model else 1.0
         start = max(0.0, t_last / 2 - self.span / 2)
@@ -119,7 +120,7 @@ class PreviewRecorder:
         """Model-rate block (n,) starting at model sample ``start``."""
         for key, arr in (("target", target), ("mu_low", mu_low), ("load", load)):
             self._win[key].add(start, arr)
-        low_band = self.meta.low_band
+        low_band = self.low_band
         if low_band is not None and self._win["low"].b > start and self._win["low"].a < start + load.shape[0]:
             self._win["low"].add(start, low_band.force(load, mu_low))
         self._env.add(start, voltage)
@@ -145,11 +146,10 @@ class PreviewRecorder:
         """Drive samples (m,) V starting at drive sample ``start``."""
         self._drv.add(start, drive)
 
-    def finish(self, n_done: int | None = None) -> RenderPreview:
-        """The preview; ``n_done`` model samples if the render stopped early (windows beyond
-        it are cut)."""
-        n = self.n if n_done is None else n_done
-        m = self.meta
+    def finish(self, m, n_done: int) -> RenderPreview:
+        """The preview of render ``m`` (its settings: material, method, carrier, ...) after
+        ``n_done`` model samples (windows beyond them are cut if the render stopped early)."""
+        n = n_done
 
         def cut(w: _Window, limit: int) -> tuple[np.ndarray, np.ndarray]:
             b = max(w.a, min(w.b, limit))
@@ -166,10 +166,8 @@ class PreviewRecorder:
         touching = sl > 0
         v = float(np.median(ss[touching])) if np.any(touching) else None
         fn = float(np.median(sl[touching])) if np.any(touching) else None
-        expected = self._expected
-
         def psd(freqs):
-            return None if v is None else expected(m, freqs, v, fn)
+            return None if v is None else expected_texture_psd(m, freqs, v, fn)
 
         k = len(wt)
         return RenderPreview(
@@ -182,14 +180,3 @@ class PreviewRecorder:
             load_min=self._cols["load_min"][:ncol], load_max=self._cols["load_max"][:ncol], expected_psd=psd,
         )
 
-
-def preview_of(result, *, columns: int = 1200, spectrum_seconds: float = 30.0) -> RenderPreview:
-    """The :class:`RenderPreview` of an in-memory :class:`~surfhap.render.offline.RenderResult`."""
-    from surfhap.render.expected import expected_texture_psd
-
-    rec = PreviewRecorder(result.t.size, result.drive.size, result.control_rate, result.drive_rate, result,
-                          expected_texture_psd, columns=columns, spectrum_seconds=spectrum_seconds)
-    rec.add_model(0, result.speed, result.load, result.target, result.mu_low, result.voltage)
-    rec.add_friction(0, result.friction_sim)
-    rec.add_drive(0, result.drive)
-    return rec.finish()

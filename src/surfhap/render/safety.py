@@ -16,51 +16,67 @@ The limits of :class:`SafetyStage` hold for *any* input sequence (property-teste
   fresh touch sample arrives.
 
 Polarity is free: a polarity carrier flips the sign without changing the magnitude.
-The kernel runs in one compiled pass, allocates nothing and keeps its state in a small array.
+Both passes run the one compiled kernel (``_safety_kernel``: each limit written once), which
+allocates nothing and keeps its state in a small array.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated
 
 import numba
 import numpy as np
+from pydantic import Field, model_validator
+
+from surfhap.checked import checked_dataclass
 
 __all__ = ["SafetyLimits", "SafetyStage", "SafetyCounters", "OutputSafety", "OutputCounters"]
 
+_Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
-@dataclass(frozen=True)
+
+@checked_dataclass
 class SafetyLimits:
-    """Limits of the safety stage (SI units).
+    """Limits of the safety stage (SI units; all finite, > 0 unless stated).
 
     v_max            : V, largest drive magnitude ever output.
     rise_rate        : V/s, largest rise of the drive magnitude (default: 0 to v_max in 0.1 ms).
-    lift_threshold   : N, loads below this mean "finger lifted" -> 0 V.
+    lift_threshold   : N (>= 0, below max_load), loads below this mean "finger lifted" -> 0 V.
     max_load         : N, loads above this are absurd (sensor fault) -> 0 V.
-    absurd_factor    : drive inputs beyond absurd_factor * v_max are treated as faults.
+    absurd_factor    : (>= 1) drive inputs beyond absurd_factor * v_max are treated as faults.
     watchdog_timeout : s, touch-sample age after which the output ramps to zero.
     watchdog_ramp    : s, longest time the ramp to zero may take.
     clock_tolerance  : s, touch ages down to -clock_tolerance count as fresh (rounding).
     """
 
-    v_max: float = 250.0
-    rise_rate: float = 2.5e6
-    lift_threshold: float = 0.02
-    max_load: float = 50.0
-    absurd_factor: float = 4.0
-    watchdog_timeout: float = 0.050
-    watchdog_ramp: float = 0.005
-    clock_tolerance: float = 1.0e-3
+    v_max: _Positive = 250.0
+    rise_rate: _Positive = 2.5e6
+    lift_threshold: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.02
+    max_load: _Positive = 50.0
+    absurd_factor: Annotated[float, Field(ge=1, allow_inf_nan=False)] = 4.0
+    watchdog_timeout: _Positive = 0.050
+    watchdog_ramp: _Positive = 0.005
+    clock_tolerance: _Positive = 1.0e-3
 
-    def __post_init__(self):
-        for name in ("v_max", "rise_rate", "max_load", "absurd_factor", "watchdog_timeout", "watchdog_ramp", "clock_tolerance"):
-            val = getattr(self, name)
-            if not (np.isfinite(val) and val > 0):
-                raise ValueError(f"safety limit {name} must be finite and > 0, got {val}")
-        if not (np.isfinite(self.lift_threshold) and 0 <= self.lift_threshold < self.max_load):
-            raise ValueError("lift_threshold must be in [0, max_load)")
-        if self.absurd_factor < 1:
-            raise ValueError("absurd_factor must be >= 1")
+    @model_validator(mode="after")
+    def _lift_below_max_load(self):
+        if self.lift_threshold >= self.max_load:
+            raise ValueError("lift_threshold must be below max_load")
+        return self
+
+    def kernel_args(self, drive_rate: float, hard_age: bool) -> tuple:
+        """The limits as the safety kernel applies them at ``drive_rate`` Hz (> 0): v_max V,
+        rise and watchdog-ramp steps V per sample, lift and max load N, absurd drive V, the
+        watchdog timeout s, the touch age (s) beyond which the output is 0 V at once
+        (``hard_age``: timeout + ramp, the output pass; else never, a renderer's stage) and
+        the clock tolerance s."""
+        fs = float(drive_rate)
+        if not (np.isfinite(fs) and fs > 0):
+            raise ValueError("drive_rate must be positive")
+        return (self.v_max, self.rise_rate / fs, self.v_max / (self.watchdog_ramp * fs), self.lift_threshold, self.max_load,
+                self.absurd_factor * self.v_max, self.watchdog_timeout,
+                self.watchdog_timeout + self.watchdog_ramp if hard_age else np.inf, self.clock_tolerance)
 
 
 @dataclass(frozen=True)
@@ -75,20 +91,39 @@ class SafetyCounters:
     watchdog: int
 
 
-# state layout (float64): 0 previous magnitude
-# counters layout (int64): samples, clamped, rise_limited, faults, lifted, watchdog
+# The one safety kernel, of a renderer's stage and of the output pass.
+# state (float64): 0 previous emitted magnitude, 1 stop-ramp position (1 = full, 0 = stopped)
+# counters (int64): samples, clamped, rise_limited, faults, lifted, watchdog, halted
+# load, touch_age: (n,) per sample (a renderer's stage), or empty (the output pass: no load,
+# the touch age of sample i is age0 + i dt)
 @numba.njit(cache=True, nogil=True)
-def _safety_kernel(drive, load, touch_age, out, state, counters, v_max, rise_step, ramp_step,
-                   lift, max_load, absurd, timeout, tolerance):
+def _safety_kernel(x, load, touch_age, out, state, counters, gain, ramp_step, age0, dt, halt, v_max, rise_step,
+                   wd_step, lift, max_load, absurd, timeout, hard_age, tolerance):
+    finger = load.shape[0] > 0
     prev = state[0]
-    n = drive.shape[0]
-    for i in range(n):
-        x = drive[i]
-        ld = load[i]
-        age = touch_age[i]
+    ramp = state[1]
+    for i in range(out.shape[0]):
+        v = x[i]
         counters[0] += 1
-        if not (np.isfinite(x) and np.isfinite(ld) and np.isfinite(age)) or abs(x) > absurd \
-                or ld < 0.0 or ld > max_load or age < -tolerance:
+        scale = gain * ramp
+        if ramp_step > 0.0:
+            ramp -= ramp_step
+            if ramp < 1e-9:  # rounding of the repeated subtraction: end exactly at 0
+                ramp = 0.0
+        if halt:
+            counters[6] += 1
+            prev = 0.0
+            out[i] = 0.0
+            continue
+        if finger:
+            ld = load[i]
+            age = touch_age[i]
+            bad = not (np.isfinite(ld) and np.isfinite(age)) or ld < 0.0 or ld > max_load or age < -tolerance
+        else:
+            ld = lift
+            age = age0 + i * dt
+            bad = False
+        if bad or not (np.isfinite(v) and np.isfinite(scale)) or abs(v) > absurd:
             counters[3] += 1
             prev = 0.0
             out[i] = 0.0
@@ -98,107 +133,12 @@ def _safety_kernel(drive, load, touch_age, out, state, counters, v_max, rise_ste
             prev = 0.0
             out[i] = 0.0
             continue
-        mag = abs(x)
-        if mag > v_max:
-            mag = v_max
-            counters[1] += 1
-        if age > timeout:
-            counters[5] += 1
-            cap = prev - ramp_step
-            if cap < 0.0:
-                cap = 0.0
-            if mag > cap:
-                mag = cap
-        elif mag > prev + rise_step:
-            mag = prev + rise_step
-            counters[2] += 1
-        prev = mag
-        out[i] = mag if x >= 0.0 else -mag
-    state[0] = prev
-
-
-class SafetyStage:
-    """Stateful safety processor at the drive rate.
-
-    ``process(drive, load, touch_age)`` takes three (n,) float arrays: the drive in volts,
-    the finger load in newtons, and the age in seconds of the freshest touch sample at each
-    drive sample. It returns (n,) float volts that satisfy :class:`SafetyLimits`. The
-    returned array is ``out`` when given, else a new array.
-    """
-
-    def __init__(self, drive_rate: float, limits: SafetyLimits | None = None):
-        if not (np.isfinite(drive_rate) and drive_rate > 0):
-            raise ValueError("drive_rate must be positive")
-        self.drive_rate = float(drive_rate)
-        self.limits = limits or SafetyLimits()
-        self._state = np.zeros(1)
-        self._counters = np.zeros(6, dtype=np.int64)
-        lim = self.limits
-        self._args = (
-            lim.v_max,
-            lim.rise_rate / self.drive_rate,
-            lim.v_max / (lim.watchdog_ramp * self.drive_rate),
-            lim.lift_threshold,
-            lim.max_load,
-            lim.absurd_factor * lim.v_max,
-            lim.watchdog_timeout,
-            lim.clock_tolerance,
-        )
-
-    def reset(self) -> None:
-        """Forget the previous output (next onset starts from 0 V) and zero the counters."""
-        self._state[:] = 0.0
-        self._counters[:] = 0
-
-    def process(self, drive: np.ndarray, load: np.ndarray, touch_age: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-        drive = np.ascontiguousarray(drive, dtype=np.float64)
-        load = np.ascontiguousarray(load, dtype=np.float64)
-        touch_age = np.ascontiguousarray(touch_age, dtype=np.float64)
-        if not (drive.shape == load.shape == touch_age.shape) or drive.ndim != 1:
-            raise ValueError("drive, load and touch_age must be 1-D arrays of one length")
-        if out is None:
-            out = np.empty_like(drive)
-        _safety_kernel(drive, load, touch_age, out, self._state, self._counters, *self._args)
-        return out
-
-    @property
-    def counters(self) -> SafetyCounters:
-        return SafetyCounters(*(int(c) for c in self._counters))
-
-
-# state layout (float64): 0 previous emitted magnitude, 1 stop-ramp position (1 = full, 0 = stopped)
-# counters layout (int64): samples, clamped, rise_limited, faults, watchdog, halted
-@numba.njit(cache=True, nogil=True)
-def _output_kernel(x, out, state, counters, gain, ramp_step, age0, dt, v_max, rise_step, wd_step,
-                   timeout, hard_age, absurd, halt):
-    prev = state[0]
-    ramp = state[1]
-    n = out.shape[0]
-    for i in range(n):
-        v = x[i]
-        age = age0 + i * dt
-        counters[0] += 1
-        scale = gain * ramp
-        if ramp_step > 0.0:
-            ramp -= ramp_step
-            if ramp < 1e-9:  # rounding of the repeated subtraction: end exactly at 0
-                ramp = 0.0
-        if halt:
-            counters[5] += 1
-            prev = 0.0
-            out[i] = 0.0
-            continue
-        if not (np.isfinite(v) and np.isfinite(scale)) or abs(v) > absurd:
-            counters[3] += 1
-            prev = 0.0
-            out[i] = 0.0
-            continue
         mag = abs(v) * scale
         if mag > v_max:
             mag = v_max
             counters[1] += 1
         if not age <= timeout:  # stale, no touch yet (inf) or NaN
-            counters[4] += 1
+            counters[5] += 1
             cap = prev - wd_step
             if cap < 0.0 or not age <= hard_age:
                 cap = 0.0
@@ -211,6 +151,43 @@ def _output_kernel(x, out, state, counters, gain, ramp_step, age0, dt, v_max, ri
         out[i] = mag if v >= 0.0 else -mag
     state[0] = prev
     state[1] = ramp
+
+
+class SafetyStage:
+    """Stateful safety processor at the drive rate.
+
+    ``process(drive, load, touch_age)`` takes three (n,) float arrays: the drive in volts,
+    the finger load in newtons, and the age in seconds of the freshest touch sample at each
+    drive sample. It returns (n,) float volts that satisfy :class:`SafetyLimits`. The
+    returned array is ``out`` when given, else a new array.
+    """
+
+    def __init__(self, drive_rate: float, limits: SafetyLimits | None = None):
+        self.limits = limits or SafetyLimits()
+        self._args = self.limits.kernel_args(drive_rate, hard_age=False)
+        self.drive_rate = float(drive_rate)
+        self._state = np.array([0.0, 1.0])
+        self._counters = np.zeros(7, dtype=np.int64)
+
+    def reset(self) -> None:
+        """Forget the previous output (next onset starts from 0 V) and zero the counters."""
+        self._state[0] = 0.0
+        self._counters[:] = 0
+
+    def process(self, drive: np.ndarray, load: np.ndarray, touch_age: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        drive = np.ascontiguousarray(drive, dtype=np.float64)
+        load = np.ascontiguousarray(load, dtype=np.float64)
+        touch_age = np.ascontiguousarray(touch_age, dtype=np.float64)
+        if not (drive.shape == load.shape == touch_age.shape) or drive.ndim != 1:
+            raise ValueError("drive, load and touch_age must be 1-D arrays of one length")
+        if out is None:
+            out = np.empty_like(drive)
+        _safety_kernel(drive, load, touch_age, out, self._state, self._counters, 1.0, 0.0, 0.0, 0.0, False, *self._args)
+        return out
+
+    @property
+    def counters(self) -> SafetyCounters:
+        return SafetyCounters(*(int(c) for c in self._counters[:6]))
 
 
 @dataclass(frozen=True)
@@ -247,28 +224,21 @@ class OutputSafety:
     """
 
     def __init__(self, drive_rate: float, limits: SafetyLimits | None = None, ramp_seconds: float = 0.010):
-        if not (np.isfinite(drive_rate) and drive_rate > 0):
-            raise ValueError("drive_rate must be positive")
         if not (np.isfinite(ramp_seconds) and ramp_seconds > 0):
             raise ValueError("ramp_seconds must be positive")
         self.drive_rate = float(drive_rate)
         self.ramp_seconds = float(ramp_seconds)
         self._state = np.zeros(2)
-        self._counters = np.zeros(6, dtype=np.int64)
+        self._counters = np.zeros(7, dtype=np.int64)
+        self._no_finger = np.zeros(0)  # the output pass has no per-sample load: its touch age is age0 + i dt
         self.set_limits(limits or SafetyLimits())
         self.reset()
 
     def set_limits(self, limits: SafetyLimits) -> None:
         """Take new limits (e.g. those of a renderer switched in); the state is kept."""
-        self.limits = lim = limits
-        fs = self.drive_rate
-        self._dt = 1.0 / fs
-        self._v_max = float(lim.v_max)
-        self._rise = float(lim.rise_rate / fs)
-        self._wd_step = float(lim.v_max / (lim.watchdog_ramp * fs))
-        self._timeout = float(lim.watchdog_timeout)
-        self._hard_age = float(lim.watchdog_timeout + lim.watchdog_ramp)
-        self._absurd = float(lim.absurd_factor * lim.v_max)
+        self.limits = limits
+        self._args = limits.kernel_args(self.drive_rate, hard_age=True)
+        self._dt = 1.0 / self.drive_rate
 
     def reset(self) -> None:
         """Silence remembered, stop ramp back to full, counters zeroed."""
@@ -287,19 +257,14 @@ class OutputSafety:
         """True once the stop ramp has reached zero."""
         return self._ramp_step > 0.0 and self._state[1] <= 0.0
 
-    @property
-    def last_magnitude(self) -> float:
-        return float(self._state[0])
-
     def process(self, x: np.ndarray, out: np.ndarray, age0: float, gain: float = 1.0, halt: bool = False) -> np.ndarray:
         """``x``, ``out``: (n,) float64 volts (may be the same array); ``age0``: s, age of the
         freshest touch sample at the first sample (``inf`` if none); ``gain`` in [0, 1]."""
         g = float(gain)
         if not 0.0 <= g <= 1.0:  # also catches NaN
             g = 0.0
-        _output_kernel(x, out, self._state, self._counters, g, self._ramp_step, float(age0), self._dt,
-                       self._v_max, self._rise, self._wd_step, self._timeout, self._hard_age, self._absurd,
-                       bool(halt))
+        _safety_kernel(x, self._no_finger, self._no_finger, out, self._state, self._counters, g, self._ramp_step,
+                       float(age0), self._dt, bool(halt), *self._args)
         return out
 
     def silence(self) -> None:
@@ -308,4 +273,5 @@ class OutputSafety:
 
     @property
     def counters(self) -> OutputCounters:
-        return OutputCounters(*(int(c) for c in self._counters))
+        c = self._counters
+        return OutputCounters(*(int(c[k]) for k in (0, 1, 2, 3, 5, 6)))

@@ -20,10 +20,12 @@ Two stateful processors, one per rate:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import Annotated, NamedTuple
 
 import numpy as np
+from pydantic import Field, ValidationInfo, field_validator
 
+from surfhap.checked import checked_dataclass
 from surfhap.errors import ConfigError
 from surfhap.models.panel import DisplayModel
 from surfhap.render.carrier import PolarityCarrier, check_carrier
@@ -41,20 +43,20 @@ from surfhap.shape.touch import new_state, touch_block
 __all__ = ["display_device_curve", "ShapeConfig", "ShapeBlock", "ShapeRenderer", "ShapeDrive", "ShapeResult"]
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class ShapeConfig:
     """Settings of shape rendering (SI).
 
-    fz                 : N, assumed normal force of eq. 6-7 (1 N, Sec. 3.1.1).
+    fz                 : N, assumed normal force of eq. 6-7 (1 N, Sec. 3.1.1), in (0, 20].
     grain              : area grain (area-even | area-grainy; alias edge-soft = area-even).
     edges              : play edge ticks (Sec. 4.3).
-    edge_threshold_deg : convex edges with a dihedral angle up to this tick (135: Fig. 10's
-                         "relatively sharp"; 180: every convex edge).
+    edge_threshold_deg : convex edges with a dihedral angle up to this (0-180 deg) tick (135:
+                         Fig. 10's "relatively sharp"; 180: every convex edge).
     edge_walk          : also find edges crossed *between* touch samples by walking the
                          segment (an extension; the paper compares consecutive hit faces).
     drive_rate         : Hz, DAC rate (2-48 kHz).
     carrier            : Hz, polarity carrier (0 = off, else 2-20 kHz).
-    friction_rate         : Hz, rate of the simulated display's friction output.
+    friction_rate      : Hz, rate of the simulated display's friction output (100 Hz to the drive rate).
     alpha              : V/sqrt(N); None = calibrated to the display (a given alpha scales the
                          target force by (alpha / calibrated alpha)^2 before the display's map).
     seed               : seed of the grainy grain.
@@ -65,36 +67,48 @@ class ShapeConfig:
     grain_params       : waveform parameters of the grains.
     """
 
-    fz: float = FZ_DEFAULT
+    fz: Annotated[float, Field(gt=0, le=20)] = FZ_DEFAULT
     grain: str = "area-even"
     edges: bool = True
-    edge_threshold_deg: float = EDGE_THRESHOLD_DEG
+    edge_threshold_deg: Annotated[float, Field(gt=0, le=180)] = EDGE_THRESHOLD_DEG
     edge_walk: bool = False
-    drive_rate: int = 20000
+    drive_rate: Annotated[int, Field(ge=2000, le=48000)] = 20000
     carrier: float = 2000.0
-    friction_rate: int = 2000
-    alpha: float | None = None
+    friction_rate: Annotated[int, Field(ge=100)] = 2000
+    alpha: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
     seed: int = 0
     device: DeviceCurve | None = None
     grain_params: GrainParams = field(default_factory=GrainParams)
     limits: SafetyLimits = field(default_factory=SafetyLimits)
     display: DisplayModel = field(default_factory=DisplayModel)
 
-    def __post_init__(self):
-        if not (np.isfinite(self.fz) and 0 < self.fz <= 20):
-            raise ConfigError(f"must be in (0, 20] N, got {self.fz}", field="fz")
-        object.__setattr__(self, "grain", grain_name(self.grain))
-        if self.grain == "edge-tick":
-            raise ConfigError("edge-tick is the edge grain; choose an area grain (area-even | area-grainy)", field="grain")
-        if not (np.isfinite(self.edge_threshold_deg) and 0 < self.edge_threshold_deg <= 180):
-            raise ConfigError(f"must be in (0, 180] deg, got {self.edge_threshold_deg}", field="edge_threshold")
-        if int(self.drive_rate) != self.drive_rate or not 2000 <= self.drive_rate <= 48000:
-            raise ConfigError(f"must be a whole number of Hz within 2000-48000, got {self.drive_rate}", field="drive_rate")
-        if int(self.friction_rate) != self.friction_rate or not 100 <= self.friction_rate <= self.drive_rate:
-            raise ConfigError("must be a whole number of Hz within 100 and the drive rate", field="friction_rate")
-        check_carrier(self.carrier, self.drive_rate)
-        if self.alpha is not None and not (np.isfinite(self.alpha) and self.alpha > 0):
-            raise ConfigError("must be > 0", field="alpha")
+    @field_validator("grain")
+    @classmethod
+    def _area_grain(cls, grain: str) -> str:
+        name = _message(grain_name, grain)
+        if name == "edge-tick":
+            raise ValueError("edge-tick is the edge grain; choose an area grain (area-even | area-grainy)")
+        return name
+
+    @field_validator("carrier")
+    @classmethod
+    def _carrier(cls, carrier: float, info: ValidationInfo) -> float:
+        return _message(check_carrier, carrier, info.data.get("drive_rate", 48000))
+
+    @field_validator("friction_rate")
+    @classmethod
+    def _friction_rate(cls, rate: int, info: ValidationInfo) -> int:
+        if rate > info.data.get("drive_rate", 48000):
+            raise ValueError("must not exceed the drive rate")
+        return rate
+
+
+def _message(check, *args):
+    """``check(*args)``, its ConfigError re-raised as the bare message (pydantic names the field)."""
+    try:
+        return check(*args)
+    except ConfigError as err:
+        raise ValueError(err.message) from None
 
 
 def display_device_curve(config: "ShapeConfig") -> DeviceCurve:

@@ -5,7 +5,8 @@ A :class:`~surfhap.runtime.clock.Clock` (simulated, wall, audio callback), touch
 with its :class:`~surfhap.runtime.protocols.Safety` stage, a
 :class:`~surfhap.runtime.protocols.Sink`, typed engine commands, and
 :func:`~surfhap.runtime.loop.run`, the one block loop (docs/architecture.md); replayed touch
-sources are in :mod:`surfhap.runtime.sources`.
+sources are in :mod:`surfhap.runtime.sources`, the offline texture renders (``render``,
+``stream_render``) in :mod:`surfhap.runtime.offline`.
 """
 
 from surfhap.runtime.clock import AudioClock, Clock, SimClock, WallClock

@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from surfhap.render.hold import TrajectoryRows
 from surfhap.render.offline import model_samples
 
-__all__ = ["TrajectorySource", "model_samples", "drive_frames"]
+__all__ = ["TrajectorySource", "ReplayRows", "model_samples", "drive_frames"]
 
 
 def drive_frames(n_model: int, control_rate: int, drive_rate: int) -> int:
@@ -63,3 +64,22 @@ class TrajectorySource:
         if i == t.size and not self.done and self.t_lift <= until:
             self.sink.push_touch(self.source, 0.0, 0.0, 0.0, t_event=self.t_lift, t_arrival=self.t_lift)
             self.done = True
+
+
+class ReplayRows(TrajectoryRows):
+    """A trajectory's rows (:class:`~surfhap.render.hold.TrajectoryRows`) released at their
+    stamps: ``deliver(until)`` (the loop's :class:`~surfhap.runtime.loop.Replay`) makes every
+    row stamped at or before ``until`` poppable, vectorised (the offline render's source)."""
+
+    def __init__(self, trajectory):
+        super().__init__(trajectory)
+        self.released = 0
+
+    def deliver(self, until: float) -> None:
+        self.released = max(self.released, int(np.searchsorted(self.rows[:, 2], until, side="right")))
+
+    def pop_into(self, out: np.ndarray) -> int:
+        k = min(out.shape[0], self.released - self.i)
+        out[:k] = self.rows[self.i:self.i + k]
+        self.i += k
+        return k

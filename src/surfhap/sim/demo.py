@@ -48,7 +48,7 @@ def run_demo(settings: DemoSettings = DemoSettings(), progress: Callable[[float]
     from surfhap.models.trajectory import constant_scan
     from surfhap.render.chain import ChainConfig
     from surfhap.render.fidelity import fidelity_metrics
-    from surfhap.render.offline import render
+    from surfhap.runtime.offline import render
 
     names = builtin_names()
     loads = tuple(dict.fromkeys((*settings.loads, settings.load)))

@@ -29,7 +29,7 @@ from surfhap.errors import ConfigError
 from surfhap.runtime.clock import Clock, WallClock, now
 from surfhap.runtime.loop import run
 
-__all__ = ["PacedBackend", "StallWatch", "STALL_TIMEOUT"]
+__all__ = ["PacedBackend", "StallWatch", "STALL_TIMEOUT", "ramp_down"]
 
 # s without a rendered block before a running backend counts as stalled. A choice: long
 # enough that a loaded machine's scheduling hiccups (tens of ms) never trip it, short
@@ -80,6 +80,15 @@ class StallWatch:
         self._stop.set()
         if self._thread.is_alive():
             self._thread.join(1.0)
+
+
+def ramp_down(engine, timeout: float) -> None:
+    """Ask ``engine`` for its stop ramp and wait until it has run (or the engine halted),
+    at most ``timeout`` s: what every backend's ``stop`` does before releasing its output."""
+    engine.request_stop()
+    end = time.monotonic() + timeout
+    while not engine.stopped and not engine.halted and time.monotonic() < end:
+        time.sleep(0.002)
 
 
 class PacedBackend:
@@ -142,10 +151,7 @@ class PacedBackend:
             self._watch = None
         eng = self.engine
         if eng is not None and self._thread is not None and self._thread.is_alive() and not eng.halted:
-            eng.request_stop()
-            end = time.monotonic() + timeout
-            while not eng.stopped and time.monotonic() < end:
-                time.sleep(0.002)
+            ramp_down(eng, timeout)
         self._run = False
         if self._thread is not None:
             self._thread.join(timeout)

@@ -2,26 +2,15 @@
 (volts, with the drive rate) file, written incrementally.
 
 The path is checked when the backend is made (a missing directory, a directory, or a place
-that cannot be written gives a :class:`~surfhap.errors.ConfigError` naming the path, before
-anything runs). While running, the samples are appended to the file and flushed every
-``flush_seconds`` (0.1 s), and the header is updated at each flush, so a crash (even
-SIGKILL) keeps a valid file with everything up to the last flush:
-
-* ``.wav``: the WAV file itself (IEEE float, one channel) is written as it goes;
-* ``.npz``: the samples go to ``PATH.partial.npy`` (volts, float64, a plain NumPy file
-  loadable with ``numpy.load``) and are packed into ``PATH`` (``drive``, ``drive_rate``)
-  on a clean stop, which removes the partial file.
-
-The recording is streamed to disk: only the samples since the last flush are held in
-memory (a buffer allocated at start), so a recording may run for any length; ``recorded``
-reads the file back (for checks). There is no silent cap. ``max_seconds`` (``None`` by
-default: no limit) is an explicit cap: shortly before it the backend asks the engine for
-its stop ramp (``cap_reached``, one warning line), so the file ends at 0 V after the
-ramp, at most ``max_seconds`` long (exactly, if the backend runs on past the cap); blocks
-rendered after the cap are counted in ``capped_blocks`` (:meth:`FileBackend.info`, in the
-status). A normal stop
-records the stop ramp too. A write error halts the engine (0 V) through the backend
-failure path.
+that cannot be written is a :class:`~surfhap.errors.ConfigError` naming the path). While
+running, only the samples since the last flush are in memory; every ``flush_seconds`` (0.1 s)
+they are appended and the header updated, so a crash (even SIGKILL) keeps a valid file up to
+the last flush: a ``.wav`` is written as it goes; an ``.npz`` streams to ``PATH.partial.npy``
+(float64 volts, loadable with ``numpy.load``), packed into ``PATH`` (``drive``,
+``drive_rate``) on a clean stop. There is no silent cap: ``max_seconds`` (default None) asks
+the engine for its stop ramp shortly before the cap (``cap_reached``, one warning), so the
+file ends at 0 V at most ``max_seconds`` long; later blocks count in ``capped_blocks``. A
+normal stop records the stop ramp too; a write error halts the engine (0 V).
 """
 
 from __future__ import annotations

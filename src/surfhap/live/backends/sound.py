@@ -1,35 +1,28 @@
 """``sound``: PortAudio output through sounddevice (sound card -> high-voltage amplifier).
 
-The stream runs at the engine's drive rate with the engine's block size; PortAudio calls
-:meth:`SoundBackend._callback` from its audio thread, which only calls ``engine.render``
-(see the real-time contract in :mod:`surfhap.live.engine`) and writes
-``volts / amp_gain`` (DAC full-scale units, float32, clipped to the largest float32 below
-1, because +1.0 itself wraps to -1 in some integer converters) to the channels in
-``channels`` (0-based; default: all channels of the stream). ``amp_gain`` is the
-amplifier's gain in volts per DAC full-scale unit, from the rig's configuration.
+The stream runs at the engine's drive rate and block size; PortAudio's audio thread calls
+:meth:`SoundBackend._callback`, which only calls ``engine.render`` (the real-time contract of
+:mod:`surfhap.live.engine`) and writes ``volts / amp_gain`` (``amp_gain``: the amplifier's V
+per DAC full-scale unit; float32, clipped just below 1, since +1.0 wraps to -1 in some
+integer converters) to the 0-based ``channels`` (default: all).
 
-Emission time: each block is rendered for the moment its first sample reaches the DAC,
-``time.outputBufferDacTime`` of the callback's time info, mapped onto the engine clock as
-``engine.clock() + (outputBufferDacTime - currentTime)`` (:meth:`surfhap.runtime.clock.AudioClock.dac_time`). The engine's
-watchdog (touch older than 50 ms -> 0 V within 5 ms) therefore counts the output latency:
-the ramp is complete at the DAC, not one output latency later. A host API that reports no
-usable times (zeros, NaN, a latency outside 0-1 s) gets the stream's nominal output latency.
-
-PortAudio's underflow flags count as engine underruns. An exception in the callback writes
-0 V and calls ``engine.fail`` (every later callback then writes 0 V); no callback for
-``stall_timeout`` seconds also calls ``engine.fail`` and aborts the stream. ``capture_seconds`` keeps a copy of
-the first samples written (preallocated), for checking the amplifier chain.
+Each block is rendered for the moment its first sample reaches the DAC
+(:meth:`surfhap.runtime.clock.AudioClock.dac_time`: ``outputBufferDacTime``, or the stream's
+nominal latency when the host API gives no usable times), so the engine's watchdog (touch older
+than 50 ms -> 0 V within 5 ms) holds at the DAC. Underflow flags count as engine underruns. An
+exception in the callback writes 0 V and calls ``engine.fail``; no callback for
+``stall_timeout`` s also does and aborts the stream. ``capture_seconds`` keeps a copy of the
+first samples written (preallocated), for checking the amplifier chain.
 """
 
 from __future__ import annotations
 
 import logging
-import time
 
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.live.backends.base import STALL_TIMEOUT, StallWatch
+from surfhap.live.backends.base import STALL_TIMEOUT, StallWatch, ramp_down
 from surfhap.runtime.clock import AudioClock
 
 __all__ = ["SoundBackend", "list_devices"]
@@ -163,11 +156,7 @@ class SoundBackend:
             self._watch = None
         if self._stream is None:
             return
-        eng = self.engine
-        eng.request_stop()
-        end = time.monotonic() + timeout
-        while not eng.stopped and not eng.halted and time.monotonic() < end:
-            time.sleep(0.002)
+        ramp_down(self.engine, timeout)
         try:
             self._stream.stop()
             self._stream.close()
