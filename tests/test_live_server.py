@@ -242,8 +242,8 @@ def test_page_server_in_its_own_process_feeds_the_engine():
         web.stop()
         session.stop()
     eng = session.engine
-    assert web.end.received >= 60 and web.end.dropped == 0
-    assert eng.counters["touches"] >= 60 and eng.trace_since(0)[0][:, 5].max() > 50.0
+    assert web.end.received >= 60 and web.end.dropped == 0  # samples (one turn's are coalesced per client)
+    assert eng.counters["touches"] >= 1 and eng.trace_since(0)[0][:, 5].max() > 50.0
 
 
 # --------------------------------------------------------------------------- hostile clients

@@ -58,7 +58,7 @@ def create_app(cfg: ServerConfig | None = None, *, touch=None, study=None):
     from surfhap.web.touch import Hub, static_files, touch_router
 
     link = as_link(touch, cfg)
-    hub = Hub()
+    hub = Hub(cfg.send_timeout)
 
     @asynccontextmanager
     async def lifespan(_app):

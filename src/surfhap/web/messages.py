@@ -31,7 +31,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 
 __all__ = ["Hello", "Move", "Up", "ClientMessage", "parse_message", "reason", "number", "page_to_surface",
-           "trace_message", "encode", "join_objects", "json_default", "CSS_PX_M", "StimulusRequest", "AnswerRequest"]
+           "trace_message", "encode", "json_default", "CSS_PX_M", "StimulusRequest", "AnswerRequest"]
 
 CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres (CSS reference pixel: 1/96 inch)
 
@@ -147,25 +147,11 @@ def encode(obj) -> str:
     return json.dumps(obj, default=json_default, separators=(",", ":"))
 
 
-def join_objects(*encoded: str) -> str:
-    """One JSON object with the members of several objects each encoded by :func:`encode`
-    (the same key must not appear twice). A frame is encoded once and shared by every
-    client's trace message; only the client's few counters are encoded per client, which
-    keeps the per-client cost independent of the frame's size."""
-    members = []
-    for e in encoded:
-        if not (e.startswith("{") and e.endswith("}")):
-            raise ValueError("join_objects takes encoded JSON objects")
-        if len(e) > 2:
-            members.append(e[1:-1])
-    return "{" + ",".join(members) + "}"
-
-
 def trace_message(ack: int, ack_t: float, received: int, rejected: int, *parts: str) -> str:
-    """One server -> page message (see module doc): the client's counters joined with
-    ``parts``, objects encoded by :func:`encode`: the trace frame (of
-    :meth:`surfhap.live.frames.FrameBuilder.frame`) and, when due, ``{"status": ...}``."""
-    # the head is formatted, not json.dumps'd: this runs for every client and frame
-    head = (f'{{"type":"trace","ack":{int(ack)},"ack_t":{encode(float(ack_t))},"received":{int(received)},'
-            f'"rejected":{int(rejected)}}}')
-    return join_objects(head, *parts)
+    """One server -> page message (see module doc): the client's counters and the members of
+    ``parts``, JSON objects encoded by :func:`encode` (the trace frame of
+    :meth:`surfhap.live.frames.FrameBuilder.frame` and, when due, ``{"status": ...}``). A frame
+    is encoded once for every client: only the counters are formatted per client."""
+    head = (f'{{"type":"trace","ack":{int(ack)},"ack_t":{float(ack_t)!r},"received":{int(received)},'
+            f'"rejected":{int(rejected)}')
+    return head + "".join("," + p[1:-1] for p in parts if len(p) > 2) + "}"
