@@ -17,6 +17,20 @@ from surfhap.web.guard import WILDCARD_HOSTS, RequestGuard
 __all__ = ["create_app"]
 
 
+def _static_files(page: str):
+    """The assets of ``page`` ("touch" or "study", ``surfhap.web/static/<page>``), never cached
+    by the browser."""
+    from starlette.staticfiles import StaticFiles
+
+    class NoStoreStaticFiles(StaticFiles):
+        def file_response(self, *args, **kwargs):
+            response = super().file_response(*args, **kwargs)
+            response.headers["Cache-Control"] = "no-store"
+            return response
+
+    return NoStoreStaticFiles(packages=[("surfhap.web", f"static/{page}")])
+
+
 def create_app(cfg: ServerConfig | None = None, *, touch=None, study=None):
     """The FastAPI app serving ``touch`` (an :class:`~surfhap.web.link.EngineLink` or a live
     session: the touch or force-feedback page) or ``study`` (a
@@ -36,11 +50,12 @@ def create_app(cfg: ServerConfig | None = None, *, touch=None, study=None):
         app = FastAPI(title="surfhap study", docs_url=None, redoc_url=None, openapi_url=None)
         RequestGuard.for_page(cfg, ip_literals=cfg.host in WILDCARD_HOSTS, max_body_bytes=MAX_BODY,
                               logger=study_log).install(app)
+        app.mount("/static", _static_files("study"), name="static")
         app.include_router(study_router(study, cfg))
         return app
 
     from surfhap.web.link import as_link
-    from surfhap.web.touch import Hub, static_files, touch_router
+    from surfhap.web.touch import Hub, touch_router
 
     link = as_link(touch, cfg)
     hub = Hub(cfg.send_timeout)
@@ -59,6 +74,6 @@ def create_app(cfg: ServerConfig | None = None, *, touch=None, study=None):
     app = FastAPI(title="surfhap live", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
     app.state.hub = hub
     RequestGuard.for_page(cfg, on_refused=refused).install(app)
-    app.mount("/static", static_files(), name="static")
+    app.mount("/static", _static_files("touch"), name="static")
     app.include_router(touch_router(link, hub, cfg))
     return app

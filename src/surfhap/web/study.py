@@ -25,8 +25,6 @@ from surfhap.web.touch import Client, pointer_messages
 __all__ = ["StudyPage", "study_router"]
 
 log = logging.getLogger("surfhap.lab")
-STATIC = {"study.html": "text/html; charset=utf-8", "study.js": "text/javascript; charset=utf-8",
-          "study.css": "text/css; charset=utf-8"}
 MAX_BODY = 4096  # an answer is a few dozen bytes; a toggles answer stays under 500 characters
 
 
@@ -50,17 +48,11 @@ def study_router(page: StudyPage, cfg: ServerConfig):
     playing: dict[str, str | None] = {"trial": None}
     rejects = RejectLog(log)
     router = APIRouter()
-    files = resources.files("surfhap.web") / "static" / "study"
+    index_html = resources.files("surfhap.web") / "static" / "study" / "study.html"
 
     @router.get("/")
     def index():
-        return Response((files / "study.html").read_bytes(), media_type=STATIC["study.html"])
-
-    @router.get("/static/{name}")
-    def static(name: str):
-        if name not in STATIC:
-            return JSONResponse({"error": "not found"}, status_code=404)
-        return Response((files / name).read_bytes(), media_type=STATIC[name], headers={"Cache-Control": "no-store"})
+        return Response(index_html.read_bytes(), media_type="text/html; charset=utf-8")
 
     @router.get("/api/state")
     def state():

@@ -22,7 +22,7 @@ from surfhap.live.sources import RateLimiter, RejectLog
 from surfhap.runtime.clock import now
 from surfhap.web.messages import encode, page_to_surface, parse_message, reason, trace_message
 
-__all__ = ["Client", "Hub", "pointer_messages", "touch_router", "static_files", "PAGE_CSP"]
+__all__ = ["Client", "Hub", "pointer_messages", "touch_router", "PAGE_CSP"]
 
 log = logging.getLogger("surfhap.web")
 
@@ -163,19 +163,6 @@ class Hub:
         """Return when a frame newer than number ``after`` is there."""
         while self.frame_no == after:
             await self._event.wait()
-
-
-def static_files():
-    """The page's assets (``surfhap.web/static/touch``), never cached by the browser."""
-    from starlette.staticfiles import StaticFiles
-
-    class NoStoreStaticFiles(StaticFiles):
-        def file_response(self, *args, **kwargs):
-            response = super().file_response(*args, **kwargs)
-            response.headers["Cache-Control"] = "no-store"
-            return response
-
-    return NoStoreStaticFiles(packages=[("surfhap.web", "static/touch")])
 
 
 def touch_router(link, hub: Hub, cfg: ServerConfig):
