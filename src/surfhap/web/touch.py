@@ -125,8 +125,7 @@ class Hub:
         self.frames: list[str] = []  # recent frames (encoded JSON objects), newest last (bounded)
         self.frame_no = 0
         self.engine_status: dict = {}
-        self.status_json = "{}"  # the served status (/api/status)
-        self.status_member = '{"status":{}}'  # the same as the member of a trace message
+        self.status_json = "{}"  # the served status (/api/status), also "status" in trace messages
         self.status_no = 0
         self.gate = None  # the server's ConnectionGate (surfhap.web.server), for its counters
         self._event = asyncio.Event()
@@ -148,7 +147,6 @@ class Hub:
                 srv["connections"] = self.gate.counters()
             status = {**self.engine_status, "server": srv}
             self.status_json = encode(status)
-            self.status_member = encode({"status": status})
             self.status_no += 1
         ev, self._event = self._event, asyncio.Event()
         ev.set()
@@ -200,7 +198,7 @@ def touch_router(link, hub: Hub, cfg: ServerConfig):
                 parts = [frame]
                 if hub.status_no != sent_status:
                     sent_status = hub.status_no
-                    parts.append(hub.status_member)
+                    parts.append('{"status":' + hub.status_json + "}")
                 client.sending = now()
                 try:
                     await ws.send_text(trace_message(client.last_seq, client.last_t, client.received,
