@@ -123,20 +123,23 @@ def study_router(page: StudyPage, cfg: ServerConfig):
         peer = f"ws {sock.client.host}:{sock.client.port}" if sock.client else "ws ?"
         client = Client(id(sock) & 0x7FFF, peer, RateLimiter(cfg.max_rate, cfg.burst, t=0.0), height_px=400.0)
         live = player is not None
+
+        def handle(msg) -> None:
+            if msg.type == "hello":
+                client.width_px, client.height_px = msg.w, msg.h
+                return
+            down = msg.type == "move"
+            if live and down:
+                player.touch(client.id, min(max(msg.x, 0.0), 1.0), min(max(msg.y, 0.0), 1.0), msg.p, msg.t,
+                             client.width_px, client.height_px)
+            elif live:
+                player.lift(client.id, msg.t)
+            if down != client.down:
+                client.down = down
+                markers.push("touch_down" if down else "touch_up")
+
         try:
-            async for msg in pointer_messages(sock, cfg, client, rejects):
-                if msg.type == "hello":
-                    client.width_px, client.height_px = msg.w, msg.h
-                    continue
-                down = msg.type == "move"
-                if live and down:
-                    player.touch(client.id, min(max(msg.x, 0.0), 1.0), min(max(msg.y, 0.0), 1.0), msg.p, msg.t,
-                                 client.width_px, client.height_px)
-                elif live:
-                    player.lift(client.id, msg.t)
-                if down != client.down:
-                    client.down = down
-                    markers.push("touch_down" if down else "touch_up")
+            await pointer_messages(sock, cfg, client, rejects, handle)
         finally:
             if live:
                 player.lift(client.id, 0.0)

@@ -13,14 +13,14 @@ import asyncio
 import logging
 from dataclasses import dataclass, field
 from importlib import resources
-from typing import Callable, Optional
+from typing import Callable, Optional, Union
 
 from pydantic import ValidationError
 
 from surfhap.live.config import ServerConfig
 from surfhap.live.sources import RateLimiter, RejectLog
 from surfhap.runtime.clock import now
-from surfhap.web.messages import encode, page_to_surface, parse_message, reason, trace_message
+from surfhap.web.messages import Hello, Move, Up, encode, page_to_surface, parse_message, reason, trace_message
 
 __all__ = ["Client", "Hub", "pointer_messages", "touch_router", "PAGE_CSP"]
 
@@ -71,9 +71,10 @@ class Client:
         return self.elapsed
 
 
-async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: RejectLog):
-    """The validated messages (:mod:`surfhap.web.messages`) of the WebSocket ``ws`` until
-    it closes. A binary, oversized, invalid or too frequent message (``client.limiter`` on
+async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: RejectLog,
+                           handle: Callable[[Union[Hello, Move, Up]], None]) -> None:
+    """``handle`` each validated message (:mod:`surfhap.web.messages`) of the WebSocket ``ws``
+    until it closes (a callback, not an async generator: cheaper per message). A binary, oversized, invalid or too frequent message (``client.limiter`` on
     :meth:`Client.clock`) is counted on ``client`` and logged (throttled) through ``rejects``;
     after ``cfg.max_rejects`` the socket is closed."""
     from starlette.websockets import WebSocketDisconnect
@@ -95,7 +96,7 @@ async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: Rejec
                     message, why = None, reason(exc.errors(include_url=False, include_input=False))
                 if message is not None:
                     if client.limiter.allow(client.clock(None if message.type == "hello" else message.t * 1e-3)):
-                        yield message
+                        handle(message)
                         continue
                     why = "rate limit exceeded"
             client.rejected += 1
@@ -225,19 +226,22 @@ def touch_router(link, hub: Hub, cfg: ServerConfig):
         client.close = lambda: (task.cancel(), loop.create_task(ws.close(code=1008)))
         log.info("page client %d connected from %s", client.id, peer)
         space, push = link.space, link.push_touch
+
+        def handle(msg) -> None:
+            if msg.type == "hello":
+                client.width_px, client.height_px = msg.w, msg.h
+                return
+            if msg.type == "move":
+                xm, ym, load = page_to_surface(msg, client.width_px, client.height_px, space, surface_positions)
+                push(client.id, xm, ym, load, t_event=msg.t * 1e-3)
+            else:  # up
+                push(client.id, 0.0, 0.0, 0.0, t_event=msg.t * 1e-3)
+            client.down = msg.type == "move"
+            client.last_seq, client.last_t = msg.seq, msg.t
+            client.received += 1
+
         try:
-            async for msg in pointer_messages(ws, cfg, client, hub.rejects):
-                if msg.type == "hello":
-                    client.width_px, client.height_px = msg.w, msg.h
-                    continue
-                if msg.type == "move":
-                    xm, ym, load = page_to_surface(msg, client.width_px, client.height_px, space, surface_positions)
-                    push(client.id, xm, ym, load, t_event=msg.t * 1e-3)
-                else:  # up
-                    push(client.id, 0.0, 0.0, 0.0, t_event=msg.t * 1e-3)
-                client.down = msg.type == "move"
-                client.last_seq, client.last_t = msg.seq, msg.t
-                client.received += 1
+            await pointer_messages(ws, cfg, client, hub.rejects, handle)
         finally:
             task.cancel()
             if client.down:
