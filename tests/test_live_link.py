@@ -46,8 +46,9 @@ def test_touches_reach_the_engine_and_frames_come_back():
 
     async def scenario():
         task = asyncio.get_running_loop().create_task(link.stream(lambda f, s: got.append((f, s))))
-        for k in range(10):
+        for k in range(10):  # one sample per turn of the loop: each one is sent
             assert link.push_touch(1001, 0.01 + 0.001 * k, 0.02, 0.5, t_event=1.25 + k)
+            await asyncio.sleep(0)
         deadline = time.monotonic() + PATIENCE
         while (len(got) < 6 or end.received < 10) and time.monotonic() < deadline:
             await asyncio.sleep(0.02)
@@ -64,25 +65,48 @@ def test_touches_reach_the_engine_and_frames_come_back():
     assert np.allclose(buf[:n, 3], 0.01 + 0.001 * np.arange(10)) and np.all(buf[:n, 5] == 0.5)
     assert len(got) >= 6 and set(got[0][0]) >= {"t", "v", "f", "target", "speed"}
     assert got[0][1] is not None and got[1][1] is None  # the status with every 5th frame
-    assert gone == [1] and link.dropped == 0 and end.dropped == 0
+    assert gone == [1] and link.coalesced == 0 and end.dropped == 0
 
 
-def test_a_stalled_engine_side_drops_the_oldest_touches_and_never_blocks():
+def test_samples_of_one_turn_are_coalesced_to_the_newest_per_client():
+    """A web process that falls behind reads many samples of each client in one turn of its
+    loop: only the newest position per client goes to the engine (with the count it stands
+    for), so no queue grows with the backlog."""
+    session = build_session("cork")
+    touch_in, touch_out, trace_in, _ = _pipes()
+    link = ProcessLink(describe(session), touch_out, trace_in)
+
+    async def burst():
+        for k in range(500):
+            for src in (7, 8):
+                assert link.push_touch(src, 0.001 * k, 0.01 * src, 0.5, t_event=float(k))
+        await asyncio.sleep(0)  # the turn ends: one flush
+
+    asyncio.run(burst())
+    rows = np.frombuffer(touch_in.recv_bytes(), dtype=np.float64).reshape(-1, 7)
+    assert not touch_in.poll(0) and rows.shape == (2, 7)
+    assert rows[:, 0].tolist() == [7.0, 8.0] and np.all(rows[:, 1] == 499.0)  # the newest of each
+    assert np.allclose(rows[:, 3], 0.499) and np.allclose(rows[:, 4], [0.07, 0.08])
+    assert rows[:, 6].tolist() == [500.0, 500.0] and link.coalesced == 998
+
+
+def test_a_stalled_engine_side_keeps_the_newest_touch_and_never_blocks():
     session = build_session("cork")
     touch_in, touch_out, trace_in, _ = _pipes()  # nobody reads the touches
-    link = ProcessLink(describe(session), touch_out, trace_in, max_pending=100)
+    link = ProcessLink(describe(session), touch_out, trace_in)
 
-    async def flood():  # far more than the pipe and the queue hold (a blocking send hangs here)
+    async def flood():  # far more than the pipe holds (a blocking send hangs here)
         for k in range(100_000):
-            assert link.push_touch(1, 0.01, 0.02, 0.5, t_event=float(k))
-            if k % 50 == 0:
-                await asyncio.sleep(0)  # the loop turns: the link flushes what the pipe takes
+            assert link.push_touch(k % 3, 0.01, 0.02, 0.5, t_event=float(k))
+            await asyncio.sleep(0)  # every turn of the loop flushes what the pipe takes
 
     asyncio.run(flood())
-    assert link.dropped > 0 and len(link.pending) == 100
-    assert link.pending[-1][1] == 99_999.0  # the newest sample is kept, the oldest went
-    got = []  # and what reached the pipe is whole messages, in order
+    assert sorted(link.pending) == [0, 1, 2]  # bounded by the clients, not by the backlog
+    assert link.pending[99_999 % 3][1] == 99_999.0  # the newest sample is kept
+    got = []  # and what reached the pipe is whole messages, in order per client
     while touch_in.poll(0):
-        got.append(np.frombuffer(touch_in.recv_bytes(), dtype=np.float64).reshape(-1, 6))
-    t_events = np.concatenate(got)[:, 1]
-    assert t_events[0] == 0.0 and np.all(np.diff(t_events) == 1.0) and t_events.size + 100 + link.dropped == 100_000
+        got.append(np.frombuffer(touch_in.recv_bytes(), dtype=np.float64).reshape(-1, 7))
+    rows = np.concatenate(got)
+    for src in range(3):
+        assert np.all(np.diff(rows[rows[:, 0] == src, 1]) > 0)
+    assert rows[:, 6].sum() + sum(r[6] for r in link.pending.values()) == 100_000

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from surfhap.live.sources import TouchSpace, finite_in_range
-from surfhap.web.messages import (CSS_PX_M, Hello, Move, Up, encode, join_objects, page_to_surface, reason,
+from surfhap.web.messages import (CSS_PX_M, Hello, Move, Up, encode, page_to_surface, reason,
                                   trace_message)
 from surfhap.web.messages import parse_message as _parse_or_raise
 
@@ -112,6 +112,5 @@ def test_trace_message_is_json_with_the_client_counters_frame_and_status():
                  "status": {"counters": {"blocks": 3}, "lat": 0.5, "note": 'a "quoted" } name'}}
     assert json.loads(trace_message(5, 0.0, 6, 1, encode(frame))) == {
         "type": "trace", "ack": 5, "ack_t": 0.0, "received": 6, "rejected": 1, **frame}
-    assert json.loads(join_objects("{}", encode({"a": [1]}), "{}")) == {"a": [1]}
-    with pytest.raises(ValueError):
-        join_objects('"not an object"')
+    assert json.loads(trace_message(0, 1e12, 0, 0, "{}", encode({"a": [1]}))) == {
+        "type": "trace", "ack": 0, "ack_t": 1e12, "received": 0, "rejected": 0, "a": [1]}

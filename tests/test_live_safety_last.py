@@ -125,8 +125,8 @@ def test_touches_queued_during_an_engine_stall_stay_stale():
 
 
 def _send_touch(conn, t_arrival, load=LOAD):
-    # one message of the web process's link: source, t_event, t_arrival, x, y, load
-    conn.send_bytes(np.array([[7, np.nan, t_arrival, 0.05, 0.03, load]]).tobytes())
+    # one message of the web process's link: source, t_event, t_arrival, x, y, load, samples
+    conn.send_bytes(np.array([[7, np.nan, t_arrival, 0.05, 0.03, load, 1]]).tobytes())
 
 
 def test_process_link_keeps_stale_arrival_stamps():

@@ -73,6 +73,19 @@ def test_page_and_static_files_are_served(served):
     assert r.status == 404
 
 
+def test_websocket_compression_is_refused(served):
+    """Per-message deflate cost more CPU per pointer event than anything else (issue 20's 50
+    clients x 120 Hz): the server does not negotiate it, even when the client offers it."""
+    _, srv = served
+
+    async def extensions():
+        async with websockets.connect(ws_url(srv), origin=f"http://127.0.0.1:{srv.port}",
+                                      compression="deflate") as ws:
+            return ws.response.headers.get("Sec-WebSocket-Extensions")
+
+    assert asyncio.run(extensions()) is None
+
+
 def test_pointer_stream_changes_the_drive(served):
     session, srv = served
     m = asyncio.run(stream(srv))
@@ -242,8 +255,8 @@ def test_page_server_in_its_own_process_feeds_the_engine():
         web.stop()
         session.stop()
     eng = session.engine
-    assert web.end.received >= 60 and web.end.dropped == 0
-    assert eng.counters["touches"] >= 60 and eng.trace_since(0)[0][:, 5].max() > 50.0
+    assert web.end.received >= 60 and web.end.dropped == 0  # samples (one turn's are coalesced per client)
+    assert eng.counters["touches"] >= 1 and eng.trace_since(0)[0][:, 5].max() > 50.0
 
 
 # --------------------------------------------------------------------------- hostile clients

@@ -1,23 +1,15 @@
 """A UDP listener that a flood from one sender cannot starve: the kernel drops the flood.
 
-A user-space receiver cannot outrun a local sender for long (one ``sendto`` costs about what
-one ``recvfrom`` costs, and the receiver also has to look at each datagram), so under a flood
-the socket's queue fills and the kernel drops datagrams of *every* sender: a touch stream
-beside a junk flood lost 553 of 585 touches. :class:`UdpListener` moves an offending sender
-out of the way instead: its socket joins a ``SO_REUSEPORT`` group, and :meth:`penalise`
-binds a second socket of the group to the same address, *connected* to the offender, with
-a tiny receive buffer that is never read. Linux delivers a datagram to the connected socket
-that matches its source best, so the offender's datagrams land there and are dropped by the
-kernel when it is full, while the other senders' datagrams keep arriving on the main socket.
-After ``hold`` seconds the penalty socket is closed and the sender is back on the main
-socket (where its token bucket decides again).
-
-The group is not shared with anyone else: the port is first bound without ``SO_REUSEPORT``
-(so a port in use fails as before, and a second listener cannot join later: binding a port
-that a ``SO_REUSEPORT`` socket holds needs that option *and* the same user; surfhap's own
-listeners check first). Where the steering to connected sockets is not available (not
-Linux), :meth:`penalise` does nothing and the sender's datagrams are only dropped by its
-token bucket.
+A receiver cannot outrun a local sender (one ``recvfrom`` costs what one ``sendto`` does), so
+under a flood the socket's queue fills and the kernel drops every sender's datagrams (a touch
+stream beside a junk flood lost 553 of 585 touches). :meth:`UdpListener.penalise` binds a
+second socket of the listener's ``SO_REUSEPORT`` group to the same address, *connected* to
+the offender, with a tiny receive buffer that is never read: Linux delivers a datagram to the
+connected socket that matches its source best, so the offender's datagrams are dropped there
+while the others keep arriving on the main socket; after ``hold`` s the sender is back (and
+its token bucket decides again). The port is first bound without ``SO_REUSEPORT``, so a port
+in use fails as before and no other listener can join the group. Elsewhere than Linux,
+:meth:`~UdpListener.penalise` does nothing (the token bucket alone drops the flood).
 """
 
 from __future__ import annotations
@@ -31,11 +23,8 @@ _STEERING = sys.platform.startswith("linux")
 
 
 class UdpListener:
-    """A bound UDP socket (``.sock``, ``.port``) with a penalty box for flooding senders.
-
-    max_penalised : penalty sockets at once (each is a file descriptor).
-    hold          : s a sender stays in the penalty box.
-    """
+    """A bound UDP socket (``.sock``, ``.port``) with a penalty box for flooding senders:
+    at most ``max_penalised`` penalty sockets (file descriptors) at once, ``hold`` s each."""
 
     def __init__(self, host: str, port: int, *, rcvbuf: int = 1 << 20, max_penalised: int = 16, hold: float = 1.0):
         self.host = host
@@ -47,11 +36,11 @@ class UdpListener:
         finally:
             probe.close()
         self.sock = self._socket()
-        try:  # absorb bursts (best effort: the kernel caps it at net.core.rmem_max)
-            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, int(rcvbuf))
-        except OSError:
-            pass
         try:
+            try:  # absorb bursts (best effort: the kernel caps it at net.core.rmem_max)
+                self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, int(rcvbuf))
+            except OSError:
+                pass
             self.sock.bind((host, self.port))
         except OSError:
             self.sock.close()

@@ -1,14 +1,9 @@
 """The one web app of surfhap: :func:`create_app` builds a FastAPI app with the request guard
-(:mod:`surfhap.web.guard`) and the router of the page it serves:
-
-* the touch page of ``surfhap serve`` (:mod:`surfhap.web.touch`), given an engine link or a
-  live session;
-* the force-feedback page of ``surfhap ff run --touch web``: the touch page over the force
-  loop's session (:func:`surfhap.web.ff.build_ff_session`), with its force panel;
-* the study page of ``surfhap study run`` (:mod:`surfhap.web.study`).
-
-Serve it with :class:`surfhap.web.server.ServerThread` or, apart from the real-time engine,
-:class:`surfhap.web.process.WebProcess`.
+(:mod:`surfhap.web.guard`) and the router of the page it serves: the touch page of ``surfhap
+serve`` (:mod:`surfhap.web.touch`), the force-feedback page of ``surfhap ff run --touch web``
+(the touch page over :func:`surfhap.web.ff.build_ff_session`) or the study page of ``surfhap
+study run`` (:mod:`surfhap.web.study`). Serve it with :class:`surfhap.web.server.ServerThread`
+or, apart from the real-time engine, :class:`surfhap.web.process.WebProcess`.
 """
 
 from __future__ import annotations
@@ -17,20 +12,23 @@ import asyncio
 from contextlib import asynccontextmanager
 
 from surfhap.live.config import ServerConfig
-from surfhap.web.guard import MAX_BODY_BYTES, WILDCARD_HOSTS, OriginRule, RequestGuard, host_allow_list
-from surfhap.web.guard import log as guard_log
+from surfhap.web.guard import WILDCARD_HOSTS, RequestGuard
 
-__all__ = ["create_app", "page_guard"]
+__all__ = ["create_app"]
 
 
-def page_guard(cfg: ServerConfig, ip_literals: bool = False, max_body_bytes: int = MAX_BODY_BYTES,
-               logger=None) -> RequestGuard:
-    """The request guard for a page served as ``cfg`` says: the ``Host`` allow list of its
-    bind address and ``allowed_hosts`` (with ``ip_literals``, also any IP literal), the
-    ``Origin`` rule of ``allowed_origins`` / ``allow_missing_origin`` and the body cap."""
-    return RequestGuard(host_allow_list(cfg.host, cfg.allowed_hosts),
-                        OriginRule(cfg.allowed_origins, cfg.allow_missing_origin), max_body_bytes=max_body_bytes,
-                        ip_literals=ip_literals, logger=logger or guard_log)
+def _static_files(page: str):
+    """The assets of ``page`` ("touch" or "study", ``surfhap.web/static/<page>``), never cached
+    by the browser."""
+    from starlette.staticfiles import StaticFiles
+
+    class NoStoreStaticFiles(StaticFiles):
+        def file_response(self, *args, **kwargs):
+            response = super().file_response(*args, **kwargs)
+            response.headers["Cache-Control"] = "no-store"
+            return response
+
+    return NoStoreStaticFiles(packages=[("surfhap.web", f"static/{page}")])
 
 
 def create_app(cfg: ServerConfig | None = None, *, touch=None, study=None):
@@ -50,15 +48,17 @@ def create_app(cfg: ServerConfig | None = None, *, touch=None, study=None):
         from surfhap.web.study import MAX_BODY, log as study_log, study_router
 
         app = FastAPI(title="surfhap study", docs_url=None, redoc_url=None, openapi_url=None)
-        page_guard(cfg, ip_literals=cfg.host in WILDCARD_HOSTS, max_body_bytes=MAX_BODY, logger=study_log).install(app)
+        RequestGuard.for_page(cfg, ip_literals=cfg.host in WILDCARD_HOSTS, max_body_bytes=MAX_BODY,
+                              logger=study_log).install(app)
+        app.mount("/static", _static_files("study"), name="static")
         app.include_router(study_router(study, cfg))
         return app
 
     from surfhap.web.link import as_link
-    from surfhap.web.touch import Hub, static_files, touch_router
+    from surfhap.web.touch import Hub, touch_router
 
     link = as_link(touch, cfg)
-    hub = Hub()
+    hub = Hub(cfg.send_timeout)
 
     @asynccontextmanager
     async def lifespan(_app):
@@ -73,9 +73,7 @@ def create_app(cfg: ServerConfig | None = None, *, touch=None, study=None):
 
     app = FastAPI(title="surfhap live", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
     app.state.hub = hub
-    guard = page_guard(cfg)
-    guard.on_refused = refused
-    guard.install(app)
-    app.mount("/static", static_files(), name="static")
+    RequestGuard.for_page(cfg, on_refused=refused).install(app)
+    app.mount("/static", _static_files("touch"), name="static")
     app.include_router(touch_router(link, hub, cfg))
     return app

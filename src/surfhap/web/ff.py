@@ -1,22 +1,17 @@
 """The force-feedback page: the touch page's router (:mod:`surfhap.web.touch`) over the
-force-feedback loop, through this minimal adapter.
+force-feedback loop. :class:`FFWebEngine` offers what the page server uses of an engine
+(``push_touch``, ``warm_up``, ``status``, ``trace_since``, rates) over an
+:class:`~surfhap.live.ff_loop.FFLoop`: touches go into the haptic loop (page positions span
+the whole scene, ``positions="surface"``), the scene's picture is the preview, and the trace
+shows the finger speed and, in the drive slot, the force magnitude sent to the device (N; the
+scale's maximum is the force limit), sampled by the 60 Hz feedback thread.
 
-The page server (:mod:`surfhap.web.link`, :mod:`surfhap.web.process`) talks to an engine
-through ``push_touch``, ``warm_up``, ``status``, ``trace_since`` and a few rate attributes.
-:class:`FFWebEngine` offers those over an :class:`~surfhap.live.ff_loop.FFLoop`, so the page
-works unchanged: touches go into the haptic loop (page positions are mapped
-onto the whole scene, ``positions="surface"``), the scene's picture is the preview, and the
-trace shows the finger speed and, in the drive slot, the magnitude of the force sent to the
-device in N (the scale's maximum is the force limit), sampled by the 60 Hz feedback thread.
-
-Force-feedback panel: every trace row also keeps the device (screen) position ``p`` (m,
-relative to the workspace centre X0), the force ``F`` sent to the device after the safety
-stage (N, device frame: x along the display's width, y along its height, z normal to it,
-positive towards the user), the active-effect mask and the pressed button. They travel to
-the page in each trace frame as ``"ff": {"p": [[x, y, z], ...], "F": [[fx, fy, fz], ...],
-"mask": [...], "button": [...]}`` (one entry per trace point, :meth:`FFWebEngine.frame_extra`);
-``/api/info`` carries the device's limits and the effect and button names under ``"ff"``
-(:func:`ff_page_info`). A texture or shape session has neither, and its page is unchanged.
+Force-feedback panel: each trace frame carries ``"ff": {"p": [[x, y, z], ...], "F": [[fx, fy,
+fz], ...], "mask": [...], "button": [...]}`` (one entry per trace point): the device position
+(m, relative to the workspace centre X0), the force after the safety stage (N, device frame:
+x along the display's width, y along its height, z normal to it, towards the user), the
+active-effect mask and the pressed button; ``/api/info`` carries the device's limits and the
+effect and button names under ``"ff"`` (:func:`ff_page_info`).
 """
 
 from __future__ import annotations

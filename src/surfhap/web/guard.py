@@ -1,13 +1,14 @@
-"""The request guard of the web app (:func:`surfhap.web.app.create_app`), a pure ASGI
-middleware (:meth:`RequestGuard.install`). Every request and WebSocket handshake passes:
+"""The request guard of the web app (:func:`surfhap.web.app.create_app`), an ASGI middleware
+added with ``app.add_middleware`` (:meth:`RequestGuard.install`). Every request and WebSocket
+handshake passes:
 
 * **Host** must name a loopback name, the bound address or an allowed name
   (:func:`host_allow_list`, ``*.domain`` patterns; a wildcard bind widens nothing; with
   ``ip_literals`` any IP literal too): no DNS rebinding. Refused: 400, WebSocket close 1008;
 * **Origin** (CSRF): a state-changing request (not GET/HEAD/OPTIONS) and every WebSocket must
-  come from the page's own origin (``http://`` + ``Host``) or an allowed one
-  (:class:`OriginRule`); no ``Origin`` (not a browser) only with ``allow_missing_origin`` and
-  no cross-site ``Sec-Fetch-Site``. Refused: 403, before the body is read;
+  come from the page's own origin (``http://`` + ``Host``) or an allowed one; no ``Origin``
+  (not a browser) only with ``allow_missing_origin`` and no cross-site ``Sec-Fetch-Site``.
+  Refused: 403, before the body is read;
 * **body cap**: the guard reads the body, at most ``max_body_bytes``; a larger declared
   ``Content-Length`` or chunked body is refused (413, ``Connection: close``);
 * **errors**: an exception answers 500 with one log line (type, message, where), never a
@@ -30,19 +31,15 @@ from typing import Callable
 
 from surfhap.live.sources import RejectLog
 
-__all__ = ["RequestGuard", "OriginRule", "host_allow_list", "MAX_BODY_BYTES", "SAFE_METHODS", "WILDCARD_HOSTS",
-           "LOOPBACK_NAMES"]
+__all__ = ["RequestGuard", "host_allow_list", "MAX_BODY_BYTES", "SAFE_METHODS", "WILDCARD_HOSTS", "LOOPBACK_NAMES"]
 
 log = logging.getLogger("surfhap.live")
 
 MAX_BODY_BYTES = 16 * 1024  # the pages' requests are JSON objects of well under 1 KiB
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
-_CROSS = ("cross-site", "same-site")  # Sec-Fetch-Site values of another site's page
-_REFUSALS = ("host", "origin", "body")  # counted as refused; "invalid" bodies and "error"s reached the app
-
-
 WILDCARD_HOSTS = ("0.0.0.0", "::", "")
 LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")  # as a Host header names them (IPv6 in brackets)
+_REFUSALS = ("host", "origin", "body")  # counted as refused; "invalid" bodies and "error"s reached the app
 
 
 def _as_host(name: str) -> str:
@@ -60,22 +57,6 @@ def host_allow_list(bind_host: str, allowed_hosts=()) -> tuple[str, ...]:
     return tuple(dict.fromkeys(n for n in names if n))
 
 
-class OriginRule:
-    """The ``Origin`` check of WebSockets and state-changing requests (see module doc)."""
-
-    def __init__(self, allowed_origins=(), allow_missing: bool = True):
-        self.allowed = {o.rstrip("/").lower() for o in allowed_origins}
-        self.allow_missing = bool(allow_missing)
-
-    def __call__(self, origin: str | None, host_header: str | None) -> bool:
-        if origin is None:
-            return self.allow_missing
-        o = origin.rstrip("/").lower()
-        if o in self.allowed:
-            return True
-        return bool(host_header) and o == "http://" + host_header.strip().lower()
-
-
 def _header(scope, name: bytes) -> str | None:
     for k, v in scope.get("headers", ()):
         if k == name:
@@ -83,44 +64,34 @@ def _header(scope, name: bytes) -> str | None:
     return None
 
 
-def _host_name(host_header: str) -> str:
-    """The name in a ``Host`` header, without the port, lower case (IPv6 in brackets)."""
-    h = host_header.strip().lower()
-    if h.startswith("["):
-        return h.split("]", 1)[0] + "]"
-    return h.rsplit(":", 1)[0] if h.count(":") == 1 else h
-
-
-def _is_ip_literal(name: str) -> bool:
-    try:
-        ipaddress.ip_address(name.strip("[]"))
-        return True
-    except ValueError:
-        return False
-
-
 def _short(text: str | None, n: int = 80) -> str:
     """``text`` quoted on one line (repr escapes line breaks), at most ``n`` characters of it."""
     return repr(text if text is None else text[:n])
+
+
+def _peer(scope) -> str:
+    c = scope.get("client")
+    return f"{c[0]}:{c[1]}" if c else "?"
 
 
 class RequestGuard:
     """The rules and counters of one web app (see module doc).
 
     allowed_hosts : names a ``Host`` header may carry (:func:`host_allow_list`).
-    origins       : the ``Origin`` rule for state-changing requests and WebSockets.
+    allowed_origins, allow_missing_origin: the ``Origin`` rule.
     max_body_bytes: the request body cap.
     ip_literals   : also accept any IP address literal as ``Host`` (a wildcard bind).
     on_refused    : called once per refused request or handshake (e.g. a status counter).
     logger        : where the throttled refusal lines go."""
 
-    def __init__(self, allowed_hosts: tuple[str, ...], origins: OriginRule | None = None,
+    def __init__(self, allowed_hosts: tuple[str, ...], allowed_origins=(), allow_missing_origin: bool = True,
                  max_body_bytes: int = MAX_BODY_BYTES, ip_literals: bool = False,
                  on_refused: Callable[[], None] | None = None, logger: logging.Logger = log):
         names = tuple(h.lower() for h in allowed_hosts)
         self.exact = frozenset(n for n in names if not n.startswith("*."))
         self.suffixes = tuple(n[1:] for n in names if n.startswith("*."))  # "*.a.b" -> ".a.b"
-        self.origins = origins or OriginRule()
+        self.origins = frozenset(o.rstrip("/").lower() for o in allowed_origins)
+        self.allow_missing_origin = bool(allow_missing_origin)
         self.max_body_bytes = int(max_body_bytes)
         self.ip_literals = bool(ip_literals)
         self.on_refused = on_refused
@@ -128,8 +99,15 @@ class RequestGuard:
         self.counts = {"host": 0, "origin": 0, "body": 0, "invalid": 0, "error": 0}
         self.gate = None  # the server's ConnectionGate, told when a response is complete
 
+    @classmethod
+    def for_page(cls, cfg, **kw) -> "RequestGuard":
+        """The guard of a page served as ``cfg`` (:class:`~surfhap.live.config.ServerConfig`)
+        says: its bind address, ``allowed_hosts``, ``allowed_origins`` and
+        ``allow_missing_origin``; ``kw`` as the constructor's."""
+        return cls(host_allow_list(cfg.host, cfg.allowed_hosts), cfg.allowed_origins, cfg.allow_missing_origin, **kw)
+
     def install(self, app) -> "RequestGuard":
-        """Add this guard to the FastAPI ``app`` (as its outermost user middleware: inside it
+        """Add this guard to the FastAPI ``app`` (its outermost user middleware: inside it
         only the app's exception handlers and routes), answer FastAPI's validation errors with
         a short 422 and keep the guard as ``app.state.guard``."""
         from fastapi.exceptions import RequestValidationError
@@ -145,25 +123,28 @@ class RequestGuard:
         app.state.guard = self
         return self
 
-    # ------------------------------------------------------------------ rules
-
     def host_ok(self, host_header: str | None) -> bool:
         if not host_header:
             return False
-        name = _host_name(host_header)
+        h = host_header.strip().lower()  # the name without the port (IPv6 in brackets)
+        name = h.split("]", 1)[0] + "]" if h.startswith("[") else (h.rsplit(":", 1)[0] if h.count(":") == 1 else h)
         if name in self.exact or any(name.endswith(s) for s in self.suffixes):
             return True
-        return self.ip_literals and _is_ip_literal(name)
+        try:
+            return self.ip_literals and bool(ipaddress.ip_address(name.strip("[]")))
+        except ValueError:
+            return False
 
     def origin_ok(self, scope) -> bool:
         origin = _header(scope, b"origin")
-        if origin is None and (_header(scope, b"sec-fetch-site") or "").lower() in _CROSS:
-            return False
-        return self.origins(origin, _header(scope, b"host"))
+        if origin is None:
+            cross = (_header(scope, b"sec-fetch-site") or "").lower() in ("cross-site", "same-site")
+            return self.allow_missing_origin and not cross
+        o, host = origin.rstrip("/").lower(), _header(scope, b"host")
+        return o in self.origins or (bool(host) and o == "http://" + host.strip().lower())
 
-    # ------------------------------------------------------------------ counting and logging
-
-    def _count(self, kind: str, peer: str, reason: str) -> None:
+    def count(self, kind: str, peer: str, reason: str) -> None:
+        """Count one ``kind`` of refusal or rejection and log it (throttled)."""
         self.counts[kind] += 1
         if kind in _REFUSALS and self.on_refused is not None:
             self.on_refused()
@@ -171,7 +152,7 @@ class RequestGuard:
 
     def invalid(self, scope, reason: str) -> dict:
         """Count and log (throttled) an invalid request body; returns the 422 body."""
-        self._count("invalid", _peer(scope), f"{scope.get('method', '')} {_short(scope.get('path'))}: {reason}")
+        self.count("invalid", _peer(scope), f"{scope.get('method', '')} {_short(scope.get('path'))}: {reason}")
         return {"error": reason}
 
     @property
@@ -180,16 +161,11 @@ class RequestGuard:
         return sum(self.counts[k] for k in _REFUSALS)
 
 
-def _peer(scope) -> str:
-    c = scope.get("client")
-    return f"{c[0]}:{c[1]}" if c else "?"
-
-
-async def _respond(send, status: int, error: str, close: bool = False) -> None:
+async def _respond(send, status: int, error: str) -> None:
+    """A JSON error that closes the connection (the request's body may be left unread)."""
     body = json.dumps({"error": error}).encode()
-    headers = [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]
-    if close:  # the request's body is left unread: the connection cannot carry another request
-        headers.append((b"connection", b"close"))
+    headers = [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
+               (b"connection", b"close")]
     await send({"type": "http.response.start", "status": status, "headers": headers})
     await send({"type": "http.response.body", "body": body})
 
@@ -198,29 +174,36 @@ class _GuardMiddleware:
     """The ASGI middleware of a :class:`RequestGuard` (see module doc)."""
 
     def __init__(self, app, guard: RequestGuard):
-        self.app = app
-        self.guard = guard
+        self.app, self.guard = app, guard
 
     async def __call__(self, scope, receive, send) -> None:
         kind = scope["type"]
         if kind not in ("http", "websocket"):
             return await self.app(scope, receive, send)
-        g = self.guard
-        peer = _peer(scope)
-        host = _header(scope, b"host")
+        g, peer, host = self.guard, _peer(scope), _header(scope, b"host")
         what = "WebSocket" if kind == "websocket" else f"{scope.get('method', '')} {_short(scope.get('path'))}"
+        refusal = None
         if not g.host_ok(host):
-            g._count("host", peer, f"refused {what} for host {_short(host)}")
-            return await self._refuse(kind, send, 400, "host not allowed")
-        if (kind == "websocket" or scope.get("method") not in SAFE_METHODS) and not g.origin_ok(scope):
-            g._count("origin", peer, f"refused {what}: origin {_short(_header(scope, b'origin'))} not allowed "
-                                     f"for host {_short(host)}")
-            return await self._refuse(kind, send, 403, "origin not allowed")
-        if kind == "http":
-            body = await self._read_body(scope, receive, send, peer, what)
-            if body is None:
-                return None
-            receive = _replay(body, receive)
+            g.count("host", peer, f"refused {what} for host {_short(host)}")
+            refusal = (400, "host not allowed")
+        elif (kind == "websocket" or scope.get("method") not in SAFE_METHODS) and not g.origin_ok(scope):
+            g.count("origin", peer, f"refused {what}: origin {_short(_header(scope, b'origin'))} not allowed "
+                                    f"for host {_short(host)}")
+            refusal = (403, "origin not allowed")
+        if refusal is not None:
+            if kind == "websocket":
+                return await send({"type": "websocket.close", "code": 1008})
+            return await _respond(send, *refusal)
+        if kind == "websocket":  # its messages go straight through (nothing to track: the hot path)
+            return await self._call(scope, receive, send, peer, what)
+        body = await self._read_body(scope, receive, send, peer, what)
+        if body is None:
+            return None
+        pending = [{"type": "http.request", "body": body, "more_body": False}]
+
+        async def replay():  # the body whole, then the real receive (for the client's disconnect)
+            return pending.pop() if pending else await receive()
+
         started = False
 
         async def tracked_send(message):
@@ -230,55 +213,35 @@ class _GuardMiddleware:
             if g.gate is not None and message["type"] == "http.response.body" and not message.get("more_body"):
                 g.gate.response_done(scope.get("client"))
 
-        try:  # a WebSocket's messages go straight through (nothing to track: the hot path)
-            await self.app(scope, receive, tracked_send if kind == "http" else send)
+        if not await self._call(scope, replay, tracked_send, peer, what) and not started:
+            await _respond(send, 500, "internal error")
+
+    async def _call(self, scope, receive, send, peer: str, what: str) -> bool:
+        """Run the app; False after an exception (one log line, never a traceback)."""
+        try:
+            await self.app(scope, receive, send)
+            return True
         except Exception as exc:  # noqa: BLE001 - one line per failure, never a traceback per request
             where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
             at = f" at {where.filename.rsplit('/', 1)[-1]}:{where.lineno}" if where else ""
-            g._count("error", peer, f"{what} failed: {type(exc).__name__}: {_short(str(exc), 120)}{at}")
-            if not started and kind == "http":
-                await _respond(send, 500, "internal error", close=True)
-
-    async def _refuse(self, kind: str, send, status: int, error: str) -> None:
-        if kind == "websocket":
-            await send({"type": "websocket.close", "code": 1008})
-        else:
-            await _respond(send, status, error, close=True)
+            self.guard.count("error", peer, f"{what} failed: {type(exc).__name__}: {_short(str(exc), 120)}{at}")
+            return False
 
     async def _read_body(self, scope, receive, send, peer: str, what: str) -> bytes | None:
         """The whole body, at most the cap; None after refusing it (413) or a disconnect."""
-        g = self.guard
-        cap = g.max_body_bytes
-        declared = _header(scope, b"content-length")
-        declared = None if declared is None else declared.strip()
-        if declared is not None and (not declared.isdigit() or len(declared) > 15 or int(declared) > cap):
-            g._count("body", peer, f"refused {what}: declared body of {_short(declared, 20)} bytes "
-                                   f"(limit {cap})")
-            await _respond(send, 413, f"request body over {cap} bytes", close=True)
-            return None
+        g, cap = self.guard, self.guard.max_body_bytes
+        declared = (_header(scope, b"content-length") or "0").strip()
         chunks = bytearray()
-        while True:
+        while declared.isdigit() and len(declared) <= 15 and int(declared) <= cap:
             message = await receive()
             if message["type"] != "http.request":
                 return None  # the client went away
             data = message.get("body", b"")
             if len(chunks) + len(data) > cap:  # checked before keeping it: never more than the cap
-                g._count("body", peer, f"refused {what}: body over {cap} bytes")
-                await _respond(send, 413, f"request body over {cap} bytes", close=True)
-                return None
+                break
             chunks += data
             if not message.get("more_body", False):
                 return bytes(chunks)
-
-
-def _replay(body: bytes, receive):
-    """A ``receive`` that first delivers ``body`` whole, then waits on the real one (for the
-    client's disconnect)."""
-    pending = [{"type": "http.request", "body": body, "more_body": False}]
-
-    async def replay():
-        if pending:
-            return pending.pop()
-        return await receive()
-
-    return replay
+        g.count("body", peer, f"refused {what}: body over {cap} bytes (declared {_short(declared, 20)})")
+        await _respond(send, 413, f"request body over {cap} bytes")
+        return None

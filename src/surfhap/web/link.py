@@ -1,12 +1,6 @@
-"""How the page app reaches the engine: one interface, :class:`EngineLink`, and its
-in-process implementation :class:`LocalLink`.
-
-The touch page (:mod:`surfhap.web.touch`) needs four things from the engine: what to show
-(:meth:`EngineLink.info`), the touch surface (``space``, ``positions``), a way to push
-validated touch samples (:meth:`EngineLink.push_touch`) and the trace frames
-(:meth:`EngineLink.stream`). :class:`LocalLink` calls the engine directly; the link over the
-process boundary is :class:`surfhap.web.process.ProcessLink`.
-"""
+"""How the page app reaches the engine: the :class:`EngineLink` interface and its in-process
+implementation :class:`LocalLink` (over the process boundary:
+:class:`surfhap.web.process.ProcessLink`)."""
 
 from __future__ import annotations
 
@@ -28,10 +22,9 @@ Publish = Callable[[dict, "dict | None"], None]  # (frame, engine status or None
 
 @runtime_checkable
 class EngineLink(Protocol):
-    """The engine as the page app sees it.
-
-    ``space``: the touch surface (m, N); ``positions``: "physical" (page positions through
-    CSS pixels) or "surface" (the page spans the whole surface)."""
+    """The engine as the page app sees it. ``space``: the touch surface (m, N);
+    ``positions``: "physical" (page positions through CSS pixels) or "surface" (the page
+    spans the whole surface)."""
 
     space: TouchSpace
     positions: str
@@ -53,17 +46,12 @@ class LocalLink:
     builds a frame every ``1 / hz`` s (the engine status with every 5th)."""
 
     def __init__(self, session, points: int = 64, hz: float = 30.0):
-        self.session = session
-        self.engine = session.engine
-        self.space = session.space
-        self.positions = session.positions
+        self.session, self.space, self.positions = session, session.space, session.positions
+        self.push_touch = session.engine.push_touch
         self.points, self.hz = int(points), float(hz)
 
     def info(self) -> dict:
         return page_info(self.session)
-
-    def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan) -> bool:
-        return self.engine.push_touch(source, x, y, load, t_event=t_event)
 
     async def stream(self, publish: Publish) -> None:
         for frame, status in trace_ticks(self.session, self.points):
@@ -86,9 +74,6 @@ def trace_ticks(session, points: int):
 
 
 def as_link(obj, cfg) -> EngineLink:
-    """``obj`` when it is an :class:`EngineLink`, else a :class:`LocalLink` to the session
-    ``obj`` (anything with ``engine``, ``backend``, ``space``, ``title`` and ``preview``)
-    with the trace settings of ``cfg`` (:class:`surfhap.live.config.ServerConfig`)."""
-    if isinstance(obj, EngineLink):
-        return obj
-    return LocalLink(obj, cfg.trace_points, cfg.trace_hz)
+    """``obj`` when it is an :class:`EngineLink`, else a :class:`LocalLink` to the live
+    session ``obj`` with the trace settings of ``cfg`` (:class:`~surfhap.live.config.ServerConfig`)."""
+    return obj if isinstance(obj, EngineLink) else LocalLink(obj, cfg.trace_points, cfg.trace_hz)

@@ -1,25 +1,23 @@
 """What the web pages send and receive: the pointer messages of the WebSocket (touch page,
-force-feedback page, study pad), the study page's request bodies, their validation and the
-trace encoding.
+force-feedback page, study pad), the study page's request bodies and the trace encoding.
 
-Page -> server messages (JSON text, one per pointer event)::
+Page -> server (JSON text, one per pointer event), one pydantic discriminated union on
+``type`` (:func:`parse_message`) validated straight from the JSON text::
 
     {"type": "hello", "w": css_px, "h": css_px}
     {"type": "move", "seq": n, "t": ms, "x": 0..1, "y": 0..1, "p": 0..1}
     {"type": "up", "seq": n, "t": ms}
 
-They are one pydantic discriminated union on ``type`` (:func:`parse_message`), validated
-straight from the JSON text (never evaluated); the study page's POST bodies are
-:class:`StimulusRequest` and :class:`AnswerRequest` (FastAPI validates them). Numbers must be
-JSON numbers within their ranges; NaN, ±inf and numbers too large for a float (``1e400``,
-``10**400``) are invalid like any out-of-range value (the rule of
-:func:`surfhap.live.sources.finite_in_range`). Unknown keys are ignored.
+Numbers must be JSON numbers within their ranges; NaN, ±inf and numbers too large for a float
+(``1e400``, ``10**400``) are invalid like any out-of-range value (the rule of
+:func:`surfhap.live.sources.finite_in_range`); unknown keys are ignored. The study page's POST
+bodies are :class:`StimulusRequest` and :class:`AnswerRequest`.
 
-Server -> page: ``{"type": "trace", "ack": seq, "ack_t": ms, "received": n, "rejected": n,
-"t": [...], "v": [...], "f": [...], "target": [...], "speed": [...], "status": {...}}`` at
-``trace_hz`` (:func:`trace_message`): the trace rows since the last frame, the newest
-acknowledged ``seq`` and its page time stamp (so the page can show the round trip) and,
-every few frames, the engine's counters and latency (``status``).
+Server -> page at ``trace_hz`` (:func:`trace_message`): ``{"type": "trace", "ack": seq,
+"ack_t": ms, "received": n, "rejected": n, "t": [...], "v": [...], "f": [...], "target": [...],
+"speed": [...], "status": {...}}``: the newest acknowledged ``seq`` and its page time stamp
+(the page shows the round trip), the trace rows since the last frame and, every few frames,
+the engine's counters and latency.
 """
 
 from __future__ import annotations
@@ -31,7 +29,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 
 __all__ = ["Hello", "Move", "Up", "ClientMessage", "parse_message", "reason", "number", "page_to_surface",
-           "trace_message", "encode", "join_objects", "json_default", "CSS_PX_M", "StimulusRequest", "AnswerRequest"]
+           "trace_message", "encode", "json_default", "CSS_PX_M", "StimulusRequest", "AnswerRequest"]
 
 CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres (CSS reference pixel: 1/96 inch)
 
@@ -47,7 +45,7 @@ Fraction = number(-0.05, 1.05)  # page position, a little beyond the edges
 CssPx = number(10.0, 20000.0)
 
 
-class _Message(BaseModel):
+class _Message(BaseModel):  # also the study page's request bodies
     model_config = ConfigDict(frozen=True, extra="ignore")
 
 
@@ -97,21 +95,17 @@ def reason(errors: list) -> str:
     return f"{loc + ': ' if loc else ''}{str(err.get('msg', 'invalid'))[:80]}"
 
 
-class _Request(BaseModel):
-    model_config = ConfigDict(frozen=True, extra="ignore")
-
-
 TrialId = Annotated[str, Field(max_length=200, strict=True)]
 
 
-class StimulusRequest(_Request):
+class StimulusRequest(_Message):
     """Study page ``POST /api/stimulus``: play stimulus ``index`` of trial ``trial_id``."""
 
     trial_id: TrialId
     index: Annotated[int, Field(ge=0, le=1000, strict=True)]
 
 
-class AnswerRequest(_Request):
+class AnswerRequest(_Message):
     """Study page ``POST /api/answer``: ``answer`` to ``trial_id``, ``rt_ms`` measured in the
     page (trial shown -> click, ms, at most a day)."""
 
@@ -147,25 +141,11 @@ def encode(obj) -> str:
     return json.dumps(obj, default=json_default, separators=(",", ":"))
 
 
-def join_objects(*encoded: str) -> str:
-    """One JSON object with the members of several objects each encoded by :func:`encode`
-    (the same key must not appear twice). A frame is encoded once and shared by every
-    client's trace message; only the client's few counters are encoded per client, which
-    keeps the per-client cost independent of the frame's size."""
-    members = []
-    for e in encoded:
-        if not (e.startswith("{") and e.endswith("}")):
-            raise ValueError("join_objects takes encoded JSON objects")
-        if len(e) > 2:
-            members.append(e[1:-1])
-    return "{" + ",".join(members) + "}"
-
-
 def trace_message(ack: int, ack_t: float, received: int, rejected: int, *parts: str) -> str:
-    """One server -> page message (see module doc): the client's counters joined with
-    ``parts``, objects encoded by :func:`encode`: the trace frame (of
-    :meth:`surfhap.live.frames.FrameBuilder.frame`) and, when due, ``{"status": ...}``."""
-    # the head is formatted, not json.dumps'd: this runs for every client and frame
-    head = (f'{{"type":"trace","ack":{int(ack)},"ack_t":{encode(float(ack_t))},"received":{int(received)},'
-            f'"rejected":{int(rejected)}}}')
-    return join_objects(head, *parts)
+    """One server -> page message (see module doc): the client's counters and the members of
+    ``parts``, JSON objects encoded by :func:`encode` (the trace frame of
+    :meth:`surfhap.live.frames.FrameBuilder.frame` and, when due, ``{"status": ...}``). A frame
+    is encoded once for every client: only the counters are formatted per client."""
+    head = (f'{{"type":"trace","ack":{int(ack)},"ack_t":{float(ack_t)!r},"received":{int(received)},'
+            f'"rejected":{int(rejected)}')
+    return head + "".join("," + p[1:-1] for p in parts if len(p) > 2) + "}"

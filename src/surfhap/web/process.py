@@ -1,25 +1,29 @@
 """Run the web app in its own process, apart from the real-time engine (whose callback would
 otherwise share the GIL with the web traffic), linked by two standard-library pipes
-(``multiprocessing.Pipe``: reachable only by the two processes):
+(``multiprocessing.Pipe``: OS pipes, reachable only by the two processes):
 
-* touches, web -> engine: :class:`ProcessLink` queues each validated sample (source, source
-  time, arrival time on the shared monotonic clock, x, y, load; bounded, drops the oldest)
-  and once per turn of the event loop sends what accumulated, in atomic messages of at most
-  :data:`BATCH` rows, while the pipe has room (else shortly after): the loop never waits on
-  the pipe. :class:`EngineEnd`'s reader thread pushes the rows into the engine's non-blocking
-  touch ring, whose arrival law applies to the stamps (a stale stamp stays stale);
+* touches, web -> engine: :class:`ProcessLink` keeps the newest sample of each client (only
+  the newest position matters: samples of one client arriving within one turn of the event
+  loop are coalesced, so nothing queues up when the web process falls behind) and once per
+  turn sends them as rows (source, source time, arrival time on the shared monotonic clock,
+  x, y, load, samples coalesced into the row) in atomic messages of at most :data:`BATCH`
+  rows while the pipe has room (else shortly after): the loop never waits on the pipe.
+  :class:`EngineEnd`'s reader thread pushes the rows into the engine's non-blocking touch
+  ring, whose arrival law applies to the stamps (a stale stamp stays stale);
 * trace, engine -> web: :class:`EngineEnd` sends a frame at ``trace_hz`` (the engine status
   with every 5th). When the engine process ends, the web process exits.
 """
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import math
 import multiprocessing as mp
 import os
+import select
 import threading
-from collections import deque
+from itertools import islice
 from typing import Callable
 
 import numpy as np
@@ -28,16 +32,16 @@ from surfhap.runtime.clock import now
 
 __all__ = ["EngineEnd", "ProcessLink", "WebProcess", "describe"]
 
-
-COLS = 6  # source, t_event, t_arrival, x, y, load
-# rows per message: with multiprocessing's 4-byte header, 84 rows stay within PIPE_BUF (4096
+COLS = 7  # source, t_event, t_arrival, x, y, load, samples
+# rows per message: with multiprocessing's 4-byte header, 73 rows stay within PIPE_BUF (4096
 # bytes), so a message goes into a pipe that select() reports writable in one atomic write
-BATCH = 84
+BATCH = 73
 
 
 class EngineEnd:
     """Engine side of the link: touches from ``touch_in`` into ``session.engine``, trace
-    frames from ``session`` to ``trace_out`` at ``hz``."""
+    frames from ``session`` to ``trace_out`` at ``hz``. ``received``: samples the web side
+    took (coalesced ones included); ``dropped``: rows the engine's touch ring refused (full)."""
 
     def __init__(self, session, touch_in, trace_out, hz: float = 30.0, points: int = 64):
         from surfhap.web.link import trace_ticks
@@ -46,8 +50,7 @@ class EngineEnd:
         self.ticks = trace_ticks(session, points)
         self.touch_in, self.trace_out = touch_in, trace_out
         self.hz = float(hz)
-        self.received = 0
-        self.dropped = 0  # samples the engine's touch ring refused (full)
+        self.received = self.dropped = 0
         self._stop = threading.Event()
         self._threads = [threading.Thread(target=self._read, name="surfhap-touch-in", daemon=True),
                          threading.Thread(target=self._publish, name="surfhap-trace-out", daemon=True)]
@@ -64,11 +67,11 @@ class EngineEnd:
                 rows = np.frombuffer(self.touch_in.recv_bytes(), dtype=np.float64).reshape(-1, COLS)
             except (EOFError, OSError, ValueError):
                 return  # the web process ended (or the link was closed)
-            for src, t_ev, t_arr, x, y, load in rows.tolist():
+            for src, t_ev, t_arr, x, y, load, n in rows.tolist():
                 # the web process's arrival stamp: push_touch applies the arrival law to it
                 if not push(int(src), x, y, load, t_event=t_ev, t_arrival=t_arr):
                     self.dropped += 1
-            self.received += len(rows)
+                self.received += int(n)
 
     def _publish(self) -> None:
         for tick in self.ticks:
@@ -89,12 +92,12 @@ class EngineEnd:
 
 class ProcessLink:
     """Web side :class:`~surfhap.web.link.EngineLink` to the engine in the parent process:
-    ``push_touch`` queues (bounded, drop-oldest, sent once per loop turn), ``stream`` publishes
-    the frames that arrive on ``trace_in``. ``about``: :func:`describe` of the session;
-    ``on_engine_gone``: called (in the event loop) when the trace pipe ends."""
+    ``push_touch`` keeps the newest sample per source (``pending``, sent once per loop turn;
+    ``coalesced`` counts the samples it superseded), ``stream`` publishes the frames that
+    arrive on ``trace_in``. ``about``: :func:`describe` of the session; ``on_engine_gone``:
+    called (in the event loop) when the trace pipe ends."""
 
-    def __init__(self, about: dict, touch_out, trace_in, max_pending: int = 4096,
-                 on_engine_gone: Callable[[], None] = lambda: None):
+    def __init__(self, about: dict, touch_out, trace_in, on_engine_gone: Callable[[], None] = lambda: None):
         from surfhap.live.sources import TouchSpace
 
         self._info = about["info"]
@@ -102,51 +105,40 @@ class ProcessLink:
         self.positions = about["positions"]
         self.touch_out, self.trace_in = touch_out, trace_in
         self.on_engine_gone = on_engine_gone
-        self.pending: deque = deque(maxlen=int(max_pending))
-        self.dropped = 0  # samples dropped (the oldest) because the engine side did not keep up
+        self.pending: dict[int, tuple] = {}
+        self.coalesced = 0
         self._flush_due = False
 
     def info(self) -> dict:
         return dict(self._info)
 
     def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan) -> bool:
-        """Queue one sample (event-loop thread); what accumulates within one turn of the loop
-        goes to the engine as one message."""
-        if len(self.pending) == self.pending.maxlen:
-            self.dropped += 1
-        self.pending.append((float(source), t_event, now(), x, y, load))
+        """Keep this sample as ``source``'s newest (event-loop thread); sent at the end of the
+        loop's turn."""
+        old = self.pending.get(source)
+        n = 1.0 if old is None else old[6] + 1.0
+        self.coalesced += old is not None
+        self.pending[source] = (float(source), t_event, now(), x, y, load, n)
         if not self._flush_due:
             self._flush_due = True
-            import asyncio
-
             asyncio.get_running_loop().call_soon(self._flush)
         return True
 
     def _flush(self) -> None:
-        """Send the queued samples if the pipe has room now, else try again shortly: the
-        event loop never waits on a stalled engine process (the queue drops its oldest)."""
-        import asyncio
-        import select
-
+        """Send the pending rows if the pipe has room now, else try again shortly: the event
+        loop never waits on a stalled engine process (meanwhile newer samples replace older)."""
         self._flush_due = False
-        if not self.pending:
-            return
         try:
             while self.pending and select.select([], [self.touch_out], [], 0)[1]:
-                n = min(len(self.pending), BATCH)
-                rows = np.array([self.pending.popleft() for _ in range(n)], dtype=np.float64)
-                self.touch_out.send_bytes(rows.tobytes())
+                rows = [self.pending.pop(k) for k in list(islice(self.pending, BATCH))]
+                self.touch_out.send_bytes(np.array(rows, dtype=np.float64).tobytes())
         except (OSError, ValueError):
             self.pending.clear()  # the engine side is gone
-            return
-        if not self.pending:
-            return
-        self._flush_due = True
-        asyncio.get_running_loop().call_later(0.005, self._flush)
+        if self.pending:
+            self._flush_due = True
+            asyncio.get_running_loop().call_later(0.005, self._flush)
 
     async def stream(self, publish) -> None:
-        import asyncio
-
         loop = asyncio.get_running_loop()
 
         def read():
@@ -202,16 +194,14 @@ class WebProcess:
     """Serve the touch page of ``session`` from a separate (spawned) process."""
 
     def __init__(self, session, cfg):
-        self.session = session
-        self.cfg = cfg
-        self.end = None
-        self.proc = None
-        self.port = None
+        self.session, self.cfg = session, cfg
+        self.end = self.proc = self.port = None
 
     @property
     def url(self) -> str:
-        h = "127.0.0.1" if self.cfg.host in ("0.0.0.0", "::", "") else self.cfg.host
-        return f"http://[{h}]:{self.port}" if ":" in h else f"http://{h}:{self.port}"
+        from surfhap.web.server import page_url
+
+        return page_url(self.cfg.host, self.port)
 
     def start(self, timeout: float = 30.0) -> "WebProcess":
         from surfhap.errors import ConfigError

@@ -2,16 +2,17 @@
 ``study run``, ``serve --no-web-process``) and the connection gate against half-open
 connections (slowloris).
 
-uvicorn's h11 protocol waits for request headers as long as a client likes and accepts
-connections until the file handles run out. :class:`ConnectionGate` is an
-``asyncio.Protocol`` in front of uvicorn's (uvicorn's ``http`` option takes any protocol
-factory; nothing is subclassed): a connection waiting for a request (new, or kept alive after
-a response, as the request guard reports) must complete its headers within
-``header_timeout`` s (absolute: trickling does not extend it); beyond ``max_connections``
-(lowered under a small file limit, :func:`connection_cap`) a new connection closes the one
-that has waited longest, never a request being served or a WebSocket, else itself. Header
-size, keep-alive, backlog and ``limit_concurrency`` are uvicorn's own options. What clients
-can make a server log is throttled on the loggers: one line per kind per second.
+Header size, keep-alive, backlog and ``limit_concurrency`` are uvicorn's own options, and
+WebSocket compression is off (per-message deflate cost more CPU than anything else per
+pointer event). What uvicorn lacks: a deadline for a request head (its keep-alive timer stops
+at the first byte) and a connection cap that closes the idlest. :class:`ConnectionGate` is an
+``asyncio.Protocol`` around uvicorn's h11 protocol (composition through uvicorn's ``http``
+option, nothing subclassed): a connection waiting for a request (new, or kept alive after a
+response, as the request guard reports) must complete its headers within ``header_timeout``
+s (absolute: trickling does not extend it); beyond ``max_connections`` (lowered under a small
+file limit, :func:`connection_cap`) a new connection closes the one that has waited longest,
+never a request being served or a WebSocket, else itself. What clients can make a server log
+is throttled on the loggers: one line per kind per second.
 """
 
 from __future__ import annotations
@@ -25,21 +26,20 @@ from collections import OrderedDict
 
 from surfhap.live.config import ServerConfig
 
-__all__ = ["ConnectionGate", "connection_cap", "uvicorn_config", "ServerThread", "FD_RESERVE", "THROTTLED_LOGGERS"]
+__all__ = ["ConnectionGate", "connection_cap", "uvicorn_config", "ServerThread", "FD_RESERVE", "THROTTLED_LOGGERS",
+           "listen", "page_url"]
 
 log = logging.getLogger("surfhap.web.http")
 THROTTLED_LOGGERS = ("uvicorn.error", "surfhap.web.http")  # what clients can make a server log
-
-# File handles kept free for everything else the web process opens (listening socket, the
-# event loop's selector and self-pipe, the pipes to the engine process, module files): a
-# process with the server running holds about 20; 64 leaves a margin of three.
+# file handles kept free for the rest of the web process (listening socket, selector, pipes,
+# module files): a serving process holds about 20; 64 leaves a margin of three
 FD_RESERVE = 64
 
 
 def connection_cap(max_connections: int, backlog: int, fd_limit: int | None = None) -> int:
     """``max_connections``, but never so many that the connections, three accept bursts of
-    ``backlog`` in flight and :data:`FD_RESERVE` exceed the soft limit on open files
-    (``fd_limit``; RLIMIT_NOFILE when None). At least 8."""
+    ``backlog`` and :data:`FD_RESERVE` exceed the soft limit on open files (``fd_limit``;
+    RLIMIT_NOFILE when None). At least 8."""
     if fd_limit is None:
         try:
             import resource
@@ -62,9 +62,7 @@ class _Gated(asyncio.Protocol):
 
     def __init__(self, gate: "ConnectionGate", inner: asyncio.Protocol):
         self.gate, self.inner = gate, inner
-        self.transport = None
-        self.peer = None
-        self.deadline = None
+        self.transport = self.peer = self.deadline = None
         self.tail = b""  # the last bytes of a request head being received
         self.admitted = False
 
@@ -108,8 +106,7 @@ class _Gated(asyncio.Protocol):
 
 class ConnectionGate:
     """The cap, the header deadline, the connections waiting for a request (oldest first)
-    and the counters of one server (see module doc). ``protocol(inner_class)`` is the factory
-    given to uvicorn."""
+    and the counters of one server (see module doc)."""
 
     def __init__(self, max_connections: int, header_timeout: float):
         self.max_connections = int(max_connections)
@@ -122,14 +119,6 @@ class ConnectionGate:
     def counters(self) -> dict:
         return {"max": self.max_connections, "evicted": self.evicted, "timed_out": self.timed_out,
                 "refused": self.refused}
-
-    def protocol(self, inner_class):
-        """A protocol factory for uvicorn's ``http`` option: ``inner_class`` (uvicorn's h11
-        protocol) built with uvicorn's arguments, behind the gate."""
-        def factory(**uvicorn_args) -> asyncio.Protocol:
-            return _Gated(self, inner_class(**uvicorn_args))
-
-        return factory
 
     def admit(self, conn: _Gated) -> bool:
         # a WebSocket's transport leaves the gate's protocol: drop the closed ones here
@@ -190,48 +179,39 @@ class ConnectionGate:
             conn.deadline = None
 
 
-def throttle_server_logs() -> None:
-    """One :class:`~surfhap.live.logfilter.RateLimitFilter` on each of
-    :data:`THROTTLED_LOGGERS` (once per process)."""
+def uvicorn_config(app, cfg: ServerConfig):
+    """``(uvicorn.Config, ConnectionGate)`` for ``app`` with the limits of ``cfg``; uvicorn's
+    logging configuration is not installed (its records reach the root logger's handlers),
+    and a :class:`~surfhap.live.logfilter.RateLimitFilter` sits on each of
+    :data:`THROTTLED_LOGGERS`. The gate is handed to the app's request guard and hub for the
+    connection state and ``/api/status``."""
+    import uvicorn
+    from uvicorn.protocols.http.h11_impl import H11Protocol
+
     from surfhap.live.logfilter import RateLimitFilter
 
     for name in THROTTLED_LOGGERS:
         logger = logging.getLogger(name)
         if not any(isinstance(f, RateLimitFilter) for f in logger.filters):
             logger.addFilter(RateLimitFilter())
-
-
-def uvicorn_config(app, cfg: ServerConfig):
-    """``(uvicorn.Config, ConnectionGate)`` for ``app`` with the limits of ``cfg``. uvicorn's
-    logging configuration is not installed (``log_config=None``): its records reach the root
-    logger's handlers. The gate is also handed to the app's request guard and hub (when
-    present) for the connection state and ``/api/status``."""
-    import uvicorn
-    from uvicorn.protocols.http.h11_impl import H11Protocol
-
-    throttle_server_logs()
     cap = connection_cap(cfg.max_connections, cfg.backlog)
     gate = ConnectionGate(cap, cfg.header_timeout)
-    state = getattr(app, "state", None)
-    for name in ("guard", "hub"):
-        part = getattr(state, name, None)
+    for part in (getattr(app.state, "guard", None), getattr(app.state, "hub", None)):
         if part is not None:
             part.gate = gate
     config = uvicorn.Config(
-        app, http=gate.protocol(H11Protocol), log_level="warning", log_config=None, lifespan="on",
-        ws_max_size=cfg.max_message_bytes, ws_ping_interval=None,
-        timeout_keep_alive=cfg.keep_alive_timeout, h11_max_incomplete_event_size=cfg.max_header_bytes,
-        backlog=cfg.backlog,
-        # the gate's cap bounds connections (and so tasks); this second net answers 503 only
-        # if it were ever far exceeded
-        limit_concurrency=2 * cap,
+        app, http=lambda **kw: _Gated(gate, H11Protocol(**kw)), ws="websockets-sansio", ws_per_message_deflate=False,
+        log_level="warning", log_config=None, lifespan="on", ws_max_size=cfg.max_message_bytes,
+        ws_ping_interval=None, timeout_keep_alive=cfg.keep_alive_timeout,
+        h11_max_incomplete_event_size=cfg.max_header_bytes, backlog=cfg.backlog,
+        limit_concurrency=2 * cap,  # the gate bounds connections; a 503 only if it were far exceeded
     )
     return config, gate
 
 
 def listen(host: str, port: int, backlog: int = 64) -> socket.socket:
-    """A listening TCP socket for the server (port 0: any free port): connections queue in
-    the kernel until the server accepts them."""
+    """A listening TCP socket (port 0: any free port): connections queue in the kernel until
+    the server accepts them."""
     sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
@@ -241,6 +221,12 @@ def listen(host: str, port: int, backlog: int = 64) -> socket.socket:
         sock.close()
         raise
     return sock
+
+
+def page_url(host: str, port: int) -> str:
+    """The page's address for a server bound to ``host`` (a wildcard bind: loopback)."""
+    h = "127.0.0.1" if host in ("0.0.0.0", "") else ("::1" if host == "::" else host)
+    return f"http://[{h}]:{port}" if ":" in h else f"http://{h}:{port}"
 
 
 class ServerThread:
@@ -261,8 +247,7 @@ class ServerThread:
 
     @property
     def url(self) -> str:
-        h = "127.0.0.1" if self.host in ("0.0.0.0", "") else ("::1" if self.host == "::" else self.host)
-        return f"http://[{h}]:{self.port}" if ":" in h else f"http://{h}:{self.port}"
+        return page_url(self.host, self.port)
 
     def start(self, timeout: float = 10.0) -> "ServerThread":
         """Start serving; raises RuntimeError when uvicorn is not up within ``timeout`` s."""

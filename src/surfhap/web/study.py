@@ -25,8 +25,6 @@ from surfhap.web.touch import Client, pointer_messages
 __all__ = ["StudyPage", "study_router"]
 
 log = logging.getLogger("surfhap.lab")
-STATIC = {"study.html": "text/html; charset=utf-8", "study.js": "text/javascript; charset=utf-8",
-          "study.css": "text/css; charset=utf-8"}
 MAX_BODY = 4096  # an answer is a few dozen bytes; a toggles answer stays under 500 characters
 
 
@@ -50,17 +48,11 @@ def study_router(page: StudyPage, cfg: ServerConfig):
     playing: dict[str, str | None] = {"trial": None}
     rejects = RejectLog(log)
     router = APIRouter()
-    files = resources.files("surfhap.web") / "static" / "study"
+    index_html = resources.files("surfhap.web") / "static" / "study" / "study.html"
 
     @router.get("/")
     def index():
-        return Response((files / "study.html").read_bytes(), media_type=STATIC["study.html"])
-
-    @router.get("/static/{name}")
-    def static(name: str):
-        if name not in STATIC:
-            return JSONResponse({"error": "not found"}, status_code=404)
-        return Response((files / name).read_bytes(), media_type=STATIC[name], headers={"Cache-Control": "no-store"})
+        return Response(index_html.read_bytes(), media_type="text/html; charset=utf-8")
 
     @router.get("/api/state")
     def state():
@@ -132,28 +124,22 @@ def study_router(page: StudyPage, cfg: ServerConfig):
         client = Client(id(sock) & 0x7FFF, peer, RateLimiter(cfg.max_rate, cfg.burst, t=0.0), height_px=400.0)
         live = player is not None
 
-        def hello(msg) -> None:
-            client.width_px, client.height_px = msg.w, msg.h
-
-        def move(msg) -> None:
-            if live:
+        def handle(msg) -> None:
+            if msg.type == "hello":
+                client.width_px, client.height_px = msg.w, msg.h
+                return
+            down = msg.type == "move"
+            if live and down:
                 player.touch(client.id, min(max(msg.x, 0.0), 1.0), min(max(msg.y, 0.0), 1.0), msg.p, msg.t,
                              client.width_px, client.height_px)
-            if not client.down:
-                client.down = True
-                markers.push("touch_down")
-
-        def up(msg) -> None:
-            if live:
+            elif live:
                 player.lift(client.id, msg.t)
-            if client.down:
-                client.down = False
-                markers.push("touch_up")
+            if down != client.down:
+                client.down = down
+                markers.push("touch_down" if down else "touch_up")
 
-        handlers = {"hello": hello, "move": move, "up": up}
         try:
-            async for msg in pointer_messages(sock, cfg, client, rejects):
-                handlers[msg.type](msg)
+            await pointer_messages(sock, cfg, client, rejects, handle)
         finally:
             if live:
                 player.lift(client.id, 0.0)

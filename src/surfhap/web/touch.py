@@ -2,8 +2,9 @@
 ``/ws`` stream of pointer events into the engine with the live trace back (also the
 force-feedback page, :mod:`surfhap.web.ff`). :func:`pointer_messages` (size, per-client token
 bucket, pydantic validation, rejections counted and logged, disconnect after ``max_rejects``)
-also checks the study page's pad. Each client has its own receive loop and its own sender with
-a send timeout; the engine is fed through a non-blocking link (:mod:`surfhap.web.link`,
+also checks the study page's pad. Each client has its own receive loop and its own sender; a
+client whose trace send stays blocked (it does not read) for 5 x ``send_timeout`` is closed,
+and the engine is fed through a non-blocking link (:mod:`surfhap.web.link`,
 :mod:`surfhap.web.process`), so no client stalls the engine or another client. docs/live.md.
 """
 
@@ -12,15 +13,16 @@ import asyncio
 import logging
 from dataclasses import dataclass, field
 from importlib import resources
+from typing import Callable, Optional, Union
 
 from pydantic import ValidationError
 
 from surfhap.live.config import ServerConfig
-from surfhap.runtime.clock import now
 from surfhap.live.sources import RateLimiter, RejectLog
-from surfhap.web.messages import encode, page_to_surface, parse_message, reason, trace_message
+from surfhap.runtime.clock import now
+from surfhap.web.messages import Hello, Move, Up, encode, page_to_surface, parse_message, reason, trace_message
 
-__all__ = ["Client", "Hub", "pointer_messages", "touch_router", "static_files", "PAGE_CSP"]
+__all__ = ["Client", "Hub", "pointer_messages", "touch_router", "PAGE_CSP"]
 
 log = logging.getLogger("surfhap.web")
 
@@ -28,12 +30,13 @@ PAGE_CSP = "default-src 'self'; connect-src 'self' ws: wss:; img-src 'self' data
 # how far a page's clock may run ahead of the server's for its rate limit (s): the backlog of a
 # server that fell this far behind is still read as the page sent it, not as a flood
 CATCH_UP_S = 10.0
+SLOW_SENDS = 5  # a trace send blocked for this many send_timeouts closes the client
 
 
 @dataclass
 class Client:
-    """One WebSocket client: its rate limiter (on :meth:`clock`), page size (CSS px) and
-    counters."""
+    """One WebSocket client: its rate limiter (on :meth:`clock`), page size (CSS px),
+    counters, and while a trace send is under way, since when (``sending``, s)."""
 
     id: int
     peer: str
@@ -44,13 +47,14 @@ class Client:
     last_t: float = 0.0
     received: int = 0
     rejected: int = 0
-    slow: int = 0
     down: bool = False
     server0: float = field(default_factory=now)  # the server's clock at connect (s)
-    page0: float | None = None  # the page's clock (s) at connect, from its first stamp
+    page0: Optional[float] = None  # the page's clock (s) at connect, from its first stamp
     elapsed: float = 0.0  # the client's clock (s since connect)
+    sending: Optional[float] = None
+    close: Optional[Callable[[], None]] = None  # stops its sender and closes it (1008)
 
-    def clock(self, t_page: float | None) -> float:
+    def clock(self, t_page: Optional[float]) -> float:
         """The client's time for its rate limit (s since connect): its page's stamps
         (``t_page``, s), never more than :data:`CATCH_UP_S` ahead of the server's clock, never
         backwards; the server's clock for a message without a stamp. A backlog that a starved
@@ -67,9 +71,10 @@ class Client:
         return self.elapsed
 
 
-async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: RejectLog):
-    """The validated messages (:mod:`surfhap.web.messages`) of the WebSocket ``ws`` until
-    it closes. A binary, oversized, invalid or too frequent message (``client.limiter`` on
+async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: RejectLog,
+                           handle: Callable[[Union[Hello, Move, Up]], None]) -> None:
+    """``handle`` each validated message (:mod:`surfhap.web.messages`) of the WebSocket ``ws``
+    until it closes (a callback, not an async generator: cheaper per message). A binary, oversized, invalid or too frequent message (``client.limiter`` on
     :meth:`Client.clock`) is counted on ``client`` and logged (throttled) through ``rejects``;
     after ``cfg.max_rejects`` the socket is closed."""
     from starlette.websockets import WebSocketDisconnect
@@ -77,10 +82,10 @@ async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: Rejec
     try:
         while True:
             msg = await ws.receive()
-            if msg["type"] == "websocket.disconnect":
-                return
             text = msg.get("text")
             if text is None:
+                if msg["type"] == "websocket.disconnect":
+                    return
                 why = "binary frames are not accepted"
             elif len(text) > cfg.max_message_bytes:
                 why = f"message of {len(text)} bytes (limit {cfg.max_message_bytes})"
@@ -91,7 +96,7 @@ async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: Rejec
                     message, why = None, reason(exc.errors(include_url=False, include_input=False))
                 if message is not None:
                     if client.limiter.allow(client.clock(None if message.type == "hello" else message.t * 1e-3)):
-                        yield message
+                        handle(message)
                         continue
                     why = "rate limit exceeded"
             client.rejected += 1
@@ -105,14 +110,15 @@ async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: Rejec
 
 
 class Hub:
-    """Clients, counters and the newest frames (event-loop thread only).
-
-    :meth:`publish` stores a frame and wakes every client's sender; a sender that is still
-    busy with an older frame simply sends the newest one next."""
+    """Clients, counters and the newest frames (event-loop thread only). :meth:`publish`
+    stores a frame and wakes every client's sender (one that is still busy with an older
+    frame sends the newest next) and closes the clients whose send is blocked for longer than
+    ``SLOW_SENDS * send_timeout``."""
 
     KEEP = 8  # recent frames kept for a client that fell behind
 
-    def __init__(self):
+    def __init__(self, send_timeout: float = 1.0):
+        self.send_timeout = float(send_timeout)
         self.clients: dict[int, Client] = {}
         self.next_id = 1000
         self.rejects = RejectLog(log)
@@ -120,13 +126,12 @@ class Hub:
         self.frames: list[str] = []  # recent frames (encoded JSON objects), newest last (bounded)
         self.frame_no = 0
         self.engine_status: dict = {}
-        self.status_json = "{}"  # the served status (/api/status)
-        self.status_member = '{"status":{}}'  # the same as the member of a trace message
+        self.status_json = "{}"  # the served status (/api/status), also "status" in trace messages
         self.status_no = 0
         self.gate = None  # the server's ConnectionGate (surfhap.web.server), for its counters
-        self._event: asyncio.Event | None = None
+        self._event = asyncio.Event()
 
-    def publish(self, frame: dict, engine_status: dict | None = None) -> None:
+    def publish(self, frame: dict, engine_status: Optional[dict] = None) -> None:
         """Store ``frame`` (encoded once here for every client) and, when given, a new engine
         status, and wake the senders. The served status (``/api/status``, ``status`` in trace
         messages) is the engine's with the server's counters under ``"server"``, refreshed at
@@ -143,36 +148,20 @@ class Hub:
                 srv["connections"] = self.gate.counters()
             status = {**self.engine_status, "server": srv}
             self.status_json = encode(status)
-            self.status_member = encode({"status": status})
             self.status_no += 1
         ev, self._event = self._event, asyncio.Event()
-        if ev is not None:
-            ev.set()
+        ev.set()
+        late = now() - SLOW_SENDS * self.send_timeout
+        for c in [c for c in self.clients.values() if c.sending is not None and c.sending < late]:
+            log.warning("closing %s: not reading its trace", c.peer)
+            c.sending = None
+            if c.close is not None:
+                c.close()
 
-    async def wait_frame(self, after: int, timeout: float) -> None:
-        """Return when a frame newer than number ``after`` is there, or after ``timeout`` s."""
-        if self.frame_no != after:
-            return
-        if self._event is None:
-            self._event = asyncio.Event()
-        try:
-            async with asyncio.timeout(timeout):  # no task per wait, unlike wait_for on 3.11
-                await self._event.wait()
-        except TimeoutError:
-            pass
-
-
-def static_files():
-    """The page's assets (``surfhap.web/static/touch``), never cached by the browser."""
-    from starlette.staticfiles import StaticFiles
-
-    class NoStoreStaticFiles(StaticFiles):
-        def file_response(self, *args, **kwargs):
-            response = super().file_response(*args, **kwargs)
-            response.headers["Cache-Control"] = "no-store"
-            return response
-
-    return NoStoreStaticFiles(packages=[("surfhap.web", "static/touch")])
+    async def wait_frame(self, after: int) -> None:
+        """Return when a frame newer than number ``after`` is there."""
+        while self.frame_no == after:
+            await self._event.wait()
 
 
 def touch_router(link, hub: Hub, cfg: ServerConfig):
@@ -199,27 +188,10 @@ def touch_router(link, hub: Hub, cfg: ServerConfig):
     async def status():
         return Response(hub.status_json, media_type="application/json")
 
-    def hello(client: Client, msg) -> None:
-        client.width_px, client.height_px = msg.w, msg.h
-
-    def move(client: Client, msg) -> None:
-        xm, ym, load = page_to_surface(msg, client.width_px, client.height_px, link.space, surface_positions)
-        link.push_touch(client.id, xm, ym, load, t_event=msg.t * 1e-3)
-        client.down = True
-
-    def up(client: Client, msg) -> None:
-        link.push_touch(client.id, 0.0, 0.0, 0.0, t_event=msg.t * 1e-3)
-        client.down = False
-
-    handlers = {"hello": hello, "move": move, "up": up}
-
     async def sender(ws: WebSocket, client: Client) -> None:
-        sent_frame = hub.frame_no
-        sent_status = -1
+        sent_frame, sent_status = hub.frame_no, -1
         while True:
-            await hub.wait_frame(sent_frame, 1.0)
-            if hub.frame_no == sent_frame:
-                continue
+            await hub.wait_frame(sent_frame)
             # the frames this client has not seen yet (all of them unless it fell behind)
             new = min(hub.frame_no - sent_frame, len(hub.frames))
             sent_frame = hub.frame_no
@@ -227,21 +199,14 @@ def touch_router(link, hub: Hub, cfg: ServerConfig):
                 parts = [frame]
                 if hub.status_no != sent_status:
                     sent_status = hub.status_no
-                    parts.append(hub.status_member)
-                text = trace_message(client.last_seq, client.last_t, client.received, client.rejected, *parts)
+                    parts.append('{"status":' + hub.status_json + "}")
+                client.sending = now()
                 try:
-                    async with asyncio.timeout(cfg.send_timeout):
-                        await ws.send_text(text)
-                    client.slow = 0
+                    await ws.send_text(trace_message(client.last_seq, client.last_t, client.received,
+                                                     client.rejected, *parts))
                 except (WebSocketDisconnect, RuntimeError, OSError):
                     return  # the client went away; its receive loop cleans up
-                except TimeoutError:
-                    client.slow += 1
-                    if client.slow >= 5:
-                        log.warning("closing %s: not reading its trace", client.peer)
-                        await ws.close(code=1008)
-                        return
-                    break
+                client.sending = None
 
     @router.websocket("/ws")
     async def ws_endpoint(ws: WebSocket):
@@ -256,14 +221,27 @@ def touch_router(link, hub: Hub, cfg: ServerConfig):
         client = Client(hub.next_id, peer, RateLimiter(cfg.max_rate, cfg.burst, t=0.0))
         hub.next_id += 1
         hub.clients[client.id] = client
-        task = asyncio.get_running_loop().create_task(sender(ws, client))
+        loop = asyncio.get_running_loop()
+        task = loop.create_task(sender(ws, client))
+        client.close = lambda: (task.cancel(), loop.create_task(ws.close(code=1008)))
         log.info("page client %d connected from %s", client.id, peer)
+        space, push = link.space, link.push_touch
+
+        def handle(msg) -> None:
+            if msg.type == "hello":
+                client.width_px, client.height_px = msg.w, msg.h
+                return
+            if msg.type == "move":
+                xm, ym, load = page_to_surface(msg, client.width_px, client.height_px, space, surface_positions)
+                push(client.id, xm, ym, load, t_event=msg.t * 1e-3)
+            else:  # up
+                push(client.id, 0.0, 0.0, 0.0, t_event=msg.t * 1e-3)
+            client.down = msg.type == "move"
+            client.last_seq, client.last_t = msg.seq, msg.t
+            client.received += 1
+
         try:
-            async for msg in pointer_messages(ws, cfg, client, hub.rejects):
-                handlers[msg.type](client, msg)
-                if msg.type != "hello":
-                    client.last_seq, client.last_t = msg.seq, msg.t
-                    client.received += 1
+            await pointer_messages(ws, cfg, client, hub.rejects, handle)
         finally:
             task.cancel()
             if client.down:
