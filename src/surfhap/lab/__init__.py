@@ -11,6 +11,8 @@ _MODULES = {
     "surfhap.lab.analyze_study": ("analyze_study",),
     "surfhap.lab.compare": ("compare_materials",),
     "surfhap.lab.comfort": ("default_comfort_params",),
+    "surfhap.lab.psychometric": ("PsychometricFit", "fit_psychometric", "psychometric"),
+    "surfhap.lab.questplus": ("QuestPlus",),
 }
 __all__ = sorted(name for names in _MODULES.values() for name in names)
 __getattr__, __dir__ = lazy_names(__name__, _MODULES, globals())
