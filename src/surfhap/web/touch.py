@@ -10,6 +10,7 @@ and the engine is fed through a non-blocking link (:mod:`surfhap.web.link`,
 
 # no "from __future__ import annotations": FastAPI reads the endpoints' annotations at run time
 import asyncio
+import contextlib
 import logging
 from dataclasses import dataclass, field
 from importlib import resources
@@ -79,34 +80,35 @@ async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: Rejec
     after ``cfg.max_rejects`` the socket is closed."""
     from starlette.websockets import WebSocketDisconnect
 
-    try:
-        while True:
+    while True:
+        try:  # a closed socket ends the loop; an error in ``handle`` propagates
             msg = await ws.receive()
-            text = msg.get("text")
-            if text is None:
-                if msg["type"] == "websocket.disconnect":
-                    return
-                why = "binary frames are not accepted"
-            elif len(text) > cfg.max_message_bytes:
-                why = f"message of {len(text)} bytes (limit {cfg.max_message_bytes})"
-            else:
-                try:
-                    message = parse_message(text)
-                except ValidationError as exc:
-                    message, why = None, reason(exc.errors(include_url=False, include_input=False))
-                if message is not None:
-                    if client.limiter.allow(client.clock(None if message.type == "hello" else message.t * 1e-3)):
-                        handle(message)
-                        continue
-                    why = "rate limit exceeded"
-            client.rejected += 1
-            rejects.reject(client.peer, why)
-            if client.rejected > cfg.max_rejects:
-                log.warning("closing %s: %d rejected messages", client.peer, client.rejected)
-                await ws.close(code=1008)
+        except (WebSocketDisconnect, RuntimeError):
+            return
+        text = msg.get("text")
+        if text is None:
+            if msg["type"] == "websocket.disconnect":
                 return
-    except (WebSocketDisconnect, RuntimeError):
-        return
+            why = "binary frames are not accepted"
+        elif len(text) > cfg.max_message_bytes:
+            why = f"message of {len(text)} bytes (limit {cfg.max_message_bytes})"
+        else:
+            try:
+                message = parse_message(text)
+            except ValidationError as exc:
+                message, why = None, reason(exc.errors(include_url=False, include_input=False))
+            if message is not None:
+                if client.limiter.allow(client.clock(None if message.type == "hello" else message.t * 1e-3)):
+                    handle(message)
+                    continue
+                why = "rate limit exceeded"
+        client.rejected += 1
+        rejects.reject(client.peer, why)
+        if client.rejected > cfg.max_rejects:
+            log.warning("closing %s: %d rejected messages", client.peer, client.rejected)
+            with contextlib.suppress(RuntimeError):
+                await ws.close(code=1008)
+            return
 
 
 class Hub:
