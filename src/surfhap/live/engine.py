@@ -99,11 +99,7 @@ class LiveEngine:
         mb = int(cfg.max_block_frames)
         self._max_frames = mb
         self._max_model = int(math.ceil(mb * self.control_rate / self.drive_rate)) + 2
-        self._speed = np.zeros(self._max_model)
-        self._load = np.zeros(self._max_model)
-        self._ttime = np.zeros(self._max_model)
-        self._xs = np.zeros(self._max_model)
-        self._ys = np.zeros(self._max_model)
+        self._inputs = np.zeros((5, self._max_model))  # speed, load, touch time, x, y of a chunk
         self._fifo_cap = _pow2_at_least(4 * mb + 8 * self.drive_rate // self.control_rate + 64)
         self._fifo = np.zeros(self._fifo_cap)
         self._fifo_mask = self._fifo_cap - 1
@@ -270,8 +266,9 @@ class LiveEngine:
             if n > self._max_model:
                 n = self._max_model
             k0 = self._n_model
-            sp, ld, ti, xs, ys = self._speed[:n], self._load[:n], self._ttime[:n], self._xs[:n], self._ys[:n]
-            k_lift = self.hold.fill(k0, self.control_rate, sp, ld, ti, xs, ys)
+            inputs = self._inputs[:, :n]
+            k_lift = self.hold.fill(k0, self.control_rate, inputs)
+            sp, ld, ti, xs, ys = inputs
             if k_lift != NO_LIFT:
                 # lifted late (the chain is past the lift's stamp): the drive queued since the
                 # lift's model sample is silenced at once; removing voltage is always safe
@@ -292,8 +289,8 @@ class LiveEngine:
             if h.n_applied and m:
                 # the touches put in force in this chunk are first heard at their position in it
                 for j in range(h.n_applied):
-                    t_emit = now + (offset + h.positions[j] * m / n) / self.drive_rate
-                    self.latencies[self.latency_count & (self.latencies.shape[0] - 1)] = t_emit - h.arrivals[j]
+                    t_emit = now + (offset + h.latencies[1, j] * m / n) / self.drive_rate
+                    self.latencies[self.latency_count & (self.latencies.shape[0] - 1)] = t_emit - h.latencies[0, j]
                     self.latency_count += 1
                 h.n_applied = 0
             write_trace_row(self.trace, self.trace_count, k0 / self.control_rate, xs[0], ys[0], sp[0], ld[0],

@@ -325,16 +325,16 @@ def render_blocks(chain, trajectory: Trajectory, display: SimulatedDisplay, *, b
     ``stop()`` is True. :func:`render` and :func:`surfhap.render.stream.stream_render` consume it."""
     fm = chain.control_rate
     n = model_samples(trajectory, fm)
-    hold = TouchHold(TrajectoryRows(trajectory), TouchPredictor(), 0.05,
-                     {"touches": 0, "touches_ignored": 0, "stale_stamps": 0})
+    hold = TouchHold(TrajectoryRows(trajectory), TouchPredictor(), 0.05)
     hold.take(0.0, 0.0)  # the chain's model sample 0 is the trajectory's first stamp
     block = max(1, int(round(block_seconds * fm)))
     for start in range(0, n, block):
         if stop is not None and stop():
             return
         k = min(n, start + block) - start
-        speed, load, touch_time, xs, ys = (np.empty(k) for _ in range(5))
-        hold.fill(start, fm, speed, load, touch_time, xs, ys)
+        inputs = np.empty((5, k))
+        hold.fill(start, fm, inputs)
+        speed, load, touch_time, xs, ys = inputs
         out = chain.process(speed, load, touch_time, xs, ys)
         yield start, speed, load, out, display.process(out.drive, out.load_drive)
 
