@@ -35,7 +35,6 @@ def ring_rows_since(ring: np.ndarray, count: int, index: int, limit: int | None 
 
 # one row per touch sample
 TOUCH_FIELDS = ("source", "t_event", "t_arrival", "x", "y", "load")
-_F = {name: i for i, name in enumerate(TOUCH_FIELDS)}
 
 
 def ring_stats(ring: np.ndarray, count: int) -> dict:
@@ -103,10 +102,6 @@ class TouchRing:
             out[i] = self.rows[(r + i) & self._mask]
         self._read = r + n
         return n
-
-    @property
-    def pending(self) -> int:
-        return self._write - self._read
 
     read = property(lambda self: self._read, doc="rows consumed (monotonic)")
     write = property(lambda self: self._write, doc="rows published (monotonic)")

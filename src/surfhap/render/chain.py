@@ -143,15 +143,19 @@ def _clean_inputs(speed, load, max_load, max_speed, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def _drive_tail(envelope, load, touch_time, counts, rates, held, scratch, index, drive, load_drive):
-    # the carrier on the envelope, and the finger held at the drive rate (load_drive, touch age in
-    # scratch[1]); counts: model, drive and carrier samples so far; rates: control, drive, carrier
-    # step, hold tolerance; held: last load and touch time of the previous block
+def _drive_tail(envelope, load, touch_time, state, work, index, drive, load_drive):
+    # the carrier on the envelope and the finger held at the drive rate (load_drive, touch ages in
+    # work[1]), block after block; state: model and drive samples so far, control rate, drive
+    # rate, carrier step, hold tolerance, then the last load and touch time of the previous block
     n, m = load.shape[0], envelope.shape[0]
-    control_times(counts[0], rates[0], scratch[0, :n])
-    hold_latest(counts[1], rates[1], scratch[0, :n], rates[3], load, touch_time, held[0], held[1], load_drive,
-                scratch[1, :m], index[:m])
-    polarity(envelope, counts[2], rates[2], drive)
+    control_times(state[0], state[2], work[0, :n])
+    hold_latest(state[1], state[3], work[0, :n], state[5], load, touch_time, state[6], state[7], load_drive,
+                work[1, :m], index[:m])
+    polarity(envelope, state[1], state[4], drive)
+    state[0] += n
+    state[1] += m
+    if n:
+        state[6], state[7] = load[n - 1], touch_time[n - 1]
 
 
 class TextureChain:
@@ -210,12 +214,8 @@ class TextureChain:
         for proc in (self.synth, self.law, self.upsampler, self.carrier, self.safety):
             if proc is not None:
                 proc.reset()
-        self._n_model = 0
-        self._n_drive = 0
-        self._held = np.array([0.0, -np.inf])  # load and touch time in force before the next block
-        self._rates = np.array([self.control_rate, self.drive_rate, self.carrier.step, self._hold_tol])
-        self._counts = np.zeros(3, dtype=np.int64)
-        self._scratch = np.zeros((2, 64))  # clean speed, load; then hold source times, touch ages (grown when short)
+        self._state = np.array([0, 0, self.control_rate, self.drive_rate, self.carrier.step, self._hold_tol, 0.0, -np.inf])
+        self._work = np.zeros((2, 64))  # clean speed, load; then the hold's source times, touch ages
         self._index = np.zeros(64, dtype=np.int64)
 
     def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray, x=None, y=None) -> ChainBlock:
@@ -227,26 +227,17 @@ class TextureChain:
         n = speed.shape[0]
         if not (load.shape == touch_time.shape == (n,)):
             raise ValueError("speed, load and touch_time must be (n,) arrays of one length")
-        if n > self._scratch.shape[1]:
-            self._scratch = np.zeros((2, 2 * n))
+        size = n * self.drive_rate // self.control_rate + 2  # the most drive samples the block can give
+        if size > self._index.shape[0]:
+            self._work, self._index = np.zeros((2, 2 * size)), np.zeros(2 * size, dtype=np.int64)
         # the models see a physical finger state (absurd values are the safety stage's business)
-        clean = self._scratch[:, :n]
+        clean = self._work[:, :n]
         _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
         texture = self.synth.process(clean[0], clean[1]) if self.synth is not None else np.zeros(n)
         law = self.law.process(clean[0], clean[1], texture)
         envelope = self.upsampler.process(law.voltage)
         m = envelope.shape[0]
-        if max(n, m) > self._index.shape[0]:
-            self._scratch, self._index = np.zeros((2, 2 * max(n, m))), np.zeros(2 * max(n, m), dtype=np.int64)
         drive, load_drive = np.empty(m), np.empty(m)
-        c = self._counts
-        c[0], c[1], c[2] = self._n_model, self._n_drive, self.carrier.n
-        _drive_tail(envelope, load, touch_time, c, self._rates, self._held, self._scratch, self._index, drive, load_drive)
-        self.safety.process(drive, load_drive, self._scratch[1, :m], out=drive)
-        self._n_model += n
-        self._n_drive += m
-        self.carrier.n += m
-        if n:
-            self._held[0] = load[-1]
-            self._held[1] = touch_time[-1]
+        _drive_tail(envelope, load, touch_time, self._state, self._work, self._index, drive, load_drive)
+        self.safety.process(drive, load_drive, self._work[1, :m], out=drive)
         return ChainBlock(drive, load_drive, law.target, TextureDetail(texture, law))

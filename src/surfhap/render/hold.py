@@ -1,40 +1,30 @@
-"""Hold the latest finger sample at the drive rate (one helper for every chain).
+"""Hold the latest finger sample: at the drive rate (:func:`hold_latest`) and at the control
+rate (:class:`TouchHold`), one helper for every chain.
 
-The texture chain (:mod:`surfhap.render.chain`), the offline shape render and the live shape
-renderer (:mod:`surfhap.render.shape_renderer`) all turn finger samples that arrive at a slow
-rate (touch or control rate) into drive-rate inputs of the safety stage: for each drive sample,
-the load and the age of the freshest finger sample in force at its time. :func:`hold_latest`
-is that zero-order hold.
+:func:`hold_latest` turns slow finger samples into the drive-rate inputs of the safety stage
+(the texture chain, the shape chains): for drive sample ``J`` at ``t_J = J / drive_rate`` s on
+the chain's clock (0 at reset), the load and the touch age of the latest source sample ``k``
+with ``src_time[k] <= t_J + tol`` (times non-decreasing; ``tol`` absorbs rounding).
 
-Time base: drive sample ``J`` is emitted at ``t_J = J / drive_rate`` s on the chain's clock
-(0 at reset); source sample ``k`` is in force from ``src_time[k]`` s on (times
-non-decreasing). A source sample counts from ``src_time[k] <= t_J + tol``: ``tol`` absorbs
-the rounding of the two time bases.
+**The touch model** (:class:`TouchHold`): the latest touch sample, in force from the model
+sample at its arrival stamp on until the next one. That is what a live engine can know.
+Offline the samples of a trajectory arrive at their stamps (:class:`TrajectoryRows`, fed by
+:func:`surfhap.render.offline.render_blocks` and the offline shape render); live they arrive
+when the sensor delivers them, stamped by the engine (:func:`surfhap.runtime.clock.arrival_stamp`).
+Both run this one compiled hold (one call per chunk, the predictor step per sample), so a
+simulated run on a trajectory and its offline render give the same drive
+(tests/test_play_render_equality.py).
 
-**The touch model** (:class:`TouchHold`): the latest touch sample, held from the model sample
-at its arrival stamp on.
-
-This is what a live engine can know: a sample cannot act before it arrived, and once in force
-it holds until the next one. Offline (``surfhap render``) the samples of a trajectory arrive
-at their stamps; live they arrive when the sensor delivers them, stamped by the engine
-(:func:`surfhap.runtime.clock.arrival_stamp`). Both go through this one hold, so a simulated
-run on a trajectory and its offline render give the same drive (tests/test_play_render_equality.py); the offline render
-(:func:`surfhap.render.offline.render_blocks`) and the offline shape render feed it a
-trajectory's rows directly (:class:`TrajectoryRows`).
-
-Chain clock: model sample ``k`` of the renderer is at ``anchor + k / control_rate`` on the
-engine clock. ``anchor`` follows the emission time: at each block it is raised so that the
-chain never runs behind ``now`` (a stall or a late block re-anchors it), so a sample that has
-arrived by ``now`` is in force at the latest from the next model sample computed. A sample
-with a later stamp waits, unapplied, until the chain reaches it (a simulated clock delivers
-samples ahead of the block; a live one may deliver a sample stamped after the block began).
+Chain clock: model sample ``k`` is at ``anchor + k / control_rate`` on the engine clock;
+``anchor`` is raised at each block so that the chain never runs behind ``now`` (a stall
+re-anchors it). A sample stamped later than the chain waits, unapplied, until the chain reaches it.
 
 Per sample, in order: arbitration (one finger at a time: another source may take over when
 the owner has been silent ``takeover`` s), staleness (a non-finite, future or non-monotonic
 stamp makes it stale: counted, never refreshes the watchdog; a stale lift still lifts), lift
 (the predictor restarts; a lift applied late reports the model sample it belonged to, so the
-engine silences the drive queued since), position and speed (``predictor``,
-:class:`surfhap.render.kinematics.TouchPredictor`). ``touch_time`` handed to the renderer is the
+engine silences the drive queued since), position and speed
+(:func:`surfhap.render.kinematics.predict`). The touch time handed to the renderer is the
 stamp of the sample in force on the chain clock, so its watchdog sees how old the data is.
 """
 

@@ -1,8 +1,7 @@
 """Kinematics stage: touch-latency prediction and finger speed, one law for live and offline.
 
-Touch panels report the finger late: a few tens of ms on the tablet of KinesTouch
-(paper 004, Sec. 4.2), up to 2 cm of position error in ordinary slides. The live engine can lead the measured position by a
-configurable latency with the prediction-correction filter of that paper:
+Touch panels report the finger late (a few tens of ms, up to 2 cm in ordinary slides: 004
+Sec. 4.2); the position can lead by a configurable latency with that paper's filter:
 
 * linear prediction (eq. 6):  f_pred = f_mes + k_pred (f_mes - f_mes_prev)
 * exponential smoothing (eq. 7): the printed equation, ``f = alpha f_pred (1 - alpha) f_pred_prev``,
@@ -25,14 +24,12 @@ A fixed ``k_pred`` can be given instead to reproduce the paper exactly.
 Speed is the distance between consecutive (corrected) positions over their time
 difference, smoothed by a one-pole low-pass of ``cutoff`` Hz (hand motion lies below a few
 Hz, Otake et al. 2021 Sec. III-B). Without prediction (the default) the position is the
-measured one and this is the speed every render uses, live and offline (through
-:class:`surfhap.render.hold.TouchHold`). The velocity vector (``vx``, ``vy``, m/s)
-is the same difference per axis and filter. ``velocity_alpha`` replaces that low-pass by
-the paper's own velocity filter: exponential smoothing per sample with factor 0.45
-(004 Sec. 4.2, last sentence of "Handling latency issues"); ``speed`` is then the norm of
-the smoothed velocity. The step is one compiled function (:func:`predict`) on a state
-array: the touch hold calls it per sample inside its own compiled loop, the force loop through
-:meth:`TouchPredictor.update`; it allocates nothing, so it may run inside the real-time callback.
+measured one and this is the speed every render uses, live and offline. The velocity
+(``vx``, ``vy``, m/s) is the same difference per axis and filter; ``velocity_alpha`` replaces
+the low-pass by the paper's per-sample smoothing with factor 0.45 (004 Sec. 4.2), ``speed``
+then being the norm of the smoothed velocity. The step is one compiled function
+(:func:`predict`) on a state array: the touch hold (:class:`surfhap.render.hold.TouchHold`)
+calls it inside its compiled loop, the force loop through :meth:`TouchPredictor.update`.
 """
 
 from __future__ import annotations
