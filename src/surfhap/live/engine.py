@@ -277,7 +277,7 @@ class LiveEngine:
             # the touches put in force in this chunk are first heard at their position in it
             applied = h.n_applied if m else 0
             record_chunk(self._fifo, self._fifo_mask, self._fifo_w, drive, self.trace, self.trace_count, k0 / self.control_rate,
-                         inputs, blk.target[0], friction, self.latencies, self.latency_count, h.latencies, applied, now,
+                         inputs, blk.target, friction, self.latencies, self.latency_count, h.latencies, applied, now,
                          self._fifo_w - self._fifo_r, self.drive_rate)
             if applied:
                 self.latency_count += applied
