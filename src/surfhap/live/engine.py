@@ -93,6 +93,7 @@ class LiveEngine:
         self._max_frames = mb
         self._max_model = int(math.ceil(mb * self.control_rate / self.drive_rate)) + 2
         self._inputs = np.zeros((5, self._max_model))  # speed, load, touch time, x, y of a chunk
+        self._views: dict = {}  # n -> (self._inputs[:, :n], its rows): made once per chunk length
         self._fifo_cap = 1 << (4 * mb + 8 * self.drive_rate // self.control_rate + 63).bit_length()  # a power of two
         self._fifo = np.zeros(self._fifo_cap)
         self._fifo_mask = self._fifo_cap - 1
@@ -259,7 +260,7 @@ class LiveEngine:
             if n > self._max_model:
                 n = self._max_model
             k0 = self._n_model
-            inputs = self._inputs[:, :n]
+            inputs, rows = self._views.get(n) or self._views.setdefault(n, (self._inputs[:, :n], tuple(self._inputs[:, :n])))
             h = self.hold
             k_lift = h.fill(k0, self.control_rate, inputs)
             if k_lift != NO_LIFT:
@@ -268,7 +269,7 @@ class LiveEngine:
                 late = int(math.ceil((k0 - k_lift) * self.drive_rate / self.control_rate))
                 for j in range(max(self._fifo_r, self._fifo_w - late), self._fifo_w):
                     self._fifo[j & self._fifo_mask] = 0.0
-            blk = self.renderer.process(*inputs)
+            blk = self.renderer.process(*rows)
             drive = blk.drive
             m = drive.shape[0]
             friction = math.nan

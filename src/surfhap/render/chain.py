@@ -145,8 +145,8 @@ def _clean_inputs(speed, load, max_load, max_speed, out):
 @numba.njit(cache=True, nogil=True)
 def _drive_tail(envelope, load, touch_time, state, work, index, drive, load_drive):
     # the carrier on the envelope and the finger held at the drive rate (load_drive, touch ages in
-    # work[1]), block after block; state: model and drive samples so far, control rate, drive
-    # rate, carrier step, hold tolerance, then the last load and touch time of the previous block
+    # work[1]), block after block; state: model and drive samples so far, control rate, drive rate,
+    # carrier step, hold tolerance (a model sample holds from its start on), last load and touch time
     n, m = load.shape[0], envelope.shape[0]
     control_times(state[0], state[2], work[0, :n])
     hold_latest(state[1], state[3], work[0, :n], state[5], load, touch_time, state[6], state[7], load_drive,
@@ -207,14 +207,13 @@ class TextureChain:
         self.drive_rate = int(cfg.drive_rate)
         self._max_load = cfg.limits.max_load
         self.latency = self.upsampler.delay
-        self._hold_tol = 1e-9 / self.control_rate  # s: a model sample holds from its start time on
         self.reset()
 
     def reset(self) -> None:
         for proc in (self.synth, self.law, self.upsampler, self.carrier, self.safety):
             if proc is not None:
                 proc.reset()
-        self._state = np.array([0, 0, self.control_rate, self.drive_rate, self.carrier.step, self._hold_tol, 0.0, -np.inf])
+        self._state = np.array([0, 0, self.control_rate, self.drive_rate, self.carrier.step, 1e-9 / self.control_rate, 0, -np.inf])
         self._work = np.zeros((2, 64))  # clean speed, load; then the hold's source times, touch ages
         self._index = np.zeros(64, dtype=np.int64)
 
