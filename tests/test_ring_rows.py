@@ -56,7 +56,7 @@ def test_drive_fifo_kernels_match_a_plain_queue(chunks, take):
 
 def test_fifo_peak_is_nan_when_a_sample_is_and_trace_rows_wrap():
     from surfhap.live.engine import TRACE_FIELDS
-    from surfhap.live.fifo_kernels import fifo_write_peak, mean_or_nan, write_trace_row
+    from surfhap.live.fifo_kernels import fifo_write_peak, mean_or_nan, record_chunk
 
     fifo = np.zeros(8)
     assert np.isnan(fifo_write_peak(fifo, 7, 6, np.array([1.0, np.nan, 400.0])))
@@ -64,6 +64,10 @@ def test_fifo_peak_is_nan_when_a_sample_is_and_trace_rows_wrap():
     assert fifo[0] == 400.0  # wrapped
     assert np.isnan(mean_or_nan(np.zeros(0))) and mean_or_nan(np.array([1.0, 2.0, 6.0])) == 3.0
     trace = np.zeros((4, len(TRACE_FIELDS)))
-    write_trace_row(trace, 5, *range(1, 9))
+    inputs = np.array([[4.0, 9], [5, 9], [9, 9], [2, 9], [3, 9]])  # speed, load, touch time, x, y; 2 model samples
+    lat, applied = np.zeros(4), np.array([[0.5, 0.25], [0.0, 1.0]])  # arrivals (s) at model samples 0 and 1
+    record_chunk(np.zeros(8), 7, 0, np.array([-6.0, 0.0]), trace, 5, 1.0, inputs, np.array([7.0, 0.0]), 8.0, lat, 3, applied, 2, 1.0, 10, 20.0)
     np.testing.assert_array_equal(trace[1], np.arange(1, 9))
     assert not trace[[0, 2, 3]].any()
+    # emitted at 1 s + (10 + pos * 2 drive / 2 model samples) / 20 Hz; ring of 4 from write count 3
+    np.testing.assert_allclose(lat[[3, 0]], [1.0 + 10 / 20 - 0.5, 1.0 + 11 / 20 - 0.25])

@@ -14,14 +14,13 @@ from surfhap.runtime.protocols import Sink, Source
 
 
 def _hold(traj, rate, block):
-    hold = TouchHold(TrajectoryRows(traj), TouchPredictor(), 0.05, {"touches": 0, "touches_ignored": 0, "stale_stamps": 0},
-                     capacity=16)  # small: the buffer refills from its ring mid-block
+    hold = TouchHold(TrajectoryRows(traj), TouchPredictor(), 0.05, capacity=16)  # small: the buffer refills mid-block
     hold.take(0.0, 0.0)
     n = int(np.floor((traj.t[-1] - traj.t[0]) * rate)) + 1
-    cols = [np.empty(n) for _ in range(5)]
+    cols = np.empty((5, n))
     for s in range(0, n, block):
         k = min(n, s + block) - s
-        hold.fill(s, rate, *(c[s:s + k] for c in cols))
+        hold.fill(s, rate, cols[:, s:s + k])
     return n, cols
 
 

@@ -16,8 +16,8 @@ Real-time contract of :meth:`LiveEngine.render` (it runs inside PortAudio's call
 * it MUST NOT: take a lock that a producer can hold, wait, sleep, log, print, open files or
   sockets, build Python containers that grow, import modules, or raise (a failure of a
   processor outputs silence for the block and is counted in ``counters['errors']``).
-  The engine's own buffers are allocated in ``__init__``; the texture chain's numpy kernels
-  make a few short temporaries per block (bounded size; no per-sample allocation).
+  Buffers are allocated in ``__init__``/``reset``; the touch hold and the chain's stages are
+  compiled calls per chunk (the chain's numpy glue makes a few short temporaries per block).
 
 The last processor before the backend is the engine's :class:`~surfhap.render.safety.OutputSafety`
 pass (``self.guard``): gain and stop ramp are applied inside it, and it holds ``v_max``,
@@ -25,17 +25,13 @@ the rise limit (remembering the last emitted magnitude across blocks, lifts, gai
 and renderer switches) and the watchdog on each sample's emission time. ``fail(reason)``
 halts the engine at 0 V (a backend that raised or stalled).
 
-Touch samples are time-stamped at arrival by the engine itself, on its own clock
-(:func:`surfhap.runtime.clock.now`, or the ``clock`` given to the constructor), in
-:meth:`LiveEngine.push_touch`. A caller's stamp (``t_arrival``, e.g. the web process's
-arrival time) may only make a sample older, never extend its life
-(:func:`surfhap.runtime.clock.arrival_stamp`). Each sample is in force from the model
-sample at its stamp on (:class:`surfhap.render.hold.TouchHold`: arbitration, stale and
-non-monotonic stamps, lift, prediction), and the renderer's watchdog (touch older than
-50 ms -> ramp to zero within 5 ms) sees the stamp on the chain's clock, so it knows how old
-the finger data really is. A stamp is never refreshed: data that waited during a stall
-stays stale. ``now`` given to :meth:`LiveEngine.render` is the backend's emission time of
-the block on the same clock (the backend owns the clock; it is not caller input).
+Touch samples are stamped at arrival on the engine's own clock (:func:`surfhap.runtime.clock.now`
+or the constructor's ``clock``) in :meth:`LiveEngine.push_touch`; a caller's ``t_arrival`` may
+only make a sample older (:func:`surfhap.runtime.clock.arrival_stamp`). Each sample is in
+force from the model sample at its stamp on (:class:`surfhap.render.hold.TouchHold`), and the
+renderer's watchdog (touch older than 50 ms -> ramp to zero within 5 ms) sees that stamp, never
+refreshed: data that waited during a stall stays stale. ``now`` given to
+:meth:`LiveEngine.render` is the backend's emission time of the block on the same clock.
 
 Latency (``latency_stats``): for every touch sample applied, the time from its arrival to
 the emission of the first drive sample computed from it (the block's emission time ``now``
@@ -46,13 +42,14 @@ there it includes the output latency; the amplifier adds its own.
 from __future__ import annotations
 
 import math
+from dataclasses import asdict
 
 import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.runtime.clock import arrival_stamp, now as clock_now
 from surfhap.live.engine_config import EngineConfig
-from surfhap.live.fifo_kernels import fifo_read, fifo_write_peak, mean_or_nan, write_trace_row
+from surfhap.live.fifo_kernels import fifo_read, mean_or_nan, record_chunk
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing, ring_rows_since, ring_stats
 from surfhap.render.hold import NO_LIFT, TouchHold
@@ -64,10 +61,6 @@ __all__ = ["LiveEngine", "TRACE_FIELDS"]
 
 # one row per processed chunk
 TRACE_FIELDS = ("t", "x", "y", "speed", "load", "v_peak", "target", "friction")
-
-
-def _pow2_at_least(n: int) -> int:
-    return 1 << max(1, int(n - 1).bit_length())
 
 
 class LiveEngine:
@@ -99,12 +92,9 @@ class LiveEngine:
         mb = int(cfg.max_block_frames)
         self._max_frames = mb
         self._max_model = int(math.ceil(mb * self.control_rate / self.drive_rate)) + 2
-        self._speed = np.zeros(self._max_model)
-        self._load = np.zeros(self._max_model)
-        self._ttime = np.zeros(self._max_model)
-        self._xs = np.zeros(self._max_model)
-        self._ys = np.zeros(self._max_model)
-        self._fifo_cap = _pow2_at_least(4 * mb + 8 * self.drive_rate // self.control_rate + 64)
+        self._inputs = np.zeros((5, self._max_model))  # speed, load, touch time, x, y of a chunk
+        self._views: dict = {}  # n -> (self._inputs[:, :n], its rows): made once per chunk length
+        self._fifo_cap = 1 << (4 * mb + 8 * self.drive_rate // self.control_rate + 63).bit_length()  # a power of two
         self._fifo = np.zeros(self._fifo_cap)
         self._fifo_mask = self._fifo_cap - 1
         self.out = np.zeros(mb)  # volts of the last block
@@ -270,34 +260,31 @@ class LiveEngine:
             if n > self._max_model:
                 n = self._max_model
             k0 = self._n_model
-            sp, ld, ti, xs, ys = self._speed[:n], self._load[:n], self._ttime[:n], self._xs[:n], self._ys[:n]
-            k_lift = self.hold.fill(k0, self.control_rate, sp, ld, ti, xs, ys)
+            inputs, rows = self._views.get(n) or self._views.setdefault(n, (self._inputs[:, :n], tuple(self._inputs[:, :n])))
+            h = self.hold
+            k_lift = h.fill(k0, self.control_rate, inputs)
             if k_lift != NO_LIFT:
                 # lifted late (the chain is past the lift's stamp): the drive queued since the
                 # lift's model sample is silenced at once; removing voltage is always safe
                 late = int(math.ceil((k0 - k_lift) * self.drive_rate / self.control_rate))
                 for j in range(max(self._fifo_r, self._fifo_w - late), self._fifo_w):
                     self._fifo[j & self._fifo_mask] = 0.0
-            blk = self.renderer.process(sp, ld, ti, xs, ys)
+            blk = self.renderer.process(*rows)
             drive = blk.drive
             m = drive.shape[0]
-            offset = self._fifo_w - self._fifo_r
-            peak = fifo_write_peak(self._fifo, self._fifo_mask, self._fifo_w, drive)
-            self._fifo_w += m
-            self._n_model += n
             friction = math.nan
             if self.display is not None and m:
                 friction = mean_or_nan(self.display.process(drive, blk.load_drive))
-            h = self.hold
-            if h.n_applied and m:
-                # the touches put in force in this chunk are first heard at their position in it
-                for j in range(h.n_applied):
-                    t_emit = now + (offset + h.positions[j] * m / n) / self.drive_rate
-                    self.latencies[self.latency_count & (self.latencies.shape[0] - 1)] = t_emit - h.arrivals[j]
-                    self.latency_count += 1
+            # the touches put in force in this chunk are first heard at their position in it
+            applied = h.n_applied if m else 0
+            record_chunk(self._fifo, self._fifo_mask, self._fifo_w, drive, self.trace, self.trace_count, k0 / self.control_rate,
+                         inputs, blk.target, friction, self.latencies, self.latency_count, h.latencies, applied, now,
+                         self._fifo_w - self._fifo_r, self.drive_rate)
+            if applied:
+                self.latency_count += applied
                 h.n_applied = 0
-            write_trace_row(self.trace, self.trace_count, k0 / self.control_rate, xs[0], ys[0], sp[0], ld[0],
-                            peak, blk.target[0], friction)
+            self._fifo_w += m
+            self._n_model += n
             self.trace_count += 1
 
     # ------------------------------------------------------------------ monitoring side
@@ -317,12 +304,10 @@ class LiveEngine:
         return ring_stats(self.block_times, self.block_time_count)
 
     def safety_counters(self) -> dict:
-        c = self.renderer.safety.counters
-        return {k: getattr(c, k) for k in ("samples", "clamped", "rise_limited", "faults", "lifted", "watchdog")}
+        return asdict(self.renderer.safety.counters)
 
     def output_safety_counters(self) -> dict:
-        c = self.guard.counters
-        return {k: getattr(c, k) for k in ("samples", "clamped", "rise_limited", "faults", "watchdog", "halted")}
+        return asdict(self.guard.counters)
 
     @property
     def drive_full_scale(self) -> float:

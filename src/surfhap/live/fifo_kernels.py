@@ -1,12 +1,12 @@
 """Compiled helpers of the live engine's per-chunk bookkeeping: the drive FIFO (a power-of-two
-ring of float64 volts), the trace row and a block mean. Each replaces a few numpy calls whose
+ring of float64 volts), a chunk's trace row and latencies, and a block mean. Each replaces a few numpy calls whose
 fixed cost (1-2 us each) outweighs the arithmetic on a chunk of 5-100 samples."""
 
 from __future__ import annotations
 
 import numba
 
-__all__ = ["fifo_write_peak", "fifo_read", "mean_or_nan", "write_trace_row"]
+__all__ = ["fifo_write_peak", "fifo_read", "mean_or_nan", "record_chunk"]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -46,15 +46,20 @@ def mean_or_nan(x):
 
 
 @numba.njit(cache=True, nogil=True)
-def write_trace_row(trace, index, t, x, y, speed, load, v_peak, target, friction):
-    """Write one row of the engine trace ((capacity, 8) float, capacity a power of two) at
-    ``index`` mod capacity, in the order of ``TRACE_FIELDS``."""
+def record_chunk(fifo, mask, w, drive, trace, index, t, inputs, target, friction, lat, n_lat, applied, n_applied,
+                 now, offset, drive_rate):
+    """The engine's bookkeeping of one chunk in one call: drive (m,) into the FIFO at ``w``
+    (:func:`fifo_write_peak`); trace row ``index`` (mod the trace's power-of-two length) in the
+    order of ``TRACE_FIELDS`` from ``inputs[:, 0]`` (speed, load, touch time, x, y), the peak,
+    ``target[0]`` and ``friction``; and for each of the ``n_applied`` touches put in force
+    (``applied``: (2, k) arrival stamp, model-sample position in the chunk of n) its latency
+    into the ring ``lat`` from write count ``n_lat``: its emission ``now + (offset + pos m / n)
+    / drive_rate`` (the chunk starts ``offset`` samples into the block emitted at ``now``)
+    minus its arrival."""
+    peak = fifo_write_peak(fifo, mask, w, drive)
     row = trace[index & (trace.shape[0] - 1)]
-    row[0] = t
-    row[1] = x
-    row[2] = y
-    row[3] = speed
-    row[4] = load
-    row[5] = v_peak
-    row[6] = target
-    row[7] = friction
+    row[0], row[1], row[2], row[3], row[4] = t, inputs[3, 0], inputs[4, 0], inputs[0, 0], inputs[1, 0]
+    row[5], row[6], row[7] = peak, target[0], friction
+    m, n = drive.shape[0], inputs.shape[1]
+    for j in range(n_applied):
+        lat[(n_lat + j) & (lat.shape[0] - 1)] = now + (offset + applied[1, j] * m / n) / drive_rate - applied[0, j]

@@ -35,7 +35,6 @@ def ring_rows_since(ring: np.ndarray, count: int, index: int, limit: int | None 
 
 # one row per touch sample
 TOUCH_FIELDS = ("source", "t_event", "t_arrival", "x", "y", "load")
-_F = {name: i for i, name in enumerate(TOUCH_FIELDS)}
 
 
 def ring_stats(ring: np.ndarray, count: int) -> dict:
@@ -65,7 +64,7 @@ class TouchRing:
             raise ValueError("capacity must be a power of two >= 2")
         self.capacity = int(capacity)
         self._mask = self.capacity - 1
-        self._rows = np.zeros((self.capacity, len(TOUCH_FIELDS)))
+        self.rows = np.zeros((self.capacity, len(TOUCH_FIELDS)))
         self._write = 0  # published rows (monotonic)
         self._read = 0  # consumed rows (monotonic, consumer only)
         self._lock = threading.Lock()
@@ -78,7 +77,7 @@ class TouchRing:
             if w - self._read >= self.capacity:
                 self.dropped += 1
                 return False
-            row = self._rows[w & self._mask]
+            row = self.rows[w & self._mask]
             row[0] = source
             row[1] = t_event
             row[2] = t_arrival
@@ -100,13 +99,16 @@ class TouchRing:
         if n > out.shape[0]:
             n = out.shape[0]
         for i in range(n):
-            out[i] = self._rows[(r + i) & self._mask]
+            out[i] = self.rows[(r + i) & self._mask]
         self._read = r + n
         return n
 
-    @property
-    def pending(self) -> int:
-        return self._write - self._read
+    read = property(lambda self: self._read, doc="rows consumed (monotonic)")
+    write = property(lambda self: self._write, doc="rows published (monotonic)")
+
+    def consume(self, k: int) -> None:
+        """Consumer side: mark the ``k`` rows after ``read`` (copied from ``rows``) as taken."""
+        self._read += k
 
     def clear(self) -> None:
         with self._lock:

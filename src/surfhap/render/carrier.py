@@ -12,7 +12,7 @@ import numpy as np
 
 from surfhap.errors import ConfigError
 
-__all__ = ["PolarityCarrier", "check_carrier"]
+__all__ = ["PolarityCarrier", "check_carrier", "polarity"]
 
 
 def check_carrier(carrier: float, drive_rate: float) -> float:
@@ -28,31 +28,30 @@ def check_carrier(carrier: float, drive_rate: float) -> float:
 
 
 @numba.njit(cache=True, nogil=True)
-def _carrier_kernel(envelope, n0, step, out):
-    # sign +1 during the first half of each carrier period; phase from the absolute sample count
+def polarity(envelope, n0, step, out):
+    """``out = +-envelope``: sign +1 during the first half of each carrier period, drive sample
+    ``n0 + i`` at ``step`` (= carrier / drive rate, 0 = off) periods per sample."""
     for i in range(envelope.shape[0]):
         phase = ((n0 + i) * step) % 1.0
         out[i] = envelope[i] if phase < 0.5 else -envelope[i]
 
 
 class PolarityCarrier:
-    """``process(envelope) -> drive``, both (n,) float V at the drive rate."""
+    """``process(envelope) -> drive``, both (n,) float V at the drive rate; ``step`` and the
+    drive sample count ``n`` are what :func:`polarity` needs."""
 
     def __init__(self, carrier: float, drive_rate: float):
         self.frequency = check_carrier(carrier, drive_rate)
         self.drive_rate = float(drive_rate)
+        self.step = self.frequency / self.drive_rate
         self.reset()
 
     def reset(self) -> None:
-        self._n = 0
+        self.n = 0
 
     def process(self, envelope: np.ndarray) -> np.ndarray:
         envelope = np.asarray(envelope, dtype=float)
-        n = envelope.shape[0]
-        if self.frequency == 0.0:
-            self._n += n
-            return envelope.copy()
-        out = np.empty(n)
-        _carrier_kernel(envelope, self._n, self.frequency / self.drive_rate, out)
-        self._n += n
+        out = np.empty(envelope.shape[0])
+        polarity(envelope, self.n, self.step, out)
+        self.n += out.shape[0]
         return out

@@ -25,7 +25,7 @@ from surfhap.errors import ConfigError
 from surfhap.render.block import RenderBlock
 from surfhap.models.material import Material
 from surfhap.models.panel import DisplayModel
-from surfhap.render.carrier import PolarityCarrier, check_carrier
+from surfhap.render.carrier import PolarityCarrier, check_carrier, polarity
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
 from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
 from surfhap.render.hold import hold_latest, control_times
@@ -133,13 +133,29 @@ _MAX_SPEED = 10.0  # m/s: no finger slides faster; larger inputs are sensor faul
 
 
 @numba.njit(cache=True, nogil=True)
-def _clean_inputs(speed, load, max_load, max_speed, out_speed, out_load):
-    # loads outside (0, max_load] and non-finite values become 0; speeds become |v| <= max_speed
+def _clean_inputs(speed, load, max_load, max_speed, out):
+    # out (2, n): loads outside (0, max_load] and non-finite values become 0; speeds |v| <= max_speed
     for i in range(load.shape[0]):
         ld = load[i]
-        out_load[i] = ld if (np.isfinite(ld) and ld > 0.0 and ld <= max_load) else 0.0
+        out[1, i] = ld if (np.isfinite(ld) and ld > 0.0 and ld <= max_load) else 0.0
         v = speed[i]
-        out_speed[i] = min(abs(v), max_speed) if np.isfinite(v) else 0.0
+        out[0, i] = min(abs(v), max_speed) if np.isfinite(v) else 0.0
+
+
+@numba.njit(cache=True, nogil=True)
+def _drive_tail(envelope, load, touch_time, state, work, index, drive, load_drive):
+    # the carrier on the envelope and the finger held at the drive rate (load_drive, touch ages in
+    # work[1]), block after block; state: model and drive samples so far, control rate, drive rate,
+    # carrier step, hold tolerance (a model sample holds from its start on), last load and touch time
+    n, m = load.shape[0], envelope.shape[0]
+    control_times(state[0], state[2], work[0, :n])
+    hold_latest(state[1], state[3], work[0, :n], state[5], load, touch_time, state[6], state[7], load_drive,
+                work[1, :m], index[:m])
+    polarity(envelope, state[1], state[4], drive)
+    state[0] += n
+    state[1] += m
+    if n:
+        state[6], state[7] = load[n - 1], touch_time[n - 1]
 
 
 class TextureChain:
@@ -191,46 +207,36 @@ class TextureChain:
         self.drive_rate = int(cfg.drive_rate)
         self._max_load = cfg.limits.max_load
         self.latency = self.upsampler.delay
-        self._hold_tol = 1e-9 / self.control_rate  # s: a model sample holds from its start time on
         self.reset()
 
     def reset(self) -> None:
         for proc in (self.synth, self.law, self.upsampler, self.carrier, self.safety):
             if proc is not None:
                 proc.reset()
-        self._n_model = 0
-        self._n_drive = 0
-        self._last_load = 0.0
-        self._last_touch = -np.inf
+        self._state = np.array([0, 0, self.control_rate, self.drive_rate, self.carrier.step, 1e-9 / self.control_rate, 0, -np.inf])
+        self._work = np.zeros((2, 64))  # clean speed, load; then the hold's source times, touch ages
+        self._index = np.zeros(64, dtype=np.int64)
 
     def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray, x=None, y=None) -> ChainBlock:
         """One block (see the module docstring); ``x``, ``y`` (the finger position) are not
         used by a texture (:class:`~surfhap.render.block.Renderer` protocol)."""
-        speed = np.asarray(speed, dtype=float)
-        load = np.asarray(load, dtype=float)
-        touch_time = np.asarray(touch_time, dtype=float)
+        speed = np.ascontiguousarray(speed, dtype=float)
+        load = np.ascontiguousarray(load, dtype=float)
+        touch_time = np.ascontiguousarray(touch_time, dtype=float)
         n = speed.shape[0]
         if not (load.shape == touch_time.shape == (n,)):
             raise ValueError("speed, load and touch_time must be (n,) arrays of one length")
+        size = n * self.drive_rate // self.control_rate + 2  # the most drive samples the block can give
+        if size > self._index.shape[0]:
+            self._work, self._index = np.zeros((2, 2 * size)), np.zeros(2 * size, dtype=np.int64)
         # the models see a physical finger state (absurd values are the safety stage's business)
-        clean_load = np.empty(n)
-        clean_speed = np.empty(n)
-        _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean_speed, clean_load)
-        texture = self.synth.process(clean_speed, clean_load) if self.synth is not None else np.zeros(n)
-        law = self.law.process(clean_speed, clean_load, texture)
+        clean = self._work[:, :n]
+        _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
+        texture = self.synth.process(clean[0], clean[1]) if self.synth is not None else np.zeros(n)
+        law = self.law.process(clean[0], clean[1], texture)
         envelope = self.upsampler.process(law.voltage)
         m = envelope.shape[0]
-        load_drive = np.empty(m)
-        age = np.empty(m)
-        src_time = np.empty(n)
-        control_times(self._n_model, float(self.control_rate), src_time)
-        hold_latest(self._n_drive, float(self.drive_rate), src_time, self._hold_tol, np.ascontiguousarray(load),
-                    np.ascontiguousarray(touch_time), self._last_load, self._last_touch, load_drive, age,
-                    np.empty(m, dtype=np.int64))
-        drive = self.safety.process(self.carrier.process(envelope), load_drive, age)
-        self._n_model += n
-        self._n_drive += m
-        if n:
-            self._last_load = float(load[-1])
-            self._last_touch = float(touch_time[-1])
+        drive, load_drive = np.empty(m), np.empty(m)
+        _drive_tail(envelope, load, touch_time, self._state, self._work, self._index, drive, load_drive)
+        self.safety.process(drive, load_drive, self._work[1, :m], out=drive)
         return ChainBlock(drive, load_drive, law.target, TextureDetail(texture, law))

@@ -1,40 +1,30 @@
-"""Hold the latest finger sample at the drive rate (one helper for every chain).
+"""Hold the latest finger sample: at the drive rate (:func:`hold_latest`) and at the control
+rate (:class:`TouchHold`), one helper for every chain.
 
-The texture chain (:mod:`surfhap.render.chain`), the offline shape render and the live shape
-renderer (:mod:`surfhap.render.shape_renderer`) all turn finger samples that arrive at a slow
-rate (touch or control rate) into drive-rate inputs of the safety stage: for each drive sample,
-the load and the age of the freshest finger sample in force at its time. :func:`hold_latest`
-is that zero-order hold.
+:func:`hold_latest` turns slow finger samples into the drive-rate inputs of the safety stage
+(the texture chain, the shape chains): for drive sample ``J`` at ``t_J = J / drive_rate`` s on
+the chain's clock (0 at reset), the load and the touch age of the latest source sample ``k``
+with ``src_time[k] <= t_J + tol`` (times non-decreasing; ``tol`` absorbs rounding).
 
-Time base: drive sample ``J`` is emitted at ``t_J = J / drive_rate`` s on the chain's clock
-(0 at reset); source sample ``k`` is in force from ``src_time[k]`` s on (times
-non-decreasing). A source sample counts from ``src_time[k] <= t_J + tol``: ``tol`` absorbs
-the rounding of the two time bases.
+**The touch model** (:class:`TouchHold`): the latest touch sample, in force from the model
+sample at its arrival stamp on until the next one. That is what a live engine can know.
+Offline the samples of a trajectory arrive at their stamps (:class:`TrajectoryRows`, fed by
+:class:`surfhap.runtime.offline.OfflineEngine` and the offline shape render); live they arrive
+when the sensor delivers them, stamped by the engine (:func:`surfhap.runtime.clock.arrival_stamp`).
+Both run this one compiled hold (one call per chunk, the predictor step per sample), so a
+simulated run on a trajectory and its offline render give the same drive
+(tests/test_play_render_equality.py).
 
-**The touch model** (:class:`TouchHold`): the latest touch sample, held from the model sample
-at its arrival stamp on.
-
-This is what a live engine can know: a sample cannot act before it arrived, and once in force
-it holds until the next one. Offline (``surfhap render``) the samples of a trajectory arrive
-at their stamps; live they arrive when the sensor delivers them, stamped by the engine
-(:func:`surfhap.runtime.clock.arrival_stamp`). Both go through this one hold, so a simulated
-run on a trajectory and its offline render give the same drive (tests/test_play_render_equality.py); the offline render
-(:class:`surfhap.runtime.offline.OfflineEngine`) and the offline shape render feed it a
-trajectory's rows directly (:class:`TrajectoryRows`).
-
-Chain clock: model sample ``k`` of the renderer is at ``anchor + k / control_rate`` on the
-engine clock. ``anchor`` follows the emission time: at each block it is raised so that the
-chain never runs behind ``now`` (a stall or a late block re-anchors it), so a sample that has
-arrived by ``now`` is in force at the latest from the next model sample computed. A sample
-with a later stamp waits, unapplied, until the chain reaches it (a simulated clock delivers
-samples ahead of the block; a live one may deliver a sample stamped after the block began).
+Chain clock: model sample ``k`` is at ``anchor + k / control_rate`` on the engine clock;
+``anchor`` is raised at each block so that the chain never runs behind ``now`` (a stall
+re-anchors it). A sample stamped later than the chain waits, unapplied, until the chain reaches it.
 
 Per sample, in order: arbitration (one finger at a time: another source may take over when
 the owner has been silent ``takeover`` s), staleness (a non-finite, future or non-monotonic
 stamp makes it stale: counted, never refreshes the watchdog; a stale lift still lifts), lift
 (the predictor restarts; a lift applied late reports the model sample it belonged to, so the
-engine silences the drive queued since), position and speed (``predictor``,
-:class:`surfhap.render.kinematics.TouchPredictor`). ``touch_time`` handed to the renderer is the
+engine silences the drive queued since), position and speed
+(:func:`surfhap.render.kinematics.predict`). The touch time handed to the renderer is the
 stamp of the sample in force on the chain clock, so its watchdog sees how old the data is.
 """
 
@@ -45,7 +35,9 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["hold_latest", "control_times", "TouchHold", "TrajectoryRows", "NO_TOUCH_TIME", "NO_LIFT"]
+from surfhap.render.kinematics import _STARTED, _SPEED, _X, _Y, TouchPredictor, predict
+
+__all__ = ["hold_latest", "control_times", "TouchHold", "TrajectoryRows", "NO_TOUCH_TIME", "NO_LIFT", "COUNTERS"]
 
 NO_TOUCH_TIME = -1.0e6  # "touched long ago": the watchdog holds the output at zero
 NO_LIFT = 1 << 62  # TouchHold.fill(): no late lift in this chunk
@@ -92,173 +84,183 @@ def control_times(n_model0, control_rate, out):
         out[k] = (n_model0 + k) / control_rate
 
 
+# H: the hold's float state; I: its int64 state and counters (``TouchHold.counts``)
+_ANCHOR, _OWNER, _ACTIVE, _OWNER_ARR, _LAST_ARR, _LAST_SRC, _LOAD, _TAKEOVER = range(8)
+_N_BUF, _I_BUF, _FULL, _N_APPLIED, _TOUCHES, _IGNORED, _STALE_N = range(7)
+COUNTERS = ("touches", "touches_ignored", "stale_stamps")
+
+
+@numba.njit(cache=True, nogil=True)
+def _refill(src, r, w, buf, I):
+    # compact the buffer, then pop source rows r.. (< w; ring index mod its length) behind it
+    i, n = I[_I_BUF], I[_N_BUF] - I[_I_BUF]
+    for j in range(n):
+        buf[j] = buf[i + j]
+    k = min(buf.shape[0] - n, w - r)
+    for j in range(k):
+        buf[n + j] = src[(r + j) % src.shape[0]]
+    I[_N_BUF] = n + k
+    I[_I_BUF] = 0
+    I[_FULL] = n + k == buf.shape[0]  # the ring may hold more than fitted
+    return k
+
+
+@numba.njit(cache=True, nogil=True)
+def _due(t_arr, k_min, rate, anchor):
+    # the first model sample (>= k_min) at which a sample stamped t_arr is in force
+    x = (t_arr - _DUE_TOL - anchor) * rate
+    if not (t_arr > _STALE and x > k_min):  # stale, NaN, or due already (also a stamp ages ago: -inf)
+        return k_min
+    if x > 1e18:
+        return NO_LIFT  # never within reach
+    k = max(k_min, int(math.ceil(x)) - 1)
+    while not t_arr <= anchor + k / rate + _DUE_TOL:
+        k += 1
+    return k
+
+
+@numba.njit(cache=True, nogil=True)
+def _apply(row, k, pos, rate, H, I, P, lat):
+    # one popped sample: arbitration, staleness, lift, prediction; returns a late lift's model sample
+    src, t_ev, t_arr, x, y, load = row[0], row[1], row[2], row[3], row[4], row[5]
+    if not t_arr > _STALE or (src == H[_OWNER] and t_arr < H[_OWNER_ARR]):
+        I[_STALE_N] += 1  # untrusted (future / non-finite) or non-monotonic stamp
+        t_arr = _STALE
+    if src != H[_OWNER]:
+        if H[_ACTIVE] != 0.0 and t_arr - H[_OWNER_ARR] < H[_TAKEOVER]:
+            I[_IGNORED] += 1
+            return NO_LIFT
+        H[_OWNER] = src
+        P[_STARTED:] = 0.0
+        H[_LAST_SRC] = math.nan
+    H[_OWNER_ARR] = t_arr
+    H[_LAST_ARR] = t_arr
+    I[_TOUCHES] += 1
+    a = I[_N_APPLIED]
+    if a < lat.shape[1] and t_arr > _STALE:
+        lat[0, a] = t_arr
+        lat[1, a] = pos
+        I[_N_APPLIED] = a + 1
+    if not load > 0.0:
+        H[_ACTIVE] = 0.0
+        H[_LOAD] = 0.0
+        P[_STARTED:] = 0.0
+        k_lift = _due(t_arr, -NO_LIFT, rate, H[_ANCHOR])
+        return k_lift if k_lift < k else NO_LIFT
+    if t_arr == _STALE:  # data of unknown age: not used (the watchdog holds 0 V)
+        return NO_LIFT
+    H[_ACTIVE] = 1.0
+    H[_LOAD] = load
+    # the source's time stamps give the intervals when they are sane, else arrival
+    last = H[_LAST_SRC]
+    if t_ev == t_ev and (last != last or t_ev >= last):
+        H[_LAST_SRC] = t_ev
+        predict(P, t_ev, x, y)
+    else:
+        predict(P, t_arr, x, y)
+    return NO_LIFT
+
+
+@numba.njit(cache=True, nogil=True)
+def _fill(src, r, w, refill, buf, H, I, P, lat, k0, rate, out):
+    """Rows of ``out`` (5, n) = speed, load, touch time, x, y of model samples ``k0 ..``;
+    returns (the earliest model sample of a lift applied late or NO_LIFT, rows popped)."""
+    popped = 0
+    if refill and (I[_I_BUF] or I[_N_BUF] < buf.shape[0]):
+        popped += _refill(src, r, w, buf, I)
+    n = out.shape[1]
+    late_lift = NO_LIFT
+    pos = 0
+    while pos < n:
+        t_k = H[_ANCHOR] + (k0 + pos) / rate + _DUE_TOL
+        nxt = math.inf
+        while True:
+            if I[_I_BUF] == I[_N_BUF] and I[_FULL]:
+                popped += _refill(src, r + popped, w, buf, I)  # the buffer ran dry: more is waiting
+            if I[_I_BUF] == I[_N_BUF]:
+                nxt = math.inf
+                break
+            nxt = buf[I[_I_BUF], 2]
+            if not nxt <= t_k:
+                break
+            late_lift = min(late_lift, _apply(buf[I[_I_BUF]], k0 + pos, pos, rate, H, I, P, lat))
+            I[_I_BUF] += 1
+        end = n if nxt == math.inf else min(n, _due(nxt, k0 + pos + 1, rate, H[_ANCHOR]) - k0)
+        load = H[_LOAD]
+        last = H[_LAST_ARR]
+        out[0, pos:end] = P[_SPEED] if load > 0.0 else 0.0
+        out[1, pos:end] = load
+        out[2, pos:end] = last - H[_ANCHOR] if last > -math.inf else NO_TOUCH_TIME
+        out[3, pos:end] = P[_X]
+        out[4, pos:end] = P[_Y]
+        pos = end
+    return late_lift, popped
+
+
 class TouchHold:
     """Popped touch samples (rows ``source, t_event, t_arrival, x, y, load``) put in force at
-    their stamps; ``counters`` is the engine's dict (touches, touches_ignored, stale_stamps)."""
+    their stamps, in one compiled call per chunk (:meth:`fill`). ``ring`` is where they come
+    from (``rows`` (cap, 6), ``read`` and ``write`` counters, ``consume(k)``: a
+    :class:`~surfhap.live.queues.TouchRing` or :class:`TrajectoryRows`); ``counters`` (the
+    engine's dict) receives :data:`COUNTERS` after each fill that applied samples; ``latencies`` (2, capacity): arrival stamp and position in
+    the chunk (model samples) of the ``n_applied`` samples put in force since the engine last
+    read them."""
 
-    def __init__(self, ring, predictor, takeover: float, counters: dict, capacity: int = 256):
-        self.ring = ring  # pop_into(rows) -> count: where the samples come from
+    def __init__(self, ring, predictor: TouchPredictor, takeover: float, counters: dict | None = None,
+                 capacity: int = 256):
+        self.ring = ring
+        self.counters = {} if counters is None else counters
         self.predictor = predictor
-        self.takeover = float(takeover)
-        self.counters = counters
         self.buf = np.zeros((capacity, 6))
-        self.arrivals = np.zeros(capacity)  # samples put in force since the engine last read them
-        self.positions = np.zeros(capacity)  # ... and their positions in the chunk (model samples)
+        self.H = np.zeros(8)
+        self.I = np.zeros(7, dtype=np.int64)
+        self.latencies = np.zeros((2, capacity))
+        self.takeover = float(takeover)
+        self._refill = False
         self.reset()
 
     def reset(self) -> None:
         self.predictor.reset()
-        self.n_buf = 0
-        self.i_buf = 0
-        self._full = False
-        self.n_applied = 0
-        self.anchor = -math.inf
-        self.owner = -1.0
-        self.owner_active = False
-        self.owner_arrival = -math.inf
-        self.last_arrival = -math.inf
-        self.last_source_time = math.nan
-        self.load = 0.0
+        self.H[:] = (-math.inf, -1.0, 0.0, -math.inf, -math.inf, math.nan, 0.0, self.takeover)
+        self.I[:] = 0
+
+    anchor = property(lambda self: float(self.H[_ANCHOR]), lambda self, v: self.H.__setitem__(_ANCHOR, v),
+                      doc="s, engine-clock time of the chain's model sample 0")
+    last_arrival = property(lambda self: float(self.H[_LAST_ARR]), doc="s, stamp of the sample in force (-inf: none)")
+    n_applied = property(lambda self: int(self.I[_N_APPLIED]), lambda self, v: self.I.__setitem__(_N_APPLIED, v))
 
     def take(self, now: float, chain_seconds: float) -> None:
-        """Pop the ring behind the samples not yet in force and anchor the chain clock
-        (``chain_seconds``: the chain's next model sample time, s from its 0) to ``now``."""
-        if self.i_buf or self.n_buf < self.buf.shape[0]:
-            self._refill()
-        behind = now - chain_seconds
-        if behind > self.anchor:
-            self.anchor = behind
+        """Pop the ring behind the samples not yet in force (at the next :meth:`fill`) and
+        anchor the chain clock (``chain_seconds``: the chain's next model sample time, s from
+        its 0) to ``now``."""
+        self._refill = True
+        if now - chain_seconds > self.H[_ANCHOR]:
+            self.H[_ANCHOR] = now - chain_seconds
 
-    def _refill(self) -> None:
-        buf = self.buf
-        if self.i_buf:
-            rest = self.n_buf - self.i_buf
-            if rest:
-                buf[:rest] = buf[self.i_buf:self.n_buf].copy()
-            self.n_buf, self.i_buf = rest, 0
-        self.n_buf += self.ring.pop_into(buf[self.n_buf:])
-        self._full = self.n_buf == buf.shape[0]  # the ring may hold more than fitted
-
-    def due(self, t_arr: float, k_min: int, rate: float) -> int:
-        """The first model sample (>= ``k_min``) at which a sample stamped ``t_arr`` is in force."""
-        x = (t_arr - _DUE_TOL - self.anchor) * rate
-        if not (t_arr > _STALE and x > k_min):  # stale, NaN, or due already (also a stamp ages ago: -inf)
-            return k_min
-        k = max(k_min, int(math.ceil(x)) - 1)
-        while not t_arr <= self.anchor + k / rate + _DUE_TOL:
-            k += 1
-        return k
-
-    def fill(self, k0: int, rate: float, sp, ld, ti, xs, ys) -> int:
-        """Fill the (n,) inputs of model samples ``k0 ..`` with the sample in force at each;
-        returns the earliest model sample of a lift applied late (``NO_LIFT`` if none)."""
-        pred = self.predictor
-        if self.i_buf == self.n_buf and not self._full:  # nothing waiting (most live chunks): one run
-            load = self.load
-            sp.fill(pred.speed if load > 0.0 else 0.0)
-            ld.fill(load)
-            ti.fill(self.last_arrival - self.anchor if self.last_arrival > -math.inf else NO_TOUCH_TIME)
-            xs.fill(pred.x)
-            ys.fill(pred.y)
-            return NO_LIFT
-        n = sp.shape[0]
-        buf = self.buf
-        late_lift = NO_LIFT
-        runs = r_end, r_sp, r_ld, r_ti, r_x, r_y = [], [], [], [], [], []  # offline: per run of one sample
-        pos = 0
-        while pos < n:
-            t_k = self.anchor + (k0 + pos) / rate + _DUE_TOL
-            while True:
-                if self.i_buf == self.n_buf and self._full:
-                    self._refill()  # the buffer ran dry: more is waiting in the ring
-                if self.i_buf == self.n_buf:
-                    nxt = math.inf
-                    break
-                row = buf[self.i_buf].tolist()  # Python floats: cheap arithmetic below
-                nxt = row[2]
-                if not nxt <= t_k:
-                    break
-                k_lift = self._apply(row, k0 + pos, pos, rate)
-                if k_lift < late_lift:
-                    late_lift = k_lift
-                self.i_buf += 1
-            end = n if nxt == math.inf else min(n, self.due(nxt, k0 + pos + 1, rate) - k0)
-            load = self.load
-            if n <= 64:  # a live chunk: fill the run at once
-                sp[pos:end] = pred.speed if load > 0.0 else 0.0
-                ld[pos:end] = load
-                ti[pos:end] = self.last_arrival - self.anchor if self.last_arrival > -math.inf else NO_TOUCH_TIME
-                xs[pos:end] = pred.x
-                ys[pos:end] = pred.y
-                pos = end
-                continue
-            r_end.append(end)
-            r_sp.append(pred.speed if load > 0.0 else 0.0)
-            r_ld.append(load)
-            r_ti.append(self.last_arrival - self.anchor if self.last_arrival > -math.inf else NO_TOUCH_TIME)
-            r_x.append(pred.x)
-            r_y.append(pred.y)
-            pos = end
-        if runs[0]:  # an offline block: the runs recorded, one vectorised fill
-            counts = np.diff(runs[0], prepend=0)
-            for lst, out in zip(runs[1:], (sp, ld, ti, xs, ys)):
-                out[:] = np.repeat(lst, counts)
-        return late_lift
-
-    def _apply(self, row: list, k: int, pos: int, rate: float) -> int:
-        src, t_ev, t_arr, x, y, load = row
-        pred = self.predictor
-        c = self.counters
-        if not t_arr > _STALE or (src == self.owner and t_arr < self.owner_arrival):
-            c["stale_stamps"] += 1  # untrusted (future / non-finite) or non-monotonic stamp
-            t_arr = _STALE
-        if src != self.owner:
-            if self.owner_active and t_arr - self.owner_arrival < self.takeover:
-                c["touches_ignored"] += 1
-                return NO_LIFT
-            self.owner = src
-            pred.reset()
-            self.last_source_time = math.nan
-        self.owner_arrival = t_arr
-        self.last_arrival = t_arr
-        c["touches"] += 1
-        a = self.n_applied
-        if a < self.arrivals.shape[0] and t_arr > _STALE:
-            self.arrivals[a] = t_arr
-            self.positions[a] = pos
-            self.n_applied = a + 1
-        if not load > 0.0:
-            self.owner_active = False
-            self.load = 0.0
-            pred.reset()
-            k_lift = self.due(t_arr, -NO_LIFT, rate)
-            return k_lift if k_lift < k else NO_LIFT
-        if t_arr == _STALE:  # data of unknown age: not used (the watchdog holds 0 V)
-            return NO_LIFT
-        self.owner_active = True
-        self.load = load
-        # the source's time stamps give the intervals when they are sane, else arrival
-        ts = t_ev if (t_ev == t_ev and (self.last_source_time != self.last_source_time
-                                        or t_ev >= self.last_source_time)) else math.nan
-        if ts == ts:
-            self.last_source_time = ts
-            pred.update(ts, x, y)
-        else:
-            pred.update(t_arr, x, y)
-        return NO_LIFT
+    def fill(self, k0: int, rate: float, out: np.ndarray) -> int:
+        """Fill ``out`` (5, n): speed (m/s), load (N), touch time (s on the chain clock), x, y
+        (m) of model samples ``k0 ..`` with the sample in force at each; returns the earliest
+        model sample of a lift applied late (``NO_LIFT`` if none)."""
+        ring = self.ring
+        late, popped = _fill(ring.rows, ring.read, ring.write, self._refill, self.buf, self.H, self.I,
+                             self.predictor.state, self.latencies, k0, float(rate), out)
+        self._refill = False
+        if popped:
+            ring.consume(popped)
+        if self.I[_N_BUF]:  # samples were popped or wait in the buffer: the counters may have moved
+            self.counters.update(zip(COUNTERS, self.I[_TOUCHES:].tolist()))
+        return late
 
 
 class TrajectoryRows:
     """A trajectory's samples as touch rows (source, stamp, stamp, x, y, load), stamps in s
-    from its first sample, popped in order (the ring of an offline :class:`TouchHold`)."""
+    from its first sample, all pending at once (the ring of an offline :class:`TouchHold`)."""
 
     def __init__(self, trajectory):
         t = trajectory.t - trajectory.t[0]
         self.rows = np.column_stack([np.ones(t.size), t, t, trajectory.x, trajectory.y, trajectory.load])
-        self.i = 0
+        self.read = 0
+        self.write = t.size
 
-    def pop_into(self, out: np.ndarray) -> int:
-        k = min(out.shape[0], self.rows.shape[0] - self.i)
-        out[:k] = self.rows[self.i:self.i + k]
-        self.i += k
-        return k
+    def consume(self, k: int) -> None:
+        self.read += k

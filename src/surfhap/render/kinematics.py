@@ -1,8 +1,7 @@
 """Kinematics stage: touch-latency prediction and finger speed, one law for live and offline.
 
-Touch panels report the finger late: a few tens of ms on the tablet of KinesTouch
-(paper 004, Sec. 4.2), up to 2 cm of position error in ordinary slides. The live engine can lead the measured position by a
-configurable latency with the prediction-correction filter of that paper:
+Touch panels report the finger late (a few tens of ms, up to 2 cm in ordinary slides: 004
+Sec. 4.2); the position can lead by a configurable latency with that paper's filter:
 
 * linear prediction (eq. 6):  f_pred = f_mes + k_pred (f_mes - f_mes_prev)
 * exponential smoothing (eq. 7): the printed equation, ``f = alpha f_pred (1 - alpha) f_pred_prev``,
@@ -25,24 +24,72 @@ A fixed ``k_pred`` can be given instead to reproduce the paper exactly.
 Speed is the distance between consecutive (corrected) positions over their time
 difference, smoothed by a one-pole low-pass of ``cutoff`` Hz (hand motion lies below a few
 Hz, Otake et al. 2021 Sec. III-B). Without prediction (the default) the position is the
-measured one and this is the speed every render uses, live and offline (through
-:class:`surfhap.render.hold.TouchHold`). The velocity vector (``vx``, ``vy``, m/s)
-is the same difference per axis and filter. ``velocity_alpha`` replaces that low-pass by
-the paper's own velocity filter: exponential smoothing per sample with factor 0.45
-(004 Sec. 4.2, last sentence of "Handling latency issues"); ``speed`` is then the norm of
-the smoothed velocity. All arithmetic is on Python floats:
-nothing allocates per sample, so it may run inside the real-time callback.
+measured one and this is the speed every render uses, live and offline. The velocity
+(``vx``, ``vy``, m/s) is the same difference per axis and filter; ``velocity_alpha`` replaces
+the low-pass by the paper's per-sample smoothing with factor 0.45 (004 Sec. 4.2), ``speed``
+then being the norm of the smoothed velocity. The step is one compiled function
+(:func:`predict`) on a state array: the touch hold (:class:`surfhap.render.hold.TouchHold`)
+calls it inside its compiled loop, the force loop through :meth:`TouchPredictor.update`.
 """
 
 from __future__ import annotations
 
 import math
 
-__all__ = ["TouchPredictor"]
+import numba
+import numpy as np
+
+__all__ = ["TouchPredictor", "predict"]
+
+# the state array of a predictor: parameters, then the filter state
+_LATENCY, _ALPHA, _K_PRED, _MAX_GAP, _MAX_K, _TAU, _VALPHA = range(7)  # k_pred, velocity_alpha: NaN = None
+_STARTED, _T, _MX, _MY, _X, _Y, _SPEED, _VX, _VY = range(7, 16)
+
+
+@numba.njit(cache=True, nogil=True)
+def predict(p, t, x, y):
+    """One touch sample (t s, x, y m) into the predictor state ``p`` ((16,) float, see
+    :class:`TouchPredictor`): eq. 6, eq. 7 and the speed low-pass."""
+    if not (math.isfinite(t) and math.isfinite(x) and math.isfinite(y)):
+        return  # sources validate; this keeps the state finite whatever reaches it
+    if p[_STARTED] == 0.0 or not (0.0 < t - p[_T] <= p[_MAX_GAP]):
+        if p[_STARTED] != 0.0 and t - p[_T] <= 0.0 and t > p[_T] - p[_MAX_GAP]:
+            p[_MX] = x  # duplicate / out-of-order time stamp: keep the state, take the position
+            p[_MY] = y
+            return
+        p[_STARTED] = 1.0
+        p[_T], p[_MX], p[_MY], p[_X], p[_Y] = t, x, y, x, y
+        p[_SPEED] = p[_VX] = p[_VY] = 0.0
+        return
+    dt = t - p[_T]
+    k = p[_K_PRED]  # eq. 6's gain: fixed, or derived from the latency (see the module docstring)
+    if k != k:
+        k = 0.0
+        if p[_LATENCY] != 0.0:
+            k = min(p[_LATENCY] / dt + (1.0 - p[_ALPHA]) / p[_ALPHA], p[_MAX_K])
+    # eq. 6: linear prediction from the last two measured positions
+    px = x + k * (x - p[_MX])
+    py = y + k * (y - p[_MY])
+    # eq. 7 with its missing '+' restored: exponential smoothing on the previous output
+    a = p[_ALPHA]
+    nx = a * px + (1.0 - a) * p[_X]
+    ny = a * py + (1.0 - a) * p[_Y]
+    rvx = (nx - p[_X]) / dt
+    rvy = (ny - p[_Y]) / dt
+    g = p[_VALPHA]
+    if g != g:
+        g = dt / (p[_TAU] + dt)
+        p[_SPEED] += g * (math.hypot(rvx, rvy) - p[_SPEED])
+    p[_VX] += g * (rvx - p[_VX])
+    p[_VY] += g * (rvy - p[_VY])
+    if p[_VALPHA] == p[_VALPHA]:
+        p[_SPEED] = math.hypot(p[_VX], p[_VY])
+    p[_T], p[_MX], p[_MY], p[_X], p[_Y] = t, x, y, nx, ny
 
 
 class TouchPredictor:
-    """``update(t, x, y) -> None`` per touch sample, then read ``x``, ``y``, ``speed``.
+    """``update(t, x, y) -> None`` per touch sample, then read ``x``, ``y``, ``speed``, ``vx``,
+    ``vy``; ``state`` is the (16,) float array :func:`predict` works on.
 
     latency : s, touch latency to compensate (0 = no prediction).
     alpha   : smoothing factor of eq. 7 in (0, 1]; 1 = no smoothing.
@@ -67,66 +114,19 @@ class TouchPredictor:
             raise ValueError("cutoff must be > 0 Hz")
         if velocity_alpha is not None and not (math.isfinite(velocity_alpha) and 0.0 < velocity_alpha <= 1.0):
             raise ValueError("velocity_alpha must be in (0, 1]")
-        self.velocity_alpha = None if velocity_alpha is None else float(velocity_alpha)
-        self.latency = float(latency)
-        self.alpha = float(alpha)
-        self.k_pred = None if k_pred is None else float(k_pred)
-        self.cutoff = float(cutoff)
-        self.max_gap = float(max_gap)
-        self.max_k = float(max_k)
-        self._tau = 1.0 / (2.0 * math.pi * self.cutoff)
-        self.reset()
+        self.state = np.zeros(16)
+        self.state[:_STARTED] = (latency, alpha, math.nan if k_pred is None else k_pred, max_gap, max_k,
+                                 1.0 / (2.0 * math.pi * cutoff), math.nan if velocity_alpha is None else velocity_alpha)
 
     def reset(self) -> None:
-        self.started = False
-        self.t = 0.0
-        self.mx = 0.0  # previous measured position (eq. 6 f_mes_prev)
-        self.my = 0.0
-        self.x = 0.0  # corrected position (eq. 7 output)
-        self.y = 0.0
-        self.speed = 0.0
-        self.vx = 0.0  # smoothed velocity, m/s
-        self.vy = 0.0
-
-    def gain(self, dt: float) -> float:
-        """k_pred of eq. 6 for a sample interval ``dt``."""
-        if self.k_pred is not None:
-            return self.k_pred
-        if self.latency == 0.0:
-            return 0.0
-        k = self.latency / dt + (1.0 - self.alpha) / self.alpha
-        return k if k < self.max_k else self.max_k
+        self.state[_STARTED:] = 0.0
 
     def update(self, t: float, x: float, y: float) -> None:
-        if not (math.isfinite(t) and math.isfinite(x) and math.isfinite(y)):
-            return  # sources validate; this keeps the state finite whatever reaches it
-        if not self.started or not (0.0 < t - self.t <= self.max_gap):
-            if self.started and t - self.t <= 0.0 and t > self.t - self.max_gap:
-                # duplicate / out-of-order time stamp: keep the state, take the position
-                self.mx, self.my = x, y
-                return
-            self.started = True
-            self.t, self.mx, self.my, self.x, self.y = t, x, y, x, y
-            self.speed = self.vx = self.vy = 0.0
-            return
-        dt = t - self.t
-        k = self.gain(dt)
-        # eq. 6: linear prediction from the last two measured positions
-        px = x + k * (x - self.mx)
-        py = y + k * (y - self.my)
-        # eq. 7 with its missing '+' restored: exponential smoothing on the previous output
-        a = self.alpha
-        nx = a * px + (1.0 - a) * self.x
-        ny = a * py + (1.0 - a) * self.y
-        rvx = (nx - self.x) / dt
-        rvy = (ny - self.y) / dt
-        if self.velocity_alpha is None:
-            g = dt / (self._tau + dt)
-            self.speed += g * (math.hypot(rvx, rvy) - self.speed)
-        else:
-            g = self.velocity_alpha
-        self.vx += g * (rvx - self.vx)
-        self.vy += g * (rvy - self.vy)
-        if self.velocity_alpha is not None:
-            self.speed = math.hypot(self.vx, self.vy)
-        self.t, self.mx, self.my, self.x, self.y = t, x, y, nx, ny
+        predict(self.state, t, x, y)
+
+    started = property(lambda self: self.state[_STARTED] != 0.0)
+    x = property(lambda self: float(self.state[_X]), doc="m, corrected position (eq. 7 output)")
+    y = property(lambda self: float(self.state[_Y]))
+    speed = property(lambda self: float(self.state[_SPEED]), doc="m/s")
+    vx = property(lambda self: float(self.state[_VX]), doc="m/s, smoothed velocity")
+    vy = property(lambda self: float(self.state[_VY]))

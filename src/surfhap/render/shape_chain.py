@@ -193,15 +193,16 @@ def render_shape(surface: TopSurface, trajectory: Trajectory, calibration: Shape
     fs = cfg.drive_rate
     chain = ShapeChain(surface, cal, cfg, control_rate=fs, surface_size=(0.0, 0.0))
     mirrored = Trajectory(trajectory.t, trajectory.x, -trajectory.y, trajectory.load, name=trajectory.name)
-    hold = TouchHold(TrajectoryRows(mirrored), TouchPredictor(), 0.05, {"touches": 0, "touches_ignored": 0, "stale_stamps": 0})
+    hold = TouchHold(TrajectoryRows(mirrored), TouchPredictor(), 0.05)
     hold.take(0.0, 0.0)
     m = int(np.floor(t[-1] * fs + 1e-9)) + int(round(0.05 * fs))  # 50 ms tail for the last grain
     block_d = min(8192, max(1, int(round(block_seconds * fs))))
     drives, targets, frictions = [], [], []
     for s in range(0, m, block_d):
         k = min(m, s + block_d) - s
-        speed, load, touch_time, xs, ys = (np.empty(k) for _ in range(5))
-        hold.fill(s, fs, speed, load, touch_time, xs, ys)
+        inputs = np.empty((5, k))
+        hold.fill(s, fs, inputs)
+        speed, load, touch_time, xs, ys = inputs
         b = chain.process(speed, load, touch_time, xs, ys)
         drives.append(b.drive)
         targets.append(b.target)

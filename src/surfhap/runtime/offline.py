@@ -56,8 +56,9 @@ class OfflineEngine:
     def render(self, frames: int, now: float | None = None) -> np.ndarray:
         fm, k0 = self.drive_rate, self.n
         self.hold.take(k0 / fm if now is None else now, k0 / fm)  # model sample 0 is the trajectory's first stamp
-        speed, load, touch_time, xs, ys = (np.empty(frames) for _ in range(5))
-        self.hold.fill(k0, fm, speed, load, touch_time, xs, ys)
+        inputs = np.empty((5, frames))
+        self.hold.fill(k0, fm, inputs)
+        speed, load, touch_time, xs, ys = inputs
         out = self.chain.process(speed, load, touch_time, xs, ys)
         self.block = (k0, speed, load, out)
         self.n += frames

@@ -69,17 +69,11 @@ class TrajectorySource:
 class ReplayRows(TrajectoryRows):
     """A trajectory's rows (:class:`~surfhap.render.hold.TrajectoryRows`) released at their
     stamps: ``deliver(until)`` (the loop's :class:`~surfhap.runtime.loop.Replay`) makes every
-    row stamped at or before ``until`` poppable, vectorised (the offline render's source)."""
+    row stamped at or before ``until`` readable, vectorised (the offline render's source)."""
 
     def __init__(self, trajectory):
         super().__init__(trajectory)
-        self.released = 0
+        self.write = 0  # nothing released before the first delivery
 
     def deliver(self, until: float) -> None:
-        self.released = max(self.released, int(np.searchsorted(self.rows[:, 2], until, side="right")))
-
-    def pop_into(self, out: np.ndarray) -> int:
-        k = min(out.shape[0], self.released - self.i)
-        out[:k] = self.rows[self.i:self.i + k]
-        self.i += k
-        return k
+        self.write = max(self.write, int(np.searchsorted(self.rows[:, 2], until, side="right")))
