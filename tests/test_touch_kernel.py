@@ -13,12 +13,11 @@ import pytest
 from surfhap.exchange.materials import load_material
 from surfhap.live.engine import LiveEngine
 from surfhap.live.engine_config import EngineConfig
-from surfhap.models.panel import SimulatedDisplay
 from surfhap.models.trajectory import Trajectory
 from surfhap.render.chain import ChainConfig, TextureChain
 from surfhap.render.hold import TouchHold, TrajectoryRows
 from surfhap.render.kinematics import TouchPredictor
-from surfhap.render.offline import render_blocks
+from surfhap.runtime.offline import render
 
 
 def _reference(samples, latency, alpha, cutoff=20.0, velocity_alpha=None, max_gap=0.1, max_k=20.0):
@@ -71,9 +70,7 @@ def test_offline_and_live_hold_run_the_compiled_step_not_the_python_method(monke
     monkeypatch.setattr(TouchPredictor, "update", python_path)
     t = np.arange(0.0, 0.5, 0.008)
     traj = Trajectory(t, 0.02 + 0.1 * t, np.full(t.size, 0.03), np.full(t.size, 0.5), name="ramp")
-    chain = TextureChain(load_material("cork"), ChainConfig(drive_rate=20000))
-    display = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.control_rate)
-    speed = np.concatenate([s for _, s, *_ in render_blocks(chain, traj, display, block_seconds=0.1)])
+    speed = render(load_material("cork"), traj, ChainConfig(drive_rate=20000), block_seconds=0.1).speed
     assert speed[-100:] == pytest.approx(0.1, rel=0.02)  # the ramp's 0.1 m/s, held per model sample
     e = LiveEngine(TextureChain(load_material("cork"), ChainConfig(drive_rate=20000)), EngineConfig())
     for k in range(100):
