@@ -2,10 +2,10 @@
 
 Each source is a :class:`surfhap.runtime.protocols.Source` (``start()``, ``stop()``) pushing
 into a :class:`surfhap.runtime.protocols.TouchSink` (the engine's ``push_touch``); the
-simulated-clock replay is :class:`surfhap.runtime.sources.TrajectorySource`.
+replay of a trajectory file (on a simulated or a wall clock) is
+:class:`surfhap.runtime.sources.TrajectorySource`.
 
 * :class:`OscTouchSource` - OSC over UDP (python-osc parsing, our own bounded handler);
-* :class:`ReplaySource` - a trajectory file (CSV: time, x, y, load) replayed in real time;
 * the web page's WebSocket stream lives in :mod:`surfhap.web.touch` and uses the same
   :class:`RateLimiter`, :class:`RejectLog` and :class:`TouchSpace`.
 
@@ -35,10 +35,10 @@ from typing import Annotated
 from pydantic import Field
 
 from surfhap.checked import checked_dataclass
-from surfhap.runtime.clock import now, sleep_until
+from surfhap.runtime.clock import now
 from surfhap.live.udpguard import UdpListener
 
-__all__ = ["TouchSpace", "RateLimiter", "RejectLog", "OscTouchSource", "ReplaySource", "OSC_ADDRESSES",
+__all__ = ["TouchSpace", "RateLimiter", "RejectLog", "OscTouchSource", "OSC_ADDRESSES",
            "finite_in_range"]
 
 log = logging.getLogger("surfhap.live")
@@ -316,56 +316,3 @@ class OscTouchSource:
         self.engine.push_touch(src, x, y, load, t_arrival=t_arr)
         self.accepted += 1
         return True
-
-
-class ReplaySource:
-    """Replay a :class:`~surfhap.models.trajectory.Trajectory` in real time from a thread.
-
-    ``loop`` repeats it (bounded by ``max_seconds``); a lift is sent at the end.
-    """
-
-    def __init__(self, engine, trajectory, loop: bool = False, max_seconds: float = 3600.0, source: int = 1):
-        self.engine = engine
-        self.trajectory = trajectory
-        self.loop = loop
-        self.max_seconds = float(max_seconds)
-        self.source = source
-        self._run = False
-        self._thread = None
-        self.sent = 0
-        self.done = threading.Event()
-
-    def start(self) -> None:
-        self._run = True
-        self._thread = threading.Thread(target=self._play, name="surfhap-replay", daemon=True)
-        self._thread.start()
-
-    def _play(self) -> None:
-        tr = self.trajectory
-        t_rel = tr.t - tr.t[0]
-        start = now()
-        offset = 0.0
-        period = float(t_rel[-1]) + (float(t_rel[-1] - t_rel[-2]) if t_rel.size > 1 else 0.0)
-        try:
-            while self._run:
-                for i in range(t_rel.size):
-                    if not self._run:
-                        return
-                    due = start + offset + float(t_rel[i])
-                    if due - start > self.max_seconds:
-                        return
-                    sleep_until(due)
-                    self.engine.push_touch(self.source, float(tr.x[i]), float(tr.y[i]), float(tr.load[i]),
-                                           t_event=offset + float(t_rel[i]))
-                    self.sent += 1
-                if not self.loop:
-                    return
-                offset += period
-        finally:
-            self.engine.push_touch(self.source, 0.0, 0.0, 0.0)
-            self.done.set()
-
-    def stop(self) -> None:
-        self._run = False
-        if self._thread is not None:
-            self._thread.join(2.0)

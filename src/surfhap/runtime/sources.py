@@ -1,20 +1,24 @@
 """Replayed touch sources: a trajectory (or a recording's finger track) pushed into the engine
 at its own stamps.
 
-On a simulated clock :func:`surfhap.runtime.loop.run` calls :meth:`TrajectorySource.deliver`
-before each block: every sample stamped at or before the horizon is handed over with its
-stamp as arrival time, so it is in force from the model sample at its stamp on, exactly as
-the offline hold does. On a wall clock the live :class:`surfhap.live.sources.ReplaySource`
-sleeps until each stamp instead. The live sources (OSC, web page) implement the same
-:class:`~surfhap.runtime.protocols.Source` protocol.
+:class:`TrajectorySource` is the one replay of a trajectory into a touch sink. On a simulated
+clock :func:`surfhap.runtime.loop.run` calls :meth:`TrajectorySource.deliver` before each
+block: every sample stamped at or before the horizon is handed over with its stamp as arrival
+time, so it is in force from the model sample at its stamp on, exactly as the offline hold
+does. With ``wall_clock=True`` its own thread (between ``start()`` and ``stop()``) sleeps until
+each stamp and delivers it with the receive time as arrival time, like a live source (OSC,
+web page), which implement the same :class:`~surfhap.runtime.protocols.Source` protocol.
 """
 
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 
 from surfhap.render.hold import TrajectoryRows
 from surfhap.render.offline import model_samples
+from surfhap.runtime.clock import now, sleep_until
 
 __all__ = ["TrajectorySource", "ReplayRows", "model_samples", "drive_frames"]
 
@@ -27,43 +31,84 @@ def drive_frames(n_model: int, control_rate: int, drive_rate: int) -> int:
 class TrajectorySource:
     """A :class:`~surfhap.models.trajectory.Trajectory` replayed at its stamps (s from its
     first sample) into ``sink.push_touch`` (the engine), then a lift one sample period after
-    the last. ``source`` is the engine's source id."""
+    the last (or at ``stop()``, whichever comes first). ``source`` is the engine's source id.
 
-    def __init__(self, sink, trajectory, source: int = 1):
+    ``loop`` repeats it every period (last stamp + one sample period), for at most
+    ``max_seconds``. ``wall_clock``: replayed in real time by its own thread from ``start()``
+    on; otherwise the caller's simulated clock calls :meth:`deliver`. ``sent`` counts the
+    samples pushed; ``done`` is set once the lift has been pushed."""
+
+    def __init__(self, sink, trajectory, source: int = 1, *, loop: bool = False, max_seconds: float = 3600.0,
+                 wall_clock: bool = False):
         self.sink = sink
         self.trajectory = trajectory
         self.source = int(source)
+        self.loop, self.max_seconds, self.wall_clock = bool(loop), float(max_seconds), bool(wall_clock)
         self.t_rel = np.asarray(trajectory.t - trajectory.t[0], dtype=float)
         step = float(self.t_rel[-1] - self.t_rel[-2]) if self.t_rel.size > 1 else 1e-3
-        self.t_lift = float(self.t_rel[-1]) + step
+        self.t_lift = float(self.t_rel[-1]) + step  # also the period of a loop
         self.sent = 0
-        self.done = False
+        self.done = threading.Event()
+        self._run = False
+        self._thread: threading.Thread | None = None
 
     @property
     def duration(self) -> float:
         return float(self.t_rel[-1])
 
+    def _next_stamp(self) -> float:
+        """Stamp (s) of the next sample to push, or of the final lift."""
+        lap, i = divmod(self.sent, self.t_rel.size)
+        return self.t_lift if lap and not self.loop else lap * self.t_lift + float(self.t_rel[i])
+
+    def _lift(self, stamp: float | None) -> None:
+        self.sink.push_touch(self.source, 0.0, 0.0, 0.0, t_event=float("nan") if stamp is None else stamp,
+                             t_arrival=stamp)
+        self.done.set()
+
+    def deliver(self, until: float, stamped: bool = True) -> None:
+        """Push every sample stamped at or before ``until`` (s from the first sample), and the
+        final lift when its time has come; ``stamped``: the stamp is also the arrival time
+        (a simulated clock), else the sink stamps the arrival itself."""
+        tr, n = self.trajectory, self.t_rel.size
+        while not self.done.is_set():
+            ts = self._next_stamp()
+            if ts > until:
+                return
+            lap, i = divmod(self.sent, n)
+            if lap and not self.loop or self.loop and ts > self.max_seconds:
+                self._lift(ts if stamped else None)
+                return
+            self.sink.push_touch(self.source, float(tr.x[i]), float(tr.y[i]), float(tr.load[i]), t_event=ts,
+                                 t_arrival=ts if stamped else None)
+            self.sent += 1
+
     def start(self) -> None:
         self.sent = 0
-        self.done = False
+        self.done.clear()
+        if self.wall_clock:
+            self._run = True
+            self._thread = threading.Thread(target=self._play, name="surfhap-replay", daemon=True)
+            self._thread.start()
+
+    def _play(self) -> None:
+        start = now()
+        try:
+            while self._run and not self.done.is_set():
+                ts = self._next_stamp()
+                sleep_until(start + ts)
+                if self._run:
+                    self.deliver(ts, stamped=False)
+        finally:
+            if not self.done.is_set():
+                self._lift(None)
 
     def stop(self) -> None:
-        self.done = True
-
-    def deliver(self, until: float) -> None:
-        """Push every sample stamped at or before ``until`` (s from the first sample), and the
-        final lift when its time has come."""
-        tr, t = self.trajectory, self.t_rel
-        i = self.sent
-        while i < t.size and t[i] <= until:
-            ts = float(t[i])
-            self.sink.push_touch(self.source, float(tr.x[i]), float(tr.y[i]), float(tr.load[i]), t_event=ts,
-                                 t_arrival=ts)
-            i += 1
-        self.sent = i
-        if i == t.size and not self.done and self.t_lift <= until:
-            self.sink.push_touch(self.source, 0.0, 0.0, 0.0, t_event=self.t_lift, t_arrival=self.t_lift)
-            self.done = True
+        self._run = False
+        if self._thread is not None:
+            self._thread.join(2.0)
+            self._thread = None
+        self.done.set()
 
 
 class ReplayRows(TrajectoryRows):
