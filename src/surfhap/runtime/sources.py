@@ -31,57 +31,45 @@ def drive_frames(n_model: int, control_rate: int, drive_rate: int) -> int:
 class TrajectorySource:
     """A :class:`~surfhap.models.trajectory.Trajectory` replayed at its stamps (s from its
     first sample) into ``sink.push_touch`` (the engine), then a lift one sample period after
-    the last (or at ``stop()``, whichever comes first). ``source`` is the engine's source id.
-
-    ``loop`` repeats it every period (last stamp + one sample period), for at most
-    ``max_seconds``. ``wall_clock``: replayed in real time by its own thread from ``start()``
-    on; otherwise the caller's simulated clock calls :meth:`deliver`. ``sent`` counts the
-    samples pushed; ``done`` is set once the lift has been pushed."""
+    the last (or at ``stop()``). ``source``: the engine's source id. ``loop`` repeats it every
+    period (last stamp + one sample period) for at most ``max_seconds``. ``wall_clock``: its
+    own thread replays it in real time from ``start()`` on; otherwise the caller's simulated
+    clock calls :meth:`deliver`. ``sent`` counts the samples pushed; ``done`` is set by the lift."""
 
     def __init__(self, sink, trajectory, source: int = 1, *, loop: bool = False, max_seconds: float = 3600.0,
                  wall_clock: bool = False):
-        self.sink = sink
-        self.trajectory = trajectory
-        self.source = int(source)
+        self.sink, self.trajectory, self.source = sink, trajectory, int(source)
         self.loop, self.max_seconds, self.wall_clock = bool(loop), float(max_seconds), bool(wall_clock)
         self.t_rel = np.asarray(trajectory.t - trajectory.t[0], dtype=float)
-        step = float(self.t_rel[-1] - self.t_rel[-2]) if self.t_rel.size > 1 else 1e-3
-        self.t_lift = float(self.t_rel[-1]) + step  # also the period of a loop
+        self.t_lift = float(self.t_rel[-1]) + (float(self.t_rel[-1] - self.t_rel[-2]) if self.t_rel.size > 1 else 1e-3)
         self.sent = 0
         self.done = threading.Event()
-        self._run = False
-        self._thread: threading.Thread | None = None
+        self._run, self._thread = False, None
 
     @property
     def duration(self) -> float:
         return float(self.t_rel[-1])
 
-    def _next_stamp(self) -> float:
-        """Stamp (s) of the next sample to push, or of the final lift."""
-        lap, i = divmod(self.sent, self.t_rel.size)
-        return self.t_lift if lap and not self.loop else lap * self.t_lift + float(self.t_rel[i])
-
-    def _lift(self, stamp: float | None) -> None:
-        self.sink.push_touch(self.source, 0.0, 0.0, 0.0, t_event=float("nan") if stamp is None else stamp,
-                             t_arrival=stamp)
-        self.done.set()
-
-    def deliver(self, until: float, stamped: bool = True) -> None:
+    def deliver(self, until: float, stamped: bool = True) -> float:
         """Push every sample stamped at or before ``until`` (s from the first sample), and the
-        final lift when its time has come; ``stamped``: the stamp is also the arrival time
-        (a simulated clock), else the sink stamps the arrival itself."""
+        final lift when its time has come; ``stamped``: the stamp is the arrival time too (a
+        simulated clock), else the sink stamps the arrival. Returns the next stamp due."""
         tr, n = self.trajectory, self.t_rel.size
         while not self.done.is_set():
-            ts = self._next_stamp()
-            if ts > until:
-                return
             lap, i = divmod(self.sent, n)
-            if lap and not self.loop or self.loop and ts > self.max_seconds:
-                self._lift(ts if stamped else None)
-                return
-            self.sink.push_touch(self.source, float(tr.x[i]), float(tr.y[i]), float(tr.load[i]), t_event=ts,
-                                 t_arrival=ts if stamped else None)
-            self.sent += 1
+            end = lap > 0 and not self.loop
+            ts = self.t_lift if end else lap * self.t_lift + float(self.t_rel[i])
+            if ts > until:
+                return ts
+            arrival = ts if stamped else None
+            if end or ts > self.max_seconds:
+                self.sink.push_touch(self.source, 0.0, 0.0, 0.0, t_event=ts, t_arrival=arrival)
+                self.done.set()
+            else:
+                self.sink.push_touch(self.source, float(tr.x[i]), float(tr.y[i]), float(tr.load[i]), t_event=ts,
+                                     t_arrival=arrival)
+                self.sent += 1
+        return np.inf
 
     def start(self) -> None:
         self.sent = 0
@@ -92,16 +80,16 @@ class TrajectorySource:
             self._thread.start()
 
     def _play(self) -> None:
-        start = now()
+        start, due = now(), 0.0
         try:
             while self._run and not self.done.is_set():
-                ts = self._next_stamp()
-                sleep_until(start + ts)
+                sleep_until(start + due)
                 if self._run:
-                    self.deliver(ts, stamped=False)
+                    due = self.deliver(due, stamped=False)
         finally:
             if not self.done.is_set():
-                self._lift(None)
+                self.sink.push_touch(self.source, 0.0, 0.0, 0.0)
+                self.done.set()
 
     def stop(self) -> None:
         self._run = False
