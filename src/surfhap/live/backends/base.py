@@ -29,7 +29,7 @@ from surfhap.errors import ConfigError
 from surfhap.runtime.clock import Clock, WallClock, now
 from surfhap.runtime.loop import run
 
-__all__ = ["Backend", "PacedBackend", "StallWatch", "STALL_TIMEOUT", "ramp_down"]
+__all__ = ["PacedBackend", "StallWatch", "STALL_TIMEOUT", "ramp_down"]
 
 # s without a rendered block before a running backend counts as stalled. A choice: long
 # enough that a loaded machine's scheduling hiccups (tens of ms) never trip it, short
@@ -91,43 +91,7 @@ def ramp_down(engine, timeout: float) -> None:
         time.sleep(0.002)
 
 
-class Backend:
-    """What every backend shares: the engine it drives, its :class:`StallWatch` and the stop
-    sequence (watch off; while the output still runs, the engine's stop ramp; then
-    :meth:`release`). ``error``: why the output failed, None while it works."""
-
-    name = "backend"
-    drive_rate: int | None = None
-
-    def __init__(self, stall_timeout: float = STALL_TIMEOUT):
-        self.engine = None
-        self.stall_timeout = float(stall_timeout)
-        self._watch: StallWatch | None = None
-        self.error: str | None = None
-
-    def watch_stalls(self, on_stall=None) -> None:
-        self._watch = StallWatch(self.engine, self.name, self.stall_timeout, on_stall).start()
-
-    @property
-    def running(self) -> bool:  # pragma: no cover - overridden
-        return False
-
-    def stop(self, timeout: float = 1.0) -> None:
-        if self._watch is not None:
-            self._watch.stop()
-            self._watch = None
-        if self.engine is not None and self.running and not self.engine.halted:
-            ramp_down(self.engine, timeout)
-        self.release(timeout)
-
-    def release(self, timeout: float) -> None:  # pragma: no cover - overridden
-        pass
-
-    def info(self) -> dict:
-        return {"name": self.name}
-
-
-class PacedBackend(Backend):
+class PacedBackend:
     """Calls the engine from its own thread, one block per block period on the engine clock.
 
     Like a sound card, the output is buffered: a block may be rendered up to ``buffer``
@@ -139,12 +103,16 @@ class PacedBackend(Backend):
     """
 
     name = "paced"
+    drive_rate: int | None = None
     buffer: float = 0.005
 
     def __init__(self, stall_timeout: float = STALL_TIMEOUT):
-        super().__init__(stall_timeout)
         self._thread: threading.Thread | None = None
         self._run = False
+        self.engine = None
+        self.stall_timeout = float(stall_timeout)
+        self._watch: StallWatch | None = None
+        self.error: str | None = None
         self.clock: Clock = WallClock()  # what paces the blocks (a SimClock runs them as fast as possible)
 
     def open(self, engine) -> None:
@@ -159,7 +127,7 @@ class PacedBackend(Backend):
         self._run = True
         self._thread = threading.Thread(target=self._loop, name=f"surfhap-{self.name}", daemon=True)
         self._thread.start()
-        self.watch_stalls()
+        self._watch = StallWatch(engine, self.name, self.stall_timeout).start()
 
     def _loop(self) -> None:
         eng = self.engine
@@ -177,11 +145,13 @@ class PacedBackend(Backend):
     def emit(self, volts) -> None:  # pragma: no cover - overridden
         pass
 
-    @property
-    def running(self) -> bool:
-        return self._thread is not None and self._thread.is_alive()
-
-    def release(self, timeout: float) -> None:
+    def stop(self, timeout: float = 1.0) -> None:
+        if self._watch is not None:
+            self._watch.stop()
+            self._watch = None
+        eng = self.engine
+        if eng is not None and self._thread is not None and self._thread.is_alive() and not eng.halted:
+            ramp_down(eng, timeout)
         self._run = False
         if self._thread is not None:
             self._thread.join(timeout)
@@ -190,3 +160,6 @@ class PacedBackend(Backend):
 
     def close(self) -> None:
         pass
+
+    def info(self) -> dict:
+        return {"name": self.name}

@@ -22,7 +22,7 @@ import logging
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.live.backends.base import STALL_TIMEOUT, Backend
+from surfhap.live.backends.base import STALL_TIMEOUT, StallWatch, ramp_down
 from surfhap.runtime.clock import AudioClock
 
 __all__ = ["SoundBackend", "list_devices"]
@@ -54,15 +54,15 @@ def list_devices() -> list[dict]:
     return out
 
 
-class SoundBackend(Backend):
+class SoundBackend:
     name = "sound"
+    drive_rate = None
 
     def __init__(self, device: int | str | None = None, amp_gain: float = 250.0, n_channels: int | None = None,
                  channels: tuple[int, ...] | None = None, latency: str | float = "low",
                  capture_seconds: float = 0.0, stall_timeout: float = STALL_TIMEOUT):
         if not (np.isfinite(amp_gain) and amp_gain > 0):
             raise ConfigError("must be > 0 V per DAC unit", field="amp_gain")
-        super().__init__(stall_timeout)
         self.device = device
         self.amp_gain = float(amp_gain)
         self.n_channels = n_channels
@@ -72,8 +72,13 @@ class SoundBackend(Backend):
         self.capture = np.zeros(0, dtype=np.float32)
         self.captured = 0
         self._chans: tuple[int, ...] = ()
+        self.engine = None
         self._stream = None
+        self.clipped = 0
+        self.stall_timeout = float(stall_timeout)
+        self._watch = None
         self.nominal_latency = 0.0
+        self.error: str | None = None
 
     def start(self, engine) -> None:
         sd = _sd()
@@ -97,7 +102,7 @@ class SoundBackend(Backend):
         except sd.PortAudioError as exc:
             self._stream = None
             raise ConfigError(f"cannot open sound output at {engine.drive_rate} Hz ({exc})", source="--output") from None
-        self.watch_stalls(on_stall=self._abort)
+        self._watch = StallWatch(engine, self.name, self.stall_timeout, on_stall=self._abort).start()
         log.info("sound output on %r: %d channel(s) at %d Hz, block %d, output latency %.1f ms",
                  dev["name"], n_ch, engine.drive_rate, engine.block_frames, 1e3 * self._stream.latency)
 
@@ -145,17 +150,18 @@ class SoundBackend(Backend):
             cap[k : k + m] = u[:m]
             self.captured = k + m
 
-    @property
-    def running(self) -> bool:
-        return self._stream is not None
-
-    def release(self, timeout: float) -> None:
-        if self._stream is not None:
-            try:
-                self._stream.stop()
-                self._stream.close()
-            finally:
-                self._stream = None
+    def stop(self, timeout: float = 1.0) -> None:
+        if self._watch is not None:
+            self._watch.stop()
+            self._watch = None
+        if self._stream is None:
+            return
+        ramp_down(self.engine, timeout)
+        try:
+            self._stream.stop()
+            self._stream.close()
+        finally:
+            self._stream = None
 
     def info(self) -> dict:
         lat = self._stream.latency if self._stream is not None else None
