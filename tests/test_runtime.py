@@ -99,3 +99,21 @@ def test_one_replay_on_a_simulated_and_on_a_wall_clock():
     ref = [k * lift + r for k in range(3) for r in rel if k * lift + r <= 2.5 * lift]
     np.testing.assert_allclose(stamps, ref)
     assert looped.got[-1][1:4] == (0.0, 0.0, 0.0) and src.done.is_set()
+
+
+def test_a_wall_clock_replay_stopped_early_ends_with_a_lift():
+    import time
+
+    from surfhap.runtime.sources import TrajectorySource
+
+    t = np.arange(0.0, 20.0, 0.01)
+    sink = _Sink()
+    src = TrajectorySource(sink, Trajectory(t, np.full(t.size, 0.05), np.full(t.size, 0.05), np.ones(t.size)),
+                           wall_clock=True)
+    src.start()
+    end = time.monotonic() + 30.0  # failure guard only
+    while src.sent < 3 and time.monotonic() < end:
+        time.sleep(0.005)
+    src.stop()
+    assert src.done.is_set() and 3 <= src.sent < t.size
+    assert sink.got[-1][1:4] == (0.0, 0.0, 0.0) and len(sink.got) == src.sent + 1

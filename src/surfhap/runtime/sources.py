@@ -93,10 +93,11 @@ class TrajectorySource:
 
     def stop(self) -> None:
         self._run = False
-        if self._thread is not None:
+        if self._thread is None:
+            self.done.set()
+        else:  # the thread pushes the lift as it ends
             self._thread.join(2.0)
             self._thread = None
-        self.done.set()
 
 
 class ReplayRows(TrajectoryRows):
