@@ -36,6 +36,7 @@ import numpy as np
 
 from surfhap.errors import StudyFormatError
 from surfhap.lab import analysis as A
+from surfhap.lab.designs import analysis_params
 from surfhap.lab.schema import Study, load_study
 from surfhap.lab.triallog import read_log
 from surfhap.results import Result, jsonable
@@ -52,6 +53,20 @@ class Section:
     text: list[str] = field(default_factory=list)
     tables: list[tuple[list[str], list[list]]] = field(default_factory=list)
     figures: list[tuple[str, object, dict]] = field(default_factory=list)
+    tests: list[dict] = field(default_factory=list)  # for results.json, see :meth:`add`
+
+    def add(self, label: str, t: A.TestResult, groups: list[str], p_adj: float | None = None,
+            correction: str = "") -> str:
+        """Record test ``t`` (for results.json) and return its line for the text."""
+        self.tests.append(jsonable({"name": label, "groups": groups, "statistic": t.statistic, "df": t.df,
+                                    "p": t.p, "p_adjusted": p_adj, "alternative": t.alternative,
+                                    "method": t.name + (f", {correction}" if correction else ""),
+                                    "effect_size": {"name": _EFFECT.get(t.name.split(" (")[0], "estimate"),
+                                                    "value": t.estimate}}))
+        return f"{label}: " + _fmt_test(t, p_adj)
+
+
+_EFFECT = {"binomial": "proportion", "z": "difference of proportions", "t": "difference of means"}
 
 
 @dataclass
@@ -85,6 +100,12 @@ class StudyAnalysis(Result):
     def to_dict(self) -> dict:
         return jsonable({**self.summary(), "sections": [{"title": s.title, "text": s.text, "tables": s.tables}
                                                         for s in self.sections]})  # tables: (header, rows)
+
+    def results(self) -> dict:
+        """results.json: every test of every section (name, groups, statistic, df, p, adjusted p,
+        alternative, method, effect size)."""
+        return jsonable({"name": self.name, "kind": self.kind, "participants": self.participants,
+                         "tests": [{"section": s.title, **t} for s in self.sections for t in s.tests]})
 
     def plot(self, ax=None):
         """Every figure of the sections, one panel each (see :mod:`surfhap.report.lab_report`)."""
@@ -146,6 +167,9 @@ def _anova(sec: Section, *args) -> None:
         return
     sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
                                                      for e, f, d1, d2, p in an.rows]))
+    sec.tests += [jsonable({"name": e, "groups": list(args[3]), "statistic": f, "df": [d1, d2], "p": p,
+                            "p_adjusted": None, "alternative": "two-sided", "method": "F (repeated-measures ANOVA)",
+                            "effect_size": None}) for e, f, d1, d2, p in an.rows]
 
 
 def _nafc(study, recs):
@@ -158,7 +182,7 @@ def _nafc(study, recs):
     sec.text.append(", ".join(f"{c} {p:.2f}" for c, p in zip(conds, res.proportion)) + f" correct (chance {1 / n_alt:.2f})")
     sec.tables.append((["condition", "correct/n", "proportion", "95 % CI (Wilson)"], res.rows()))
     for c, kk, nn in zip(conds, k, n):
-        sec.text.append(f"{c} vs chance: " + _fmt_test(A.binomial_test(kk, nn, 1 / n_alt)))
+        sec.text.append(sec.add(f"{c} vs chance", A.binomial_test(kk, nn, 1 / n_alt), [c]))
     sec.figures.append(("nafc_conditions", res, {"chance": 1 / n_alt}))
     rows = []
     for (c, pair), rs in sorted(_by(recs, "condition", "pair").items()):
@@ -170,8 +194,10 @@ def _nafc(study, recs):
         b = _pp([r for r in recs if r["condition"]["condition"] == conds[1]])
         both = sorted(set(a) & set(b))
         if len(both) >= 2:
-            sec.text.append(f"{conds[0]} vs {conds[1]} ({len(both)} participants): "
-                            + _fmt_test(A.t_test([a[p] for p in both], [b[p] for p in both], paired=True)))
+            prm = analysis_params(study)
+            x, y = ([a[p] for p in both], [b[p] for p in both]) if prm.paired else (list(a.values()), list(b.values()))
+            sec.text.append(sec.add(f"{conds[0]} vs {conds[1]} ({len(x)} participants)",
+                                    A.t_test(x, y, paired=prm.paired, alternative=prm.alternative), conds[:2]))
     return [sec]
 
 
@@ -185,9 +211,12 @@ def _realism(study, recs):
         sec.text.append("needs two participants or more")
         return [sec]
     res = A.participant_means(per, mats, title=f"chose {first}")
+    alt = analysis_params(study).alternative
     tests = [A.z_test_one(sum(1 for r in recs if r["condition"]["material"] == m and r["answer"] == first),
-                          sum(1 for r in recs if r["condition"]["material"] == m), 0.5) for m in mats]
+                          sum(1 for r in recs if r["condition"]["material"] == m), 0.5, alternative=alt) for m in mats]
     padj = A.bonferroni([t.p for t in tests])
+    for m, t, pa in zip(mats, tests, padj):
+        sec.add(f"{m}: {first} vs chance 0.5", t, [m], pa, "Bonferroni")
     sec.text.append(", ".join(f"{m} {p:.2f}" for m, p in zip(mats, res.proportion)))
     sec.tables.append((["material", "proportion", "95 % CI (participants)", "z", "p (Bonferroni)"],
                        [[m, f"{p:.2f}", f"[{lo:.2f}, {hi:.2f}]", f"{t.statistic:.2f}", f"{pa:.3g}"]
@@ -208,7 +237,7 @@ def _identification(study, recs):
         k = int(np.trace(conf.counts))
         n = int(conf.counts.sum())
         sec.text.append(f"overall {conf.accuracy:.2f} correct (chance {1 / len(mats):.2f}); "
-                        + _fmt_test(A.binomial_test(k, n, 1 / len(mats))))
+                        + sec.add(f"{c} vs chance", A.binomial_test(k, n, 1 / len(mats)), [c]))
         per = [list(_pp([r for r in rs if r["correct"] == m], value=lambda r: float(r["is_correct"])).values())
                for m in mats]
         if min(len(v) for v in per) >= 2:
@@ -224,12 +253,17 @@ def _identification(study, recs):
         out.append(sec)
     if len(conds) == 2:
         a, b = counts[conds[0]], counts[conds[1]]
-        tests = [A.z_test_two(a.counts[i, i], a.counts[i].sum(), b.counts[i, i], b.counts[i].sum())
+        prm = analysis_params(study)
+        tests = [A.z_test_two(a.counts[i, i], a.counts[i].sum(), b.counts[i, i], b.counts[i].sum(),
+                              alternative=prm.alternative, pooled=prm.pooled)
                  for i in range(len(mats)) if a.counts[i].sum() and b.counts[i].sum()]
         if len(tests) == len(mats):
             padj = A.bonferroni([t.p for t in tests])
             sec = Section(f"Identification: {conds[0]} vs {conds[1]}")
-            sec.text.append("two-proportion z tests per material, Bonferroni-corrected")
+            sec.text.append(f"two-proportion z tests per material ({tests[0].name}, {prm.alternative}), "
+                            "Bonferroni-corrected")
+            for m, t, pa in zip(mats, tests, padj):
+                sec.add(f"{m}: {conds[0]} vs {conds[1]}", t, [conds[0], conds[1]], pa, "Bonferroni")
             sec.tables.append((["material", "z", "p", "p (Bonferroni)"],
                                [[m, f"{t.statistic:.2f}", f"{t.p:.3g}", f"{pa:.3g}"]
                                 for m, t, pa in zip(mats, tests, padj)]))
@@ -279,7 +313,8 @@ def _shape_choice(study, recs):
     pp = _pp(recs, value=lambda r: float(r["is_correct"]))
     sec.text.append(f"overall {conf.accuracy:.2f} correct (chance 0.25)")
     if len(pp) >= 2:
-        sec.text.append("participants vs chance: " + _fmt_test(A.t_test(list(pp.values()), 0.25, alternative="greater")))
+        sec.text.append(sec.add("participants vs chance", A.t_test(list(pp.values()), 0.25, alternative="greater"),
+                                ["participants"]))
     rows = []
     for key, rs in sorted(_by(recs, "shape", "profile", "grain").items()):
         rows.append(["-".join(key), f"{sum(r['is_correct'] for r in rs)}/{len(rs)}",
