@@ -105,7 +105,7 @@ class TestResult:
     name: str
     statistic: float
     p: float
-    df: float | None = None
+    df: float | tuple[float, float] | None = None  # (between, within) for F
     alternative: str = "two-sided"
     estimate: float | None = None
 

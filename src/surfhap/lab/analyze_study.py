@@ -4,15 +4,15 @@
 kind                analysis
 =================== =======================================================================
 nafc                proportion correct per condition (Wilson CI), exact binomial test against
-                    chance 1/n; per material pair; paired t test of the participants'
-                    proportions between two conditions (001 Sec. IV)
+                    chance 1/n; per material pair; one-sided Student t test of the participants'
+                    proportions between two conditions (001 Sec. V; params alternative, paired)
 realism             per material, the proportion choosing the first condition: mean over
-                    participants with a normal CI, z test against 0.5, Bonferroni over
-                    materials (003 Table II)
+                    participants with a normal CI, one-sided z test "greater than" 0.5,
+                    Bonferroni over materials (003 Table II; params alternative)
 identification      confusion matrix per condition; proportion correct per material (mean
                     over participants, normal CI) and overall; binomial test against chance;
-                    two-proportion z test between conditions per material, Bonferroni (003
-                    Tables III-IV)
+                    two-sided unpooled two-proportion z test between conditions per material,
+                    Bonferroni (003 Tables III-IV; params alternative, pooled)
 ratings             real-vs-virtual mean rating per material and adjective, Pearson r;
                     similarity per rendering method, repeated-measures ANOVA (000 Sec. 4)
 shape-choice        confusion of shape vs answer; proportion correct overall and per
@@ -24,12 +24,13 @@ sliding-pairs       discrimination score |2p - 1| per participant, comparison, v
                     tactile condition; repeated-measures ANOVA on the scores (004 Sec. 5.3;
                     the paper used an aligned-rank transform first, which statsmodels lacks)
 =================== =======================================================================
+
+Every test also goes to :meth:`StudyAnalysis.results` (``results.json`` of ``study analyze``).
 """
 
 from __future__ import annotations
 
 from collections import defaultdict
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -38,80 +39,10 @@ from surfhap.errors import StudyFormatError
 from surfhap.lab import analysis as A
 from surfhap.lab.designs import analysis_params
 from surfhap.lab.schema import Study, load_study
+from surfhap.lab.study_result import Section, StudyAnalysis
 from surfhap.lab.triallog import read_log
-from surfhap.results import Result, jsonable
 
 __all__ = ["Section", "StudyAnalysis", "analyze_study", "load_trials"]
-
-
-@dataclass
-class Section:
-    """One part of the report: paragraphs, tables (header, rows) and figures (name, result
-    object with ``.plot()``, keyword arguments of the plot)."""
-
-    title: str
-    text: list[str] = field(default_factory=list)
-    tables: list[tuple[list[str], list[list]]] = field(default_factory=list)
-    figures: list[tuple[str, object, dict]] = field(default_factory=list)
-    tests: list[dict] = field(default_factory=list)  # for results.json, see :meth:`add`
-
-    def add(self, label: str, t: A.TestResult, groups: list[str], p_adj: float | None = None,
-            correction: str = "") -> str:
-        """Record test ``t`` (for results.json) and return its line for the text."""
-        self.tests.append(jsonable({"name": label, "groups": groups, "statistic": t.statistic, "df": t.df,
-                                    "p": t.p, "p_adjusted": p_adj, "alternative": t.alternative,
-                                    "method": t.name + (f", {correction}" if correction else ""),
-                                    "effect_size": {"name": _EFFECT.get(t.name.split(" (")[0], "estimate"),
-                                                    "value": t.estimate}}))
-        return f"{label}: " + _fmt_test(t, p_adj)
-
-
-_EFFECT = {"binomial": "proportion", "z": "difference of proportions", "t": "difference of means"}
-
-
-@dataclass
-class StudyAnalysis(Result):
-    name: str
-    kind: str
-    participants: list[str]
-    n_trials: int
-    incomplete: list[str]
-    sections: list[Section]
-    warnings: list[str] = field(default_factory=list)
-
-    def summary_lines(self) -> list[str]:
-        out = [f"{self.name}: {len(self.participants)} participants, {self.n_trials} trials"
-               + (f" ({len(self.incomplete)} incomplete: {', '.join(self.incomplete)})" if self.incomplete else "")]
-        out += [f"  warning: {w}" for w in self.warnings]
-        for s in self.sections:
-            out += [f"  {s.title}: {s.text[0]}"] if s.text else []
-        return out
-
-    @property
-    def panels(self) -> int:
-        """One per figure of the sections."""
-        return sum(len(s.figures) for s in self.sections)
-
-    def summary(self) -> dict:
-        return jsonable({"name": self.name, "kind": self.kind, "participants": self.participants,
-                         "n_trials": self.n_trials, "incomplete": self.incomplete, "warnings": self.warnings,
-                         "sections": [{"title": s.title, "text": s.text} for s in self.sections]})
-
-    def to_dict(self) -> dict:
-        return jsonable({**self.summary(), "sections": [{"title": s.title, "text": s.text, "tables": s.tables}
-                                                        for s in self.sections]})  # tables: (header, rows)
-
-    def results(self) -> dict:
-        """results.json: every test of every section (name, groups, statistic, df, p, adjusted p,
-        alternative, method, effect size)."""
-        return jsonable({"name": self.name, "kind": self.kind, "participants": self.participants,
-                         "tests": [{"section": s.title, **t} for s in self.sections for t in s.tests]})
-
-    def plot(self, ax=None):
-        """Every figure of the sections, one panel each (see :mod:`surfhap.report.lab_report`)."""
-        from surfhap.report.lab_report import plot_study
-
-        return plot_study(self, ax)
 
 
 def load_trials(study_dir: str | Path) -> tuple[Study, list[dict], list[str], list[str]]:
@@ -153,11 +84,6 @@ def _pp(records, value=lambda r: float(r["score"]), key="participant"):
     return {k: float(np.mean(v)) for k, v in acc.items()}
 
 
-def _fmt_test(t: A.TestResult, p_adj: float | None = None) -> str:
-    s = f"{t.name}: statistic {t.statistic:.3g}" + (f", df {t.df:g}" if t.df is not None else "") + f", p = {t.p:.3g}"
-    return s + (f" (Bonferroni {p_adj:.3g})" if p_adj is not None else "") + f" [{t.alternative}]"
-
-
 def _anova(sec: Section, *args) -> None:
     """The table of ``A.rm_anova(*args)`` into ``sec``, or why there is none."""
     try:
@@ -167,9 +93,8 @@ def _anova(sec: Section, *args) -> None:
         return
     sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
                                                      for e, f, d1, d2, p in an.rows]))
-    sec.tests += [jsonable({"name": e, "groups": list(args[3]), "statistic": f, "df": [d1, d2], "p": p,
-                            "p_adjusted": None, "alternative": "two-sided", "method": "F (repeated-measures ANOVA)",
-                            "effect_size": None}) for e, f, d1, d2, p in an.rows]
+    for e, f, d1, d2, p in an.rows:
+        sec.add(e, A.TestResult("F (repeated-measures ANOVA)", f, p, (d1, d2)), list(args[3]))
 
 
 def _nafc(study, recs):
@@ -287,6 +212,7 @@ def _ratings(study, recs):
         if len(labs) >= 3:
             pr = A.pearson(real, virt, labs, x_name=f"{a} (real)", y_name=f"{a} (virtual)")
             sec.text.append(f"real vs virtual: r = {pr.r:.3f}, p = {pr.p:.3g} (n = {pr.n} materials)")
+            sec.add(f"{a}: real vs virtual", A.TestResult("r (Pearson)", pr.r, pr.p, pr.n - 2, estimate=pr.r), labs)
             sec.figures.append((f"ratings_{a}", pr, {}))
         else:
             sec.text.append("needs three materials or more rated real and virtual")
