@@ -120,7 +120,7 @@ def _nafc(study, recs):
         both = sorted(set(a) & set(b))
         if len(both) >= 2:
             prm = analysis_params(study)
-            x, y = ([a[p] for p in both], [b[p] for p in both]) if prm.paired else (list(a.values()), list(b.values()))
+            x, y = ([a[p] for p in both], [b[p] for p in both]) if prm.paired else ([*a.values()], [*b.values()])
             sec.text.append(sec.add(f"{conds[0]} vs {conds[1]} ({len(x)} participants)",
                                     A.t_test(x, y, paired=prm.paired, alternative=prm.alternative), conds[:2]))
     return [sec]

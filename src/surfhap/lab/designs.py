@@ -124,8 +124,8 @@ def _params(model: type[_P], design: DesignSpec) -> _P:
 
 
 def analysis_params(study: Study) -> _P:
-    """The validated parameters of a generated study (defaults for fields added since it was written)."""
-    return _GENERATORS[study.design.kind][0].model_validate(study.params)
+    """The validated parameters of a study's design (a bad one: StudyFormatError naming ``params.<field>``)."""
+    return _params(_GENERATORS[study.design.kind][0], study.design)
 
 
 def square_frequencies(materials: list[str]) -> dict[str, float]:

@@ -11,7 +11,8 @@ __all__ = ["Section", "StudyAnalysis"]
 
 
 def _fmt_test(t: A.TestResult, p_adj: float | None = None) -> str:
-    s = f"{t.name}: statistic {t.statistic:.3g}" + (f", df {t.df:g}" if isinstance(t.df, float) else "") + f", p = {t.p:.3g}"
+    s = f"{t.name}: statistic {t.statistic:.3g}" + (f", df {t.df:g}" if isinstance(t.df, float) else "")
+    s += f", p = {t.p:.3g}"
     return s + (f" (Bonferroni {p_adj:.3g})" if p_adj is not None else "") + f" [{t.alternative}]"
 
 
