@@ -100,6 +100,9 @@ def test_chance_tests_match_references():
     z2 = z_test_two(20, 28, 11, 28)
     pool = 31 / 56
     assert z2.statistic == pytest.approx((20 / 28 - 11 / 28) / np.sqrt(pool * (1 - pool) * 2 / 28))
+    wald = z_test_two(20, 28, 11, 28, pooled=False)  # unpooled: p1 q1 / n1 + p2 q2 / n2
+    se = np.sqrt((20 / 28) * (8 / 28) / 28 + (11 / 28) * (17 / 28) / 28)
+    assert wald.statistic == pytest.approx(9 / 28 / se) and wald.p == pytest.approx(2 * stats.norm.sf(9 / 28 / se))
 
 
 def test_rm_anova_matches_hand_computation_and_kim_dfs():

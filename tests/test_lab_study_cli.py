@@ -20,6 +20,9 @@ def test_new_run_analyze_every_template(tmp_path, name, capsys):
     assert main(["study", "analyze", str(study), "--report", str(tmp_path / "rep")]) == 0
     html = (tmp_path / "rep" / "index.html").read_text()
     assert "<table" in html or "<img" in html
+    tests = json.loads((tmp_path / "rep" / "results.json").read_text(), parse_constant=pytest.fail)["tests"]
+    assert tests and all(set(t) >= {"name", "groups", "statistic", "df", "p", "p_adjusted", "alternative", "method",
+                                    "effect_size"} for t in tests)
     res = analyze_study(study)
     assert res.participants == ["P01", "P02", "P03"] and not res.incomplete
 

@@ -318,12 +318,14 @@ def analyze(
     study: Path = typer.Argument(..., help="Study folder."),
     report: Path = typer.Option(..., "--report", help="Folder for the HTML report and its figures."),
 ) -> None:
-    """Analyse every participant's log as in the paper of the design; write an HTML report."""
+    """Analyse every participant's log as in the paper of the design; write an HTML report and
+    results.json (every test) beside it."""
     from surfhap.lab.analyze_study import analyze_study
     from surfhap.report.lab_report import write_study_report
 
     result = analyze_study(study)
     path = write_study_report(result, report)
+    (Path(path).parent / "results.json").write_text(json.dumps(result.results(), indent=1, allow_nan=False))
     for line in result.summary_lines():
         stdout.print(line)
     stdout.print(f"wrote {path}")

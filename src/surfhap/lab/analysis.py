@@ -105,7 +105,7 @@ class TestResult:
     name: str
     statistic: float
     p: float
-    df: float | None = None
+    df: float | tuple[float, float] | None = None  # (between, within) for F
     alternative: str = "two-sided"
     estimate: float | None = None
 
@@ -130,14 +130,22 @@ def z_test_one(k: float, n: float, p0: float, alternative: str = "two-sided") ->
     return TestResult("z (one proportion)", float(z), float(p), None, alternative, k / n)
 
 
-def z_test_two(k1: float, n1: float, k2: float, n2: float, alternative: str = "two-sided") -> TestResult:
-    """Two-proportion z test with pooled variance (statsmodels ``proportions_ztest``)."""
-    from statsmodels.stats.proportion import proportions_ztest
+def z_test_two(k1: float, n1: float, k2: float, n2: float, alternative: str = "two-sided",
+               pooled: bool = True) -> TestResult:
+    """Two-proportion z test (statsmodels): pooled variance under the null (``proportions_ztest``)
+    or unpooled Wald variance p1 q1 / n1 + p2 q2 / n2 (``test_proportions_2indep``, the form
+    that reproduces Otake et al. 2022 Table IV)."""
+    from statsmodels.stats.proportion import proportions_ztest, test_proportions_2indep
 
     alt = _SM_ALTERNATIVE[alternative]
     with np.errstate(invalid="ignore", divide="ignore"):  # both 0 % or both 100 %: z undefined (nan)
-        z, p = proportions_ztest([k1, k2], [n1, n2], alternative=alt)
-    return TestResult("z (two proportions)", float(z), float(p), None, alternative, k1 / n1 - k2 / n2)
+        if pooled:
+            z, p = proportions_ztest([k1, k2], [n1, n2], alternative=alt)
+        else:
+            r = test_proportions_2indep(k1, n1, k2, n2, method="wald", compare="diff", alternative=alt)
+            z, p = r.statistic, r.pvalue
+    return TestResult(f"z (two proportions, {'pooled' if pooled else 'unpooled'})", float(z), float(p), None,
+                      alternative, k1 / n1 - k2 / n2)
 
 
 def t_test(a: Sequence[float], b: Sequence[float] | float | None = None, *, paired: bool = False,

@@ -4,15 +4,15 @@
 kind                analysis
 =================== =======================================================================
 nafc                proportion correct per condition (Wilson CI), exact binomial test against
-                    chance 1/n; per material pair; paired t test of the participants'
-                    proportions between two conditions (001 Sec. IV)
+                    chance 1/n; per material pair; one-sided Student t test of the participants'
+                    proportions between two conditions (001 Sec. V; params alternative, paired)
 realism             per material, the proportion choosing the first condition: mean over
-                    participants with a normal CI, z test against 0.5, Bonferroni over
-                    materials (003 Table II)
+                    participants with a normal CI, one-sided z test "greater than" 0.5,
+                    Bonferroni over materials (003 Table II; params alternative)
 identification      confusion matrix per condition; proportion correct per material (mean
                     over participants, normal CI) and overall; binomial test against chance;
-                    two-proportion z test between conditions per material, Bonferroni (003
-                    Tables III-IV)
+                    two-sided unpooled two-proportion z test between conditions per material,
+                    Bonferroni (003 Tables III-IV; params alternative, pooled)
 ratings             real-vs-virtual mean rating per material and adjective, Pearson r;
                     similarity per rendering method, repeated-measures ANOVA (000 Sec. 4)
 shape-choice        confusion of shape vs answer; proportion correct overall and per
@@ -24,73 +24,25 @@ sliding-pairs       discrimination score |2p - 1| per participant, comparison, v
                     tactile condition; repeated-measures ANOVA on the scores (004 Sec. 5.3;
                     the paper used an aligned-rank transform first, which statsmodels lacks)
 =================== =======================================================================
+
+Every test also goes to :meth:`StudyAnalysis.results` (``results.json`` of ``study analyze``).
 """
 
 from __future__ import annotations
 
 from collections import defaultdict
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from surfhap.errors import StudyFormatError
 from surfhap.lab import analysis as A
+from surfhap.lab.designs import analysis_params
 from surfhap.lab.schema import Study, load_study
+from surfhap.lab.study_result import Section, StudyAnalysis
 from surfhap.lab.triallog import read_log
-from surfhap.results import Result, jsonable
 
 __all__ = ["Section", "StudyAnalysis", "analyze_study", "load_trials"]
-
-
-@dataclass
-class Section:
-    """One part of the report: paragraphs, tables (header, rows) and figures (name, result
-    object with ``.plot()``, keyword arguments of the plot)."""
-
-    title: str
-    text: list[str] = field(default_factory=list)
-    tables: list[tuple[list[str], list[list]]] = field(default_factory=list)
-    figures: list[tuple[str, object, dict]] = field(default_factory=list)
-
-
-@dataclass
-class StudyAnalysis(Result):
-    name: str
-    kind: str
-    participants: list[str]
-    n_trials: int
-    incomplete: list[str]
-    sections: list[Section]
-    warnings: list[str] = field(default_factory=list)
-
-    def summary_lines(self) -> list[str]:
-        out = [f"{self.name}: {len(self.participants)} participants, {self.n_trials} trials"
-               + (f" ({len(self.incomplete)} incomplete: {', '.join(self.incomplete)})" if self.incomplete else "")]
-        out += [f"  warning: {w}" for w in self.warnings]
-        for s in self.sections:
-            out += [f"  {s.title}: {s.text[0]}"] if s.text else []
-        return out
-
-    @property
-    def panels(self) -> int:
-        """One per figure of the sections."""
-        return sum(len(s.figures) for s in self.sections)
-
-    def summary(self) -> dict:
-        return jsonable({"name": self.name, "kind": self.kind, "participants": self.participants,
-                         "n_trials": self.n_trials, "incomplete": self.incomplete, "warnings": self.warnings,
-                         "sections": [{"title": s.title, "text": s.text} for s in self.sections]})
-
-    def to_dict(self) -> dict:
-        return jsonable({**self.summary(), "sections": [{"title": s.title, "text": s.text, "tables": s.tables}
-                                                        for s in self.sections]})  # tables: (header, rows)
-
-    def plot(self, ax=None):
-        """Every figure of the sections, one panel each (see :mod:`surfhap.report.lab_report`)."""
-        from surfhap.report.lab_report import plot_study
-
-        return plot_study(self, ax)
 
 
 def load_trials(study_dir: str | Path) -> tuple[Study, list[dict], list[str], list[str]]:
@@ -132,11 +84,6 @@ def _pp(records, value=lambda r: float(r["score"]), key="participant"):
     return {k: float(np.mean(v)) for k, v in acc.items()}
 
 
-def _fmt_test(t: A.TestResult, p_adj: float | None = None) -> str:
-    s = f"{t.name}: statistic {t.statistic:.3g}" + (f", df {t.df:g}" if t.df is not None else "") + f", p = {t.p:.3g}"
-    return s + (f" (Bonferroni {p_adj:.3g})" if p_adj is not None else "") + f" [{t.alternative}]"
-
-
 def _anova(sec: Section, *args) -> None:
     """The table of ``A.rm_anova(*args)`` into ``sec``, or why there is none."""
     try:
@@ -146,6 +93,8 @@ def _anova(sec: Section, *args) -> None:
         return
     sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
                                                      for e, f, d1, d2, p in an.rows]))
+    for e, f, d1, d2, p in an.rows:
+        sec.add(e, A.TestResult("F (repeated-measures ANOVA)", f, p, (d1, d2)), list(args[3]))
 
 
 def _nafc(study, recs):
@@ -158,7 +107,7 @@ def _nafc(study, recs):
     sec.text.append(", ".join(f"{c} {p:.2f}" for c, p in zip(conds, res.proportion)) + f" correct (chance {1 / n_alt:.2f})")
     sec.tables.append((["condition", "correct/n", "proportion", "95 % CI (Wilson)"], res.rows()))
     for c, kk, nn in zip(conds, k, n):
-        sec.text.append(f"{c} vs chance: " + _fmt_test(A.binomial_test(kk, nn, 1 / n_alt)))
+        sec.text.append(sec.add(f"{c} vs chance", A.binomial_test(kk, nn, 1 / n_alt), [c]))
     sec.figures.append(("nafc_conditions", res, {"chance": 1 / n_alt}))
     rows = []
     for (c, pair), rs in sorted(_by(recs, "condition", "pair").items()):
@@ -170,8 +119,10 @@ def _nafc(study, recs):
         b = _pp([r for r in recs if r["condition"]["condition"] == conds[1]])
         both = sorted(set(a) & set(b))
         if len(both) >= 2:
-            sec.text.append(f"{conds[0]} vs {conds[1]} ({len(both)} participants): "
-                            + _fmt_test(A.t_test([a[p] for p in both], [b[p] for p in both], paired=True)))
+            prm = analysis_params(study)
+            x, y = ([a[p] for p in both], [b[p] for p in both]) if prm.paired else ([*a.values()], [*b.values()])
+            sec.text.append(sec.add(f"{conds[0]} vs {conds[1]} ({len(x)} participants)",
+                                    A.t_test(x, y, paired=prm.paired, alternative=prm.alternative), conds[:2]))
     return [sec]
 
 
@@ -185,9 +136,12 @@ def _realism(study, recs):
         sec.text.append("needs two participants or more")
         return [sec]
     res = A.participant_means(per, mats, title=f"chose {first}")
+    alt = analysis_params(study).alternative
     tests = [A.z_test_one(sum(1 for r in recs if r["condition"]["material"] == m and r["answer"] == first),
-                          sum(1 for r in recs if r["condition"]["material"] == m), 0.5) for m in mats]
+                          sum(1 for r in recs if r["condition"]["material"] == m), 0.5, alternative=alt) for m in mats]
     padj = A.bonferroni([t.p for t in tests])
+    for m, t, pa in zip(mats, tests, padj):
+        sec.add(f"{m}: {first} vs chance 0.5", t, [m], pa, "Bonferroni")
     sec.text.append(", ".join(f"{m} {p:.2f}" for m, p in zip(mats, res.proportion)))
     sec.tables.append((["material", "proportion", "95 % CI (participants)", "z", "p (Bonferroni)"],
                        [[m, f"{p:.2f}", f"[{lo:.2f}, {hi:.2f}]", f"{t.statistic:.2f}", f"{pa:.3g}"]
@@ -208,7 +162,7 @@ def _identification(study, recs):
         k = int(np.trace(conf.counts))
         n = int(conf.counts.sum())
         sec.text.append(f"overall {conf.accuracy:.2f} correct (chance {1 / len(mats):.2f}); "
-                        + _fmt_test(A.binomial_test(k, n, 1 / len(mats))))
+                        + sec.add(f"{c} vs chance", A.binomial_test(k, n, 1 / len(mats)), [c]))
         per = [list(_pp([r for r in rs if r["correct"] == m], value=lambda r: float(r["is_correct"])).values())
                for m in mats]
         if min(len(v) for v in per) >= 2:
@@ -224,12 +178,17 @@ def _identification(study, recs):
         out.append(sec)
     if len(conds) == 2:
         a, b = counts[conds[0]], counts[conds[1]]
-        tests = [A.z_test_two(a.counts[i, i], a.counts[i].sum(), b.counts[i, i], b.counts[i].sum())
+        prm = analysis_params(study)
+        tests = [A.z_test_two(a.counts[i, i], a.counts[i].sum(), b.counts[i, i], b.counts[i].sum(),
+                              alternative=prm.alternative, pooled=prm.pooled)
                  for i in range(len(mats)) if a.counts[i].sum() and b.counts[i].sum()]
         if len(tests) == len(mats):
             padj = A.bonferroni([t.p for t in tests])
             sec = Section(f"Identification: {conds[0]} vs {conds[1]}")
-            sec.text.append("two-proportion z tests per material, Bonferroni-corrected")
+            sec.text.append(f"two-proportion z tests per material ({tests[0].name}, {prm.alternative}), "
+                            "Bonferroni-corrected")
+            for m, t, pa in zip(mats, tests, padj):
+                sec.add(f"{m}: {conds[0]} vs {conds[1]}", t, [conds[0], conds[1]], pa, "Bonferroni")
             sec.tables.append((["material", "z", "p", "p (Bonferroni)"],
                                [[m, f"{t.statistic:.2f}", f"{t.p:.3g}", f"{pa:.3g}"]
                                 for m, t, pa in zip(mats, tests, padj)]))
@@ -253,6 +212,7 @@ def _ratings(study, recs):
         if len(labs) >= 3:
             pr = A.pearson(real, virt, labs, x_name=f"{a} (real)", y_name=f"{a} (virtual)")
             sec.text.append(f"real vs virtual: r = {pr.r:.3f}, p = {pr.p:.3g} (n = {pr.n} materials)")
+            sec.add(f"{a}: real vs virtual", A.TestResult("r (Pearson)", pr.r, pr.p, pr.n - 2, estimate=pr.r), labs)
             sec.figures.append((f"ratings_{a}", pr, {}))
         else:
             sec.text.append("needs three materials or more rated real and virtual")
@@ -279,7 +239,8 @@ def _shape_choice(study, recs):
     pp = _pp(recs, value=lambda r: float(r["is_correct"]))
     sec.text.append(f"overall {conf.accuracy:.2f} correct (chance 0.25)")
     if len(pp) >= 2:
-        sec.text.append("participants vs chance: " + _fmt_test(A.t_test(list(pp.values()), 0.25, alternative="greater")))
+        sec.text.append(sec.add("participants vs chance", A.t_test(list(pp.values()), 0.25, alternative="greater"),
+                                ["participants"]))
     rows = []
     for key, rs in sorted(_by(recs, "shape", "profile", "grain").items()):
         rows.append(["-".join(key), f"{sum(r['is_correct'] for r in rs)}/{len(rs)}",

@@ -32,7 +32,7 @@ so an unknown or out-of-range parameter is a :class:`~surfhap.errors.StudyFormat
 from __future__ import annotations
 
 from itertools import combinations, permutations
-from typing import Callable
+from typing import Callable, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -42,7 +42,8 @@ from surfhap.lab.counterbalance import balanced_assignment, balanced_latin_squar
 from surfhap.checked import first_error
 from surfhap.lab.schema import Choice, DesignSpec, ParticipantPlan, Stimulus, Study, Trial
 
-__all__ = ["build_study", "TEMPLATES", "template", "study_template", "ZHAO_MATERIALS", "square_frequencies"]
+__all__ = ["build_study", "TEMPLATES", "template", "study_template", "ZHAO_MATERIALS", "square_frequencies",
+           "analysis_params"]
 
 OTAKE2021_MATERIALS = ["leather", "cork", "denim", "drawing-paper"]  # 001 Sec. III
 OTAKE2022_MATERIALS = ["leather", "cork", "denim", "wood"]  # 003 Sec. II
@@ -58,12 +59,19 @@ class _P(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+Alternative = Literal["two-sided", "greater", "less"]
+
+
 class NafcParams(_P):
     materials: list[str] = Field(default_factory=lambda: list(OTAKE2021_MATERIALS), min_length=2)
     conditions: dict[str, str] = Field(default_factory=lambda: {"friction+texture": "otake2021",
                                                                 "friction-only": "friction-only"}, min_length=1)
     repetitions: int = Field(4, ge=1, le=100)
     alternatives: int = Field(3, ge=3, le=6)
+    # 001 Sec. V: t = 0.63, p = 0.27 is a one-sided Student t test between the conditions'
+    # participant proportions (independent: it matches all five t values the paper prints)
+    alternative: Alternative = "greater"
+    paired: bool = False
 
 
 class RealismParams(_P):
@@ -72,6 +80,7 @@ class RealismParams(_P):
                                                                 "friction-only": "friction-only"},
                                        min_length=2, max_length=2)  # a realism comparison of two
     rounds: int = Field(2, ge=1, le=20)
+    alternative: Alternative = "greater"  # 003 Table II: "greater than the chance level"
 
 
 class IdentificationParams(_P):
@@ -79,6 +88,9 @@ class IdentificationParams(_P):
     conditions: dict[str, str] = Field(default_factory=lambda: {"friction+texture": "otake2022",
                                                                 "friction-only": "friction-only"}, min_length=1)
     repetitions: int = Field(2, ge=1, le=100)
+    # 003 Table IV: two-sided unpooled (Wald) z per material, Bonferroni (p = .04 / .04)
+    alternative: Alternative = "two-sided"
+    pooled: bool = False
 
 
 class RatingsParams(_P):
@@ -109,6 +121,11 @@ def _params(model: type[_P], design: DesignSpec) -> _P:
     except ValidationError as exc:
         field, msg = first_error(exc)
         raise StudyFormatError(msg, field=f"params.{field}") from None
+
+
+def analysis_params(study: Study) -> _P:
+    """The validated parameters of a study's design (a bad one: StudyFormatError naming ``params.<field>``)."""
+    return _params(_GENERATORS[study.design.kind][0], study.design)
 
 
 def square_frequencies(materials: list[str]) -> dict[str, float]:
