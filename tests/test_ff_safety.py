@@ -157,3 +157,19 @@ def test_stop_ramps_lateral_axes_to_zero_at_slew_rate():
                      for k in range(100, 120)])
     assert outs[0, 0] == pytest.approx(4.0 - FALCON.slew / RATE)
     assert outs[-1, 0] == 0.0 and outs[-1, 1] == 0.0
+
+
+def test_switch_keeps_the_safety_stage_and_ramps_to_the_new_scene():
+    """Issue 20 (one engine): a scene switch replaces the effects only; the safety stage's clock,
+    counters and output carry on (no reset to 0 N: the weight compensation stays up), and the
+    step to the new scene's force is slew-limited, the new reference starting at the screen."""
+    eng = FFEngine([Stiffness(300.0)], FALCON, TouchPredictor(), rate=RATE)
+    outs = [eng.tick(k / RATE, 0.0, 0.0, -0.005, k / RATE).copy() for k in range(300)]
+    ticks = eng.counters.ticks
+    eng.switch([Shape(0.02)])
+    for k in range(300, 600):
+        eng.touch(k / RATE, 0.05, 0.05, 1.0)
+        outs.append(eng.tick(k / RATE, 0.0, 0.0, -0.005, k / RATE).copy())
+    assert eng.counters.ticks == ticks + 300 and eng.effects[0].name == "shape"
+    assert outs[300][2] >= outs[299][2] - FALCON.slew / RATE - EPS  # held up, not dropped to 0 N
+    check(outs, FALCON)

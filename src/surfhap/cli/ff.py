@@ -28,13 +28,8 @@ _PRED_OPTIONS = {"latency": "--touch-latency-ms", "alpha": "--smoothing", "k_pre
 def _device(gain: Optional[float], slew: Optional[float], f_max: Optional[float]):
     from surfhap.ff.params import DeviceParams
 
-    kw = {}
-    if gain is not None:
-        kw["gain"] = gain
-    if slew is not None:
-        kw["slew"] = slew
-    if f_max is not None:
-        kw["f_max"] = (f_max, f_max, f_max)
+    triple = None if f_max is None else (f_max,) * 3
+    kw = {k: v for k, v in (("gain", gain), ("slew", slew), ("f_max", triple)) if v is not None}
     try:
         return DeviceParams(**kw)
     except ConfigError as exc:

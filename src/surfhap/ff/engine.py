@@ -8,15 +8,13 @@ coordinates in m as the tablet reports them, load N, 0 = lifted, ``t`` its arriv
 ``tick(t, px, py, pz, t_pos)`` once per haptic tick with the freshest device position (m,
 relative to X0) and its stamp; it returns the safe force (3,) N in the device frame.
 
-Control law: KinesTouch eq. 8 (004 Sec. 4.3), ``F = (m g + delta sin(phi)) e_z + alpha f_dot -
-nu f_dot ^ e_z + K (X0 + h e_z - X_t)``, the active effects merged per axis (:meth:`FFEngine.merge`):
-each axis takes the *most compliant* stiffness any active effect asks for (Table 2 matrices only
-relax axes of K_max I3), the normal offsets h add (the grating's, ``vibration``, after the
-reference's rate limit), the feed-forward forces add. Fixed as the physics means it: a damping
-``-D v``, ``D = damping sqrt(K / K_max)``, on held axes (K_max on the tablet's mass rings at 8 Hz
-without it); the weight compensation ``m g e_z`` always on; the reference height inside the
-workspace; bumpless switching (the reference approaches ``X0 + h e_z`` at no more than
-``ref_speed`` per axis and follows the screen on a free axis, K = 0). Not touched: Idle (eq. 5).
+Control law: eq. 8 (004 Sec. 4.3), ``F = (m g + delta sin(phi)) e_z + alpha f_dot - nu f_dot ^ e_z
++ K (X0 + h e_z - X_t)``, the active effects merged (:meth:`FFEngine.merge`: per axis the most
+compliant stiffness, offsets h and feed-forward forces summed), plus a damping ``-D v``,
+``D = damping sqrt(K / K_max)`` on held axes (K_max on the tablet rings at 8 Hz without it), the
+weight compensation always on, the reference height inside the workspace and bumpless switching
+(the reference approaches ``X0 + h e_z`` at <= ``ref_speed`` per axis, follows the screen on a
+free axis; the grating's offset is added after that limit). Not touched: Idle (eq. 5).
 
 Safety stage, last before any backend, for *any* input (property-tested here and through the
 loop, ``tests/test_ff_safety.py``, ``tests/test_ff_loop_property.py``): ``|F_i| <= f_max_i``;
@@ -31,13 +29,12 @@ the caller's interval but by at least one period and at most ``MAX_STEP`` per ti
 position's stamp (through :func:`surfhap.runtime.clock.arrival_stamp` upstream) only orders and
 ages samples: non-finite or older than the last is stale. ``gain`` (N -> device units) is the backend's.
 
-Screen -> world: the content is drawn compensated (shifted by ``-X_t``) so that it stays still
-in the world; the finger's world position is ``f_screen + X_t,xy`` with ``X_t`` taken when the
-touch was *sampled* (``touch_latency`` s before it arrived; the engine keeps 0.5 s of
-positions). Mixing a late touch with the current screen position would feed the screen's own
-motion back with the touch latency (Sliding unstable for gain nu * latency / m > pi / 2).
-Prediction (``predictor``: :class:`surfhap.render.kinematics.TouchPredictor`, passed in) runs
-on the world stream and is extrapolated between samples for at most ``max_extrapolate``.
+Screen -> world: the content is drawn shifted by ``-X_t`` so it stays still in the world; the
+finger's world position is ``f_screen + X_t,xy`` with ``X_t`` taken when the touch was *sampled*
+(``touch_latency`` before it arrived; 0.5 s of positions kept): a late touch mixed with the
+current screen position feeds the screen's motion back (Sliding unstable for nu latency / m >
+pi / 2). Prediction (``predictor``, a :class:`surfhap.render.kinematics.TouchPredictor`) runs on
+the world stream, extrapolated between samples for at most ``max_extrapolate``.
 
 Watchdogs, on the safety stage's own clock: no touch for ``touch_timeout`` -> Idle; no
 device position for ``device_timeout`` -> zero force. A touch stamp older than the previous
@@ -120,8 +117,6 @@ class FFEngine:
         self.predictor = predictor
         self.max_extrapolate = float(max_extrapolate)
         self._atau = 1.0 / (2.0 * math.pi * accel_cutoff)
-        self.state = TickState()
-        self.state.dt = self.dt
         self.button_presses = ButtonPresses(buttons)
         self.button = -1
         self.reset()
@@ -146,12 +141,10 @@ class FFEngine:
         self.N[:] = 0
         self.out[:] = 0.0
         self.predictor.reset()
-        s = self.state
-        s.touched = False
-        s.fx = s.fy = s.fvx = s.fvy = s.fax = s.fay = s.speed = s.load = 0.0
+        self.state = TickState()  # untouched, at rest at X0
+        self.state.dt = self.dt
         self._pvx = self._pvy = 0.0
         self._pt = math.nan
-        s.px = s.py = s.pz = s.vx = s.vy = s.vz = 0.0
         self._stamp = -math.inf  # caller stamp of the last accepted touch sample
         self._new_touch = False  # a touch sample since the last tick
         self._touch_at = -math.inf  # its arrival on the safety stage's clock

@@ -10,12 +10,9 @@ additional 60 Hz thread ... to send the Falcon position to the tablet"):
   backend. Nothing in a tick sleeps, logs, allocates arrays or takes a lock that a producer
   holds for long;
 * ``ff run`` (:meth:`FFLoop.start`): a thread runs ``run`` on a
-  :class:`~surfhap.runtime.clock.WallClock`, the one pacer (absolute deadlines, a sleep then a
-  spin of :data:`~surfhap.runtime.clock.SPIN`); a tick more than one period late counts the
-  periods it skipped as missed (``underruns``) and re-anchors the schedule. The clock keeps each
-  tick's period error (start minus deadline) for :meth:`FFLoop.stats`. The thread asks for
-  ``SCHED_FIFO`` (:func:`~surfhap.runtime.clock.enter_realtime`; the mode granted is the
-  ``scheduling`` statistic, a refusal is logged once);
+  :class:`~surfhap.runtime.clock.WallClock`, the one pacer (a late tick counts the periods it
+  skipped as ``underruns``; the period errors feed :meth:`FFLoop.stats`), asking for
+  ``SCHED_FIFO`` (:func:`~surfhap.runtime.clock.enter_realtime`, the mode granted: ``scheduling``);
 * ``ff simulate`` (:func:`simulate_ff`): the same loop on a
   :class:`~surfhap.runtime.clock.SimClock` with the simulated device and finger;
 * stop (Ctrl-C, SIGTERM, ``request_stop``): the safety stage ramps the lateral force to zero at
