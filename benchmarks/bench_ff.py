@@ -68,7 +68,7 @@ def bench_loop(seconds: float) -> bool:
     from surfhap.ff import FALCON
     from surfhap.live.ff_devices import SimDeviceBackend
     from surfhap.live.ff_loop import FFLoop, WorldTouchAdapter
-    from surfhap.live.sources import ReplaySource
+    from surfhap.runtime.sources import TrajectorySource
     from surfhap.models.trajectory import Trajectory
     from surfhap.sim.ff_device import SimDevice
 
@@ -77,7 +77,7 @@ def bench_loop(seconds: float) -> bool:
     loop = FFLoop(eng, be)
     t = np.arange(0.0, 10.0, 1.0 / 60.0)
     tr = Trajectory(t, 0.1 + 0.03 * np.sin(np.pi * t), np.full(t.size, 0.07), np.ones(t.size))
-    src = ReplaySource(WorldTouchAdapter(loop, be), tr, loop=True, max_seconds=seconds + 5)
+    src = TrajectorySource(WorldTouchAdapter(loop, be), tr, loop=True, max_seconds=seconds + 5, wall_clock=True)
     loop.start()
     src.start()
     time.sleep(seconds)

@@ -155,6 +155,20 @@ def test_output_pass_applies_gain_and_stop_ramp():
     assert not np.any(tail[20:]) and g.ramped_down
 
 
+def test_both_safety_passes_count_in_one_type():
+    """A renderer's stage and the output pass report the same counters: a lifted finger counts
+    every sample as lifted on the stage, a halt every sample as halted on the output pass."""
+    from surfhap.render.safety import OutputSafety, SafetyCounters
+
+    n = 50
+    st = SafetyStage(FS, LIM)
+    st.process(np.full(n, 100.0), np.zeros(n), np.zeros(n))
+    g = OutputSafety(FS, LIM)
+    g.process(np.full(n, 100.0), np.empty(n), 0.0, 1.0, halt=True)
+    assert st.counters == SafetyCounters(samples=n, clamped=0, rise_limited=0, faults=0, lifted=n, watchdog=0, halted=0)
+    assert g.counters == SafetyCounters(samples=n, clamped=0, rise_limited=0, faults=0, lifted=0, watchdog=0, halted=n)
+
+
 @pytest.mark.parametrize("field, value", [("v_max", float("nan")), ("rise_rate", 0.0), ("watchdog_timeout", float("inf")),
                                           ("absurd_factor", 0.5), ("lift_threshold", -0.1), ("max_load", -1.0)])
 def test_a_bad_limit_is_one_config_error_naming_its_field(field, value):

@@ -214,10 +214,10 @@ def run_cmd(
     replay_done = None  # a replay that ends (without --duration) ends the run
     if touch.startswith("trajectory:"):
         from surfhap.exchange.trajectory_csv import read_trajectory_csv
-        from surfhap.live.sources import ReplaySource
+        from surfhap.runtime.sources import TrajectorySource
 
-        source = ReplaySource(WorldTouchAdapter(loop, backend), read_trajectory_csv(touch[len("trajectory:"):]),
-                              loop=duration > 0)
+        source = TrajectorySource(WorldTouchAdapter(loop, backend), read_trajectory_csv(touch[len("trajectory:"):]),
+                                  loop=duration > 0, wall_clock=True)
         replay_done = source.done if duration == 0 else None
     elif touch.startswith("osc://"):
         from surfhap.live.sources import OscTouchSource, TouchSpace

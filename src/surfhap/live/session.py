@@ -145,7 +145,7 @@ def build_session(material: str = "cork", output: Output | None = None, *, drive
     from surfhap.live.backends.output import OutputOptions, SimOutput, open_backend
     from surfhap.live.engine import LiveEngine
     from surfhap.live.engine_config import EngineConfig
-    from surfhap.live.sources import OscTouchSource, ReplaySource
+    from surfhap.live.sources import OscTouchSource
     from surfhap.render.chain import ChainConfig, TextureChain
     from surfhap.models.panel import SimulatedDisplay
 
@@ -170,6 +170,8 @@ def build_session(material: str = "cork", output: Output | None = None, *, drive
     if osc_in is not None:
         sources.append(OscTouchSource(engine, osc_in[0], osc_in[1], space=space))
     if replay is not None:
-        sources.append(ReplaySource(engine, replay, loop=replay_loop))
+        from surfhap.runtime.sources import TrajectorySource
+
+        sources.append(TrajectorySource(engine, replay, loop=replay_loop, wall_clock=True))
     return LiveSession(engine, backend, title=title, preview=preview, space=space, sources=sources,
                        positions="surface" if mesh is not None else "physical")

@@ -2,10 +2,10 @@
 
 Each source is a :class:`surfhap.runtime.protocols.Source` (``start()``, ``stop()``) pushing
 into a :class:`surfhap.runtime.protocols.TouchSink` (the engine's ``push_touch``); the
-simulated-clock replay is :class:`surfhap.runtime.sources.TrajectorySource`.
+replay of a trajectory file (on a simulated or a wall clock) is
+:class:`surfhap.runtime.sources.TrajectorySource`.
 
 * :class:`OscTouchSource` - OSC over UDP (python-osc parsing, our own bounded handler);
-* :class:`ReplaySource` - a trajectory file (CSV: time, x, y, load) replayed in real time;
 * the web page's WebSocket stream lives in :mod:`surfhap.web.touch` and uses the same
   :class:`RateLimiter`, :class:`RejectLog` and :class:`TouchSpace`.
 
@@ -35,10 +35,10 @@ from typing import Annotated
 from pydantic import Field
 
 from surfhap.checked import checked_dataclass
-from surfhap.runtime.clock import now, sleep_until
+from surfhap.runtime.clock import now
 from surfhap.live.udpguard import UdpListener
 
-__all__ = ["TouchSpace", "RateLimiter", "RejectLog", "OscTouchSource", "ReplaySource", "OSC_ADDRESSES",
+__all__ = ["TouchSpace", "RateLimiter", "RejectLog", "OscTouchSource", "OSC_ADDRESSES",
            "finite_in_range"]
 
 log = logging.getLogger("surfhap.live")
@@ -161,31 +161,19 @@ class OscTouchSource:
         (:class:`surfhap.live.udpguard.UdpListener`)."""
         from pythonosc.osc_message import OscMessage  # noqa: F401  (fail early if missing)
 
-        self.engine = engine
-        self.host, self.port = host, int(port)
-        self.space = space or TouchSpace()
-        self.rate, self.burst = rate, burst
-        self.max_senders = int(max_senders)
-        self.source_base = int(source_base)
-        self.sender_idle = float(sender_idle)
-        self.clock = clock
+        self.engine, self.host, self.port, self.space = engine, host, int(port), space or TouchSpace()
+        self.rate, self.burst, self.max_senders, self.source_base = rate, burst, int(max_senders), int(source_base)
+        self.sender_idle, self.penalty_hold, self.clock = float(sender_idle), float(penalty_hold), clock
         self.admission = RateLimiter(admit_rate, admit_burst, t=clock())
         self.rejects = RejectLog()
-        self.accepted = 0
-        self.expired = 0
-        self.evicted = 0
-        self._next_source = 0
+        self.accepted = self.expired = self.evicted = self._next_source = 0
         self._senders: dict[tuple, _Sender] = {}
-        self.penalty_hold = float(penalty_hold)
         self._listener: UdpListener | None = None
-        self._sock = None
-        self._run = False
-        self._thread = None
+        self._run, self._thread = False, None
 
     def start(self) -> None:
         self._listener = UdpListener(self.host, self.port, hold=self.penalty_hold)
-        self._sock = self._listener.sock
-        self._sock.settimeout(0.1)
+        self._listener.sock.settimeout(0.1)
         self.port = self._listener.port
         self._run = True
         self._thread = threading.Thread(target=self._serve, name="surfhap-osc-in", daemon=True)
@@ -197,7 +185,7 @@ class OscTouchSource:
         costs a socket read and a token-bucket check per datagram (not a server round,
         handler object and parse), and the socket is drained faster than a flood fills it:
         the other senders' datagrams are not lost in the kernel's queue."""
-        sock, datagram, limit, release, clock = (self._sock, self._datagram, MAX_DATAGRAM + 1,
+        sock, datagram, limit, release, clock = (self._listener.sock, self._datagram, MAX_DATAGRAM + 1,
                                                  self._listener.release_due, self.clock)
         while self._run:
             release(clock())
@@ -221,38 +209,35 @@ class OscTouchSource:
             self._thread = None
         if self._listener is not None:
             self._listener.close()
-            self._listener = self._sock = None
+            self._listener = None
 
     def _datagram(self, data: bytes, addr: tuple) -> None:
-        from pythonosc.osc_message import OscMessage, ParseError
+        from pythonosc.osc_message import OscMessage
 
         t = self.clock()
-        entry = self._senders.get(addr)
+        peer = f"osc {addr[0]}:{addr[1]}"
+        entry = self._senders.get(addr) or self._admit(addr, peer, t)
         if entry is None:
-            entry = self._admit(addr, f"osc {addr[0]}:{addr[1]}", t)
-            if entry is None:
-                return
+            return
         entry.last_seen = t
         if not entry.limiter.allow(t):  # a flood's path: one look-up and one bucket per datagram
-            self.rejects.reject(f"osc {addr[0]}:{addr[1]}", "rate limit exceeded")
+            self.rejects.reject(peer, "rate limit exceeded")
             if self._listener is not None:  # and from now on the kernel drops its datagrams for a while
                 self._listener.penalise(addr, t)
             return
-        peer = f"osc {addr[0]}:{addr[1]}"
         if len(data) > MAX_DATAGRAM:
             self.rejects.reject(peer, f"datagram of {len(data)} bytes (limit {MAX_DATAGRAM})")
-            return
-        if data.startswith(b"#bundle"):
+        elif data.startswith(b"#bundle"):
             self.rejects.reject(peer, "OSC bundles are not accepted; send single messages")
-            return
-        try:
-            msg = OscMessage(data)
-            address, args = msg.address, msg.params
-        except (ParseError, Exception) as exc:  # noqa: BLE001 - any parse failure is a bad message
-            self.rejects.reject(peer, f"malformed OSC ({type(exc).__name__})")
-            return
-        if self._message(entry.source, peer, address, args):
-            entry.proven = True
+        else:
+            try:
+                msg = OscMessage(data)
+                address, args = msg.address, msg.params
+            except Exception as exc:  # noqa: BLE001 - any parse failure is a bad message
+                self.rejects.reject(peer, f"malformed OSC ({type(exc).__name__})")
+                return
+            if self._message(entry.source, peer, address, args):
+                entry.proven = True
 
     def _admit(self, addr: tuple, peer: str, t: float) -> _Sender | None:
         """A table entry for a new sender, or None (rejected and counted)."""
@@ -284,88 +269,25 @@ class OscTouchSource:
     def _message(self, src: int, peer: str, address: str, args: list) -> bool:
         """Check one parsed message and feed the engine; True when it was accepted."""
         sp = self.space
-        t_arr = now()
-        if address == "/surfhap/lift":
-            if args:
-                self.rejects.reject(peer, "/surfhap/lift takes no arguments")
-                return False
-            self.engine.push_touch(src, 0.0, 0.0, 0.0, t_arrival=t_arr)
-            self.accepted += 1
-            return True
-        if address in ("/surfhap/touch", "/surfhap/touch/norm") and len(args) not in (2, 3):
-            form = "x y [load]" if address == "/surfhap/touch" else "u v [pressure]"
-            self.rejects.reject(peer, f"{address} needs {form}, got {len(args)} arguments")
-            return False
-        if address == "/surfhap/touch":
-            x = finite_in_range(args[0], -0.01, sp.width + 0.01)
-            y = finite_in_range(args[1], -0.01, sp.height + 0.01)
-            load = sp.default_load if len(args) == 2 else finite_in_range(args[2], 0.0, 20.0)
+        if address == "/surfhap/touch":  # (lo, hi, scale) per argument, the load's default
+            form, spec, load = "x y [load]", ((-0.01, sp.width + 0.01, 1.0), (-0.01, sp.height + 0.01, 1.0),
+                                              (0.0, 20.0, 1.0)), sp.default_load
         elif address == "/surfhap/touch/norm":
-            u = finite_in_range(args[0], 0.0, 1.0)
-            v = finite_in_range(args[1], 0.0, 1.0)
-            p = 0.5 if len(args) == 2 else finite_in_range(args[2], 0.0, 1.0)
-            x = None if u is None else u * sp.width
-            y = None if v is None else v * sp.height
-            load = None if p is None else p * sp.max_load
+            form, spec, load = "u v [pressure]", ((0.0, 1.0, sp.width), (0.0, 1.0, sp.height),
+                                                  (0.0, 1.0, sp.max_load)), 0.5 * sp.max_load
+        elif address == "/surfhap/lift":
+            form, spec, load = "no arguments", (), 0.0
         else:
             self.rejects.reject(peer, f"unknown address {address[:64]!r} (known: {', '.join(OSC_ADDRESSES)})")
             return False
-        if x is None or y is None or load is None:
+        if len(args) not in ((0,) if not spec else (2, 3)):
+            self.rejects.reject(peer, f"{address} takes {form}, got {len(args)} arguments")
+            return False
+        vals = [finite_in_range(v, lo, hi) for v, (lo, hi, _) in zip(args, spec)]
+        if None in vals:
             self.rejects.reject(peer, f"{address}: argument not a number or out of range: {args!r}"[:200])
             return False
-        self.engine.push_touch(src, x, y, load, t_arrival=t_arr)
+        x, y, load = [v * k for v, (_, _, k) in zip(vals, spec)] + [load] * (3 - len(vals)) if spec else (0.0,) * 3
+        self.engine.push_touch(src, x, y, load, t_arrival=now())
         self.accepted += 1
         return True
-
-
-class ReplaySource:
-    """Replay a :class:`~surfhap.models.trajectory.Trajectory` in real time from a thread.
-
-    ``loop`` repeats it (bounded by ``max_seconds``); a lift is sent at the end.
-    """
-
-    def __init__(self, engine, trajectory, loop: bool = False, max_seconds: float = 3600.0, source: int = 1):
-        self.engine = engine
-        self.trajectory = trajectory
-        self.loop = loop
-        self.max_seconds = float(max_seconds)
-        self.source = source
-        self._run = False
-        self._thread = None
-        self.sent = 0
-        self.done = threading.Event()
-
-    def start(self) -> None:
-        self._run = True
-        self._thread = threading.Thread(target=self._play, name="surfhap-replay", daemon=True)
-        self._thread.start()
-
-    def _play(self) -> None:
-        tr = self.trajectory
-        t_rel = tr.t - tr.t[0]
-        start = now()
-        offset = 0.0
-        period = float(t_rel[-1]) + (float(t_rel[-1] - t_rel[-2]) if t_rel.size > 1 else 0.0)
-        try:
-            while self._run:
-                for i in range(t_rel.size):
-                    if not self._run:
-                        return
-                    due = start + offset + float(t_rel[i])
-                    if due - start > self.max_seconds:
-                        return
-                    sleep_until(due)
-                    self.engine.push_touch(self.source, float(tr.x[i]), float(tr.y[i]), float(tr.load[i]),
-                                           t_event=offset + float(t_rel[i]))
-                    self.sent += 1
-                if not self.loop:
-                    return
-                offset += period
-        finally:
-            self.engine.push_touch(self.source, 0.0, 0.0, 0.0)
-            self.done.set()
-
-    def stop(self) -> None:
-        self._run = False
-        if self._thread is not None:
-            self._thread.join(2.0)

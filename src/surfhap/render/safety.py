@@ -31,7 +31,7 @@ from pydantic import Field, model_validator
 
 from surfhap.checked import checked_dataclass
 
-__all__ = ["SafetyLimits", "SafetyStage", "SafetyCounters", "OutputSafety", "OutputCounters"]
+__all__ = ["SafetyLimits", "SafetyStage", "SafetyCounters", "OutputSafety"]
 
 _Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
@@ -81,7 +81,9 @@ class SafetyLimits:
 
 @dataclass(frozen=True)
 class SafetyCounters:
-    """Sample counts since the last reset."""
+    """Sample counts since the last reset, of a :class:`SafetyStage` or of the
+    :class:`OutputSafety` pass (the kernel's counters; ``lifted`` is 0 on the output pass, which
+    has no load, and ``halted`` is 0 on a renderer's stage)."""
 
     samples: int
     clamped: int
@@ -89,6 +91,7 @@ class SafetyCounters:
     faults: int
     lifted: int
     watchdog: int
+    halted: int
 
 
 # The one safety kernel, of a renderer's stage and of the output pass.
@@ -187,19 +190,7 @@ class SafetyStage:
 
     @property
     def counters(self) -> SafetyCounters:
-        return SafetyCounters(*(int(c) for c in self._counters[:6]))
-
-
-@dataclass(frozen=True)
-class OutputCounters:
-    """Sample counts of the :class:`OutputSafety` pass since the last reset."""
-
-    samples: int
-    clamped: int
-    rise_limited: int
-    faults: int
-    watchdog: int
-    halted: int
+        return SafetyCounters(*self._counters.tolist())
 
 
 class OutputSafety:
@@ -272,6 +263,5 @@ class OutputSafety:
         self._state[0] = 0.0
 
     @property
-    def counters(self) -> OutputCounters:
-        c = self._counters
-        return OutputCounters(*(int(c[k]) for k in (0, 1, 2, 3, 5, 6)))
+    def counters(self) -> SafetyCounters:
+        return SafetyCounters(*self._counters.tolist())

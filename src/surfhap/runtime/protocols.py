@@ -75,7 +75,7 @@ class TouchSink(Protocol):
 @runtime_checkable
 class Source(Protocol):
     """A touch source. A live source (OSC, web page) runs its own thread between ``start()``
-    and ``stop()``. A replayed one (:class:`~surfhap.runtime.sources.TrajectorySource`) also
+    and ``stop()``. The replay (:class:`~surfhap.runtime.sources.TrajectorySource`) also
     has ``deliver(until)``, pushing every sample stamped at or before ``until``, which
     :func:`~surfhap.runtime.loop.run` calls on a simulated clock."""
 

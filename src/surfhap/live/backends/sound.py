@@ -74,7 +74,6 @@ class SoundBackend:
         self._chans: tuple[int, ...] = ()
         self.engine = None
         self._stream = None
-        self.clipped = 0
         self.stall_timeout = float(stall_timeout)
         self._watch = None
         self.nominal_latency = 0.0
