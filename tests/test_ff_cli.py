@@ -118,6 +118,17 @@ def test_bad_trajectory_and_options_exit_2(tmp_path, capsys):
     assert code == 2 and "no-such-scene" in err
 
 
+@pytest.mark.parametrize("option,value", [("--touch-latency-ms", "250"), ("--smoothing", "1.5"),
+                                          ("--velocity-alpha", "0"), ("--k-pred", "101")])
+def test_predictor_options_out_of_range_name_their_option(tmp_path, capsys, option, value):
+    """The predictor's own range checks (render/kinematics.py, the one check) surface as one
+    line naming the CLI option, exit 2, also with --no-predict."""
+    for predict in ("--predict", "--no-predict"):
+        code, _, err = run(capsys, "ff", "simulate", "follow", option, value, predict, "--out", str(tmp_path / "o"))
+        lines = [ln for ln in err.strip().splitlines() if ln.strip()]
+        assert code == 2 and option in err and len(lines) == 1 and "Traceback" not in err, err
+
+
 def test_old_alpha_option_is_one_line_naming_the_new_one(tmp_path, capsys):
     """``--alpha`` is V/sqrt(N) in render; ff's smoothing factor is ``--smoothing`` (issue 20)."""
     code, _, err = run(capsys, "ff", "simulate", "follow", "--alpha", "0.15", "--out", str(tmp_path / "o"))

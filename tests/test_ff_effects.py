@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from surfhap.ff import FALCON, FFEngine, GridField, Idle, RectsField, Roughness, Shape, Sliding, Stiffness
-from surfhap.ff.control import ControlLaw
+from surfhap.ff import tick_kernel
 from surfhap.ff.effects import TickState
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.models.trajectory import Trajectory, constant_scan
@@ -144,22 +144,28 @@ def test_effects_merge_per_axis_most_compliant():
     s = TickState()
     s.touched = True
     s.fx, s.fy = 0.05, 0.05
-    law = ControlLaw([Stiffness(200.0), Sliding(0.5)], FALCON)
-    law.compute(s)  # first tick: the reference starts at the screen, here X0
+    law = FFEngine([Stiffness(200.0), Sliding(0.5)], FALCON, TouchPredictor())
+    out = np.zeros(3)
+
+    def compute(s):  # the merged terms through the compiled eq. 8 (no safety stage)
+        tick_kernel.law(law.R, law.L, s.px, s.py, s.pz, s.vx, s.vy, s.vz, *law.merge(s), out)
+        return out
+
+    compute(s)  # first tick: the reference starts at the screen, here X0
     s.pz, s.py = -0.002, 0.01
-    f = law.compute(s)
+    f = compute(s)
     assert law.mask == 0b11
     assert f[1] == pytest.approx(-FALCON.damping * 0.0)  # lateral free (Sliding), screen at rest
     assert f[2] == pytest.approx(FALCON.weight + 200.0 * 0.002)  # normal: k_mat
     # untouched: Idle (eq. 5) only; the lateral reference was following the free screen
     # (y = 0.01) and now returns to X0 at ref_speed: no jump of K_max x 1 cm
     s.touched = False
-    f = law.compute(s)
+    f = compute(s)
     assert law.mask == 0
     step = FALCON.ref_speed / 1000.0
     assert f[1] == pytest.approx(-FALCON.k_max * step)
     for _ in range(200):
-        f = law.compute(s)
+        f = compute(s)
     assert f[1] == pytest.approx(-FALCON.k_max * 0.01)  # reference back at X0
     idle = own_law(Idle(), s)
     assert idle[2] == pytest.approx(FALCON.k_max * 0.002)

@@ -134,7 +134,7 @@ def _fail_in_loop(where: str):
         raise RuntimeError("touch ring broken")
 
     def tick_broken_after_the_safety_stage(t, px, py, pz, t_pos):
-        eng.safety.observe(t, t_pos, px, py, pz)  # the safety stage took this tick's position
+        eng.observe(t, t_pos, px, py, pz)  # the safety stage took this tick's position
         raise RuntimeError("tick broken after the safety stage")
 
     vz, fz = [], []
@@ -146,7 +146,7 @@ def _fail_in_loop(where: str):
             eng.tick = tick_broken_after_the_safety_stage
         go = loop.tick_once(clock.t)
         vz.append(dev.v[2])
-        fz.append(float(eng.safety.out[2]))
+        fz.append(float(eng.out[2]))
         if not go:
             break
     return loop, np.array(vz), np.array(fz)

@@ -213,7 +213,7 @@ def test_ff_loop_holds_every_limit_for_any_input(events, device, stop_at, boom_a
             f = be.writes[-1]
             assert np.all(np.abs(f) <= f_max + EPS) and np.all(np.abs(f - prev) <= step + EPS)
             prev = f
-            assert stop_ticks <= eng.safety.stop_duration * RATE
+            assert stop_ticks <= eng.stop_duration * RATE
         assert np.all(be.writes[-1] == 0.0)
     if failed_at is not None:
         assert loop.error is not None  # the command turns this into exit code 3
@@ -223,17 +223,18 @@ def test_ff_loop_holds_every_limit_for_any_input(events, device, stop_at, boom_a
 def test_future_and_infinite_position_stamps_do_not_switch_the_watchdog_off():
     """Issue 17 item 1: a position stamped t + 1 s (or inf) after a normal stream, then no
     positions: the output reaches 0 N within device_timeout + f_max / slew."""
-    from surfhap.ff import ForceSafety
-
     ramp = math.ceil(max(FALCON.f_max) / (FALCON.slew / RATE)) + 1
     for bad in (1.0, math.inf):
-        saf = ForceSafety(FALCON, RATE)
+        saf = FFEngine([], FALCON, TouchPredictor(), rate=RATE)  # the safety stage fed 5 N up directly
         for k in range(100):
-            saf.process(np.array([0.0, 0.0, 5.0]), k / RATE, k / RATE, 0.0, 0.0, 0.0)
+            saf.observe(k / RATE, k / RATE, 0.0, 0.0, 0.0)
+            saf.limit(0.0, 0.0, 5.0)
         t0 = 100 / RATE
-        out = [saf.process(np.array([0.0, 0.0, 5.0]), t0, t0 + bad, 0.0, 0.0, 0.0)[2]]
+        saf.observe(t0, t0 + bad, 0.0, 0.0, 0.0)
+        out = [saf.limit(0.0, 0.0, 5.0)[2]]
         for k in range(101, 600):  # the device goes silent: the caller repeats the last sample
-            out.append(saf.process(np.array([0.0, 0.0, 5.0]), k / RATE, t0 + bad, 0.0, 0.0, 0.0)[2])
+            saf.observe(k / RATE, t0 + bad, 0.0, 0.0, 0.0)
+            out.append(saf.limit(0.0, 0.0, 5.0)[2])
         lost = int(FALCON.device_timeout * RATE) + ramp
         assert out[lost] == 0.0 and max(out[lost:]) == 0.0, (bad, out[lost])
         assert saf.counters.stale > 0 or saf.counters.device_lost > 0
@@ -242,10 +243,8 @@ def test_future_and_infinite_position_stamps_do_not_switch_the_watchdog_off():
 def test_frozen_caller_clock_does_not_stop_the_watchdog():
     """A caller whose clock stops (t and t_pos repeated) cannot hold a force: the stage's own
     clock advances one period per tick."""
-    from surfhap.ff import ForceSafety
-
-    saf = ForceSafety(FALCON, RATE)
-    out = [saf.process(np.array([0.0, 0.0, 5.0]), 1.0, 1.0, 0.0, 0.0, 0.0)[2] for _ in range(600)]
+    saf = FFEngine([], FALCON, TouchPredictor(), rate=RATE)
+    out = [(saf.observe(1.0, 1.0, 0.0, 0.0, 0.0), saf.limit(0.0, 0.0, 5.0)[2])[1] for _ in range(600)]
     assert out[-1] == 0.0 and saf.counters.device_lost > 0
 
 
@@ -294,6 +293,6 @@ def test_device_position_stamps_pass_the_one_arrival_law():
             clock.t += period
             be.value = clock.t + offset
             loop.tick_once(clock.t)
-        stale = eng.safety.counters.stale
+        stale = eng.counters.stale
         assert (stale == 20) == (arrival_stamp(clock.t + offset, clock.t) == STALE), (offset, stale)
         assert stale in (0, 20)

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from surfhap.ff import FALCON, Attraction, DeviceParams, FFEngine, ForceSafety, GridField, RectsField, Roughness, Shape, Sliding, Stiffness
+from surfhap.ff import FALCON, Attraction, DeviceParams, FFEngine, GridField, RectsField, Roughness, Shape, Sliding, Stiffness
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.sim.ff_device import SimDevice
 
@@ -28,6 +28,17 @@ def all_effects(device=FALCON):
 def make_engine(device=FALCON):
     return FFEngine(all_effects(device), device, TouchPredictor(latency=0.04, alpha=0.15, velocity_alpha=0.45),
                     rate=RATE, touch_latency=0.04)
+
+
+def bare_stage(device=FALCON):
+    """The engine without effects: its safety stage fed a requested force directly."""
+    return FFEngine([], device, TouchPredictor(), rate=RATE)
+
+
+def process(eng, force, t, t_pos, px, py, pz, stop=False):
+    """One tick of the safety stage alone for the requested ``force`` (3,) N."""
+    eng.observe(t, t_pos, px, py, pz)
+    return eng.limit(*force, stop)
 
 
 def check(outs, device):
@@ -108,7 +119,7 @@ def test_device_watchdog_ramps_to_zero_after_10_ms():
     for k in range(100, 200):
         outs.append(eng.tick(k / RATE, 0.0, 0.0, -0.01, t_last).copy())
     outs = np.asarray(outs)
-    assert eng.safety.counters.device_lost > 0
+    assert eng.counters.device_lost > 0
     lost = 99 + int(round(FALCON.device_timeout * RATE)) + 1  # first tick beyond the timeout
     assert np.all(outs[99:lost - 1, 2] == outs[99, 2])  # held until the timeout
     assert outs[lost, 2] < outs[99, 2]  # then ramping down
@@ -130,19 +141,35 @@ def test_touch_watchdog_falls_back_to_idle():
 
 
 def test_workspace_wall_pushes_back_and_drops_outward_force():
-    saf = ForceSafety(FALCON, RATE)
+    saf = bare_stage()
     ws = FALCON.workspace[0]
     for k in range(200):
-        out = saf.process(np.array([5.0, 0.0, 0.0]), k / RATE, k / RATE, ws + 0.002, 0.0, 0.0)
+        out = process(saf, np.array([5.0, 0.0, 0.0]), k / RATE, k / RATE, ws + 0.002, 0.0, 0.0)
     assert out[0] == pytest.approx(-FALCON.wall_k * 0.002)
     assert saf.counters.workspace == 200
 
 
 def test_stop_ramps_lateral_axes_to_zero_at_slew_rate():
-    saf = ForceSafety(FALCON, RATE)
+    saf = bare_stage()
     for k in range(100):
-        saf.process(np.array([4.0, -4.0, 0.0]), k / RATE, k / RATE, 0.0, 0.0, 0.0)
-    outs = np.array([saf.process(np.array([4.0, -4.0, 0.0]), k / RATE, k / RATE, 0.0, 0.0, 0.0, stop=True).copy()
+        process(saf, np.array([4.0, -4.0, 0.0]), k / RATE, k / RATE, 0.0, 0.0, 0.0)
+    outs = np.array([process(saf, np.array([4.0, -4.0, 0.0]), k / RATE, k / RATE, 0.0, 0.0, 0.0, stop=True).copy()
                      for k in range(100, 120)])
     assert outs[0, 0] == pytest.approx(4.0 - FALCON.slew / RATE)
     assert outs[-1, 0] == 0.0 and outs[-1, 1] == 0.0
+
+
+def test_switch_keeps_the_safety_stage_and_ramps_to_the_new_scene():
+    """Issue 20 (one engine): a scene switch replaces the effects only; the safety stage's clock,
+    counters and output carry on (no reset to 0 N: the weight compensation stays up), and the
+    step to the new scene's force is slew-limited, the new reference starting at the screen."""
+    eng = FFEngine([Stiffness(300.0)], FALCON, TouchPredictor(), rate=RATE)
+    outs = [eng.tick(k / RATE, 0.0, 0.0, -0.005, k / RATE).copy() for k in range(300)]
+    ticks = eng.counters.ticks
+    eng.switch([Shape(0.02)])
+    for k in range(300, 600):
+        eng.touch(k / RATE, 0.05, 0.05, 1.0)
+        outs.append(eng.tick(k / RATE, 0.0, 0.0, -0.005, k / RATE).copy())
+    assert eng.counters.ticks == ticks + 300 and eng.effects[0].name == "shape"
+    assert outs[300][2] >= outs[299][2] - FALCON.slew / RATE - EPS  # held up, not dropped to 0 N
+    check(outs, FALCON)

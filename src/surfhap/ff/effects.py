@@ -9,7 +9,7 @@ of the control law (eq. 8) as a tuple ``(kx, ky, kz, h, ffx, ffy, ffz)``:
 * ``ffx, ffy, ffz``: N, its feed-forward force (moving force, grating, attraction).
 
 An effect alone is its paper law (eqs. 1-5), ``ff + K (X0 + h e_z - X_t)`` (X0 = 0, N in the
-device frame of :mod:`surfhap.ff.params`); :class:`surfhap.ff.control.ControlLaw` merges
+device frame of :mod:`surfhap.ff.params`); :meth:`surfhap.ff.engine.FFEngine.merge` merges
 several effects into one force (eq. 8). Parameters that vary over the picture come from :mod:`surfhap.ff.fields`
 (a NaN value switches the effect off at that point).
 """
@@ -30,7 +30,7 @@ TWO_PI = 2.0 * math.pi
 class TickState:
     """Everything an effect may read on one haptic tick (mutable, reused every tick).
 
-    t, dt          : s, tick time (the safety stage's own clock, see :mod:`surfhap.ff.safety`) and interval.
+    t, dt          : s, tick time (the safety stage's own clock, see :mod:`surfhap.ff.engine`) and interval.
     touched        : finger on the screen (and touch stream fresh).
     fx, fy         : m, finger position in content (world) coordinates.
     fvx, fvy       : m/s, finger velocity in the world; ``speed`` its norm.

@@ -1,4 +1,6 @@
-"""The force-feedback engine: touch kinematics -> effects (control law) -> safety stage.
+"""The force-feedback engine: touch kinematics -> effects (control law) -> safety stage, one tick
+per call; the control law's arithmetic and the safety stage run compiled in one call
+(:mod:`surfhap.ff.tick_kernel`), this class holds their state arrays.
 
 Driven tick by tick by a clock that is not its business (:class:`surfhap.live.ff_loop.FFLoop`
 on the runtime's wall or simulated clock): ``touch(t, x, y, load)`` per touch sample (screen
@@ -6,43 +8,65 @@ coordinates in m as the tablet reports them, load N, 0 = lifted, ``t`` its arriv
 ``tick(t, px, py, pz, t_pos)`` once per haptic tick with the freshest device position (m,
 relative to X0) and its stamp; it returns the safe force (3,) N in the device frame.
 
-Screen -> world: the content is drawn compensated (shifted by ``-X_t``) so that it stays still
-in the world; the finger's world position is ``f_screen + X_t,xy`` with ``X_t`` taken when the
-touch was *sampled* (``touch_latency`` s before it arrived; the engine keeps 0.5 s of
-positions). Mixing a late touch with the current screen position would feed the screen's own
-motion back with the touch latency (Sliding unstable for gain nu * latency / m > pi / 2).
-Prediction (``predictor``: :class:`surfhap.render.kinematics.TouchPredictor`, passed in) runs
-on the world stream and is extrapolated between samples for at most ``max_extrapolate``.
+Control law: eq. 8 (004 Sec. 4.3), ``F = (m g + delta sin(phi)) e_z + alpha f_dot - nu f_dot ^ e_z
++ K (X0 + h e_z - X_t)``, the active effects merged (:meth:`FFEngine.merge`: per axis the most
+compliant stiffness, offsets h and feed-forward forces summed), plus a damping ``-D v``,
+``D = damping sqrt(K / K_max)`` on held axes (K_max on the tablet rings at 8 Hz without it), the
+weight compensation always on, the reference height inside the workspace and bumpless switching
+(the reference approaches ``X0 + h e_z`` at <= ``ref_speed`` per axis, follows the screen on a
+free axis; the grating's offset is added after that limit). Not touched: Idle (eq. 5).
 
-Watchdogs, on the safety stage's own clock (:class:`surfhap.ff.safety.ForceSafety`; a caller's
-stamp orders samples and can only make them older): no touch for ``touch_timeout`` -> Idle; no
+Safety stage, last before any backend, for *any* input (property-tested here and through the
+loop, ``tests/test_ff_safety.py``, ``tests/test_ff_loop_property.py``): ``|F_i| <= f_max_i``;
+``|F_i[n] - F_i[n-1]| <= slew / rate`` (every change, towards zero too, is a ramp); a non-finite
+force or position, one beyond ``position_bound`` or implying a speed above ``max_speed`` -> ramp
+to zero (fault / rejected); no fresh position for ``device_timeout`` -> ramp to zero; ``stop`` ->
+lateral axes ramp to zero, the weight compensation is lowered over ``land_time`` while
+``land_damping`` brakes the descent (the tablet is put down, not dropped); towards a wall the
+screen speed is held to ``sqrt(2 a d)`` and beyond the box ``|X_t,i| <= workspace_i`` an outward
+component is dropped and a damped wall spring pushes back. It keeps its own clock, advanced by
+the caller's interval but by at least one period and at most ``MAX_STEP`` per tick; a
+position's stamp (through :func:`surfhap.runtime.clock.arrival_stamp` upstream) only orders and
+ages samples: non-finite or older than the last is stale. ``gain`` (N -> device units) is the backend's.
+
+Screen -> world: the content is drawn shifted by ``-X_t`` so it stays still in the world; the
+finger's world position is ``f_screen + X_t,xy`` with ``X_t`` taken when the touch was *sampled*
+(``touch_latency`` before it arrived; 0.5 s of positions kept): a late touch mixed with the
+current screen position feeds the screen's motion back (Sliding unstable for nu latency / m >
+pi / 2). Prediction (``predictor``, a :class:`surfhap.render.kinematics.TouchPredictor`) runs on
+the world stream, extrapolated between samples for at most ``max_extrapolate``.
+
+Watchdogs, on the safety stage's own clock: no touch for ``touch_timeout`` -> Idle; no
 device position for ``device_timeout`` -> zero force. A touch stamp older than the previous
 one, non-finite or in the future is stale (rejected, or the finger counts as lifted); positions
 beyond ``TOUCH_BOUND``, loads beyond ``MAX_LOAD`` and jumps faster than ``MAX_SPEED`` are
 rejected (``touch_rejected``); the finger's acceleration is bounded by ``MAX_ACCELERATION``
 (the finger bounds of :mod:`surfhap.models.finger`).
 
-Failure: an exception in an effect or the control law is kept in ``error`` and turns the tick
-into a stop; the safety stage still runs on every tick and ramps the force down. With a
-scene's GUI buttons, ``button`` is the pressed one each tick (-1 = none; :mod:`surfhap.ff.buttons`).
+Failure: an exception in an effect is kept in ``error`` and turns the tick into a stop; the
+safety stage still runs on every tick and ramps the force down. With a scene's GUI buttons,
+``button`` is the pressed one each tick (-1 = none; :mod:`surfhap.ff.buttons`).
 """
 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
+from surfhap.ff import tick_kernel as kernel
 from surfhap.ff.buttons import ButtonPresses
-from surfhap.ff.control import ControlLaw
 from surfhap.ff.effects import Effect, TickState
 from surfhap.ff.params import DeviceParams
-from surfhap.ff.safety import ForceSafety
 from surfhap.models.finger import MAX_ACCELERATION, MAX_LOAD, MAX_SPEED
 
-__all__ = ["FFEngine", "TOUCH_BOUND"]
+__all__ = ["FFEngine", "FFCounters", "TOUCH_BOUND"]
 
 TOUCH_BOUND = 1.0  # m, no tablet is larger: touch coordinates beyond are garbage (rejected)
+
+# the safety stage's tick counts since the last reset, one per kernel counter
+FFCounters = namedtuple("FFCounters", kernel.COUNTERS)
 
 
 class FFEngine:
@@ -70,6 +94,10 @@ class FFEngine:
                  max_extrapolate: float = 0.05, buttons=()):
         if not (math.isfinite(touch_latency) and 0.0 <= touch_latency <= 0.4):
             raise ValueError("touch_latency must be within 0-0.4 s")
+        if not (math.isfinite(rate) and rate > 0):
+            raise ValueError("rate must be > 0 Hz")
+        if not (math.isfinite(velocity_cutoff) and velocity_cutoff > 0):
+            raise ValueError("velocity_cutoff must be > 0 Hz")
         self.touch_latency = float(touch_latency)
         self._hist_n = 512
         self._hist_x = [0.0] * self._hist_n
@@ -78,29 +106,45 @@ class FFEngine:
         self.device = device
         self.rate = float(rate)
         self.dt = 1.0 / self.rate
-        self.law = ControlLaw(effects, device, self.rate)
-        self.safety = ForceSafety(device, self.rate, velocity_cutoff)
+        # safety stage: state S, parameters P, counters N, output (3,) N (tick_kernel layouts)
+        self.S, self.P = kernel.new_state(), kernel.safety_params(device, self.rate, velocity_cutoff)
+        self.N = np.zeros(len(kernel.COUNTERS), dtype=np.int64)
+        self.out = np.zeros(3)
+        # control law: reference R (rx, ry, rz, fresh) and parameters L (k_max, damping, weight, h_lim, ref_step)
+        self.R = np.array([0.0, 0.0, 0.0, 1.0])
+        self.L = np.array([device.k_max, device.damping, device.weight, device.workspace[2], device.ref_speed / rate])
+        self._set_effects(effects)
         self.predictor = predictor
         self.max_extrapolate = float(max_extrapolate)
         self._atau = 1.0 / (2.0 * math.pi * accel_cutoff)
-        self.state = TickState()
-        self.state.dt = self.dt
         self.button_presses = ButtonPresses(buttons)
         self.button = -1
         self.reset()
 
+    def _set_effects(self, effects: list[Effect]) -> None:
+        """The effects of a scene (bit i of ``mask`` = effect i active), reset; the reference
+        restarts at the screen on the next tick (bumpless)."""
+        if len(effects) > 30:
+            raise ValueError("at most 30 effects per scene")
+        self.effects = list(effects)
+        self._calls = [(e.terms, e.vibration) for e in self.effects]
+        for e in self.effects:
+            e.reset()
+        self.mask = 0  # bit mask of the effects active on the last tick (0 = idle)
+        self.R[:] = (0.0, 0.0, 0.0, 1.0)
+
     def reset(self) -> None:
-        self.law.reset()
+        self._set_effects(self.effects)
         self.button_presses.reset()
         self.button = -1
-        self.safety.reset()
+        self.S[:] = kernel.new_state()
+        self.N[:] = 0
+        self.out[:] = 0.0
         self.predictor.reset()
-        s = self.state
-        s.touched = False
-        s.fx = s.fy = s.fvx = s.fvy = s.fax = s.fay = s.speed = s.load = 0.0
+        self.state = TickState()  # untouched, at rest at X0
+        self.state.dt = self.dt
         self._pvx = self._pvy = 0.0
         self._pt = math.nan
-        s.px = s.py = s.pz = s.vx = s.vy = s.vz = 0.0
         self._stamp = -math.inf  # caller stamp of the last accepted touch sample
         self._new_touch = False  # a touch sample since the last tick
         self._touch_at = -math.inf  # its arrival on the safety stage's clock
@@ -116,10 +160,31 @@ class FFEngine:
     def switch(self, effects: list[Effect], buttons=()) -> None:
         """Another scene's effects from the next tick, without resetting the safety stage: the
         weight compensation and the output stay up (bumpless, from the screen's position)."""
-        law = ControlLaw(effects, self.device, self.rate)
-        self.button_presses = ButtonPresses(buttons)
+        presses = ButtonPresses(buttons)
+        self._set_effects(effects)
+        self.button_presses = presses
         self.button = -1
-        self.law = law
+
+    # ----------------------------------------------------------------- safety stage
+    @property
+    def counters(self) -> FFCounters:
+        return FFCounters(*self.N.tolist())
+
+    @property
+    def stop_duration(self) -> float:
+        """s, longest stop from any output: the landing plus a full-scale ramp."""
+        return self.device.land_time + 2.0 * max(self.device.f_max) / self.device.slew + 10.0 * self.dt
+
+    def observe(self, t: float, t_pos: float, px: float, py: float, pz: float) -> bool:
+        """Advance the safety stage's clock one tick and take the device position (m, stamp
+        ``t_pos`` s) if plausible; True when accepted (``S[0:6]``: position m, velocity m/s)."""
+        return kernel.observe(self.S, self.P, self.N, float(t), float(t_pos), float(px), float(py), float(pz))
+
+    def limit(self, f0: float, f1: float, f2: float, stop: bool = False) -> np.ndarray:
+        """The safe force (3,) N (a view of ``out``) for the requested one, after this tick's
+        :meth:`observe`: the safety stage alone (no control law)."""
+        kernel.limit(self.S, self.P, self.N, float(f0), float(f1), float(f2), bool(stop), self.out)
+        return self.out
 
     # ----------------------------------------------------------------- inputs
     def touch(self, t: float, x: float, y: float, load: float, t_event: float = math.nan) -> None:
@@ -185,10 +250,9 @@ class FFEngine:
     def tick(self, t: float, px: float, py: float, pz: float, t_pos: float) -> np.ndarray:
         """Safe force (3,) N for this tick; see the module docstring."""
         s = self.state
-        saf = self.safety
-        if saf.observe(t, t_pos, px, py, pz):
-            s.px, s.py, s.pz, s.vx, s.vy, s.vz = saf.state[:6].tolist()
-        c = saf.now
+        if self.observe(t, t_pos, px, py, pz):
+            s.px, s.py, s.pz, s.vx, s.vy, s.vz = self.S[:6].tolist()
+        c = float(self.S[kernel._NOW])
         s.t = c
         j = self._hist_k % self._hist_n
         self._hist_x[j] = s.px
@@ -226,18 +290,40 @@ class FFEngine:
         s.touched = touched
         if self.error is None:
             try:
-                terms = self.law.merge(s)
+                kx, ky, kz, h, hv, fx, fy, fz = self.merge(s)
                 if self.button_presses.buttons:
                     self.button = self.button_presses.update(touched, s.fx, s.fy, s.pz)
                 # the control law's arithmetic and the safety stage (last): one compiled call
-                return saf.law_limit(self.law, terms, self.stopping)
+                kernel.force(self.S, self.P, self.N, self.R, self.L, kx, ky, kz, h, hv, fx, fy, fz, self.stopping,
+                             self.out)
+                return self.out
             except Exception as exc:  # noqa: BLE001 - kept for the caller; the safety stage ramps down
                 self.error = exc
                 self.stopping = True
-        return saf.limit(0.0, 0.0, 0.0, self.stopping)
+        return self.limit(0.0, 0.0, 0.0, self.stopping)
 
-    # ----------------------------------------------------------------- outputs
-    @property
-    def mask(self) -> int:
-        """Bit mask of the effects active on the last tick (0 = idle)."""
-        return self.law.mask
+    def merge(self, s: TickState) -> tuple[float, float, float, float, float, float, float, float]:
+        """The active effects' terms merged (sets ``mask``): ``(kx, ky, kz, h, hv, fx, fy, fz)``
+        -- per axis the most compliant stiffness, the summed normal offsets (``hv`` the
+        vibrations') and the summed feed-forward forces."""
+        kx = ky = kz = self.device.k_max
+        h = hv = fx = fy = fz = 0.0
+        mask = 0
+        if s.touched:
+            bit = 1
+            for call, vib in self._calls:
+                r = call(s)
+                if r is not None:
+                    mask |= bit
+                    a, b, c, hh, p, q, w = r
+                    kx, ky, kz = min(kx, a), min(ky, b), min(kz, c)
+                    if vib:
+                        hv += hh
+                    else:
+                        h += hh
+                    fx += p
+                    fy += q
+                    fz += w
+                bit <<= 1
+        self.mask = mask
+        return float(kx), float(ky), float(kz), float(h), float(hv), float(fx), float(fy), float(fz)

@@ -61,7 +61,7 @@ class DeviceParams:
                     K_max (0.2 N amplitude) unaltered up to ~300 Hz.
     wall_k        : N/m, stiffness of the workspace wall (CHOICE: K_max).
     ref_speed     : m/s, fastest move of the position-control reference on a switch (bumpless
-                    transfer, see :mod:`surfhap.ff.control`). CHOICE: 0.2 m/s, twice the
+                    transfer, see :mod:`surfhap.ff.engine`). CHOICE: 0.2 m/s, twice the
                     peak speed of the study's 0.5 Hz strokes (Sec. 5.2), so shapes under
                     ordinary strokes are followed unaltered; crossing the Falcon's 8 cm
                     workspace takes 0.4 s.

@@ -34,6 +34,7 @@ Paths are relative to the scene file. Errors name the file and the field, and ar
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Literal, Union
 
@@ -178,14 +179,14 @@ class SceneSpec(BaseModel):
         return self
 
 
+@dataclass
 class FFScene:
     """A loaded scene: ``spec``, the ``effects`` (for one device) and the ``picture`` field."""
 
-    def __init__(self, spec: SceneSpec, effects: list[Effect], picture: Field | None, source: str):
-        self.spec = spec
-        self.effects = effects
-        self.picture = picture
-        self.source = source
+    spec: SceneSpec
+    effects: list[Effect]
+    picture: Field | None
+    source: str
 
     @property
     def name(self) -> str:
@@ -233,11 +234,9 @@ def _read_image(path: Path, src: str, field: str) -> np.ndarray:
 
 
 def _ramp(r: Rect):
-    a, b, axis = r.ramp.from_, r.ramp.to, r.ramp.axis
-    lo, span = (r.x0, r.x1 - r.x0) if axis == "x" else (r.y0, r.y1 - r.y0)
-    if axis == "x":
-        return lambda x, y: a + (b - a) * (x - lo) / span
-    return lambda x, y: a + (b - a) * (y - lo) / span
+    a, b, on_x = r.ramp.from_, r.ramp.to, r.ramp.axis == "x"
+    lo, span = (r.x0, r.x1 - r.x0) if on_x else (r.y0, r.y1 - r.y0)
+    return lambda x, y: a + (b - a) * ((x if on_x else y) - lo) / span
 
 
 def _field(m, size, base: Path, src: str, field: str) -> Field:

@@ -1,6 +1,6 @@
 """The compiled per-tick arithmetic of the force loop (numba kernels over small arrays, as
 :mod:`surfhap.render.drive_kernel` does for the texture laws), semantics in
-:mod:`surfhap.ff.safety` and :mod:`surfhap.ff.control`: :func:`observe` takes the device
+:mod:`surfhap.ff.engine` (the one implementation of the force law and its limits): :func:`observe` takes the device
 position (clock, stamp, plausibility, velocity filter); :func:`force` is the control law's tail
 after the effects' merged terms (bumpless reference, damping, eq. 8) followed by
 :func:`limit`, the safety stage's output (workspace brake and wall, stop landing, clamp, slew)

@@ -27,6 +27,7 @@ positions arrive; ``tolerance`` (s) is added to the 20 ms for the delivery on a 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -49,12 +50,7 @@ class CheckRow:
     detail: str
 
 
-@dataclass
-class _Received:
-    t: float
-    seq: int
-    p: tuple
-    a: tuple
+_Received = namedtuple("_Received", "t seq p a")  # arrival s, sequence number, position m, applied force
 
 
 @checked_dataclass
@@ -178,9 +174,6 @@ class BridgeCheck:
         rows.append(self._watchdog_row())
         return rows
 
-    def _applied_after(self, start: int, t_from: float):
-        return [r.a for r in self.log[start:] if r.t >= t_from]
-
     def _sequence_row(self) -> CheckRow:
         back = sum(1 for a, b in zip(self.log, self.log[1:]) if b.seq <= a.seq)
         f = self.settings.force * self.settings.gain
@@ -189,7 +182,7 @@ class BridgeCheck:
             start, t_last = self._stream((f, 0.0, 0.0), 0.05, min_positions=5)
             self._send((-f, 0.0, 0.0), seq=self._seq - 2)  # older than the last one sent: must be ignored
             self._listen(0.012)  # < 20 ms: the bridge still applies the newest force
-            seen = self._applied_after(start, t_last)
+            seen = [r.a for r in self.log[start:] if r.t >= t_last]
             if seen:
                 break
         stale = sum(1 for a in seen if a[0] < 0.0)

@@ -32,7 +32,7 @@ import socket
 import struct
 
 __all__ = ["FORCE_ADDRESS", "POSITION_ADDRESS", "BRIDGE_WATCHDOG_S", "MIN_POSITION_RATE_HZ", "MAX_POSITION_M",
-           "SEQ_LIMIT", "PositionReceiver", "encode_force", "decode_force", "encode_position", "decode_position", "new_token"]
+           "SEQ_LIMIT", "PositionReceiver", "encode_force", "encode_position", "decode_position", "new_token"]
 
 FORCE_ADDRESS = "/surfhap/ff/force"
 POSITION_ADDRESS = "/surfhap/ff/position"
@@ -51,7 +51,6 @@ _FORCE_PREFIX = _osc_string(FORCE_ADDRESS) + _osc_string(",iifff")
 _POSITION_PREFIX = _osc_string(POSITION_ADDRESS) + _osc_string(",iiffffff")
 _FORCE = struct.Struct(">iifff")
 _POSITION = struct.Struct(">iiffffff")
-FORCE_SIZE = len(_FORCE_PREFIX) + _FORCE.size
 POSITION_SIZE = len(_POSITION_PREFIX) + _POSITION.size
 
 
@@ -64,13 +63,6 @@ def new_token() -> int:
 
 def encode_force(token: int, seq: int, fx: float, fy: float, fz: float) -> bytes:
     return _FORCE_PREFIX + _FORCE.pack(token, seq % SEQ_LIMIT, fx, fy, fz)
-
-
-def decode_force(data: bytes):
-    """``(token, seq, fx, fy, fz)`` or None when ``data`` is not a force message of the contract."""
-    if len(data) != FORCE_SIZE or not data.startswith(_FORCE_PREFIX):
-        return None
-    return _FORCE.unpack_from(data, len(_FORCE_PREFIX))
 
 
 def encode_position(token: int, seq: int, x: float, y: float, z: float, ax: float, ay: float, az: float) -> bytes:

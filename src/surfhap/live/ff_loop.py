@@ -10,12 +10,9 @@ additional 60 Hz thread ... to send the Falcon position to the tablet"):
   backend. Nothing in a tick sleeps, logs, allocates arrays or takes a lock that a producer
   holds for long;
 * ``ff run`` (:meth:`FFLoop.start`): a thread runs ``run`` on a
-  :class:`~surfhap.runtime.clock.WallClock`, the one pacer (absolute deadlines, a sleep then a
-  spin of :data:`~surfhap.runtime.clock.SPIN`); a tick more than one period late counts the
-  periods it skipped as missed (``underruns``) and re-anchors the schedule. The clock keeps each
-  tick's period error (start minus deadline) for :meth:`FFLoop.stats`. The thread asks for
-  ``SCHED_FIFO`` (:func:`~surfhap.runtime.clock.enter_realtime`; the mode granted is the
-  ``scheduling`` statistic, a refusal is logged once);
+  :class:`~surfhap.runtime.clock.WallClock`, the one pacer (a late tick counts the periods it
+  skipped as ``underruns``; the period errors feed :meth:`FFLoop.stats`), asking for
+  ``SCHED_FIFO`` (:func:`~surfhap.runtime.clock.enter_realtime`, the mode granted: ``scheduling``);
 * ``ff simulate`` (:func:`simulate_ff`): the same loop on a
   :class:`~surfhap.runtime.clock.SimClock` with the simulated device and finger;
 * stop (Ctrl-C, SIGTERM, ``request_stop``): the safety stage ramps the lateral force to zero at
@@ -80,7 +77,7 @@ class FFLoop:
         self.feedback = feedback
         self.feedback_rate = float(feedback_rate)
         # long enough for the safety stage to put the tablet down and ramp to zero
-        self.stop_timeout = engine.safety.stop_duration + 0.1 if stop_timeout is None else float(stop_timeout)
+        self.stop_timeout = engine.stop_duration + 0.1 if stop_timeout is None else float(stop_timeout)
         self.realtime = bool(realtime)
         self.scheduling = "not started"
         self._switch: float | None = None
@@ -195,19 +192,18 @@ class FFLoop:
         if self._stop.is_set() and self._stop_left is None:
             eng.stop()
             self._stop_left = math.ceil(self.stop_timeout * self.rate)
-        saf = eng.safety
-        ticks = saf.n_ticks
+        ticks = eng.N[0]
         try:
             f = eng.tick(t, px, py, pz, t_pos)
         except Exception as exc:  # noqa: BLE001 - outside the control law: the safety stage alone
             self._fail(exc)
             eng.stop()
-            if saf.n_ticks == ticks:  # the tick failed before the safety stage took this tick's position
+            if eng.N[0] == ticks:  # the tick failed before the safety stage took this tick's position
                 try:
-                    saf.observe(t, t_pos, px, py, pz)
+                    eng.observe(t, t_pos, px, py, pz)
                 except Exception:  # noqa: BLE001 - unusable position: the stop below still ramps
                     pass
-            f = saf.limit(0.0, 0.0, 0.0, True)  # this tick's clock advanced once: a ramp, never a jump
+            f = eng.limit(0.0, 0.0, 0.0, True)  # this tick's clock advanced once: a ramp, never a jump
         if eng.error is not None:
             self._fail(eng.error)
         self._last = (px, py, pz, float(f[0]), float(f[1]), float(f[2]), int(eng.mask), eng.button)
@@ -268,7 +264,7 @@ class FFLoop:
         """Period-error distribution (ms), missed ticks, engine and safety counters (JSON-ready)."""
         e = (self.clock.lateness() if isinstance(self.clock, WallClock) else np.zeros(0)) * 1e3
         pct = (lambda q: float(np.percentile(e, q)) if e.size else 0.0)
-        c = self.engine.safety.counters
+        c = self.engine.counters
         return dict(
             ticks=self.ticks, missed=self.counters["underruns"], rate_hz=self.rate,
             period_error_ms={"p50": pct(50), "p99": pct(99), "p999": pct(99.9), "max": pct(100)},
@@ -302,7 +298,7 @@ def simulate_ff(engine, finger, device, settle: float = 0.3, tail: float = 0.2,
     k = rec.k
     r = {key: v[:k] for key, v in rec.cols.items()}
     return FFSimResult(r["t"], r["force"], r["screen"], r["screen_v"], r["finger"], r["finger_v"], r["sliding"],
-                       r["finger_est"], r["touched"], r["mask"], r["load"], [e.name for e in engine.law.effects],
+                       r["finger_est"], r["touched"], r["mask"], r["load"], [e.name for e in engine.effects],
                        name, r["button"], engine.button_presses.names)
 
 

@@ -39,6 +39,8 @@ import math
 import numba
 import numpy as np
 
+from surfhap.errors import ConfigError
+
 __all__ = ["TouchPredictor", "predict"]
 
 # the state array of a predictor: parameters, then the filter state
@@ -105,15 +107,15 @@ class TouchPredictor:
                  cutoff: float = 20.0, max_gap: float = 0.1, max_k: float = 20.0,
                  velocity_alpha: float | None = None):
         if not (math.isfinite(latency) and 0.0 <= latency <= 0.2):
-            raise ValueError("latency must be within 0-0.2 s")
+            raise ConfigError("must be within 0-0.2 s", field="latency")
         if not (math.isfinite(alpha) and 0.0 < alpha <= 1.0):
-            raise ValueError("alpha must be in (0, 1]")
+            raise ConfigError("must be in (0, 1]", field="alpha")
         if k_pred is not None and not (math.isfinite(k_pred) and 0.0 <= k_pred <= 100.0):
-            raise ValueError("k_pred must be within 0-100")
+            raise ConfigError("must be within 0-100", field="k_pred")
         if not (math.isfinite(cutoff) and cutoff > 0):
-            raise ValueError("cutoff must be > 0 Hz")
+            raise ConfigError("must be > 0 Hz", field="cutoff")
         if velocity_alpha is not None and not (math.isfinite(velocity_alpha) and 0.0 < velocity_alpha <= 1.0):
-            raise ValueError("velocity_alpha must be in (0, 1]")
+            raise ConfigError("must be in (0, 1]", field="velocity_alpha")
         self.state = np.zeros(16)
         self.state[:_STARTED] = (latency, alpha, math.nan if k_pred is None else k_pred, max_gap, max_k,
                                  1.0 / (2.0 * math.pi * cutoff), math.nan if velocity_alpha is None else velocity_alpha)

@@ -130,5 +130,5 @@ def ff_page_info(scene, loop) -> dict:
     button names by index."""
     dev = loop.engine.device
     return {"device": dev.name, "workspace_m": list(dev.workspace), "f_max_n": list(dev.f_max),
-            "effects": [e.name for e in loop.engine.law.effects],
+            "effects": [e.name for e in loop.engine.effects],
             "buttons": [b.name for b in scene.buttons]}
