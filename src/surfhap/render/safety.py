@@ -31,7 +31,7 @@ from pydantic import Field, model_validator
 
 from surfhap.checked import checked_dataclass
 
-__all__ = ["SafetyLimits", "SafetyStage", "SafetyCounters", "OutputSafety", "OutputCounters"]
+__all__ = ["SafetyLimits", "SafetyStage", "stage_block", "SafetyCounters", "OutputSafety", "OutputCounters"]
 
 _Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
@@ -153,6 +153,13 @@ def _safety_kernel(x, load, touch_age, out, state, counters, gain, ramp_step, ag
     state[1] = ramp
 
 
+@numba.njit(cache=True, nogil=True)
+def stage_block(drive, load, touch_age, out, state, counters, limits):
+    """A renderer's safety stage over (n,) drive V, load N, touch age s into ``out``: state,
+    counters and limits of :meth:`SafetyStage.kernel_args` (compiled callers)."""
+    _safety_kernel(drive, load, touch_age, out, state, counters, 1.0, 0.0, 0.0, 0.0, False, *limits)
+
+
 class SafetyStage:
     """Stateful safety processor at the drive rate.
 
@@ -180,10 +187,13 @@ class SafetyStage:
         touch_age = np.ascontiguousarray(touch_age, dtype=np.float64)
         if not (drive.shape == load.shape == touch_age.shape) or drive.ndim != 1:
             raise ValueError("drive, load and touch_age must be 1-D arrays of one length")
-        if out is None:
-            out = np.empty_like(drive)
-        _safety_kernel(drive, load, touch_age, out, self._state, self._counters, 1.0, 0.0, 0.0, 0.0, False, *self._args)
+        out = np.empty_like(drive) if out is None else out
+        stage_block(drive, load, touch_age, out, *self.kernel_args())
         return out
+
+    def kernel_args(self) -> tuple:
+        """(state, counters, limits): this stage for :func:`stage_block`."""
+        return self._state, self._counters, self._args
 
     @property
     def counters(self) -> SafetyCounters:
