@@ -51,14 +51,14 @@ def target_to_voltage(target, load, alpha, voltage):
 
 
 @numba.njit(cache=True, nogil=True)
-def friction_texture_law(load, speed, texture, quasi, a, b, c, d, q, mu0, texture_mode, scale, beta, alpha,
-                         mu_low, mu_tex, target, voltage):
+def friction_texture_law(load, speed, texture, quasi, a, b, c, d, q, mu0, texture_mode, scale, beta, alpha, out):
     """``F = (mu_low(fn, v) + beta mu_t) fn`` and ``V = alpha sqrt(max(F, 0))`` per sample.
 
     load, speed, texture: (n,) float (N, m/s, texture quantity); ``quasi`` True for eq. 3 of
     003 with (a, b, c, d, q), False for a constant ``mu0``; ``texture_mode`` one of the
-    TEXTURE_* constants with its ``scale``. Writes the (n,) outputs mu_low, mu_tex, target (N)
-    and voltage (V); returns (clipped, touching) as :func:`target_to_voltage`.
+    TEXTURE_* constants with its ``scale``. Writes out (4, n): voltage (V), target (N), mu_low,
+    mu_tex (a :class:`~surfhap.render.drive.DriveBlock`'s rows); returns (clipped, touching) as
+    :func:`target_to_voltage`.
     """
     clipped = 0
     touching = 0
@@ -75,26 +75,24 @@ def friction_texture_law(load, speed, texture, quasi, a, b, c, d, q, mu0, textur
         else:
             t = 0.0
         f = (m + beta * t) * fn
-        mu_low[i] = m
-        mu_tex[i] = t
-        target[i] = f
+        out[2, i], out[3, i], out[1, i] = m, t, f
         if fn > 0.0:
             touching += 1
             if f < 0.0:
                 clipped += 1
-        voltage[i] = _to_voltage(f, alpha)
+        out[0, i] = _to_voltage(f, alpha)
     return clipped, touching
 
 
 @numba.njit(cache=True, nogil=True)
-def zhao_law(load, speed, texture, mu0, constant_load, texture_mode, scale, alpha, mu_low, mu_tex, target, voltage):
+def zhao_law(load, speed, texture, mu0, constant_load, texture_mode, scale, alpha, out):
     """Zhao et al. (000 eq. 3-4): ``F = mu0 fn_c + f_t`` with ``fn_c`` = ``constant_load`` N while
     touching (the measured load when ``constant_load`` <= 0) and ``f_t = scale x`` for an
     acceleration bank (``scale`` = gain m_eff), ``scale x fn_c`` for a CoF bank (``scale`` =
     gain), 0 for TEXTURE_NONE or without contact; ``V = alpha sqrt(max(F, 0))``.
 
-    load, speed (unused: Zhao's law does not follow the speed), texture: (n,) float. Writes the (n,) outputs mu_low (= mu0), mu_tex (f_t / fn_c),
-    target (N) and voltage (V); returns (clipped, touching) as :func:`target_to_voltage`.
+    load, speed (unused: Zhao's law does not follow the speed), texture: (n,) float. Writes out (4, n) as :func:`friction_texture_law` (mu_low = mu0,
+    mu_tex = f_t / fn_c); returns (clipped, touching) as :func:`target_to_voltage`.
     """
     clipped = 0
     touching = 0
@@ -110,12 +108,10 @@ def zhao_law(load, speed, texture, mu0, constant_load, texture_mode, scale, alph
             elif texture_mode == TEXTURE_COF:
                 ft = scale * texture[i] * fn
         f = mu0 * fn + ft
-        mu_low[i] = mu0
-        mu_tex[i] = ft / fn if fn > 0.0 else 0.0
-        target[i] = f
+        out[2, i], out[3, i], out[1, i] = mu0, ft / fn if fn > 0.0 else 0.0, f
         if ld > 0.0 and f < 0.0:
             clipped += 1
-        voltage[i] = _to_voltage(f, alpha)
+        out[0, i] = _to_voltage(f, alpha)
     return clipped, touching
 
 
