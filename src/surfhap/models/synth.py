@@ -87,11 +87,9 @@ class ARSynthesizer:
     def process(self, speed: np.ndarray, load: np.ndarray | None = None) -> np.ndarray:
         speed = np.ascontiguousarray(speed, dtype=np.float64)
         n = speed.shape[0]
-        if n > self.max_block:
-            outs, idxs = zip(*[(self.process(speed[i : i + self.max_block]), self.model_index)
-                               for i in range(0, n, self.max_block)])
-            self.model_index = np.concatenate(idxs)
-            return np.concatenate(outs)
+        if n > self._noise.shape[0]:  # a long offline block: room for it, the history kept
+            self._buf = np.concatenate([self._buf[:self.p_max], np.zeros(n)])
+            self._noise, self._index = np.empty(n), np.zeros(n, dtype=np.int64)
         noise = self._noise[:n]
         self._rng.standard_normal(out=noise)
         out = np.empty(n)

@@ -144,11 +144,9 @@ def _clean_inputs(speed, load, max_load, max_speed, out):
 
 @numba.njit(cache=True, nogil=True)
 def _drive_tail(voltage, load, touch_time, state, work, index, resampler, safety, drive, load_drive):
-    # the envelope at the drive rate (resampler: its kernel_args), the carrier on it and the
-    # finger held at the drive rate (load_drive, touch ages in work[1]), then the safety stage
-    # (its kernel_args), block after block; returns the drive samples written. state: model and
-    # drive samples so far, control rate, drive rate, carrier step, hold tolerance (a model
-    # sample holds from its start on), last load and touch time
+    # envelope up to the drive rate, carrier, finger held at the drive rate (load_drive, touch ages
+    # in work[1]), safety stage; returns the drive samples written. state: model and drive samples so
+    # far, control and drive rate, carrier step, hold tolerance, last load and touch time
     n = load.shape[0]
     m = resample_block(voltage, *resampler, drive)
     control_times(state[0], state[2], work[0, :n])

@@ -165,8 +165,7 @@ class SafetyStage:
 
     ``process(drive, load, touch_age)`` takes three (n,) float arrays: the drive in volts,
     the finger load in newtons, and the age in seconds of the freshest touch sample at each
-    drive sample. It returns (n,) float volts that satisfy :class:`SafetyLimits`. The
-    returned array is ``out`` when given, else a new array.
+    drive sample. It returns (n,) float volts that satisfy :class:`SafetyLimits`.
     """
 
     def __init__(self, drive_rate: float, limits: SafetyLimits | None = None):
@@ -181,14 +180,11 @@ class SafetyStage:
         self._state[0] = 0.0
         self._counters[:] = 0
 
-    def process(self, drive: np.ndarray, load: np.ndarray, touch_age: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-        drive = np.ascontiguousarray(drive, dtype=np.float64)
-        load = np.ascontiguousarray(load, dtype=np.float64)
-        touch_age = np.ascontiguousarray(touch_age, dtype=np.float64)
+    def process(self, drive: np.ndarray, load: np.ndarray, touch_age: np.ndarray) -> np.ndarray:
+        drive, load, touch_age = (np.ascontiguousarray(a, dtype=np.float64) for a in (drive, load, touch_age))
         if not (drive.shape == load.shape == touch_age.shape) or drive.ndim != 1:
             raise ValueError("drive, load and touch_age must be 1-D arrays of one length")
-        out = np.empty_like(drive) if out is None else out
-        stage_block(drive, load, touch_age, out, *self.kernel_args())
+        stage_block(drive, load, touch_age, out := np.empty_like(drive), *self.kernel_args())
         return out
 
     def kernel_args(self) -> tuple:

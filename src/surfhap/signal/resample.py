@@ -71,10 +71,8 @@ def _downsample(z, h, M, t0, n_in, out):
 
 @numba.njit(cache=True, nogil=True)
 def resample_block(x, z, Hr, L, M, t0, out):
-    """One block of the resampler of ``z``, ``Hr``, ``L``, ``M``, ``t0`` (its
-    :meth:`RationalResampler.kernel_args`): x (n,) inputs of any length -> out, returns the count
-    written (out holds at least n L / M + 2). z: history then room for max_block inputs; t0 (1,)
-    int64 the up-sampled time of the next output."""
+    """One block x (n,) of any length through the resampler of ``z, Hr, L, M, t0``
+    (:meth:`RationalResampler.kernel_args`) into ``out`` (>= n L / M + 2); returns the count."""
     K1 = Hr.shape[1] - 1
     count = 0
     for s0 in range(0, x.shape[0], z.shape[0] - K1):
