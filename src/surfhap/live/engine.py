@@ -17,7 +17,7 @@ Real-time contract of :meth:`LiveEngine.render` (it runs inside PortAudio's call
   sockets, build Python containers that grow, import modules, or raise (a failure of a
   processor outputs silence for the block and is counted in ``counters['errors']``).
   Buffers are allocated in ``__init__``/``reset``; the touch hold and the chain's stages are
-  compiled calls per chunk (the chain's numpy glue makes a few short temporaries per block).
+  compiled calls per chunk (a chain block allocates only its outputs).
 
 The last processor before the backend is the engine's :class:`~surfhap.render.safety.OutputSafety`
 pass (``self.guard``): gain and stop ramp are applied inside it, and it holds ``v_max``,

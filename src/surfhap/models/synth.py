@@ -17,13 +17,26 @@ import numpy as np
 if TYPE_CHECKING:
     from surfhap.models.texture import TextureBank
 
-__all__ = ["ARSynthesizer"]
+__all__ = ["ARSynthesizer", "nearest_model"]
 
 
 @numba.njit(cache=True, nogil=True)
-def _ar_bank_kernel(noise, model_idx, coefs, orders, sigmas, buf, pmax, out):
+def nearest_model(midpoints, speed, out):
+    """out[i] = the model of the reference speed nearest |speed[i]| (a NaN speed: the slowest),
+    given the sorted midpoints between reference speeds (what ``TextureBank.select`` returns)."""
+    for i in range(speed.shape[0]):
+        s = abs(speed[i])
+        k = 0
+        while k < midpoints.shape[0] and midpoints[k] < s:
+            k += 1
+        out[i] = k
+
+
+@numba.njit(cache=True, nogil=True)
+def _ar_bank_kernel(noise, speed, midpoints, model_idx, coefs, orders, sigmas, buf, pmax, out):
     # buf: (pmax + n,) ; buf[:pmax] holds the previous outputs, oldest first
     n = noise.shape[0]
+    nearest_model(midpoints, speed, model_idx)
     for i in range(n):
         m = model_idx[i]
         acc = sigmas[m] * noise[i]
@@ -42,7 +55,7 @@ class ARSynthesizer:
     ``process(speed, load=None)`` takes (n,) finger speeds (m/s) at the control rate (the load
     is accepted for the common synthesiser protocol and not used) and returns (n,) texture
     samples (the bank's quantity: mu_t, or acceleration in m/s^2); ``model_index`` (n,) tells
-    which model produced each sample of the last call.
+    which model produced each sample of the last call (a view, overwritten by the next call).
     """
 
     def __init__(self, bank: TextureBank, seed: int | np.random.Generator | None = 0, max_block: int = 1 << 16):
@@ -60,7 +73,9 @@ class ARSynthesizer:
         self.max_block = int(max_block)
         self._buf = np.zeros(self.p_max + self.max_block)
         self._noise = np.empty(self.max_block)
-        self.model_index = np.zeros(0, dtype=np.int64)
+        self._index = np.zeros(self.max_block, dtype=np.int64)
+        self._mid = np.ascontiguousarray(bank.midpoints, dtype=np.float64)
+        self.model_index = self._index[:0]
         self.reset()
 
     def reset(self) -> None:
@@ -70,16 +85,14 @@ class ARSynthesizer:
         self._buf[:] = 0.0
 
     def process(self, speed: np.ndarray, load: np.ndarray | None = None) -> np.ndarray:
-        speed = np.asarray(speed, dtype=np.float64)
+        speed = np.ascontiguousarray(speed, dtype=np.float64)
         n = speed.shape[0]
-        if n > self.max_block:
-            outs, idxs = zip(*[(self.process(speed[i : i + self.max_block]), self.model_index)
-                               for i in range(0, n, self.max_block)])
-            self.model_index = np.concatenate(idxs)
-            return np.concatenate(outs)
+        if n > self._noise.shape[0]:  # a long offline block: room for it, the history kept
+            self._buf = np.concatenate([self._buf[:self.p_max], np.zeros(n)])
+            self._noise, self._index = np.empty(n), np.zeros(n, dtype=np.int64)
         noise = self._noise[:n]
         self._rng.standard_normal(out=noise)
         out = np.empty(n)
-        self.model_index = self.bank.select(speed)
-        _ar_bank_kernel(noise, self.model_index, self._coefs, self._orders, self._sigmas, self._buf, self.p_max, out)
+        self.model_index = self._index[:n]
+        _ar_bank_kernel(noise, speed, self._mid, self.model_index, self._coefs, self._orders, self._sigmas, self._buf, self.p_max, out)
         return out

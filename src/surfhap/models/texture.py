@@ -141,14 +141,15 @@ class TextureBank:
 
     def select(self, speed: np.ndarray) -> np.ndarray:
         """Index of the nearest-reference-speed model for each speed (n,) m/s -> (n,) int."""
-        speed = np.asarray(speed, dtype=float)
-        if len(self.models) == 1:
-            return np.zeros(speed.shape, dtype=np.int64)
-        speed = np.abs(speed)
-        speed = np.where(speed == speed, speed, 0.0)  # NaN -> slowest model
-        return np.searchsorted(self._midpoints, speed, side="left")
+        from surfhap.models.synth import nearest_model  # compiled (numba): imported when used
+
+        speed = np.ascontiguousarray(speed, dtype=float).ravel()
+        out = np.empty(speed.shape, dtype=np.int64)
+        nearest_model(self.midpoints, speed, out)
+        return out
 
     @cached_property
-    def _midpoints(self) -> np.ndarray:
+    def midpoints(self) -> np.ndarray:
+        """(models - 1,) m/s: the speeds half-way between successive reference speeds."""
         refs = self.reference_speeds
         return 0.5 * (refs[1:] + refs[:-1])

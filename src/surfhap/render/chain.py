@@ -29,9 +29,9 @@ from surfhap.render.carrier import PolarityCarrier, check_carrier, polarity
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
 from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
 from surfhap.render.hold import hold_latest, control_times
-from surfhap.render.safety import SafetyLimits, SafetyStage
+from surfhap.render.safety import SafetyLimits, SafetyStage, stage_block
 from surfhap.render.texture_source import TextureSource
-from surfhap.signal.resample import RationalResampler
+from surfhap.signal.resample import RationalResampler, resample_block
 
 __all__ = ["ChainConfig", "ChainBlock", "TextureDetail", "TextureChain", "PAPER_CARRIERS", "resolve_carrier"]
 
@@ -143,19 +143,22 @@ def _clean_inputs(speed, load, max_load, max_speed, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def _drive_tail(envelope, load, touch_time, state, work, index, drive, load_drive):
-    # the carrier on the envelope and the finger held at the drive rate (load_drive, touch ages in
-    # work[1]), block after block; state: model and drive samples so far, control rate, drive rate,
-    # carrier step, hold tolerance (a model sample holds from its start on), last load and touch time
-    n, m = load.shape[0], envelope.shape[0]
+def _drive_tail(voltage, load, touch_time, state, work, index, resampler, safety, drive, load_drive):
+    # envelope up to the drive rate, carrier, finger held at the drive rate (load_drive, touch ages
+    # in work[1]), safety stage; returns the drive samples written. state: model and drive samples so
+    # far, control and drive rate, carrier step, hold tolerance, last load and touch time
+    n = load.shape[0]
+    m = resample_block(voltage, *resampler, drive)
     control_times(state[0], state[2], work[0, :n])
-    hold_latest(state[1], state[3], work[0, :n], state[5], load, touch_time, state[6], state[7], load_drive,
+    hold_latest(state[1], state[3], work[0, :n], state[5], load, touch_time, state[6], state[7], load_drive[:m],
                 work[1, :m], index[:m])
-    polarity(envelope, state[1], state[4], drive)
+    polarity(drive[:m], state[1], state[4], drive[:m])
+    stage_block(drive[:m], load_drive[:m], work[1, :m], drive[:m], *safety)
     state[0] += n
     state[1] += m
     if n:
         state[6], state[7] = load[n - 1], touch_time[n - 1]
+    return m
 
 
 class TextureChain:
@@ -216,6 +219,7 @@ class TextureChain:
         self._state = np.array([0, 0, self.control_rate, self.drive_rate, self.carrier.step, 1e-9 / self.control_rate, 0, -np.inf])
         self._work = np.zeros((2, 64))  # clean speed, load; then the hold's source times, touch ages
         self._index = np.zeros(64, dtype=np.int64)
+        self._resampler, self._safety = self.upsampler.kernel_args(), self.safety.kernel_args()
 
     def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray, x=None, y=None) -> ChainBlock:
         """One block (see the module docstring); ``x``, ``y`` (the finger position) are not
@@ -234,9 +238,7 @@ class TextureChain:
         _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
         texture = self.synth.process(clean[0], clean[1]) if self.synth is not None else np.zeros(n)
         law = self.law.process(clean[0], clean[1], texture)
-        envelope = self.upsampler.process(law.voltage)
-        m = envelope.shape[0]
-        drive, load_drive = np.empty(m), np.empty(m)
-        _drive_tail(envelope, load, touch_time, self._state, self._work, self._index, drive, load_drive)
-        self.safety.process(drive, load_drive, self._work[1, :m], out=drive)
-        return ChainBlock(drive, load_drive, law.target, TextureDetail(texture, law))
+        drive, load_drive = np.empty(size), np.empty(size)
+        m = _drive_tail(law.voltage, load, touch_time, self._state, self._work, self._index, self._resampler, self._safety,
+                        drive, load_drive)
+        return ChainBlock(drive[:m], load_drive[:m], law.target, TextureDetail(texture, law))

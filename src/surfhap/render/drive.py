@@ -189,11 +189,10 @@ class DriveLaw:
 
     def _evaluate(self, speed: np.ndarray, load: np.ndarray, texture: np.ndarray, start: int):
         """The law over contiguous float64 (n,) arrays from sample ``start``: (DriveBlock, clipped,
-        touching), by the subclass's ``_kernel(load, speed, texture, *_args, outputs...)``."""
-        n = load.shape[0]
-        mu_low, mu_tex, target, voltage = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-        clipped, touching = self._kernel(load, speed, texture, *self._args, mu_low, mu_tex, target, voltage)
-        return DriveBlock(voltage, target, mu_low, mu_tex), clipped, touching
+        touching), by the subclass's ``_kernel(load, speed, texture, *_args, out)``, out (4, n) the rows."""
+        out = np.empty((4, load.shape[0]))
+        clipped, touching = self._kernel(load, speed, texture, *self._args, out)
+        return DriveBlock(*out), clipped, touching
 
     def process(self, speed: np.ndarray, load: np.ndarray, texture: np.ndarray) -> DriveBlock:
         """speed, load, texture: (n,) float (m/s, N, texture quantity) -> a DriveBlock of (n,)."""
@@ -336,10 +335,10 @@ class Square(DriveLaw):
     def _evaluate(self, speed, load, texture, start):
         if self.sample_rate is None:
             raise ConfigError("the square baseline needs the control rate to render", field="sample_rate")
-        n = load.shape[0]
-        target, voltage = np.empty(n), np.empty(n)
-        clipped, touching = self._kernels.square_law(start, self._step, self.on_force, load, float(self.params.alpha), target, voltage)
-        return DriveBlock(voltage, target, self.friction_law.coefficient(load, speed), np.zeros(n)), clipped, touching
+        out = np.zeros((4, load.shape[0]))
+        clipped, touching = self._kernels.square_law(start, self._step, self.on_force, load, float(self.params.alpha), out[1], out[0])
+        out[2] = self.friction_law.coefficient(load, speed)
+        return DriveBlock(*out), clipped, touching
 
 
 LAWS: dict[str, type[DriveLaw]] = {cls.method: cls for cls in (Otake2022, Otake2021, Zhao, FrictionOnly, Square)}

@@ -5,7 +5,7 @@ Each drive law's equation is written here once, as the one vectorised evaluation
 (:mod:`surfhap.render.drive`) runs for rendering, gain planning, the expected spectrum and
 ``compare``: ``friction_texture_law`` is the whole of the Otake laws and friction-only (003 eq. 6,
 001 eq. 5), ``zhao_law`` Zhao's (000 eq. 3-4), ``square_law`` the square baseline (000 Sec. 3);
-``target_to_voltage`` is the tail they share (``_to_voltage``: ``V = alpha sqrt(max(F, 0))``).
+``target_to_voltage`` is the tail they share (``V = alpha sqrt(max(F, 0))``).
 Compiled, one pass each: the live engine runs a few samples per block, where numpy's
 per-operation overhead costs more than the arithmetic; njit functions take arrays of any length.
 """
@@ -27,12 +27,6 @@ TEXTURE_COF = 2  # mu_t = scale x                       (scale = gain)
 TEXTURE_ACCELERATION = 3  # mu_t = scale x / fn, 0 without contact (scale = gain * effective_mass)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _to_voltage(t, alpha):
-    # V = alpha sqrt(max(F, 0)); a NaN target stays NaN for the safety stage to catch
-    return 0.0 if t <= 0.0 else alpha * math.sqrt(t)
-
-
 @numba.njit(cache=True, nogil=True)
 def target_to_voltage(target, load, alpha, voltage):
     """The tail every law shares, in one pass: ``voltage = alpha sqrt(max(target, 0))`` (V; a
@@ -46,22 +40,20 @@ def target_to_voltage(target, load, alpha, voltage):
             touching += 1
             if t < 0.0:
                 clipped += 1
-        voltage[i] = _to_voltage(t, alpha)
+        voltage[i] = 0.0 if t <= 0.0 else alpha * math.sqrt(t)
     return clipped, touching
 
 
 @numba.njit(cache=True, nogil=True)
-def friction_texture_law(load, speed, texture, quasi, a, b, c, d, q, mu0, texture_mode, scale, beta, alpha,
-                         mu_low, mu_tex, target, voltage):
+def friction_texture_law(load, speed, texture, quasi, a, b, c, d, q, mu0, texture_mode, scale, beta, alpha, out):
     """``F = (mu_low(fn, v) + beta mu_t) fn`` and ``V = alpha sqrt(max(F, 0))`` per sample.
 
     load, speed, texture: (n,) float (N, m/s, texture quantity); ``quasi`` True for eq. 3 of
     003 with (a, b, c, d, q), False for a constant ``mu0``; ``texture_mode`` one of the
-    TEXTURE_* constants with its ``scale``. Writes the (n,) outputs mu_low, mu_tex, target (N)
-    and voltage (V); returns (clipped, touching) as :func:`target_to_voltage`.
+    TEXTURE_* constants with its ``scale``. Writes out (4, n): voltage (V), target (N), mu_low,
+    mu_tex (a :class:`~surfhap.render.drive.DriveBlock`'s rows); returns (clipped, touching) as
+    :func:`target_to_voltage`.
     """
-    clipped = 0
-    touching = 0
     for i in range(load.shape[0]):
         fn = load[i]
         m = quasi_static_cof(fn, speed[i], a, b, c, d, q) if quasi else mu0
@@ -74,49 +66,32 @@ def friction_texture_law(load, speed, texture, quasi, a, b, c, d, q, mu0, textur
             t = scale * x / fn if fn > 0.0 else 0.0
         else:
             t = 0.0
-        f = (m + beta * t) * fn
-        mu_low[i] = m
-        mu_tex[i] = t
-        target[i] = f
-        if fn > 0.0:
-            touching += 1
-            if f < 0.0:
-                clipped += 1
-        voltage[i] = _to_voltage(f, alpha)
-    return clipped, touching
+        out[2, i], out[3, i], out[1, i] = m, t, (m + beta * t) * fn  # F = (mu_low + beta mu_t) fn
+    return target_to_voltage(out[1], load, alpha, out[0])
 
 
 @numba.njit(cache=True, nogil=True)
-def zhao_law(load, speed, texture, mu0, constant_load, texture_mode, scale, alpha, mu_low, mu_tex, target, voltage):
+def zhao_law(load, speed, texture, mu0, constant_load, texture_mode, scale, alpha, out):
     """Zhao et al. (000 eq. 3-4): ``F = mu0 fn_c + f_t`` with ``fn_c`` = ``constant_load`` N while
     touching (the measured load when ``constant_load`` <= 0) and ``f_t = scale x`` for an
     acceleration bank (``scale`` = gain m_eff), ``scale x fn_c`` for a CoF bank (``scale`` =
     gain), 0 for TEXTURE_NONE or without contact; ``V = alpha sqrt(max(F, 0))``.
 
-    load, speed (unused: Zhao's law does not follow the speed), texture: (n,) float. Writes the (n,) outputs mu_low (= mu0), mu_tex (f_t / fn_c),
-    target (N) and voltage (V); returns (clipped, touching) as :func:`target_to_voltage`.
+    load, speed (unused: Zhao's law does not follow the speed), texture: (n,) float. Writes out (4, n) as :func:`friction_texture_law` (mu_low = mu0,
+    mu_tex = f_t / fn_c); returns (clipped, touching) as :func:`target_to_voltage`.
     """
-    clipped = 0
-    touching = 0
     for i in range(load.shape[0]):
         ld = load[i]
         fn = 0.0
         ft = 0.0
         if ld > 0.0:
-            touching += 1
             fn = constant_load if constant_load > 0.0 else ld
             if texture_mode == TEXTURE_ACCELERATION:
                 ft = scale * texture[i]
             elif texture_mode == TEXTURE_COF:
                 ft = scale * texture[i] * fn
-        f = mu0 * fn + ft
-        mu_low[i] = mu0
-        mu_tex[i] = ft / fn if fn > 0.0 else 0.0
-        target[i] = f
-        if ld > 0.0 and f < 0.0:
-            clipped += 1
-        voltage[i] = _to_voltage(f, alpha)
-    return clipped, touching
+        out[2, i], out[3, i], out[1, i] = mu0, ft / fn if fn > 0.0 else 0.0, mu0 * fn + ft  # F = mu0 fn_c + f_t
+    return target_to_voltage(out[1], load, alpha, out[0])
 
 
 @numba.njit(cache=True, nogil=True)

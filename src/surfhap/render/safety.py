@@ -31,7 +31,7 @@ from pydantic import Field, model_validator
 
 from surfhap.checked import checked_dataclass
 
-__all__ = ["SafetyLimits", "SafetyStage", "SafetyCounters", "OutputSafety"]
+__all__ = ["SafetyLimits", "SafetyStage", "stage_block", "SafetyCounters", "OutputSafety"]
 
 _Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
@@ -156,13 +156,19 @@ def _safety_kernel(x, load, touch_age, out, state, counters, gain, ramp_step, ag
     state[1] = ramp
 
 
+@numba.njit(cache=True, nogil=True)
+def stage_block(drive, load, touch_age, out, state, counters, limits):
+    """A renderer's safety stage over (n,) drive V, load N, touch age s into ``out``: state,
+    counters and limits of :meth:`SafetyStage.kernel_args` (compiled callers)."""
+    _safety_kernel(drive, load, touch_age, out, state, counters, 1.0, 0.0, 0.0, 0.0, False, *limits)
+
+
 class SafetyStage:
     """Stateful safety processor at the drive rate.
 
     ``process(drive, load, touch_age)`` takes three (n,) float arrays: the drive in volts,
     the finger load in newtons, and the age in seconds of the freshest touch sample at each
-    drive sample. It returns (n,) float volts that satisfy :class:`SafetyLimits`. The
-    returned array is ``out`` when given, else a new array.
+    drive sample. It returns (n,) float volts that satisfy :class:`SafetyLimits`.
     """
 
     def __init__(self, drive_rate: float, limits: SafetyLimits | None = None):
@@ -177,16 +183,16 @@ class SafetyStage:
         self._state[0] = 0.0
         self._counters[:] = 0
 
-    def process(self, drive: np.ndarray, load: np.ndarray, touch_age: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-        drive = np.ascontiguousarray(drive, dtype=np.float64)
-        load = np.ascontiguousarray(load, dtype=np.float64)
-        touch_age = np.ascontiguousarray(touch_age, dtype=np.float64)
+    def process(self, drive: np.ndarray, load: np.ndarray, touch_age: np.ndarray) -> np.ndarray:
+        drive, load, touch_age = (np.ascontiguousarray(a, dtype=np.float64) for a in (drive, load, touch_age))
         if not (drive.shape == load.shape == touch_age.shape) or drive.ndim != 1:
             raise ValueError("drive, load and touch_age must be 1-D arrays of one length")
-        if out is None:
-            out = np.empty_like(drive)
-        _safety_kernel(drive, load, touch_age, out, self._state, self._counters, 1.0, 0.0, 0.0, 0.0, False, *self._args)
+        stage_block(drive, load, touch_age, out := np.empty_like(drive), *self.kernel_args())
         return out
+
+    def kernel_args(self) -> tuple:
+        """(state, counters, limits): this stage for :func:`stage_block`."""
+        return self._state, self._counters, self._args
 
     @property
     def counters(self) -> SafetyCounters:

@@ -15,7 +15,7 @@ import numba
 import numpy as np
 from scipy.signal import firwin
 
-__all__ = ["RationalResampler"]
+__all__ = ["RationalResampler", "resample_block"]
 
 # In the kernels, z is (K-1 + n_in,): the last K-1 inputs of the previous block, then the new
 # ones; Hr[ph] is polyphase branch ph reversed, so that output = Hr[ph] . z[i : i+K].
@@ -70,23 +70,26 @@ def _downsample(z, h, M, t0, n_in, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def _step(z, x, Hr, L, M, t0, out):
-    # one block: append x (n,) to the history z, filter by the right kernel, keep the last K-1
-    # inputs for the next block; returns (outputs written to out, next t0)
+def resample_block(x, z, Hr, L, M, t0, out):
+    """One block x (n,) of any length through the resampler of ``z, Hr, L, M, t0``
+    (:meth:`RationalResampler.kernel_args`) into ``out`` (>= n L / M + 2); returns the count."""
     K1 = Hr.shape[1] - 1
-    n = x.shape[0]
-    for i in range(n):
-        z[K1 + i] = x[i]
-    if M == 1:
-        _upsample(z, Hr, n, out)
-        count, t0 = n * L, 0
-    elif L == 1:
-        count, t0 = _downsample(z, Hr[0], M, t0, n, out)
-    else:
-        count, t0 = _polyphase(z, Hr, L, M, t0, n, out)
-    for i in range(K1):
-        z[i] = z[n + i]
-    return count, t0
+    count = 0
+    for s0 in range(0, x.shape[0], z.shape[0] - K1):
+        n = min(x.shape[0] - s0, z.shape[0] - K1)
+        for i in range(n):
+            z[K1 + i] = x[s0 + i]
+        if M == 1:
+            _upsample(z, Hr, n, out[count:])
+            c, t0[0] = n * L, 0
+        elif L == 1:
+            c, t0[0] = _downsample(z, Hr[0], M, t0[0], n, out[count:])
+        else:
+            c, t0[0] = _polyphase(z, Hr, L, M, t0[0], n, out[count:])
+        count += c
+        for i in range(K1):
+            z[i] = z[n + i]
+    return count
 
 
 class RationalResampler:
@@ -114,17 +117,17 @@ class RationalResampler:
         self.delay = (self.L * K - 1) / 2.0 / fs_up
         self.max_block = int(max_block)
         self._z = np.zeros(K - 1 + self.max_block)
-        self._out = np.empty(self.max_block * self.L // self.M + 2)
-        self._t0 = 0
+        self._t0 = np.zeros(1, dtype=np.int64)
 
     def reset(self) -> None:
         self._z[:] = 0.0
-        self._t0 = 0
+        self._t0[0] = 0
+
+    def kernel_args(self) -> tuple:
+        """(z, Hr, L, M, t0): this resampler's state for :func:`resample_block` (compiled callers)."""
+        return self._z, self._Hr, self.L, self.M, self._t0
 
     def process(self, x: np.ndarray) -> np.ndarray:
         x = np.ascontiguousarray(x, dtype=np.float64)
-        n = x.shape[0]
-        if n > self.max_block:
-            return np.concatenate([self.process(x[i : i + self.max_block]) for i in range(0, n, self.max_block)])
-        count, self._t0 = _step(self._z, x, self._Hr, self.L, self.M, self._t0, self._out)
-        return self._out[:count].copy()
+        out = np.empty(x.shape[0] * self.L // self.M + 2)
+        return out[:resample_block(x, *self.kernel_args(), out)]

@@ -1,0 +1,59 @@
+"""One chain block is a few compiled calls (issue 20): the resampler, carrier, touch hold and
+safety stage run in one kernel through their compiled entry points, the synthesiser picks its
+models in its kernel, and the drive law fills one (4, n) block; results are checked against
+independent references (nearest reference speed by argmin, the stages' own wrappers)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from surfhap import ChainConfig, TextureChain, load_material
+from surfhap.models.synth import ARSynthesizer
+from surfhap.models.texture import ARModel, TextureBank
+from surfhap.render.carrier import PolarityCarrier
+from surfhap.render.safety import SafetyStage
+from surfhap.signal.resample import RationalResampler
+
+REFS = (0.05, 0.1, 0.15, 0.3)
+BANK = TextureBank("cof", 2000.0, tuple(ARModel([0.5], 1e-4, v) for v in REFS))
+
+
+def test_model_selection_is_the_nearest_reference_speed():
+    speed = np.r_[np.random.default_rng(3).uniform(-0.5, 0.5, 500), np.nan, 0.0]
+    nearest = np.argmin(np.abs(np.abs(np.nan_to_num(speed))[:, None] - np.array(REFS)[None, :]), axis=1)
+    np.testing.assert_array_equal(BANK.select(speed), nearest)
+    synth = ARSynthesizer(BANK, seed=2, max_block=16)  # a block longer than max_block grows the buffers
+    y = synth.process(speed)
+    np.testing.assert_array_equal(synth.model_index, nearest)
+    one = ARSynthesizer(BANK, seed=2)
+    np.testing.assert_array_equal(y, np.concatenate([one.process(speed[i:i + 3]) for i in range(0, speed.size, 3)]))
+
+
+def test_chain_block_makes_no_python_stage_calls(monkeypatch):
+    material = dataclasses.replace(load_material("leather"), texture=BANK)
+    chain = TextureChain(material, ChainConfig(drive_rate=20000))
+    ref_up = RationalResampler(chain.control_rate, chain.drive_rate)
+    ref_carrier = PolarityCarrier(chain.carrier_hz, chain.drive_rate)
+    ref_safety = SafetyStage(chain.drive_rate, chain.config.limits)
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("a chain block called a stage's Python wrapper")
+
+    for cls in (RationalResampler, SafetyStage, PolarityCarrier):
+        monkeypatch.setattr(cls, "process", forbidden)
+    rng = np.random.default_rng(4)
+    blocks = []
+    for n in (2, 1, 3, 2, 200, 2):
+        speed, load = rng.uniform(0.0, 0.3, n), rng.uniform(0.1, 0.8, n)
+        blocks.append((chain.process(speed, load, np.zeros(n)), load))
+    monkeypatch.undo()
+    # the same drive from the stages' own wrappers, block by block: all touch stamps are 0, so
+    # the touch age of drive sample J is J / drive_rate
+    j0 = 0
+    for blk, load in blocks:
+        envelope = ref_up.process(blk.drive_law.voltage)
+        ages = (j0 + np.arange(envelope.shape[0])) / chain.drive_rate
+        j0 += envelope.shape[0]
+        np.testing.assert_array_equal(blk.drive, ref_safety.process(ref_carrier.process(envelope), blk.load_drive, ages))
+    assert chain.safety.counters == ref_safety.counters and ref_safety.counters.watchdog > 0
