@@ -80,7 +80,7 @@ def new(
     stdout.print(f"wrote {target}")
 
 
-def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSignals) -> None:
+def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSignals, ff=None) -> None:
     import sys
 
     import numpy as np
@@ -92,6 +92,10 @@ def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSigna
             runner.resume()
             continue
         t = runner.current()
+        for i, stim in enumerate(t.stimuli if ff is not None else ()):  # each stimulus stroked on the device
+            runner.stimulus(t.id, i)
+            ff.select(stim.render)
+            ff.explore(4.0 if ff.limit_s is None else ff.limit_s + 0.5, stim.label)
         ids = [c.id for c in t.choices]
         if t.response == "toggles":
             want = dict(x.split("=") for x in t.correct.split(",")) if t.correct else {}
@@ -131,6 +135,9 @@ def run(
                                                              "of sound-card full scale (as 'surfhap serve')."),
     lsl: bool = typer.Option(False, "--lsl", help="Push Lab Streaming Layer markers (stimulus on/off, touch, "
                                                   "answer); needs the 'lsl' extra (pylsl)."),
+    ff_device: Optional[str] = typer.Option(None, "--ff-device", help="Play force-feedback stimuli ({\"effect\": "
+                                            "...}, 004) on this device: sim (the simulated one; with --simulate the "
+                                            "simulated participant strokes each stimulus on it)."),
     display: DisplayOption = None,
     config: ConfigOption = None,
 ) -> None:
@@ -141,6 +148,8 @@ def run(
     from surfhap.lab.comfort import required_comfort_voltage
     from surfhap.lab.session import SessionRunner
 
+    if ff_device not in (None, "sim"):
+        raise ConfigError("expected sim (the simulated force-feedback device)", source="--ff-device")
     disp = None if display is None and config is None else resolve_display(display, config)
     measured = None
     if comfort_voltage is None:
@@ -166,10 +175,19 @@ def run(
         if runner.n_done:
             stderr.print(f"resuming {runner.plan.id}: {runner.n_done}/{runner.total} trials already logged")
         with StopSignals() as guard:
-            if simulate is not None:
+            if simulate is not None and ff_device is not None:
+                from surfhap.lab.stimuli import FFStimulusPlayer, FFStudySession
+
+                ff = FFStimulusPlayer(FFStudySession(simulated=True), limit_s=runner.limit_s)
+                ff.session.start()
+                try:
+                    _simulate(runner, simulate, p_correct, pace, guard, ff)
+                finally:
+                    ff.session.stop()
+            elif simulate is not None:
                 _simulate(runner, simulate, p_correct, pace, guard)
             else:
-                _run_page(runner, host, port, output, amp_gain, guard, lsl)
+                _run_page(runner, host, port, output, amp_gain, guard, lsl, ff_device)
         stderr.print(f"{runner.plan.id}: {runner.n_done}/{runner.total} trials logged in {runner.log.path}")
     finally:
         runner.close()
@@ -177,7 +195,7 @@ def run(
 
 
 def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float, guard: StopSignals,
-              lsl: bool = False) -> None:
+              lsl: bool = False, ff_device: str | None = None) -> None:
     """Serve the page until the runner is finished or ``guard`` caught SIGINT/SIGTERM; then
     the live output ramps to zero (the recording is flushed) before the page stops."""
     from rich.live import Live
@@ -194,13 +212,21 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
     if markers.enabled:
         stderr.print(f"LSL markers: stream 'surfhap-{runner.plan.id}' (type Markers)")
     session = player = None
-    if output is not None:
+    if ff_device is not None:
+        from surfhap.lab.stimuli import FFStimulusPlayer, FFStudySession
+
+        player = FFStimulusPlayer(FFStudySession(), limit_s=runner.limit_s)
+        session = player.session
+        player.mute()
+        session.start()
+    elif output is not None:
         from surfhap.live.session import build_session
 
         first = next((str(s.render["material"]) for t in runner.plan.trials for s in t.stimuli if "material" in s.render),
                      "cork")
         session = build_session(first, parse_output(output), amp_gain=amp_gain, display=runner.display)
-        player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max, display=runner.display)
+        player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max, display=runner.display,
+                                limit_s=runner.limit_s)
         player.mute()
         session.start()
     try:

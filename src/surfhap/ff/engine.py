@@ -119,6 +119,7 @@ class FFEngine:
         self._atau = 1.0 / (2.0 * math.pi * accel_cutoff)
         self.button_presses = ButtonPresses(buttons)
         self.button = -1
+        self._pending = self._switched = None
         self.reset()
 
     def _set_effects(self, effects: list[Effect]) -> None:
@@ -159,10 +160,15 @@ class FFEngine:
 
     def switch(self, effects: list[Effect], buttons=()) -> None:
         """Another scene's effects from the next tick, without resetting the safety stage: the
-        weight compensation and the output stay up (bumpless, from the screen's position)."""
-        presses = ButtonPresses(buttons)
-        self._set_effects(effects)
-        self.button_presses = presses
+        weight compensation and the output stay up (bumpless, from the screen's position).
+        Any thread may call it (e.g. a study's next stimulus while the loop runs): the switch is
+        one tuple store, taken by the haptic thread at the start of its next tick."""
+        self._pending = (list(effects), ButtonPresses(buttons))
+
+    def _take_switch(self) -> None:
+        pending = self._switched = self._pending  # never cleared: a switch sent meanwhile is taken next tick
+        self._set_effects(pending[0])
+        self.button_presses = pending[1]
         self.button = -1
 
     # ----------------------------------------------------------------- safety stage
@@ -249,6 +255,8 @@ class FFEngine:
     # ----------------------------------------------------------------- tick
     def tick(self, t: float, px: float, py: float, pz: float, t_pos: float) -> np.ndarray:
         """Safe force (3,) N for this tick; see the module docstring."""
+        if self._pending is not self._switched:
+            self._take_switch()
         s = self.state
         if self.observe(t, t_pos, px, py, pz):
             s.px, s.py, s.pz, s.vx, s.vy, s.vz = self.S[:6].tolist()

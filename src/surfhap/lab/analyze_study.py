@@ -60,10 +60,10 @@ def load_trials(study_dir: str | Path) -> tuple[Study, list[dict], list[str], li
             continue
         if any(s.get("config", {}).get("study_sha256") not in (None, digest) for s in log.sessions):
             warnings.append(f"{plan.id}: logged against a different study.json (edited after the session?)")
-        if len(log.trials) < len(plan.trials):
+        analysed = [r for r in log.trials if not r.get("practice")]  # practice trials are not analysed
+        if len(analysed) < sum(not t.practice for t in plan.trials):
             incomplete.append(plan.id)
-        for r in log.trials:
-            records.append({**r, "participant": plan.id, "group": plan.group})
+        records += [{**r, "participant": plan.id, "group": plan.group} for r in analysed]
     if not records:
         raise StudyFormatError("no trials logged yet", source=str(folder / "logs"), field="log")
     return study, records, incomplete, warnings

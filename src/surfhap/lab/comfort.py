@@ -112,6 +112,8 @@ class ComfortRunner:
     """Page-compatible runner (``state`` / ``stimulus`` / ``answer`` / ``resume``) of the
     comfort staircase of one participant."""
 
+    limit_s = None  # the square wave plays while touched: no stimulus time limit
+
     def __init__(self, study_dir: str | Path, participant: str, params: StaircaseParams | None = None,
                  material: str | None = None):
         self.dir = Path(study_dir)

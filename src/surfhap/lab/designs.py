@@ -21,7 +21,8 @@ shape-choice       10 electrovibration conditions of Table 1 (bump/hole x IP0.5/
 scene-recognition  20 scenes x 2 sessions (V, V+H): G1 does V+H first, G2 V first; scene order   002
                    random per session; answer: bump or hole at each of the four positions
 sliding-pairs      4 blocks (V0F0, V0F1, V1F0, V1F1) in balanced-Latin-square order, 2 blocks    004
-                   per session; each block 6 ordered pairs of REVERSE / FOLLOW / STATIC x 10 = 60
+                   per session; each block 6 ordered pairs of REVERSE / FOLLOW / STATIC x 10 = 60;
+                   2 practice trials (not analysed) open each session; 3.5 s per stimulus
 ================== ============================================================================ =======
 
 Every generator reads its parameters from ``design.params`` through a strict pydantic model,
@@ -113,6 +114,7 @@ class SceneParams(_P):
 class SlidingParams(_P):
     repetitions: int = Field(10, ge=1, le=100)
     blocks_per_session: int = Field(2, ge=1, le=4)
+    practice_trials: int = Field(2, ge=0, le=20)  # at the start of each session (004 Sec. 5.2), not analysed
 
 
 def _params(model: type[_P], design: DesignSpec) -> _P:
@@ -291,14 +293,17 @@ def _sliding(design: DesignSpec, p: SlidingParams, i: int, pid: str) -> tuple[st
     rng = participant_rng(design.seed, i)
     order = balanced_latin_square(len(SLIDING_BLOCKS))[i % len(SLIDING_BLOCKS)]
     pairs = list(permutations(SLIDING_EFFECTS, 2))  # 6 ordered pairs (the inverse comparisons too)
+    practice_rng = np.random.default_rng([design.seed, i, 1])  # its own stream: the trials' stay as they were
     trials: list[Trial] = []
     for b, bi in enumerate(order):
         block = SLIDING_BLOCKS[int(bi)]
         items = [pr for pr in pairs for _ in range(p.repetitions)]
-        for k in rng.permutation(len(items)):
-            a, c = items[k]
-            _trial(pid, trials, block=b, block_label=block, task="sliding",
-                   prompt="On which one did you feel more sliding?",
+        first_of_session = b % p.blocks_per_session == 0
+        practice = [pairs[int(k)] for k in practice_rng.integers(len(pairs), size=p.practice_trials)]
+        for k in [-1 - j for j in range(len(practice) if first_of_session else 0)] + list(rng.permutation(len(items))):
+            a, c = practice[k] if k < 0 else items[k]
+            _trial(pid, trials, block=b, block_label=block, task="sliding", practice=k < 0,
+                   prompt="On which one did you feel more sliding?" + (" (practice)" if k < 0 else ""),
                    stimuli=[Stimulus(label="1st", render={"effect": a}), Stimulus(label="2nd", render={"effect": c})],
                    choices=[Choice(id=a, label="1st"), Choice(id=c, label="2nd")],
                    condition={"block": block, "visual": block[:2], "tactile": block[2:],
@@ -345,7 +350,8 @@ TEMPLATES: dict[str, dict] = {
                    "participants": 12},
     "kim-scenes": {"kind": "scene-recognition", "name": "Kim et al. 2017: 20 scenes, V vs V+H", "participants": 20},
     "kinestouch-sliding": {"kind": "sliding-pairs", "name": "KinesTouch: sliding pairwise comparisons",
-                           "participants": 18},
+                           "participants": 18,  # 004 Sec. 5.2: 3.5 s per stimulus, black until release
+                           "session": {"stimulus_limit_s": 3.5, "blank_until_release": True}},
 }
 
 

@@ -70,6 +70,7 @@ class Trial(_Strict):
     toggles: list[str] = []
     correct: str | None = None
     condition: dict[str, str | int | float] = {}
+    practice: bool = False  # a practice trial: logged with "practice": true, left out of the analysis
 
 
 class ParticipantPlan(_Strict):
@@ -82,11 +83,16 @@ class Session(_Strict):
     """How a session runs. ``rest_between_blocks``: show the rest screen between blocks;
     ``gain``: default multiplier of the drive gain alpha (per participant, ``study run
     --gain``); ``v_max``: V, the safety limit of the session (never above 250 V, Otake et al.
-    2022 Sec. IV-D; lowered per participant with ``--comfort-voltage``)."""
+    2022 Sec. IV-D; lowered per participant with ``--comfort-voltage``).
+    ``stimulus_limit_s``: each stimulus plays for this long from the first touch, then stops
+    (None: no limit); ``blank_until_release``: when it stops, the page turns black until the
+    finger is lifted (004 Sec. 5.2: 3.5 s, then black until release)."""
 
     rest_between_blocks: bool = True
     gain: float = Field(1.0, gt=0, le=4.0)
     v_max: float = Field(250.0, gt=0, le=250.0)
+    stimulus_limit_s: float | None = Field(None, gt=0, le=600.0)
+    blank_until_release: bool = False
 
 
 class DesignSpec(_Strict):

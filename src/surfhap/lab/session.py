@@ -81,6 +81,7 @@ class SessionRunner:
                                   field="v_max")
             v_max = min(v_max, float(comfort_voltage))
         self.v_max = v_max
+        self.limit_s = sess.stimulus_limit_s  # each stimulus's play time from its first touch (None: no limit)
         self.display = display  # the panel the stimuli are rendered for (--display; None: the assumptions)
         study_file = self.dir / "study.json" if self.dir.is_dir() else self.dir
         from surfhap import __version__
@@ -138,15 +139,17 @@ class SessionRunner:
             if self._resting:
                 return {**base, "status": "rest", "next_block": t.block_label}
             self._shown_at.setdefault(t.id, time.monotonic())
+            sess = self.study.design.session
             return {**base, "status": "trial", "block_label": t.block_label,
-                    "trial": {"id": t.id, "prompt": t.prompt, "response": t.response,
+                    "trial": {"id": t.id, "prompt": t.prompt, "response": t.response, "practice": t.practice,
+                              "limit_s": sess.stimulus_limit_s, "blank": sess.blank_until_release,
                               "stimuli": [s.label for s in t.stimuli],
                               "real": [s.render.get("real") for s in t.stimuli],
                               "choices": [c.model_dump() for c in t.choices], "toggles": t.toggles,
                               "image": any(s.render.get("scene") or s.render.get("mesh") not in (None, "flat")
                                            for s in t.stimuli),
                               "touch": any(s.render.get("haptic", True) and "real" not in s.render
-                                           and "effect" not in s.render for s in t.stimuli)}}
+                                           for s in t.stimuli)}}
 
     def resume(self) -> None:
         """Leave the rest screen."""
@@ -184,7 +187,7 @@ class SessionRunner:
                        "rt_s": None if rt_client_s is None else round(float(rt_client_s), 4),
                        "rt_server_s": None if shown is None else round(time.monotonic() - shown, 4),
                        "stimuli_touched": self._stimulus_log.pop(t.id, []), "condition": t.condition,
-                       "answered_at": now_iso()}
+                       "answered_at": now_iso(), **({"practice": True} if t.practice else {})}
                 accepted = self.log.append_trial(rec)
                 self.last_record = rec
                 self._pending.pop(0)

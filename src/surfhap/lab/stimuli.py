@@ -7,7 +7,11 @@ Render specs (the ``render`` of a :class:`~surfhap.lab.schema.Stimulus`)::
     {"material": name, "method": law, ["square_frequency": Hz, "square_amplitude": V]}
     {"profile1d": "bump" | "hole" | "flat", "mapping": "IP0.5" | "IP0.7", "grain": grain}
     {"scene": name, "haptic": bool} | {"mesh": built-in name or file, "grain": grain}
-    {"real": name} | {"effect": name}            (nothing to drive: the output is muted)
+    {"real": name}                               (nothing to drive: the output is muted)
+    {"effect": "follow" | "reverse" | "static"}  (force feedback, 004: :class:`FFStimulusPlayer`)
+
+A session's ``stimulus_limit_s`` ends each stimulus that long after its first touch (004: 3.5 s):
+the output is muted and the finger's samples are dropped until the next stimulus is selected.
 """
 
 from __future__ import annotations
@@ -19,7 +23,8 @@ import numpy as np
 
 from surfhap.runtime.commands import SetGain, SwapRenderer
 
-__all__ = ["StimulusPlayer", "make_profile_renderer", "scene_picture"]
+__all__ = ["StimulusPlayer", "FFStimulusPlayer", "FFStudySession", "FF_EFFECTS", "make_profile_renderer",
+           "scene_picture"]
 
 CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres
 
@@ -58,18 +63,44 @@ def make_profile_renderer(shape: str, mapping: str, surface, calibration, config
     return ProfileRenderer(shape, mapping, surface, calibration, config, surface_size)
 
 
-class StimulusPlayer:
+class _TimedPlayer:
+    """The stimulus time limit (``limit_s`` after the first touch of a selected stimulus), the
+    one check both players make on every touch sample."""
+
+    limit_s: float | None = None
+
+    def _arm(self) -> None:
+        self._first = None
+        self._over = False
+
+    def _within(self, t: float) -> bool:
+        """False once the selected stimulus has played its ``limit_s`` (then muted once)."""
+        if self.limit_s is None:
+            return True
+        if self._first is None:
+            self._first = t
+        if not self._over and t - self._first > self.limit_s:
+            self._over = True
+            self.mute()
+        return not self._over
+
+
+class StimulusPlayer(_TimedPlayer):
     """Plays a trial's stimuli through a live session (engine + backend).
 
     ``session``: a started :class:`surfhap.live.session.LiveSession`; ``gain``: multiplier of
     the calibrated drive gain alpha; ``v_max``: the session's safety limit (V); ``display``: the
-    DisplayModel rendered for (None: the documented assumptions)."""
+    DisplayModel rendered for (None: the documented assumptions); ``limit_s``: the session's
+    stimulus time limit (s from the first touch, None: none)."""
 
-    def __init__(self, session, *, gain: float = 1.0, v_max: float = 250.0, seed: int = 0, display=None):
+    def __init__(self, session, *, gain: float = 1.0, v_max: float = 250.0, seed: int = 0, display=None,
+                 limit_s: float | None = None):
         from surfhap.models.panel import DisplayModel
 
         self.display = display or DisplayModel()  # the panel rendered for (study run --display)
         self.session = session
+        self.limit_s = limit_s
+        self._arm()
         self.gain = float(gain)
         self.v_max = float(v_max)
         self.seed = int(seed)
@@ -129,6 +160,7 @@ class StimulusPlayer:
     def select(self, render: dict) -> str:
         """Play ``render`` from now on; returns what is played ("muted" or a description)."""
         key = json.dumps(render, sort_keys=True)
+        self._arm()
         if key not in self._cache:
             self._cache[key] = self._build(render)
         chain, positions = self._cache[key]
@@ -150,6 +182,8 @@ class StimulusPlayer:
         self.current = None
 
     def touch(self, client: int, x: float, y: float, p: float, t_ms: float, w_px: float, h_px: float) -> None:
+        if not self._within(t_ms * 1e-3):
+            return self.lift(client, t_ms)
         sp = self.session.space
         load = (p if p > 0 else 0.5) * sp.max_load
         if self.positions == "surface":
@@ -160,6 +194,145 @@ class StimulusPlayer:
 
     def lift(self, client: int, t_ms: float) -> None:
         self.session.engine.push_touch(client, 0.0, 0.0, 0.0, t_event=t_ms * 1e-3)
+
+
+#: the force-feedback stimuli of 004 Sec. 5.2: built-in ff scene of each (None: STATIC, the
+#: tablet held at X0 by the centring of eq. 5, no effect)
+FF_EFFECTS = {"follow": "follow", "reverse": "reverse", "static": None}
+FF_TOUCH_LATENCY = 0.040  # s, the tablet's touch latency ("a few dozens of ms", 004 Sec. 4.2; as 'ff run')
+
+
+class FFStudySession:
+    """The force-feedback loop of a study (:class:`surfhap.live.ff_loop.FFLoop`, the one of
+    ``ff run`` / ``ff simulate``) on the simulated device: ``start`` / ``stop`` it; ``space``
+    is the content rectangle of the 004 scenes (the page's pad spans it). With ``simulated``
+    the loop runs on a :class:`~surfhap.runtime.clock.SimClock`, advanced only by
+    :meth:`FFStimulusPlayer.explore` (a simulated participant), else on its wall-clock thread."""
+
+    def __init__(self, simulated: bool = False):
+        from surfhap.ff.engine import FFEngine
+        from surfhap.ff.params import DeviceParams
+        from surfhap.ff.scene import load_scene
+        from surfhap.live.ff_devices import SimDeviceBackend
+        from surfhap.live.ff_loop import FFLoop
+        from surfhap.live.sources import TouchSpace
+        from surfhap.render.kinematics import TouchPredictor
+        from surfhap.runtime.clock import SimClock
+        from surfhap.sim.ff_device import SimDevice
+
+        self.device = DeviceParams()
+        self.effects = {name: [] if sc is None else load_scene(sc, self.device).effects for name, sc in FF_EFFECTS.items()}
+        w, h = load_scene("follow", self.device).size
+        self.space = TouchSpace(width=w, height=h, max_load=2.0)
+        self.engine = FFEngine([], self.device, TouchPredictor(latency=FF_TOUCH_LATENCY, alpha=0.15,
+                                                               velocity_alpha=0.45), touch_latency=FF_TOUCH_LATENCY)
+        self.backend = SimDeviceBackend(SimDevice(gain=self.device.gain), self.device.gain)
+        self.simulated = simulated
+        self.loop = FFLoop(self.engine, self.backend, clock=SimClock() if simulated else None, realtime=not simulated)
+
+    def start(self) -> None:
+        if not self.simulated:
+            return self.loop.start()
+        self.engine.reset()
+        self.backend.start()
+
+    def stop(self) -> None:
+        """The safety stage ramps the force to zero and puts the tablet down."""
+        if not self.simulated:
+            return self.loop.stop()
+        from surfhap.runtime.loop import run
+
+        self.loop.request_stop()
+        run(None, self.loop, self.loop.clock, self.loop, keep_running=self.loop.running, lead=0.0)
+
+
+class FFStimulusPlayer(_TimedPlayer):
+    """Plays ``{"effect": name}`` stimuli (:data:`FF_EFFECTS`) on the force-feedback loop of
+    ``session`` (:class:`FFStudySession`): selecting one switches the engine's effects from the
+    next haptic tick, the loop and its safety stage running on; anything else holds the tablet
+    still. Pad positions (0-1) span the scene's content rectangle. ``force_log``: with a
+    simulated session, one record per explored stimulus (:meth:`explore`)."""
+
+    def __init__(self, session: FFStudySession, *, limit_s: float | None = None):
+        self.session = session
+        self.limit_s = limit_s
+        self.force_log: list[dict] = []
+        self.current: str | None = None
+        self._arm()
+
+    def select(self, render: dict) -> str:
+        name = render.get("effect")
+        if name not in FF_EFFECTS:
+            self.mute()
+            return "muted"
+        self.session.engine.switch(self.session.effects[name])
+        self.current = name
+        self._arm()
+        return f"effect {name}"
+
+    def mute(self) -> None:
+        self.session.engine.switch([])
+        self.current = None
+
+    def _push(self, client: int, x: float, y: float, load: float, t: float, t_arrival: float | None = None) -> None:
+        if load > 0.0 and not self._within(t):
+            load = 0.0
+        self.session.loop.push_touch(client, x, y, load, t_event=t, t_arrival=t_arrival)
+
+    def touch(self, client: int, x: float, y: float, p: float, t_ms: float, w_px: float, h_px: float) -> None:
+        sp = self.session.space
+        self._push(client, x * sp.width, y * sp.height, (p if p > 0 else 0.5) * sp.max_load, t_ms * 1e-3)
+
+    def lift(self, client: int, t_ms: float) -> None:
+        self.session.loop.push_touch(client, 0.0, 0.0, 0.0, t_event=t_ms * 1e-3)
+
+    def explore(self, duration: float, label: str = "") -> dict:
+        """A simulated finger strokes the middle of the content back and forth at 0.5 Hz, +-3 cm,
+        1 N (the study's pace, 004 Sec. 5.2) for ``duration`` s, then lifts; the loop runs on its
+        simulated clock through :func:`surfhap.runtime.loop.run`. Appends to ``force_log`` and
+        returns ``{"label", "effect", "t", "force" (n, 3) N, "screen" (n, 3) m, "finger_v" (n,)
+        m/s, "mask" (n,)}``, one row per tick."""
+        from surfhap.models.trajectory import Trajectory
+        from surfhap.runtime.loop import run
+        from surfhap.sim.ff_device import SimFinger
+
+        ses = self.session
+        loop, rate = ses.loop, ses.loop.rate
+        loop.clock.wait_until(loop.clock.now() + 1.0 / rate)  # run() starts at now: the tick after the last
+        t0 = loop.clock.now() + 0.1
+        t = np.arange(0.0, duration, 1.0 / rate)
+        sp = ses.space
+        finger = SimFinger(Trajectory(t0 + t, sp.width / 2 + 0.03 * np.sin(np.pi * t), np.full(t.size, sp.height / 2),
+                                      np.ones(t.size), name="0.5 Hz strokes"), latency=FF_TOUCH_LATENCY)
+        rec = _Explore(self, finger, int(round((duration + 0.4) * rate)))
+        effect = self.current  # muted at the time limit
+        run(rec, loop, loop.clock, rec, total_frames=rec.n, lead=0.0)
+        out = {"label": label, "effect": effect, **rec.cols}
+        self.force_log.append(out)
+        return out
+
+
+class _Explore:
+    """The simulated finger's touch reports (through the player's time limit) and the per-tick
+    force log of :meth:`FFStimulusPlayer.explore`."""
+
+    def __init__(self, player: FFStimulusPlayer, finger, n: int):
+        self.player, self.finger, self.n, self.k = player, finger, n, 0
+        self.cols = {"t": np.zeros(n), "force": np.zeros((n, 3)), "screen": np.zeros((n, 3)),
+                     "finger_v": np.zeros(n), "mask": np.zeros(n, dtype=np.int64)}
+
+    def deliver(self, until: float) -> None:
+        dev = self.player.session.backend.device
+        self.finger.record_screen(until, dev.p)
+        for tr, x, y, load, ts in self.finger.touches(until):
+            self.player._push(0, x, y, load, ts, t_arrival=tr)
+
+    def emit(self, force: np.ndarray) -> None:
+        loop, c, k = self.player.session.loop, self.cols, self.k
+        loop.emit(force)
+        c["t"][k], c["force"][k], c["screen"][k] = loop._t, force, self.player.session.backend.device.p
+        c["finger_v"][k], c["mask"][k] = self.finger.velocity(loop._t)[0], loop.engine.mask
+        self.k += 1
 
 
 def scene_picture(name: str, surface_size: tuple[float, float], width: int = 640) -> bytes:
