@@ -2,8 +2,12 @@
 "use strict";
 (function () {
   const $ = (id) => document.getElementById(id);
-  const S = (window.study = { trialId: null, answered: 0, status: "loading", selected: null, staleDropped: 0 });
+  const S = (window.study = { trialId: null, answered: 0, status: "loading", selected: null, staleDropped: 0,
+                               played: [], blank: false });
   let shownAt = 0, busy = false, toggleValues = {}, ws = null, seq = 0;
+  // the trial shown; the stimuli still to play before an answer (each must be touched, or
+  // clicked for a real sample); the running stimulus clock (a time-limited stimulus)
+  let T = null, need = new Set(), clock = null;
 
   function show(id) {
     for (const s of ["loading", "trial", "rest", "done"]) $(s).hidden = s !== id;
@@ -44,22 +48,25 @@
     }
     const t = st.trial;
     if (t.id === S.trialId && S.status === "trial") return;  // already shown
-    S.trialId = t.id; S.selected = null; toggleValues = {};
+    S.trialId = t.id; S.selected = null; S.played = []; toggleValues = {}; T = t;
+    clearTimeout(clock); clock = null; blank(false);
+    need = new Set(t.touch === false ? [] : t.stimuli.map((_, i) => i));  // a look-only trial: nothing to play
     $("prompt").textContent = t.prompt;
     const stim = $("stimuli"); stim.replaceChildren();
     t.stimuli.forEach((label, i) => {
       const b = document.createElement("button");
       b.className = "stim"; b.textContent = t.real[i] ? `${label} (real sample)` : label;
       b.dataset.index = i;
-      b.onclick = () => select(t.id, i, b);
+      b.disabled = !!t.limit_s;  // timed stimuli play in their order, one after the other
+      b.onclick = () => select(t.id, i);
       stim.appendChild(b);
     });
-    stim.hidden = t.touch === false;  // a look-only trial has nothing to play
+    stim.hidden = t.touch === false;
     $("stimuli-caption").hidden = stim.hidden;
     const ch = $("choices"); ch.replaceChildren();
     const tg = $("toggles"); tg.replaceChildren();
     if (t.response === "toggles") {
-      ch.hidden = true; tg.hidden = false; $("submit").hidden = false; $("submit").disabled = true;
+      ch.hidden = true; tg.hidden = false; $("submit").hidden = false;
       const values = t.choices.map((c) => c.id);
       t.toggles.forEach((pos) => {
         const b = document.createElement("button");
@@ -69,7 +76,7 @@
           toggleValues[pos] = values[(cur + 1) % values.length];
           b.textContent = `${pos}: ${t.choices[values.indexOf(toggleValues[pos])].label}`;
           b.classList.add("set");
-          $("submit").disabled = Object.keys(toggleValues).length !== t.toggles.length;
+          gate();
         };
         tg.appendChild(b);
       });
@@ -86,27 +93,51 @@
     const pad = $("pad");
     if (t.image) {  // the scene's picture; the pad spans the touch surface, so picture and shape line up
       const img = new Image();
-      img.onload = () => { pad.style.aspectRatio = `${img.naturalWidth} / ${img.naturalHeight}`; pad.style.height = "auto"; };
+      img.onload = () => pad.style.setProperty("--ratio", `${img.naturalWidth / img.naturalHeight}`);
       img.src = `/api/image/${encodeURIComponent(t.id)}`;
       pad.style.backgroundImage = `url("${img.src}")`;
+      pad.style.setProperty("--ratio", "1.6");  // until the picture is in
       pad.classList.add("picture");
     } else {
-      pad.style.backgroundImage = ""; pad.style.aspectRatio = ""; pad.style.height = "";
+      pad.style.backgroundImage = "";
       pad.classList.remove("picture");
     }
     pad.firstElementChild.textContent = t.touch === false ? "look only" : "touch and slide here";
+    gate();
     show("trial");
+    hello();
     shownAt = performance.now();
+    if (t.limit_s && need.size) select(t.id, 0);
   }
+
+  // answers stay disabled until every stimulus of the trial was played (and, for toggles,
+  // every position set)
+  function gate() {
+    const open = [...need].every((i) => S.played.includes(i));
+    S.answerable = open;
+    for (const b of document.querySelectorAll("#choices button, #toggles button")) b.disabled = !open;
+    $("submit").disabled = !open || (T && T.response === "toggles" && Object.keys(toggleValues).length !== T.toggles.length);
+  }
+  function played(i) {
+    if (!S.played.includes(i)) S.played.push(i);
+    const b = document.querySelector(`button.stim[data-index="${i}"]`);
+    if (b) b.classList.add("played");
+    gate();
+  }
+  function blank(on) { S.blank = on; $("blank").hidden = !on; }
 
   async function refresh() {
     try { render(await state("GET", "/api/state")); error(""); }
     catch (e) { error(`server not reachable (${e.message}); retrying`); }
   }
 
-  async function select(tid, i, button) {
-    for (const b of document.querySelectorAll("button.stim")) b.classList.toggle("active", b === button);
+  async function select(tid, i) {
+    for (const b of document.querySelectorAll("button.stim")) {
+      b.classList.toggle("active", +b.dataset.index === i);
+      b.classList.toggle("played", S.played.includes(+b.dataset.index));
+    }
     S.selected = i;
+    if (T.real[i]) played(i);  // a real sample is handed over: the click is its play
     try { await call("POST", "/api/stimulus", { trial_id: tid, index: i }); } catch (e) { error(e.message); }
   }
 
@@ -114,7 +145,7 @@
     if (busy || tid !== S.trialId) return;
     busy = true;
     const rt = performance.now() - shownAt;
-    for (const b of document.querySelectorAll("button.answer")) b.disabled = true;
+    for (const b of document.querySelectorAll("#choices button, #toggles button, #submit")) b.disabled = true;
     try {
       const st = await state("POST", "/api/answer", { trial_id: tid, answer: value, rt_ms: rt });
       if (st.accepted) S.answered += 1;
@@ -122,7 +153,7 @@
     } catch (e) { error(e.message); await refresh(); }
     finally {
       busy = false;
-      for (const b of document.querySelectorAll("button.answer")) if (b.id !== "submit") b.disabled = false;
+      gate();
     }
   }
 
@@ -132,11 +163,15 @@
   function openSocket() {
     try {
       ws = new WebSocket(`ws://${location.host}/ws`);
-      ws.onopen = () => { S.wsOpen = true; const r = $("pad").getBoundingClientRect(); ws.send(JSON.stringify({ type: "hello", w: r.width, h: r.height })); };
+      ws.onopen = () => { S.wsOpen = true; hello(); };
       ws.onclose = () => { S.wsOpen = false; ws = null; setTimeout(openSocket, 2000); };
     } catch (e) { ws = null; }
   }
   function send(msg) { if (ws && ws.readyState === 1) ws.send(JSON.stringify(msg)); }
+  function hello() {  // the pad's size in px (once it is laid out)
+    const r = $("pad").getBoundingClientRect();
+    if (r.width >= 10 && r.height >= 10) send({ type: "hello", w: r.width, h: r.height });
+  }
   // a resting finger sends no pointermove: re-send it every 20 ms so the watchdog keeps the drive on
   const pad = $("pad");
   let down = null, lastSend = 0;
@@ -148,9 +183,31 @@
     sendMove(e.timeStamp, down.x, down.y, down.p);
     e.preventDefault();
   }
-  function onUp(e) { down = null; send({ type: "up", seq: seq++, t: e.timeStamp }); }
+  function onUp(e) {
+    down = null; send({ type: "up", seq: seq++, t: e.timeStamp });
+    if (S.blank) {  // released after a timed stimulus: the next one, or the question
+      blank(false);
+      const next = T.stimuli.findIndex((_, i) => need.has(i) && !S.played.includes(i));
+      if (next >= 0) select(S.trialId, next);
+    }
+  }
+  function onDown(e) {  // the selected stimulus is touched: played (a timed one once its time is over)
+    const i = S.selected;
+    if (i === null || S.blank || T.touch === false) return;
+    if (!T.limit_s) { played(i); return; }
+    if (clock === null && !S.played.includes(i)) {
+      const tid = S.trialId;
+      clock = setTimeout(() => {
+        clock = null;
+        if (S.trialId !== tid) return;
+        played(i);
+        if (T.blank && down) blank(true);  // black until the finger is lifted
+        else { const next = T.stimuli.findIndex((_, k) => need.has(k) && !S.played.includes(k)); if (next >= 0) select(tid, next); }
+      }, T.limit_s * 1000);
+    }
+  }
   setInterval(() => { const t = performance.now(); if (down && t - lastSend >= 20) sendMove(t, down.x, down.y, down.p); }, 10);
-  pad.addEventListener("pointerdown", (e) => { pad.setPointerCapture(e.pointerId); onMove(e); });
+  pad.addEventListener("pointerdown", (e) => { pad.setPointerCapture(e.pointerId); onMove(e); onDown(e); });
   pad.addEventListener("pointermove", onMove);
   for (const ev of ["pointerup", "pointercancel"]) pad.addEventListener(ev, onUp);
 
