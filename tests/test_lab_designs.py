@@ -78,9 +78,9 @@ def test_kim_shapes_and_scenes():
 def test_kinestouch_latin_square():
     study = build_study(template("kinestouch-sliding", seed=3))
     plan = study.participants[0]
-    assert len(plan.trials) == 240
+    assert len(plan.trials) == 240 + 4  # and 2 practice trials opening each of the 2 sessions
     for block in ("V0F0", "V0F1", "V1F0", "V1F1"):
-        ts = [t for t in plan.trials if t.block_label == block]
+        ts = [t for t in plan.trials if t.block_label == block and not t.practice]
         assert len(ts) == 60
         assert set(Counter((t.condition["first"], t.condition["second"]) for t in ts).values()) == {10}
     # block order: a balanced Latin square over participants (positions and neighbour pairs)

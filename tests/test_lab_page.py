@@ -32,6 +32,14 @@ def study_server(runner, player=None, markers=None):
     return ServerThread(create_app(ServerConfig(port=0), study=StudyPage(runner, player, markers))).start()
 
 
+def play(page) -> None:
+    """Select each stimulus of the trial shown and touch the pad (the answers open after it)."""
+    for b in page.locator("button.stim").all():
+        b.click()
+        box = page.locator("#pad").bounding_box()
+        page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+
+
 def _need(what: str, ok: bool):
     if not ok:
         if IN_CI:
@@ -88,6 +96,8 @@ def test_short_study_answered_in_chromium(tmp_path):
                     rows, _ = eng.trace_since(0)
                     assert rows[:, 5].max() > 1.0  # volts were driven for the selected stimulus
                     assert rows[:, 5].max() <= runner.v_max + 1e-9
+                else:
+                    play(page)
                 answer = trial.correct if k % 2 == 0 else [c.id for c in trial.choices if c.id != trial.correct][0]
                 page.wait_for_timeout(150)  # a measurable response time
                 page.click(f"#choices button[data-choice='{answer}']")
@@ -135,6 +145,7 @@ def test_a_late_poll_response_does_not_bring_back_an_answered_trial(tmp_path):
                     break
                 page.wait_for_timeout(50)
             assert held, "the page sent no poll"
+            play(page)
             page.wait_for_timeout(150)
             page.click(f"#choices button[data-choice='{first.correct}']")
             poll(page, f"window.study.trialId === {second.id!r}", PATIENCE_MS)
@@ -144,6 +155,7 @@ def test_a_late_poll_response_does_not_bring_back_an_answered_trial(tmp_path):
             poll(page, "window.study.staleDropped === 1", PATIENCE_MS)  # the page has handled it
             assert page.evaluate("window.study.trialId") == second.id
             assert page.inner_text("#prompt") == second.prompt
+            play(page)
             page.wait_for_timeout(150)
             page.click(f"#choices button[data-choice='{second.correct}']")
             poll(page, "window.study.answered === 2", PATIENCE_MS)
