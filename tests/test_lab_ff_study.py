@@ -102,3 +102,6 @@ def test_an_unknown_ff_device_is_one_line_exit_2(tmp_path, capsys):
     assert main(["study", "run", str(folder), "-p", "P01", "--simulate", "1", "--ff-device", "falcon"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--ff-device" in err[0]
+    assert main(["study", "run", str(folder), "-p", "P01", "--ff-device", "sim", "--output", "sim"]) == 2
+    assert "--ff-device" in capsys.readouterr().err
+    assert not (folder / "logs" / "P01.jsonl").exists()  # nothing started, nothing logged

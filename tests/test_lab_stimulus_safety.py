@@ -18,6 +18,9 @@ class _Engine:
         self.sent.append(cmd)
         return True
 
+    def push_touch(self, source, x, y, load, t_event=float("nan")):
+        self.sent.append(("touch", t_event, load))
+
 
 class _Session:
     def __init__(self):
@@ -128,3 +131,20 @@ def test_mesh_file_stimulus_respects_the_session_limit(tmp_path):
     player = StimulusPlayer(_Session(), v_max=60.0)
     player.select({"mesh": str(path)})
     assert player.current.safety.limits.v_max == 60.0
+
+
+def test_a_stimulus_stops_its_time_limit_after_the_first_touch():
+    """004 Sec. 5.2: a stimulus lasts 3.5 s from the first touch; later samples reach the
+    engine as a lifted finger and the output is muted, until the next stimulus is selected."""
+    s = _Session()
+    player = StimulusPlayer(s, limit_s=3.5)
+    render = RENDERS[0]
+    player.select(render)
+    for t_ms in (1000.0, 2000.0, 4499.0, 4501.0, 6000.0):
+        player.touch(0, 0.5, 0.5, 0.5, t_ms, 800.0, 400.0)
+    touches = [(t, load > 0) for kind, t, load in (c for c in s.engine.sent if isinstance(c, tuple))]
+    assert touches == [(1.0, True), (2.0, True), (4.499, True), (4.501, False), (6.0, False)]
+    assert s.engine.sent[-3] == SetGain(0.0)  # muted once, at the first sample past the limit
+    player.select(render)  # the next stimulus: its own 3.5 s from its first touch
+    player.touch(0, 0.5, 0.5, 0.5, 9000.0, 800.0, 400.0)
+    assert s.engine.sent[-1][0] == "touch" and s.engine.sent[-1][2] > 0

@@ -150,6 +150,8 @@ def run(
 
     if ff_device not in (None, "sim"):
         raise ConfigError("expected sim (the simulated force-feedback device)", source="--ff-device")
+    if ff_device is not None and output is not None:
+        raise ConfigError("give either --ff-device (force feedback) or --output (electrostatic)", source="--ff-device")
     disp = None if display is None and config is None else resolve_display(display, config)
     measured = None
     if comfort_voltage is None:

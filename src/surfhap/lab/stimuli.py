@@ -204,7 +204,8 @@ FF_TOUCH_LATENCY = 0.040  # s, the tablet's touch latency ("a few dozens of ms",
 
 class FFStudySession:
     """The force-feedback loop of a study (:class:`surfhap.live.ff_loop.FFLoop`, the one of
-    ``ff run`` / ``ff simulate``) on the simulated device: ``start`` / ``stop`` it; ``space``
+    ``ff run`` / ``ff simulate``) on the simulated device (:mod:`surfhap.sim.ff_device`):
+    ``start`` / ``stop`` it; ``space``
     is the content rectangle of the 004 scenes (the page's pad spans it). With ``simulated``
     the loop runs on a :class:`~surfhap.runtime.clock.SimClock`, advanced only by
     :meth:`FFStimulusPlayer.explore` (a simulated participant), else on its wall-clock thread."""
