@@ -243,8 +243,10 @@ class FFStudySession:
             return self.loop.stop()
         from surfhap.runtime.loop import run
 
+        clock = self.loop.clock
+        clock.wait_until(clock.now() + self.loop.period)  # run() starts at now: the tick after the last
         self.loop.request_stop()
-        run(None, self.loop, self.loop.clock, self.loop, keep_running=self.loop.running, lead=0.0)
+        run(None, self.loop, clock, self.loop, keep_running=self.loop.running, lead=0.0)
 
 
 class FFStimulusPlayer(_TimedPlayer):
