@@ -98,9 +98,9 @@ def test_duplicate_and_stale_answers_are_not_logged(tmp_path):
 
 def test_one_session_at_a_time(tmp_path):
     p = tmp_path / "x.jsonl"
-    with TrialLog(p, config={}, software_version="0"):
+    with TrialLog(p, participant="P01", config={}, software_version="0"):
         with pytest.raises(StudyFormatError, match="another session"):
-            TrialLog(p, config={}, software_version="0")
+            TrialLog(p, participant="P01", config={}, software_version="0")
 
 
 def test_rest_between_blocks(tmp_path):
@@ -126,6 +126,7 @@ def test_gain_and_comfort_voltage_bounded(tmp_path):
         SessionRunner(study, "P01", gain=10.0)
     r = SessionRunner(study, "P01", comfort_voltage=180.0, gain=1.5)
     assert r.v_max == 180.0
+    r.answer(r.current().id, "1")  # the session record is written with the session's first record
     r.close()
     cfg = read_log(study / "logs" / "P01.jsonl").sessions[-1]["config"]
     assert cfg["v_max"] == 180.0 and cfg["gain"] == 1.5
@@ -146,7 +147,7 @@ def test_corrupt_log_releases_its_lock(tmp_path):
     p.write_text('{"type":"session"}\nnot json\n')
     for _ in range(2):  # the second attempt must not find the lock still held
         with pytest.raises(StudyFormatError, match="line 2"):
-            TrialLog(p, config={}, software_version="0")
+            TrialLog(p, participant="P01", config={}, software_version="0")
 
 
 def test_page_state_does_not_reveal_the_condition(tmp_path):
