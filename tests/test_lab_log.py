@@ -158,3 +158,39 @@ def test_page_state_does_not_reveal_the_condition(tmp_path):
     page_js = (Path(__file__).resolve().parents[1] / "src/surfhap/web/static/study/study.js").read_text()
     assert "st.block_label" not in page_js and "st.next_block" not in page_js  # the page shows numbers only
     r.close()
+
+
+def test_a_failed_start_writes_no_session(tmp_path, capsys):
+    """'study run' on a busy port fails (exit 2) before the page is served: the log gains no
+    session record (nor the resume event of a resumed participant); the next run is session 2."""
+    import socket
+
+    study = _new_study(tmp_path, "otake2022-identification")
+    log = study / "logs" / "P01.jsonl"
+    r = SessionRunner(study, "P01", mode="test")
+    for _ in range(3):
+        r.answer(r.current().id, r.current().correct)
+    r.close()
+    before = log.read_bytes()
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        for _ in range(2):
+            assert main(["study", "run", str(study), "-p", "P01", "--port", str(busy.getsockname()[1])]) == 2
+    assert log.read_bytes() == before and len(read_log(log).sessions) == 1
+    assert main(["study", "run", str(study), "-p", "P01", "--simulate", "1"]) == 0
+    final = read_log(log)
+    assert [s["session"] for s in final.sessions] == [1, 2] and final.sessions[1]["resumed_after"] == 3
+    assert final.events[0]["event"] == "resume" and final.events[0]["session"] == 2
+    assert {t["participant"] for t in final.trials} == {"P01"}
+
+
+def test_trial_records_carry_the_participant_and_old_logs_still_read(tmp_path):
+    p = tmp_path / "x.jsonl"
+    with TrialLog(p, participant="P07", config={"participant": "P07"}, software_version="0") as lg:
+        lg.append_trial({"trial_id": "a"})
+    assert json.loads(p.read_text().splitlines()[1])["participant"] == "P07"  # in the file itself
+    old = tmp_path / "P03.jsonl"  # a log written before trial records held the participant
+    old.write_text('{"type":"session","session":1,"config":{"participant":"P03"}}\n'
+                   '{"type":"trial","trial_id":"P03-0000","answer":"1","session":1}\n')
+    assert [t["participant"] for t in read_log(old).trials] == ["P03"]
