@@ -42,9 +42,10 @@ def _expected(study) -> pd.DataFrame:
             if rec["type"] != "trial":
                 continue
             t = trials[rec["trial_id"]]
-            rows.append({"participant": p["id"], "session": rec["session"], "block": t["block"], "trial_index": t["index"],
-                         "cond_condition": t["condition"]["condition"], "cond_material": t["condition"]["material"],
-                         "stimulus": f"material={t['condition']['material']},method={t['stimuli'][0]['render']['method']}",
+            mat, method = t["condition"]["material"], t["stimuli"][0]["render"]["method"]
+            rows.append({"participant": p["id"], "session": rec["session"], "block": t["block"],
+                         "trial_index": t["index"], "cond_condition": t["condition"]["condition"],
+                         "cond_material": mat, "stimulus": f"material={mat},method={method}",
                          "answer": rec["answer"], "correct_answer": t["correct"],
                          "is_correct": rec["answer"] == t["correct"], "response_time": rec["rt_s"]})
     return pd.DataFrame(rows)
