@@ -40,8 +40,7 @@ FiniteArray = Annotated[np.ndarray, BeforeValidator(_finite_array)]
 
 
 def within(low: float, high: float, message: str, *, open_low: bool = False):
-    """A finite float field in [low, high] ((low, high] if ``open_low``) whose error is ``message``,
-    for a range stated in the user's units (e.g. "must be within 0-200 ms" for a value in s)."""
+    """A finite float field in [low, high] ((low, high] if ``open_low``); its error is ``message`` (the user's units)."""
     def check(value: float) -> float:
         if not (math.isfinite(value) and (value > low if open_low else value >= low) and value <= high):
             raise ValueError(message)

@@ -41,8 +41,7 @@ def jsonable(value: Any) -> Any:
 
 
 class Result(ABC):
-    """Base of result objects: ``summary()``, ``to_dict()`` and ``plot(ax=None)``; a subclass
-    missing ``summary`` or ``plot`` cannot be instantiated."""
+    """Base of result objects: ``summary()``, ``to_dict()`` and ``plot(ax=None)`` (both abstract)."""
 
     #: how many Axes :meth:`plot` draws (the length of the ``ax`` sequence it accepts)
     panels: ClassVar[int] = 1

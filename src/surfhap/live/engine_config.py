@@ -8,17 +8,11 @@ from typing import Annotated
 from pydantic import AfterValidator
 
 from surfhap.checked import checked_dataclass, within
+from surfhap.live.queues import power_of_two
 
 __all__ = ["EngineConfig"]
 
-
-def _power_of_two(n: int) -> int:
-    if n < 2 or n & (n - 1):
-        raise ValueError("must be a power of two")
-    return n
-
-
-_Ring = Annotated[int, AfterValidator(_power_of_two)]
+_Ring = Annotated[int, AfterValidator(power_of_two)]  # a ring size
 
 
 @checked_dataclass

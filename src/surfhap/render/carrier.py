@@ -7,17 +7,12 @@ means no switching (DC drive), useful to show the fading on the simulated displa
 
 from __future__ import annotations
 
-from typing import Annotated
-
 import numba
 import numpy as np
-from pydantic import Field
 
 from surfhap.errors import ConfigError
 
-__all__ = ["PolarityCarrier", "check_carrier", "polarity", "DriveRate"]
-
-DriveRate = Annotated[int, Field(ge=2000, le=48000)]  # Hz, a DAC rate (a checked parameter field)
+__all__ = ["PolarityCarrier", "check_carrier", "polarity"]
 
 
 def check_carrier(carrier: float, drive_rate: float) -> float:

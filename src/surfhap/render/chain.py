@@ -28,7 +28,7 @@ from surfhap.errors import ConfigError
 from surfhap.render.block import RenderBlock
 from surfhap.models.material import Material
 from surfhap.models.panel import DisplayModel
-from surfhap.render.carrier import DriveRate, PolarityCarrier, check_carrier, polarity
+from surfhap.render.carrier import PolarityCarrier, check_carrier, polarity
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
 from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
 from surfhap.render.hold import hold_latest, control_times
@@ -78,7 +78,7 @@ class ChainConfig:
     """
 
     method: str = "auto"
-    drive_rate: DriveRate = 20000
+    drive_rate: Annotated[int, Field(ge=2000, le=48000)] = 20000
     carrier: float | None = None
     control_rate: Annotated[int, Field(ge=100)] = 2000
     alpha: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
@@ -99,13 +99,6 @@ class ChainConfig:
     @classmethod
     def _carrier(cls, carrier: float | None, info: ValidationInfo) -> float | None:
         return None if carrier is None else check_carrier(carrier, info.data.get("drive_rate", 48000))
-
-    @field_validator("control_rate")
-    @classmethod
-    def _control_rate(cls, rate: int, info: ValidationInfo) -> int:
-        if rate > info.data.get("drive_rate", 48000):
-            raise ValueError("must not exceed the drive rate")
-        return rate
 
 
 class TextureDetail(NamedTuple):

@@ -27,7 +27,7 @@ from pydantic import Field, ValidationInfo, field_validator
 
 from surfhap.checked import checked_dataclass
 from surfhap.models.panel import DisplayModel
-from surfhap.render.carrier import DriveRate, PolarityCarrier, check_carrier
+from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive_kernel import target_to_voltage
 from surfhap.models.device_curve import DeviceCurve
 from surfhap.render.grains import GrainParams, GrainPlayer, grain_name
@@ -71,7 +71,7 @@ class ShapeConfig:
     edges: bool = True
     edge_threshold_deg: Annotated[float, Field(gt=0, le=180)] = EDGE_THRESHOLD_DEG
     edge_walk: bool = False
-    drive_rate: DriveRate = 20000
+    drive_rate: Annotated[int, Field(ge=2000, le=48000)] = 20000
     carrier: float = 2000.0
     friction_rate: Annotated[int, Field(ge=100)] = 2000
     alpha: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
