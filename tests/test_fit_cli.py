@@ -69,6 +69,9 @@ def test_fit_accel_and_import_hatt(tmp_path, capsys):
     assert code == 0, err
     assert json.loads(out.read_text())["texture"]["kind"] == "interpolated-arma"
     assert (tmp_path / "rep" / "models.png").exists()
+    # an interpolated bank is shown through the texture protocol (its text read `.models` and raised)
+    code, stdout, err = run(capsys, "materials", "--show", out)
+    assert code == 0 and "acceleration, 7 model(s) of order <= 2" in " ".join(stdout.split()), err
     # export to HaTT, import back through the CLI, render the XML directly
     from surfhap.exchange.hatt import bank_to_hatt, write_hatt_xml
     from surfhap.exchange.material_json import read_material_json

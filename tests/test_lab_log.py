@@ -98,9 +98,9 @@ def test_duplicate_and_stale_answers_are_not_logged(tmp_path):
 
 def test_one_session_at_a_time(tmp_path):
     p = tmp_path / "x.jsonl"
-    with TrialLog(p, config={}, software_version="0"):
+    with TrialLog(p, participant="P01", config={}, software_version="0"):
         with pytest.raises(StudyFormatError, match="another session"):
-            TrialLog(p, config={}, software_version="0")
+            TrialLog(p, participant="P01", config={}, software_version="0")
 
 
 def test_rest_between_blocks(tmp_path):
@@ -126,6 +126,7 @@ def test_gain_and_comfort_voltage_bounded(tmp_path):
         SessionRunner(study, "P01", gain=10.0)
     r = SessionRunner(study, "P01", comfort_voltage=180.0, gain=1.5)
     assert r.v_max == 180.0
+    r.answer(r.current().id, "1")  # the session record is written with the session's first record
     r.close()
     cfg = read_log(study / "logs" / "P01.jsonl").sessions[-1]["config"]
     assert cfg["v_max"] == 180.0 and cfg["gain"] == 1.5
@@ -146,7 +147,7 @@ def test_corrupt_log_releases_its_lock(tmp_path):
     p.write_text('{"type":"session"}\nnot json\n')
     for _ in range(2):  # the second attempt must not find the lock still held
         with pytest.raises(StudyFormatError, match="line 2"):
-            TrialLog(p, config={}, software_version="0")
+            TrialLog(p, participant="P01", config={}, software_version="0")
 
 
 def test_page_state_does_not_reveal_the_condition(tmp_path):
@@ -157,3 +158,39 @@ def test_page_state_does_not_reveal_the_condition(tmp_path):
     page_js = (Path(__file__).resolve().parents[1] / "src/surfhap/web/static/study/study.js").read_text()
     assert "st.block_label" not in page_js and "st.next_block" not in page_js  # the page shows numbers only
     r.close()
+
+
+def test_a_failed_start_writes_no_session(tmp_path, capsys):
+    """'study run' on a busy port fails (exit 2) before the page is served: the log gains no
+    session record (nor the resume event of a resumed participant); the next run is session 2."""
+    import socket
+
+    study = _new_study(tmp_path, "otake2022-identification")
+    log = study / "logs" / "P01.jsonl"
+    r = SessionRunner(study, "P01", mode="test")
+    for _ in range(3):
+        r.answer(r.current().id, r.current().correct)
+    r.close()
+    before = log.read_bytes()
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        for _ in range(2):
+            assert main(["study", "run", str(study), "-p", "P01", "--port", str(busy.getsockname()[1])]) == 2
+    assert log.read_bytes() == before and len(read_log(log).sessions) == 1
+    assert main(["study", "run", str(study), "-p", "P01", "--simulate", "1"]) == 0
+    final = read_log(log)
+    assert [s["session"] for s in final.sessions] == [1, 2] and final.sessions[1]["resumed_after"] == 3
+    assert final.events[0]["event"] == "resume" and final.events[0]["session"] == 2
+    assert {t["participant"] for t in final.trials} == {"P01"}
+
+
+def test_trial_records_carry_the_participant_and_old_logs_still_read(tmp_path):
+    p = tmp_path / "x.jsonl"
+    with TrialLog(p, participant="P07", config={"participant": "P07"}, software_version="0") as lg:
+        lg.append_trial({"trial_id": "a"})
+    assert json.loads(p.read_text().splitlines()[1])["participant"] == "P07"  # in the file itself
+    old = tmp_path / "P03.jsonl"  # a log written before trial records held the participant
+    old.write_text('{"type":"session","session":1,"config":{"participant":"P03"}}\n'
+                   '{"type":"trial","trial_id":"P03-0000","answer":"1","session":1}\n')
+    assert [t["participant"] for t in read_log(old).trials] == ["P03"]

@@ -40,6 +40,11 @@ def play(page) -> None:
         page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
 
 
+def opaque(trial, choice_id: str) -> str:
+    """The id the page shows for a choice: its position from 1 (blinding, surfhap.lab.blinding)."""
+    return str([c.id for c in trial.choices].index(choice_id) + 1)
+
+
 def _need(what: str, ok: bool):
     if not ok:
         if IN_CI:
@@ -100,7 +105,7 @@ def test_short_study_answered_in_chromium(tmp_path):
                     play(page)
                 answer = trial.correct if k % 2 == 0 else [c.id for c in trial.choices if c.id != trial.correct][0]
                 page.wait_for_timeout(150)  # a measurable response time
-                page.click(f"#choices button[data-choice='{answer}']")
+                page.click(f"#choices button[data-choice='{opaque(trial, answer)}']")
                 clicked.append((trial.id, answer))
             page.wait_for_selector("#done:not([hidden])", timeout=PATIENCE_MS)
             assert page.evaluate("window.study.answered") == len(plan)
@@ -147,7 +152,7 @@ def test_a_late_poll_response_does_not_bring_back_an_answered_trial(tmp_path):
             assert held, "the page sent no poll"
             play(page)
             page.wait_for_timeout(150)
-            page.click(f"#choices button[data-choice='{first.correct}']")
+            page.click(f"#choices button[data-choice='{opaque(first, first.correct)}']")
             poll(page, f"window.study.trialId === {second.id!r}", PATIENCE_MS)
             route, stale = held[0]
             assert json.loads(stale.text())["trial"]["id"] == first.id
@@ -157,7 +162,7 @@ def test_a_late_poll_response_does_not_bring_back_an_answered_trial(tmp_path):
             assert page.inner_text("#prompt") == second.prompt
             play(page)
             page.wait_for_timeout(150)
-            page.click(f"#choices button[data-choice='{second.correct}']")
+            page.click(f"#choices button[data-choice='{opaque(second, second.correct)}']")
             poll(page, "window.study.answered === 2", PATIENCE_MS)
     finally:
         server.stop()
@@ -211,10 +216,11 @@ def test_lsl_markers_of_stimulus_touch_and_answer(tmp_path):
             ws.send(json.dumps({"type": "move", "seq": 0, "t": 1.0, "x": 0.5, "y": 0.5, "p": 0.5}))
             ws.send(json.dumps({"type": "up", "seq": 1, "t": 2.0}))
             pull(3)  # the touch reached the server before the answer is sent
-        assert post(server.url + "/api/answer", {"trial_id": t.id, "answer": t.correct, "rt_ms": 900})["accepted"]
+        ans = opaque(t, t.correct)  # the marker carries the page's opaque id; the log maps it back
+        assert post(server.url + "/api/answer", {"trial_id": t.id, "answer": ans, "rt_ms": 900})["accepted"]
         pull(5)
         assert [g["event"] for g in got] == ["stimulus_on", "touch_down", "touch_up", "stimulus_off", "answer"]
-        assert got[-1]["trial"] == t.id and got[-1]["answer"] == t.correct and got[-1]["rt_s"] == 0.9
+        assert got[-1]["trial"] == t.id and got[-1]["answer"] == ans and got[-1]["rt_s"] == 0.9
     finally:
         server.stop()
         markers.close()

@@ -20,7 +20,7 @@ from surfhap.lab.session import SessionRunner
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "live_support"))
 from browser_support import chromium_page, poll  # noqa: E402
-from test_lab_page import PATIENCE_MS, _need_browser, study_server  # noqa: E402
+from test_lab_page import PATIENCE_MS, _need_browser, opaque, study_server  # noqa: E402
 
 VIEWPORTS = [(1024, 600), (1920, 1080)]
 
@@ -141,9 +141,9 @@ def test_choices_wait_for_every_stimulus(tmp_path):
                 _stroke(page)
             poll(page, "window.study.answerable === true", PATIENCE_MS)
             assert not any(_disabled(page, choices))
-            _reachable(page, f"#choices button[data-choice='{trial.correct}']", 1024, 600)
+            _reachable(page, f"#choices button[data-choice='{opaque(trial, trial.correct)}']", 1024, 600)
             page.screenshot(path=str(tmp_path / "3afc-1024x600.png"))
-            page.click(f"#choices button[data-choice='{trial.correct}']")
+            page.click(f"#choices button[data-choice='{opaque(trial, trial.correct)}']")
             poll(page, "window.study.answered === 1", PATIENCE_MS)
     finally:
         server.stop()
@@ -192,7 +192,7 @@ def test_004_timed_stimuli_black_until_release_on_the_ff_loop(tmp_path):
                 page.mouse.up()
                 poll(page, "window.study.blank === false", PATIENCE_MS)
             poll(page, "window.study.answerable === true", PATIENCE_MS)
-            page.click(f"#choices button[data-choice='{trial.choices[0].id}']")
+            page.click("#choices button[data-choice='1']")
             poll(page, "window.study.answered === 1", PATIENCE_MS)
     finally:
         server.stop()

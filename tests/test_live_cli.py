@@ -45,6 +45,7 @@ def test_play_to_file_writes_the_scan(tmp_path, capsys):
     (["serve", "--port", "0"], "1-65535"),
     (["serve", "--material", "no-such-material"], "unknown material"),
     (["serve", "--touch-latency-ms", "900"], "0-200 ms"),
+    (["serve", "--block-ms", "500"], "block_seconds: must be within 0.2-100 ms"),
     (["play", "cork", "--scan", "speed=0.1"], "missing"),
     (["play", "cork", "--channels", "0"], "only applies to sound"),
     (["play", "cork", "--output", "sound", "--channels", "a,b"], "channel numbers"),

@@ -247,3 +247,18 @@ def test_drive_beyond_the_amplifier_gain_stops_with_one_line_and_no_partial_file
     lines = [ln for ln in err.strip().splitlines() if ln.strip()]
     assert code == 2 and len(lines) == 1 and "amp_gain" in lines[0], err
     assert not (out / "render.h5").exists() and not (out / "drive.wav").exists() and not (out / "summary.json").exists()
+
+
+def test_an_interrupted_render_written_later_says_so_in_its_file(tmp_path):
+    """write_render of a kept, interrupted render wrote ``interrupted: False`` (the attribute
+    was a separate argument); the file's attributes are now the summary's own entries."""
+    polls = iter(range(1000))
+    r = stream_render(load_material("cork"), constant_scan(0.1, 0.3, 3.0), ChainConfig(seed=2), None, keep=True,
+                      stop=lambda: next(polls) >= 1)
+    assert r.interrupted and 0 < r.n_model < r.n_total
+    attrs = read_render(write_render(r, tmp_path)["render"]).attrs
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert attrs["interrupted"] is True and attrs["texture_quantity"] == r.texture_quantity
+    for key in ("material", "method", "seed", "trajectory", "control_rate_hz", "drive_rate_hz", "carrier_hz", "latency_s",
+                "v_max", "mu_panel"):
+        assert attrs[key] == summary[key], key

@@ -1,8 +1,15 @@
-"""The result base: JSON-ready output that the standard library's json accepts strictly."""
+"""The result base: JSON-ready output that the standard library's json accepts strictly, and
+abstract ``summary``/``plot`` (a result missing one fails when it is made, not when it is called)."""
 
+import importlib
+import inspect
 import json
+import pkgutil
 
 import numpy as np
+import pytest
+
+import surfhap
 
 from surfhap.results import Result, jsonable
 
@@ -20,5 +27,36 @@ def test_base_to_dict_defaults_to_summary():
         def summary(self):
             return {"rms": np.float64(2.0)}
 
+        def plot(self, ax=None):
+            return None
+
     assert R().to_dict() == {"rms": 2.0}
     assert type(R().to_dict()["rms"]) is float
+
+
+def test_a_result_missing_plot_or_summary_fails_when_made():
+    class NoPlot(Result):
+        def summary(self):
+            return {}
+
+    class NoSummary(Result):
+        def plot(self, ax=None):
+            return None
+
+    for cls in (NoPlot, NoSummary):
+        with pytest.raises(TypeError, match="abstract"):
+            cls()
+
+
+def test_every_result_class_implements_the_base():
+    for mod in pkgutil.walk_packages(surfhap.__path__, "surfhap."):
+        if ".cli" not in mod.name and not mod.name.endswith("__main__"):
+            importlib.import_module(mod.name)
+    found = set()
+    todo = list(Result.__subclasses__())
+    while todo:
+        cls = todo.pop()
+        found.add(cls)
+        todo.extend(cls.__subclasses__())
+    assert len(found) >= 21
+    assert [c.__qualname__ for c in found if c.__module__.startswith("surfhap.") and inspect.isabstract(c)] == []

@@ -71,6 +71,11 @@ def _answer_body(trial_id: str, answer: str, rt_literal: str) -> bytes:
     return json.dumps({"trial_id": trial_id, "answer": answer, "rt_ms": "@@"}).replace('"@@"', rt_literal).encode()
 
 
+def _opaque(trial) -> str:
+    """The page's id of the trial's correct choice: its position from 1 (blinding)."""
+    return str([c.id for c in trial.choices].index(trial.correct) + 1)
+
+
 def _records(caplog):
     return [r for r in caplog.records if r.levelno >= logging.WARNING]
 
@@ -96,7 +101,7 @@ def test_huge_numbers_are_a_422_with_one_short_log_line(page, caplog):
     assert runner.n_done == 0  # nothing was logged as an answer
     assert server.app.state.guard.counts["invalid"] == len(bodies)
     # a valid answer still goes through
-    status, reply = _request(port, "POST", "/api/answer", _answer_body(t.id, t.correct, "800"))
+    status, reply = _request(port, "POST", "/api/answer", _answer_body(t.id, _opaque(t), "800"))
     assert status == 200 and json.loads(reply)["accepted"] and runner.n_done == 1
 
 
@@ -181,7 +186,7 @@ def test_cross_site_posts_to_every_state_changing_study_endpoint_are_403(page, c
     port = _port(server)
     t = runner.current()
     calls = [("/api/resume", b"{}"), ("/api/stimulus", json.dumps({"trial_id": t.id, "index": 0}).encode()),
-             ("/api/answer", _answer_body(t.id, t.correct, "500"))]
+             ("/api/answer", _answer_body(t.id, _opaque(t), "500"))]
     cross = [{"Origin": "http://evil.example"}, {"Origin": "null"},  # an opaque origin (sandboxed frame, file)
              {"Origin": f"http://127.0.0.1:{port}.evil.example"},
              {"Sec-Fetch-Site": "cross-site"}]  # a browser that left Origin out

@@ -14,15 +14,16 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 from typing import Annotated
 
 import numpy as np
-from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, ValidationError
 from pydantic.dataclasses import dataclass as _pydantic_dataclass
 
 from surfhap.errors import ConfigError
 
-__all__ = ["Checked", "checked_dataclass", "first_error", "FiniteArray"]
+__all__ = ["Checked", "checked_dataclass", "first_error", "FiniteArray", "within"]
 
 _CONFIG = ConfigDict(extra="forbid", arbitrary_types_allowed=True)
 
@@ -38,12 +39,22 @@ def _finite_array(value) -> np.ndarray:
 FiniteArray = Annotated[np.ndarray, BeforeValidator(_finite_array)]
 
 
+def within(low: float, high: float, message: str, *, open_low: bool = False):
+    """A finite float field in [low, high] ((low, high] if ``open_low``); its error is ``message`` (the user's units)."""
+    def check(value: float) -> float:
+        if not (math.isfinite(value) and (value > low if open_low else value >= low) and value <= high):
+            raise ValueError(message)
+        return value
+    return Annotated[float, AfterValidator(check)]
+
+
 def first_error(exc: ValidationError) -> tuple[str, str]:
     """(field, message) of a validation error's first entry; ``field`` is its dotted location
     ("(top)" for a whole-object rule) and ``message`` pydantic's text without its "Value error, " prefix."""
     err = exc.errors()[0]
     loc = ".".join(str(x) for x in err.get("loc", ())) or "(top)"
-    msg = str(err.get("msg", "invalid"))
+    cause = err.get("ctx", {}).get("error")  # a validator calling a check that raises ConfigError: its bare message
+    msg = cause.message if isinstance(cause, ConfigError) else str(err.get("msg", "invalid"))
     return loc, msg.removeprefix("Value error, ").removeprefix("Assertion failed, ")
 
 

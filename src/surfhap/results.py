@@ -18,6 +18,7 @@ never draws and nothing is imported for drawing until a figure is asked for.
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
 import numpy as np
@@ -39,20 +40,20 @@ def jsonable(value: Any) -> Any:
     return value
 
 
-class Result:
-    """Base of result objects: ``summary()``, ``to_dict()`` and ``plot(ax=None)``."""
+class Result(ABC):
+    """Base of result objects: ``summary()``, ``to_dict()`` and ``plot(ax=None)`` (both abstract)."""
 
     #: how many Axes :meth:`plot` draws (the length of the ``ax`` sequence it accepts)
     panels: ClassVar[int] = 1
 
+    @abstractmethod
     def summary(self) -> dict:
         """The headline figures, JSON-ready."""
-        raise NotImplementedError(f"{type(self).__name__} has no summary")
 
     def to_dict(self) -> dict:
         """Everything needed to report the result, JSON-ready (default: the summary)."""
         return jsonable(self.summary())
 
+    @abstractmethod
     def plot(self, ax=None):
         """Draw the result (see the module docstring for ``ax``); returns the Figure."""
-        raise NotImplementedError(f"{type(self).__name__} has no plot")

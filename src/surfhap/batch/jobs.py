@@ -69,7 +69,7 @@ def render_to_folder(material, trajectory, config, out: Path, *, fmt: str = "aut
         wav.abort()
         raise
     wav.close()
-    writer.close(render_file_attrs(result, interrupted=result.interrupted))
+    writer.close(render_file_attrs(result))
     paths = {"wav": wav.path, "render": writer.path, "summary": write_summary(out / "summary.json", result.summary(), gain)}
     if figure and result.n_model:
         paths["figure"] = out / "figure.png"

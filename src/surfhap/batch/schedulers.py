@@ -236,6 +236,8 @@ class _Dask:
         if self._cluster is not None:
             self._cluster.close()
 
+    abort = close  # closing the client (and a local cluster) drops its jobs
+
 
 @contextlib.contextmanager
 def open_scheduler(spec: SchedulerSpec, preload: Sequence[str] = ()):
@@ -249,7 +251,7 @@ def open_scheduler(spec: SchedulerSpec, preload: Sequence[str] = ()):
     try:
         yield sched
     except BaseException:  # Ctrl-C or an error in the caller: do not wait for the running jobs
-        getattr(sched, "abort", sched.close)()
+        sched.abort()
         raise
     sched.close()
 

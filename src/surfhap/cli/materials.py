@@ -18,17 +18,6 @@ from surfhap.errors import ConfigError
 __all__ = ["register"]
 
 
-def _texture_text(m) -> str:
-    if m.texture is None:
-        return "none (friction-only)"
-    orders = ",".join(str(x.order) for x in m.texture.models)
-    tex = f"{m.texture.quantity} AR({orders}) @ {m.texture.sample_rate:g} Hz"
-    cal = getattr(m.spec.texture, "calibration", None)
-    if cal is not None:
-        tex += f"\nvoltage ratio 10:{10 * cal.target_voltage_ratio:g} (calibrated)"
-    return tex
-
-
 def _show(name: str, display, rng) -> None:
     from surfhap.exchange.materials import load_material
     from surfhap.render.drive import default_method
@@ -44,11 +33,11 @@ def _show(name: str, display, rng) -> None:
         stdout.print(f"    from: {q.provenance.reference}")
     if fr.coulomb:
         stdout.print(f"  Coulomb mu0 = {fr.coulomb.mu0:g}\n    from: {fr.coulomb.provenance.reference}")
-    stdout.print(f"  texture: {_texture_text(m).replace(chr(10), '; ')}")
+    stdout.print(f"  texture: {m.texture_text()}")
     if spec.texture is not None:
         p = spec.texture.provenance
         stdout.print(f"    from: {p.reference or p.recording}" + (f" ({p.note})" if p.note else ""))
-        cal = getattr(spec.texture, "calibration", None)
+        cal = spec.texture_calibration
         if cal is not None:
             stdout.print(f"    strength: r = {cal.target_voltage_ratio:g}, beta = {cal.beta:g}, sd(x) = {cal.reference_std:.4g}, "
                          f"mu_t = {cal.relative_scale:.4g} * mu_low * x")
@@ -104,7 +93,7 @@ def materials(
             if part is not None:
                 p = part.provenance
                 srcs.append(p.reference.split(",")[0].split(" (")[0] if p.source == "paper" else f"fit of {p.recording}")
-        table.add_row(name, "\n".join(fr), _texture_text(m), default_method(m), "\n".join(dict.fromkeys(srcs)))
+        table.add_row(name, "\n".join(fr), m.texture_text(), default_method(m), "\n".join(dict.fromkeys(srcs)))
     stdout.print(table)
     stdout.print("Show one with its provenance and gain plan: surfhap materials --show NAME")
 

@@ -9,6 +9,7 @@
     surfhap study comfort STUDY --participant P01 [--output sim]      (comfort voltage, staircase)
     surfhap study status STUDY
     surfhap study analyze STUDY --report DIR
+    surfhap study export LOG --format csv|bids --out PATH           (LOG: a log or a study folder)
 
 DESIGN is a design file (JSON, ``surfhap-study-design``) or a built-in template name.
 """
@@ -357,6 +358,21 @@ def analyze(
     for line in result.summary_lines():
         stdout.print(line)
     stdout.print(f"wrote {path}")
+
+
+@study_app.command("export")
+def export(
+    log: Path = typer.Argument(..., help="A participant's log (STUDY/logs/P01.jsonl) or a study folder (every "
+                                         "participant's log)."),
+    fmt: str = typer.Option("csv", "--format", help="csv (one tidy table, one row per trial) | bids (a BIDS 'beh' "
+                                                    "dataset: *_beh.tsv + JSON sidecar per participant and task)."),
+    out: Path = typer.Option(..., "--out", help="The CSV file, or the folder of the BIDS dataset."),
+) -> None:
+    """Export the trials for analysis elsewhere (pandas, R, BIDS tools)."""
+    from surfhap.lab.export import export_logs
+
+    written = export_logs(log, fmt, out)
+    stdout.print(f"wrote {written[0]}" if fmt == "csv" else f"wrote {len(written)} files into {out}")
 
 
 def register(app: typer.Typer) -> None:

@@ -37,14 +37,15 @@ def render_file_spec(control_rate: float, drive_rate: float, texture_quantity: s
             for name, (rate, unit) in CHANNELS.items()}
 
 
-def render_file_attrs(r, *, interrupted: bool = False) -> dict:
-    """File attributes of render ``r``: what a reader needs besides the arrays."""
-    return {
-        "material": r.material, "method": r.method, "seed": r.seed, "trajectory": r.trajectory_name,
-        "control_rate_hz": r.control_rate, "drive_rate_hz": r.drive_rate, "carrier_hz": r.carrier,
-        "latency_s": r.latency, "v_max": r.v_max, "mu_panel": r.mu_panel,
-        "texture_quantity": r.texture_quantity, "interrupted": interrupted,
-    }
+#: the summary's entries a render file carries as attributes (what a reader needs besides the arrays)
+FILE_ATTRS = ("material", "method", "seed", "trajectory", "control_rate_hz", "drive_rate_hz", "carrier_hz", "latency_s",
+              "v_max", "mu_panel", "interrupted")
+
+
+def render_file_attrs(result: RenderResult) -> dict:
+    """File attributes of ``result``: its summary's :data:`FILE_ATTRS` and the texture quantity."""
+    s = result.to_dict()
+    return {k: s[k] for k in FILE_ATTRS} | {"texture_quantity": result.texture_quantity}
 
 
 def write_summary(path: str | Path, summary: dict, amp_gain: float) -> Path:

@@ -124,7 +124,7 @@ class ComfortRunner:
                                           if "material" in s.render), "cork")
         from surfhap import __version__
 
-        self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}-comfort.jsonl",
+        self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}-comfort.jsonl", participant=self.plan.id,
                             config={"participant": self.plan.id, "procedure": "comfort staircase",
                                     "staircase": self.params.model_dump(mode="json"),
                                     "material": self.material, "square_frequency": COMFORT_FREQUENCY},

@@ -90,14 +90,6 @@ def _law_text(mat) -> str:
     return f"Coulomb mu0={mat.coulomb.mu0:.3g}"
 
 
-def _texture_text(mat) -> str:
-    t = mat.texture
-    if t is None:
-        return "none"
-    n = len(getattr(t, "models", ())) or len(getattr(t, "speeds", ()))
-    return f"{t.quantity}, {n} models @ {t.sample_rate:g} Hz"
-
-
 def compare_materials(refs: Sequence[str], *, speed: float = 0.1, load: float = 0.5, duration: float = 4.0,
                       seed: int = 0, v_max: float = 250.0) -> MaterialComparison:
     """Profile each material in ``refs`` (names or files) on the simulated display."""
@@ -132,7 +124,7 @@ def compare_materials(refs: Sequence[str], *, speed: float = 0.1, load: float = 
         v_on = v[v > 0] if np.any(v > 0) else v
         hist, _ = np.histogram(v_on, bins=edges)
         hist = hist / max(1, v_on.size)
-        out.append(MaterialProfile(mat.name, res.method, _law_text(mat), _texture_text(mat), speeds, mu_v, loads, f_l,
+        out.append(MaterialProfile(mat.name, res.method, _law_text(mat), mat.texture_text(), speeds, mu_v, loads, f_l,
                                    freqs, psd, edges, hist, float(np.mean(v_on)), float(np.percentile(v_on, 95)),
                                    float(np.max(v)), res.summary()))
     return MaterialComparison(tuple(out), speed, load, duration)

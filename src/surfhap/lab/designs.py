@@ -181,7 +181,7 @@ def _realism(design: DesignSpec, p: RealismParams, i: int, pid: str) -> tuple[st
             a = (first[m] + r) % 2  # the order alternates over rounds: both orders for every material
             pair = [conds[a], conds[1 - a]]
             _trial(pid, trials, block=r, block_label=f"round {r + 1}", task="realism",
-                   prompt=f"Touch the real {m}. Which of the two feels more like it?",
+                   prompt="Touch the real sample. Which of the two feels more like it?",  # not its name: blinding
                    stimuli=[Stimulus(label=lab, render={"material": m, "method": p.conditions[c]})
                             for lab, c in zip("AB", pair)],
                    choices=[Choice(id=c, label=lab) for lab, c in zip("AB", pair)],

@@ -7,8 +7,12 @@ so that EEG, EMG, force or video recorded with LSL can be aligned with the trial
     {"event": "stimulus_on", "trial": "P01-0003", "index": 1, "label": "B"}
     {"event": "stimulus_off", "trial": "P01-0003"}
     {"event": "touch_down"} / {"event": "touch_up"}
-    {"event": "answer", "trial": "P01-0003", "answer": "cork", "rt_s": 4.21}
+    {"event": "answer", "trial": "P01-0003", "answer": "2", "rt_s": 4.21}
     {"event": "rest"} / {"event": "end"}
+
+Blinding: a marker carries the page's opaque ids only (``label``: the stimulus button's label,
+``answer``: the choice's position from 1, :mod:`surfhap.lab.blinding`); the trial record of the
+log (``key``) maps them to the choice ids and render specs.
 
 LSL time stamps are taken by pylsl at push time (``local_clock``). Without ``--lsl`` a
 :class:`NullMarkers` does nothing.

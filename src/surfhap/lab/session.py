@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from surfhap.errors import ConfigError, StudyFormatError
+from surfhap.lab.blinding import choice_key
 from surfhap.lab.schema import Study, Trial, load_study
 from surfhap.lab.triallog import TrialLog, now_iso
 
@@ -91,7 +92,8 @@ class SessionRunner:
                   "group": self.plan.group, "gain": self.gain, "v_max": self.v_max, "mode": mode,
                   "display": None if display is None else display.describe(),
                   "host": platform.node(), "python": platform.python_version(), **(extra_config or {})}
-        self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}.jsonl", config=config, software_version=__version__)
+        self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}.jsonl", participant=self.plan.id, config=config,
+                            software_version=__version__)
         self._lock = threading.Lock()
         self._by_id = {t.id: t for t in self.plan.trials}
         self._shown_at: dict[str, float] = {}
@@ -107,7 +109,7 @@ class SessionRunner:
         self.last_record: dict | None = None
         if done and self._pending:
             self._resting = True  # resuming: start on the rest screen
-            self.log.event("resume", next_trial=self._pending[0].id, completed=len(done))
+            self.log.event("resume", deferred=True, next_trial=self._pending[0].id, completed=len(done))
 
     # -------------------------------------------------------------- state
     @property
@@ -187,7 +189,10 @@ class SessionRunner:
                        "rt_s": None if rt_client_s is None else round(float(rt_client_s), 4),
                        "rt_server_s": None if shown is None else round(time.monotonic() - shown, 4),
                        "stimuli_touched": self._stimulus_log.pop(t.id, []), "condition": t.condition,
-                       "answered_at": now_iso(), **({"practice": True} if t.practice else {})}
+                       "answered_at": now_iso(), **({"practice": True} if t.practice else {}),
+                       # the page's opaque ids -> choices, stimulus index -> render:
+                       "key": {"choices": choice_key([c.id for c in t.choices]),
+                               "stimuli": [s.render for s in t.stimuli]}}
                 accepted = self.log.append_trial(rec)
                 self.last_record = rec
                 self._pending.pop(0)

@@ -6,13 +6,14 @@ returns, the record survives a crash or ``kill -9``. A session that is killed wh
 leave at most one partial last line; opening the log again cuts it off (that trial was never
 acknowledged, so it is run again). A trial id is written at most once: the log refuses a second
 record for an id it already holds. One session at a time: the log takes an exclusive lock
-(``flock``) on ``<log>.lock`` while open.
+(``flock``) on ``<log>.lock`` while open. A session record is written with the session's first
+trial or event, so a start that fails before (a busy port, a missing output) leaves no session.
 
 Records::
 
     {"type": "session", "session": 1, "started": ISO time, "software_version": ..., "config": {...}}
-    {"type": "trial", "trial_id": "P01-0003", "index": 3, "block": 0, "answer": "2", "correct": "2",
-     "is_correct": true, "rt_s": 4.2, "answered_at": ISO time, "session": 1, ...}
+    {"type": "trial", "participant": "P01", "trial_id": "P01-0003", "index": 3, "block": 0, "answer": "2",
+     "correct": "2", "is_correct": true, "rt_s": 4.2, "answered_at": ISO time, "session": 1, ...}
     {"type": "event", "event": "rest" | "resume" | "end", "session": 1, "at": ISO time, ...}
 """
 
@@ -36,7 +37,8 @@ def now_iso() -> str:
 @dataclass
 class LogContents:
     """Parsed log: ``sessions`` (session records), ``trials`` (trial records, file order),
-    ``events``, ``dropped_tail`` (bytes of a partial last line, not counted)."""
+    ``events``, ``dropped_tail`` (bytes of a partial last line, not counted). Every trial record
+    holds ``participant`` (a log written before it was logged: the session's participant)."""
 
     sessions: list[dict]
     trials: list[dict]
@@ -53,6 +55,7 @@ def _parse(path: Path, data: bytes) -> tuple[LogContents, int]:
     complete part (a partial last line, without its newline, is excluded)."""
     end = data.rfind(b"\n") + 1
     sessions, trials, events = [], [], []
+    participant = path.stem
     for no, line in enumerate(data[:end].splitlines(), start=1):
         if not line.strip():
             continue
@@ -63,10 +66,11 @@ def _parse(path: Path, data: bytes) -> tuple[LogContents, int]:
         kind = rec.get("type") if isinstance(rec, dict) else None
         if kind == "session":
             sessions.append(rec)
+            participant = str((rec.get("config") or {}).get("participant") or participant)
         elif kind == "trial":
             if not isinstance(rec.get("trial_id"), str):
                 raise StudyFormatError(f"line {no}: trial record without trial_id", source=str(path), field="trial_id")
-            trials.append(rec)
+            trials.append({"participant": participant, **rec})
         elif kind == "event":
             events.append(rec)
         else:
@@ -85,11 +89,12 @@ def read_log(path: str | Path) -> LogContents:
 class TrialLog:
     """An open, locked, append-only trial log. Use as a context manager.
 
-    ``config`` is the snapshot written at the start of every session (study file hash,
-    participant, gain, safety limit, host, ...), ``software_version`` the surfhap version.
+    ``participant`` goes into every trial record; ``config`` is the snapshot written at the start
+    of every session (study file hash, participant, gain, safety limit, host, ...),
+    ``software_version`` the surfhap version.
     """
 
-    def __init__(self, path: str | Path, *, config: dict, software_version: str):
+    def __init__(self, path: str | Path, *, participant: str, config: dict, software_version: str):
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._lock_fd = os.open(str(self.path) + ".lock", os.O_RDWR | os.O_CREAT, 0o644)
@@ -114,11 +119,19 @@ class TrialLog:
         self.contents = contents
         self._ids = contents.completed_ids
         self.session = len(contents.sessions) + 1
-        self._write({"type": "session", "session": self.session, "started": now_iso(),
-                     "software_version": software_version, "config": config,
-                     "resumed_after": len(self._ids)})
+        self.participant = participant
+        # written before the session's first record: a start that fails before leaves no session
+        self._head: list[dict] | None = [{"type": "session", "session": self.session, "started": now_iso(),
+                                          "software_version": software_version, "config": config,
+                                          "resumed_after": len(self._ids)}]
 
     def _write(self, record: dict) -> None:
+        head, self._head = self._head, None
+        for rec in head or ():
+            self._line(rec)
+        self._line(record)
+
+    def _line(self, record: dict) -> None:
         line = (json.dumps(record, separators=(",", ":"), allow_nan=False) + "\n").encode("utf-8")
         n = os.write(self._fd, line)  # O_APPEND: one write, at the end
         if n != len(line):  # pragma: no cover - a short write on a regular file means a full disk
@@ -136,12 +149,18 @@ class TrialLog:
         tid = record["trial_id"]
         if tid in self._ids:
             return False
-        self._write({"type": "trial", **record, "session": self.session})
+        self._write({"type": "trial", "participant": self.participant, **record, "session": self.session})
         self._ids.add(tid)
         return True
 
-    def event(self, name: str, **fields) -> None:
-        self._write({"type": "event", "event": name, "session": self.session, "at": now_iso(), **fields})
+    def event(self, name: str, *, deferred: bool = False, **fields) -> None:
+        """Log an event; ``deferred``: part of the session's start (e.g. "resume"), written with
+        the session record, i.e. not at all if nothing else is logged in this session."""
+        rec = {"type": "event", "event": name, "session": self.session, "at": now_iso(), **fields}
+        if deferred and self._head is not None:
+            self._head.append(rec)
+        else:
+            self._write(rec)
 
     def close(self) -> None:
         if self._fd is not None:

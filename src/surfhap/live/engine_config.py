@@ -3,15 +3,19 @@ construction."""
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
+from typing import Annotated
 
-from surfhap.errors import ConfigError
+from pydantic import AfterValidator
+
+from surfhap.checked import checked_dataclass, within
+from surfhap.live.queues import power_of_two
 
 __all__ = ["EngineConfig"]
 
+_Ring = Annotated[int, AfterValidator(power_of_two)]  # a ring size
 
-@dataclass(frozen=True)
+
+@checked_dataclass
 class EngineConfig:
     """Settings of the live engine (SI units).
 
@@ -28,29 +32,15 @@ class EngineConfig:
     max_block_frames : largest block a backend may ask for.
     """
 
-    block_seconds: float = 0.001
-    touch_latency: float = 0.0
-    smoothing: float = 1.0
+    block_seconds: within(0.0002, 0.1, "must be within 0.2-100 ms") = 0.001
+    touch_latency: within(0.0, 0.2, "must be within 0-200 ms") = 0.0
+    smoothing: within(0.0, 1.0, "must be in (0, 1]", open_low=True) = 1.0
     k_pred: float | None = None
     speed_cutoff: float = 20.0
     takeover: float = 0.05
-    stop_ramp: float = 0.010
+    stop_ramp: within(0.0, 1.0, "must be within 0-1 s", open_low=True) = 0.010
     simulate_display: bool = True
-    touch_capacity: int = 1024
-    trace_capacity: int = 8192
-    latency_capacity: int = 4096
+    touch_capacity: _Ring = 1024
+    trace_capacity: _Ring = 8192
+    latency_capacity: _Ring = 4096
     max_block_frames: int = 8192
-
-    def __post_init__(self):
-        if not (math.isfinite(self.block_seconds) and 0.0002 <= self.block_seconds <= 0.1):
-            raise ConfigError("must be within 0.2-100 ms", field="block_seconds")
-        if not (math.isfinite(self.touch_latency) and 0.0 <= self.touch_latency <= 0.2):
-            raise ConfigError("must be within 0-200 ms", field="touch_latency")
-        if not (math.isfinite(self.smoothing) and 0.0 < self.smoothing <= 1.0):
-            raise ConfigError("must be in (0, 1]", field="smoothing")
-        if not (math.isfinite(self.stop_ramp) and 0.0 < self.stop_ramp <= 1.0):
-            raise ConfigError("must be within 0-1 s", field="stop_ramp")
-        for name in ("touch_capacity", "trace_capacity", "latency_capacity"):
-            v = getattr(self, name)
-            if v < 2 or v & (v - 1):
-                raise ConfigError("must be a power of two", field=name)

@@ -49,6 +49,13 @@ def ring_stats(ring: np.ndarray, count: int) -> dict:
             "max": float(vals.max()), "last": last}
 
 
+def power_of_two(n: int) -> int:
+    """``n`` when it is a power of two >= 2 (a ring size), else ValueError."""
+    if n < 2 or n & (n - 1):
+        raise ValueError("must be a power of two")
+    return n
+
+
 class TouchRing:
     """Single-consumer ring of touch samples (float64 rows, see ``TOUCH_FIELDS``).
 
@@ -60,9 +67,7 @@ class TouchRing:
     """
 
     def __init__(self, capacity: int = 1024):
-        if capacity < 2 or capacity & (capacity - 1):
-            raise ValueError("capacity must be a power of two >= 2")
-        self.capacity = int(capacity)
+        self.capacity = power_of_two(int(capacity))
         self._mask = self.capacity - 1
         self.rows = np.zeros((self.capacity, len(TOUCH_FIELDS)))
         self._write = 0  # published rows (monotonic)

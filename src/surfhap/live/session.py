@@ -40,11 +40,11 @@ def material_preview(material, width: int = 256, height: int = 64, seed: int = 0
 
 
 def backend_info(backend) -> dict:
-    """``backend.info()``, or just its name when that fails (the page only displays it)."""
+    """``backend.info()`` (a runtime ``Sink``), or just its name when that fails (the page only displays it)."""
     try:
         return backend.info()
     except Exception:  # noqa: BLE001
-        return {"name": getattr(backend, "name", "?")}
+        return {"name": backend.name}
 
 
 def page_info(session) -> dict:

@@ -223,6 +223,11 @@ class MaterialFile(_Strict):
             raise ValueError("name must not start/end with spaces or contain '/'")
         return v
 
+    @property
+    def texture_calibration(self) -> TextureCalibrationSpec | None:
+        """The texture's strength calibration (only an AR bank's entry has one), or None."""
+        return self.texture.calibration if isinstance(self.texture, TextureSpec) else None
+
 
 @dataclass(frozen=True)
 class Material:
@@ -247,7 +252,7 @@ class Material:
     @classmethod
     def from_spec(cls, spec: MaterialFile) -> "Material":
         fr = spec.friction  # the laws themselves (with their provenance)
-        calibration = spec.texture.calibration if isinstance(spec.texture, TextureSpec) else None
+        calibration = spec.texture_calibration
         return cls(spec.name, fr.coulomb, fr.quasi_static, None if spec.texture is None else spec.texture.bank(), spec,
                    None if calibration is None else calibration.relative_scale)
 
@@ -260,3 +265,11 @@ class Material:
     def texture_rate(self) -> float | None:
         """Rate (Hz) the texture models were fitted at, or None when friction-only."""
         return None if self.texture is None else self.texture.sample_rate
+
+    def texture_text(self) -> str:
+        """The texture in one line: quantity, models, largest order, rate and calibration."""
+        t, cal = self.texture, self.spec.texture_calibration
+        if t is None:
+            return "none (friction-only)"
+        text = f"{t.quantity}, {len(self.spec.texture.models)} model(s) of order <= {t.max_order} @ {t.sample_rate:g} Hz"
+        return text if cal is None else f"{text}, voltage ratio 10:{10 * cal.target_voltage_ratio:g} (calibrated)"

@@ -15,11 +15,14 @@ average), already through the safety stage.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import NamedTuple
+from dataclasses import field
+from typing import Annotated, NamedTuple
 
 import numba
 import numpy as np
+from pydantic import Field, ValidationInfo, field_validator
+
+from surfhap.checked import checked_dataclass
 
 from surfhap.errors import ConfigError
 from surfhap.render.block import RenderBlock
@@ -53,7 +56,7 @@ def resolve_carrier(carrier: float | None, method: str, drive_rate: int) -> tupl
     return capped, f"the paper's {want:g} Hz needs a drive rate of {2 * want:g} Hz; capped at half of {drive_rate} Hz"
 
 
-@dataclass(frozen=True)
+@checked_dataclass
 class ChainConfig:
     """Settings of a texture chain.
 
@@ -75,10 +78,10 @@ class ChainConfig:
     """
 
     method: str = "auto"
-    drive_rate: int = 20000
+    drive_rate: Annotated[int, Field(ge=2000, le=48000)] = 20000
     carrier: float | None = None
-    control_rate: int = 2000
-    alpha: float | None = None
+    control_rate: Annotated[int, Field(ge=100)] = 2000
+    alpha: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
     beta: float = 1.8
     effective_mass: float = 0.05
     constant_load: float | None = 1.6
@@ -87,20 +90,15 @@ class ChainConfig:
     square_reference_load: float = 0.5
     square_reference_speed: float = 0.1
     texture_gain: float = 1.0
-    operating_range: OperatingRange = OperatingRange()
+    operating_range: OperatingRange = field(default_factory=OperatingRange)
     seed: int = 0
-    limits: SafetyLimits = SafetyLimits()
-    display: DisplayModel = DisplayModel()
+    limits: SafetyLimits = field(default_factory=SafetyLimits)
+    display: DisplayModel = field(default_factory=DisplayModel)
 
-    def __post_init__(self):
-        if int(self.drive_rate) != self.drive_rate or not 2000 <= self.drive_rate <= 48000:
-            raise ConfigError(f"must be a whole number of Hz within 2000-48000, got {self.drive_rate}", field="drive_rate")
-        if int(self.control_rate) != self.control_rate or not 100 <= self.control_rate <= self.drive_rate:
-            raise ConfigError("must be a whole number of Hz within 100 and the drive rate", field="control_rate")
-        if self.carrier is not None:
-            check_carrier(self.carrier, self.drive_rate)
-        if self.alpha is not None and not (np.isfinite(self.alpha) and self.alpha > 0):
-            raise ConfigError("must be > 0", field="alpha")
+    @field_validator("carrier")
+    @classmethod
+    def _carrier(cls, carrier: float | None, info: ValidationInfo) -> float | None:
+        return None if carrier is None else check_carrier(carrier, info.data.get("drive_rate", 48000))
 
 
 class TextureDetail(NamedTuple):

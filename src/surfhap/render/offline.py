@@ -11,7 +11,7 @@ preview, and the arrays when they were kept. Writing files is
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -249,8 +249,7 @@ class RenderResult(Result):
             "rendering_gain": self.rendering_gain, "max_abs_voltage": st.max_abs_drive, "alpha_source": self.alpha_source,
             "clipped_fraction": self.clipped_fraction, "saturated_fraction": self.saturated_fraction,
             "saturation_onset_load_n": st.onset_load,
-            "safety": {"samples": s.samples, "clamped": s.clamped, "rise_limited": s.rise_limited,
-                       "faults": s.faults, "lifted": s.lifted, "watchdog": s.watchdog},
+            "safety": {k: v for k, v in asdict(s).items() if k != "halted"},  # a renderer's stage never halts
             "latency_s": self.latency,
             "mean_friction_sim_n": st.friction_sum / st.n_model if st.n_model else 0.0,
             "texture_share": st.texture_share, "texture_warning": self.texture_warning(),

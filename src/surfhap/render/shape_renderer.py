@@ -26,7 +26,6 @@ import numpy as np
 from pydantic import Field, ValidationInfo, field_validator
 
 from surfhap.checked import checked_dataclass
-from surfhap.errors import ConfigError
 from surfhap.models.panel import DisplayModel
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive_kernel import target_to_voltage
@@ -85,7 +84,7 @@ class ShapeConfig:
     @field_validator("grain")
     @classmethod
     def _area_grain(cls, grain: str) -> str:
-        name = _message(grain_name, grain)
+        name = grain_name(grain)
         if name == "edge-tick":
             raise ValueError("edge-tick is the edge grain; choose an area grain (area-even | area-grainy)")
         return name
@@ -93,7 +92,7 @@ class ShapeConfig:
     @field_validator("carrier")
     @classmethod
     def _carrier(cls, carrier: float, info: ValidationInfo) -> float:
-        return _message(check_carrier, carrier, info.data.get("drive_rate", 48000))
+        return check_carrier(carrier, info.data.get("drive_rate", 48000))
 
     @field_validator("friction_rate")
     @classmethod
@@ -101,14 +100,6 @@ class ShapeConfig:
         if rate > info.data.get("drive_rate", 48000):
             raise ValueError("must not exceed the drive rate")
         return rate
-
-
-def _message(check, *args):
-    """``check(*args)``, its ConfigError re-raised as the bare message (pydantic names the field)."""
-    try:
-        return check(*args)
-    except ConfigError as err:
-        raise ValueError(err.message) from None
 
 
 def display_device_curve(config: "ShapeConfig") -> DeviceCurve:

@@ -58,7 +58,7 @@ def run_demo(settings: DemoSettings = DemoSettings(), progress: Callable[[float]
     display = settings.display or DisplayModel()
     for name in names:
         mat = load_material(name)
-        cal = getattr(mat.spec.texture, "calibration", None)
+        cal = mat.spec.texture_calibration
         target = None if cal is None else cal.target_voltage_ratio
         renders[name] = []
         for i, load in enumerate(loads):

@@ -7,7 +7,9 @@ logged by the :class:`~surfhap.lab.session.SessionRunner` before the reply. With
 :class:`~surfhap.lab.stimuli.StimulusPlayer`, the pad's pointer events (``/ws``, the touch
 page's messages and checks) drive the live engine and a stimulus swaps its renderer.
 Request bodies are pydantic models (:mod:`surfhap.web.messages`); the app's request guard
-does the rest.
+does the rest. Blinding: every reply and marker carries the participant's view only
+(:mod:`surfhap.lab.blinding`: opaque choice ids, no block label, no render spec); an answer's
+opaque id is mapped back to the choice id before the runner logs it.
 """
 
 # no "from __future__ import annotations": FastAPI reads the endpoints' annotations at run time
@@ -15,6 +17,8 @@ import logging
 from dataclasses import dataclass, field
 from importlib import resources
 
+from surfhap.errors import InputError
+from surfhap.lab.blinding import choice_key, participant_state, real_answer
 from surfhap.lab.markers import NullMarkers
 from surfhap.lab.stimuli import StimulusPlayer, scene_picture
 from surfhap.live.config import ServerConfig
@@ -56,7 +60,7 @@ def study_router(page: StudyPage, cfg: ServerConfig):
 
     @router.get("/api/state")
     def state():
-        return runner.state()
+        return participant_state(runner.state())
 
     pictures: dict[str, bytes] = {}
 
@@ -94,12 +98,17 @@ def study_router(page: StudyPage, cfg: ServerConfig):
 
     @router.post("/api/answer")
     def answer(req: AnswerRequest):
-        tid, ans = req.trial_id, req.answer
+        tid, ans = req.trial_id, req.answer  # ans: the opaque id(s) of participant_state
         rt_s = None if req.rt_ms is None else req.rt_ms / 1000.0
+        t = runner.state().get("trial")
+        if t is None or t["id"] != tid:  # not the current trial: nothing to log
+            return {**participant_state(runner.state()), "accepted": False}
         try:
-            st = runner.answer(tid, ans, rt_s)
-        except ValueError as exc:
-            return JSONResponse({"error": str(exc)}, status_code=400)
+            key = choice_key([c["id"] for c in t["choices"]])
+            st = runner.answer(tid, real_answer(key, ans, t["response"] == "toggles"), rt_s)
+        except InputError as exc:  # the runner's message may name choice ids: the page gets the field
+            log.warning("study page: answer %r to %s refused: %s", ans, tid, exc)
+            return JSONResponse({"error": f"invalid answer ({exc.field})"}, status_code=400)
         if player is not None:
             player.mute()
         if st.get("accepted"):
@@ -109,12 +118,12 @@ def study_router(page: StudyPage, cfg: ServerConfig):
             markers.push("answer", trial=tid, answer=ans, rt_s=rt_s)
             if st["status"] in ("rest", "done"):
                 markers.push("rest" if st["status"] == "rest" else "end")
-        return st
+        return participant_state(st)
 
     @router.post("/api/resume")
     def resume():
         runner.resume()
-        return runner.state()
+        return participant_state(runner.state())
 
     @router.websocket("/ws")
     async def ws(sock: WebSocket):
