@@ -54,7 +54,7 @@ def _expected(study) -> pd.DataFrame:
 def _check(table: pd.DataFrame, want: pd.DataFrame) -> None:
     assert {c: str(table[c].dtype) for c in ("session", "block", "trial_index", "response_time")} == {
         "session": INT, "block": INT, "trial_index": INT, "response_time": FLOAT}
-    assert table["is_correct"].dtype == bool
+    assert table["is_correct"].dtype == bool and table["practice"].dtype == bool and not table["practice"].any()
     for c in ("participant", "cond_condition", "cond_material", "answer", "stimulus"):
         assert pd.api.types.is_string_dtype(table[c]), c
     got = table[list(want.columns)].reset_index(drop=True)

@@ -19,6 +19,7 @@ from surfhap.cli.study import _simulate
 from surfhap.ff.params import DeviceParams
 from surfhap.lab.analyze_study import load_trials
 from surfhap.lab.designs import build_study, template
+from surfhap.lab.export import trial_table
 from surfhap.lab.session import SessionRunner
 from surfhap.lab.stimuli import FFStimulusPlayer, FFStudySession
 from surfhap.lab.triallog import read_log
@@ -67,6 +68,8 @@ def test_004_study_runs_end_to_end_on_the_simulated_ff_device(tmp_path):
     assert [bool(t.get("practice")) for t in log.trials] == [t.practice for t in plan]
     _, recs, incomplete, _ = load_trials(folder)  # practice trials are not analysed
     assert len(recs) == 24 and not incomplete
+    exported = trial_table([log])  # ... and the export marks them
+    assert exported["practice"].tolist() == [t.practice for t in plan]
 
     # one device record per stimulus, in the trials' order, each the trial's own effect
     played = ff.force_log

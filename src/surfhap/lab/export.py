@@ -39,6 +39,7 @@ COLUMNS: dict[str, tuple[str, str, str | None]] = {
     "trial_id": ("Trial id", "Id of the trial in the study file", None),
     "trial_index": ("Trial index", "Position of the trial in the participant's planned list, from 0", None),
     "task": ("Task", "Task of the trial", None),
+    "practice": ("Practice", "A practice trial (true): logged but left out of the analysis", None),
     "stimulus": ("Stimuli", "Render spec of every stimulus of the trial (key=value pairs; stimuli in the order of "
                             "the page's buttons, separated by ' | ')", None),
     "answer": ("Answer", "Choice id answered (toggles: position=choice id for every position)", None),
@@ -79,10 +80,11 @@ def _stimulus(rec: dict) -> str | None:
 
 def _row(rec: dict) -> dict:
     row = {col: rec.get(field) for col, field in _FIELDS.items()}
+    row["practice"] = bool(rec.get("practice", False))
     row.update({f"cond_{k}": v for k, v in (rec.get("condition") or {}).items()})
     row["stimulus"] = _stimulus(rec)
     row.update({col: rec.get(field) for col, field in _ANSWER.items()})
-    used = set(_FIELDS.values()) | set(_ANSWER.values()) | _NOT_SCALAR
+    used = set(_FIELDS.values()) | set(_ANSWER.values()) | _NOT_SCALAR | {"practice"}
     row.update({k: v for k, v in rec.items() if k not in used and (v is None or isinstance(v, (str, int, float)))})
     return row
 
@@ -90,7 +92,7 @@ def _row(rec: dict) -> dict:
 def trial_table(logs: list[LogContents]) -> pd.DataFrame:
     """One row per logged trial of ``logs`` (columns: module doc)."""
     rows = [_row(rec) for log in logs for rec in log.trials]
-    return pd.DataFrame(rows, columns=None if rows else list(_FIELDS) + ["stimulus", *_ANSWER])
+    return pd.DataFrame(rows, columns=None if rows else [*_FIELDS, "practice", "stimulus", *_ANSWER])
 
 
 def _label(value: str, what: str) -> str:

@@ -20,7 +20,7 @@ from importlib import resources
 from surfhap.errors import InputError
 from surfhap.lab.blinding import choice_key, participant_state, real_answer
 from surfhap.lab.markers import NullMarkers
-from surfhap.lab.stimuli import StimulusPlayer, scene_picture
+from surfhap.lab.stimuli import FFStimulusPlayer, StimulusPlayer, scene_picture
 from surfhap.live.config import ServerConfig
 from surfhap.live.sources import RateLimiter, RejectLog
 from surfhap.web.messages import AnswerRequest, StimulusRequest
@@ -39,7 +39,7 @@ class StudyPage:
     stimulus, touch and answer events."""
 
     runner: object
-    player: StimulusPlayer | None = None
+    player: StimulusPlayer | FFStimulusPlayer | None = None
     markers: object = field(default_factory=NullMarkers)
 
 
