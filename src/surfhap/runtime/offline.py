@@ -75,28 +75,32 @@ class RenderRecorder:
         chain = engine.chain
         self.engine, self.display, self.n_total, self.progress = engine, display, n_total, progress
         self.channels = channels
-        self.parts: dict[str, list] | None = {k: [] for k in CHANNELS} if keep else None
+        n_drive = math.ceil(n_total * chain.drive_rate / chain.control_rate)  # the resampler's exact total
+        # kept arrays allocated once at their full length, each block written in place (no list + concatenate)
+        self.arrays = {k: np.empty(n_drive if k == "drive" else n_total) for k in CHANNELS} if keep else None
         self.stats = RenderStats(has_texture=chain.law.uses_texture)
-        self.preview = PreviewRecorder(n_total, math.ceil(n_total * chain.drive_rate / chain.control_rate), chain.control_rate,
-                                       chain.drive_rate, chain.law.low_band, columns=preview_columns)
+        self.preview = PreviewRecorder(n_total, n_drive, chain.control_rate, chain.drive_rate, chain.law.low_band,
+                                       columns=preview_columns)
         self.n_fric = 0
         self.last_fric = 0.0
 
-    def _put(self, name: str, arr: np.ndarray) -> None:
+    def _put(self, name: str, arr: np.ndarray, at: int) -> None:
         if self.channels is not None:
             self.channels(name, arr)
-        if self.parts is not None:
-            self.parts[name].append(arr)
+        if self.arrays is not None:
+            self.arrays[name][at:at + arr.shape[0]] = arr
 
     def emit(self, volts: np.ndarray) -> None:
         start, speed, load, out = self.engine.block
         law, chain = out.drive_law, self.engine.chain
         for name, arr in (("speed", speed), ("load", load), ("texture", out.texture), ("mu_low", law.mu_low),
-                          ("mu_tex", law.mu_tex), ("target", law.target), ("voltage", law.voltage), ("drive", volts)):
-            self._put(name, arr)
+                          ("mu_tex", law.mu_tex), ("target", law.target), ("voltage", law.voltage)):
+            self._put(name, arr, start)
+        self._put("drive", volts, self.stats.n_drive)
         self.stats.add_model(load, law.voltage, law.target, chain.law.low_band.force(load, law.mu_low), chain.config.limits.v_max)
-        self.preview.add_model(start, speed, load, law.target, law.mu_low, law.voltage)
-        self.preview.add_drive(self.stats.n_drive, volts)
+        if self.arrays is None:  # kept arrays give the preview in one pass at the end (finish)
+            self.preview.add_model(start, speed, load, law.target, law.mu_low, law.voltage)
+            self.preview.add_drive(self.stats.n_drive, volts)
         self.stats.add_drive(volts)
         end = start + speed.shape[0]
         self._friction(self.display.process(volts, out.load_drive)[:end - self.n_fric])
@@ -104,9 +108,10 @@ class RenderRecorder:
             self.progress(end / self.n_total)
 
     def _friction(self, fric: np.ndarray) -> None:
-        self._put("friction_sim", fric)
+        self._put("friction_sim", fric, self.n_fric)
         self.stats.add_friction(fric)
-        self.preview.add_friction(self.n_fric, fric)
+        if self.arrays is None:
+            self.preview.add_friction(self.n_fric, fric)
         self.n_fric += fric.shape[0]
         if fric.shape[0]:
             self.last_fric = float(fric[-1])
@@ -116,8 +121,11 @@ class RenderRecorder:
         while self.n_fric < n_done:  # the display's decimator lags: hold its last value over the tail
             self._friction(np.full(min(self.engine.block_frames, n_done - self.n_fric), self.last_fric))
         arrays = {}
-        if self.parts is not None:
-            arrays = {k: np.concatenate(v) if v else np.zeros(0) for k, v in self.parts.items()}
+        if self.arrays is not None:
+            a = arrays = {k: a[:self.stats.n_drive if k == "drive" else n_done] for k, a in self.arrays.items()}
+            self.preview.add_model(0, a["speed"], a["load"], a["target"], a["mu_low"], a["voltage"])
+            self.preview.add_drive(0, a["drive"])
+            self.preview.add_friction(0, a["friction_sim"])
             chain = self.engine.chain
             uses_acc = chain.law.uses_texture and material.texture.quantity == "acceleration"
             arrays["acc"] = arrays["texture"] if uses_acc else None
