@@ -28,7 +28,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from surfhap.models.device_curve import DeviceCurve
 from surfhap.models.electrostatics import ElectrostaticStack
-from surfhap.signal.resample import RationalResampler
+from surfhap.signal.resample import RationalResampler, resample_block
 
 __all__ = ["DisplayModel", "SimulatedDisplay"]
 
@@ -117,6 +117,13 @@ def _display_kernel(drive, load, state, a, mu, c0, c1, c2, scale, top, out):
     state[1] = ve
 
 
+@numba.njit(cache=True, nogil=True)
+def _display_block(drive, load, state, a, mu, c0, c1, c2, scale, top, force, z, Hr, L, M, t0, out):
+    # one block: the friction at the drive rate into force, decimated into out; returns the count
+    _display_kernel(drive, load, state, a, mu, c0, c1, c2, scale, top, force)
+    return resample_block(force, z, Hr, L, M, t0, out)
+
+
 class SimulatedDisplay:
     """``process(drive, load) -> friction`` at ``friction_rate``.
 
@@ -148,7 +155,7 @@ class SimulatedDisplay:
     def process(self, drive: np.ndarray, load: np.ndarray) -> np.ndarray:
         drive = np.ascontiguousarray(drive, dtype=np.float64)
         load = np.ascontiguousarray(load, dtype=np.float64)
-        force = np.empty_like(drive)
-        _display_kernel(drive, load, self._state, self._a, self.model.mu_panel, *self._curve, force)
+        force, out = np.empty_like(drive), np.empty(drive.shape[0] * self._down.L // self._down.M + 2)
+        m = _display_block(drive, load, self._state, self._a, self.model.mu_panel, *self._curve, force, *self._down.kernel_args(), out)
         self.last_friction_drive_rate = force
-        return self._down.process(force)
+        return out[:m]
