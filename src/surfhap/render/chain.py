@@ -221,12 +221,10 @@ class TextureChain:
         self._index = np.zeros(64, dtype=np.int64)
         self._resampler, self._safety = self.upsampler.kernel_args(), self.safety.kernel_args()
 
-    def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray, x=None, y=None,
-                drive_out: np.ndarray | None = None) -> ChainBlock:
+    def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray, x=None, y=None, drive_out=None) -> ChainBlock:
         """One block (see the module docstring); ``x``, ``y`` (the finger position) are not
-        used by a texture (:class:`~surfhap.render.block.Renderer` protocol). ``drive_out``
-        (at least ``n * drive_rate // control_rate + 2`` long, an offline render's kept array)
-        receives the drive samples in place of a new array."""
+        used by a texture (:class:`~surfhap.render.block.Renderer` protocol); ``drive_out`` (an
+        offline render's kept array) receives the drive samples in place of a new array."""
         speed = np.ascontiguousarray(speed, dtype=float)
         load = np.ascontiguousarray(load, dtype=float)
         touch_time = np.ascontiguousarray(touch_time, dtype=float)

@@ -67,20 +67,18 @@ class RenderStats:
     def add_model(self, load: np.ndarray, voltage: np.ndarray, target: np.ndarray, low: np.ndarray, v_max: float) -> None:
         """Account one block at the control rate: load (n,) N, envelope (n,) V, the law's
         target (n,) N and its low band (n,) N."""
-        n = load.shape[0]
-        self.n_model += n
         on = load > 0
-        touching = int(np.count_nonzero(on))
+        n, touching = load.shape[0], int(np.count_nonzero(on))
         if touching < n:  # the touching samples (all of them, the usual block: no copies)
             load, voltage, target, low = load[on], voltage[on], target[on], low[on]
         sat = voltage >= v_max
         if sat.any():
             lowest = float(load[sat].min())
             self.onset_load = lowest if self.onset_load is None else min(self.onset_load, lowest)
+        self.n_model += n
         self.touching += touching
         self.target_sum += float(target.sum())
-        low = target - low
-        self.texture_sq_sum += float(np.square(low, out=low).sum())
+        self.texture_sq_sum += float(np.square(target - low).sum())
 
     def add_drive(self, drive: np.ndarray) -> None:
         self.n_drive += int(drive.shape[0])

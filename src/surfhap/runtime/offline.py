@@ -51,8 +51,7 @@ class OfflineEngine:
         self.counters = {"touches": 0, "touches_ignored": 0, "stale_stamps": 0, "underruns": 0}
         self.hold = TouchHold(rows, TouchPredictor(), 0.05, self.counters)
         self.n = self.n_drive = 0
-        self.block = None
-        self.drive_out: np.ndarray | None = None  # where the chain writes the drive (a kept array), else new arrays
+        self.block = self.drive_out = None  # drive_out: where the chain writes the drive (a kept array), else new arrays
 
     def render(self, frames: int, now: float | None = None) -> np.ndarray:
         fm, k0 = self.drive_rate, self.n
@@ -78,10 +77,9 @@ class RenderRecorder:
         self.engine, self.display, self.n_total, self.progress = engine, display, n_total, progress
         self.channels = channels
         n_drive = math.ceil(n_total * chain.drive_rate / chain.control_rate)  # the resampler's exact total
-        # kept arrays allocated once at their full length, each block written in place (no list + concatenate)
+        # kept arrays allocated once at full length, blocks written in; the chain writes the drive (+2: its bound)
         self.arrays = {k: np.empty(n_drive + 2 if k == "drive" else n_total) for k in CHANNELS} if keep else None
-        if keep:  # the chain writes the drive in place (+2: its bound on a block's samples)
-            engine.drive_out = self.arrays["drive"]
+        engine.drive_out = self.arrays["drive"] if keep else None
         self.stats = RenderStats(has_texture=chain.law.uses_texture)
         self.preview = PreviewRecorder(n_total, n_drive, chain.control_rate, chain.drive_rate, chain.law.low_band,
                                        columns=preview_columns)
@@ -94,8 +92,8 @@ class RenderRecorder:
         if self.arrays is not None:
             self.arrays[name][at:at + arr.shape[0]] = arr
 
-    def _account(self, start: int, speed, load, target, mu_low, voltage, drive, friction=None) -> None:
-        """Statistics and preview of model samples from ``start``, their drive (and friction)."""
+    def _account(self, start: int, speed, load, target, mu_low, voltage, drive, friction) -> None:
+        """Statistics and preview of model samples from ``start``, their drive and friction (None: later)."""
         chain = self.engine.chain
         self.stats.add_model(load, voltage, target, chain.law.low_band.force(load, mu_low), chain.config.limits.v_max)
         self.preview.add_model(start, speed, load, target, mu_low, voltage)
@@ -114,7 +112,7 @@ class RenderRecorder:
         if self.channels is not None:
             self.channels("drive", volts)  # a kept drive is in place already (engine.drive_out)
         if self.arrays is None:  # kept arrays are accounted in one pass at the end (finish)
-            self._account(start, speed, load, law.target, law.mu_low, law.voltage, volts)
+            self._account(start, speed, load, law.target, law.mu_low, law.voltage, volts, None)
         end = start + speed.shape[0]
         self._friction(self.display.process(volts, out.load_drive)[:end - self.n_fric])
         if self.progress is not None:
