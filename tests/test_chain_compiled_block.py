@@ -57,3 +57,24 @@ def test_chain_block_makes_no_python_stage_calls(monkeypatch):
         j0 += envelope.shape[0]
         np.testing.assert_array_equal(blk.drive, ref_safety.process(ref_carrier.process(envelope), blk.load_drive, ages))
     assert chain.safety.counters == ref_safety.counters and ref_safety.counters.watchdog > 0
+
+
+def test_chain_writes_the_drive_into_a_given_buffer():
+    """drive_out (what a kept offline render passes: its preallocated drive array) receives the
+    block's drive in place, the same samples as a fresh array; a buffer below the block's bound
+    is refused (the compiled tail does not check bounds)."""
+    material = load_material("leather")
+    fresh, into = (TextureChain(material, ChainConfig(drive_rate=44100)) for _ in range(2))
+    rng = np.random.default_rng(7)
+    buf = np.full(4000, np.nan)
+    at = 0
+    for n in (37, 1, 90):
+        speed, load = rng.uniform(0.0, 0.3, n), rng.uniform(0.1, 0.8, n)
+        ref = fresh.process(speed, load, np.zeros(n)).drive
+        got = into.process(speed, load, np.zeros(n), drive_out=buf[at:]).drive
+        assert np.shares_memory(got, buf)
+        np.testing.assert_array_equal(got, ref)
+        np.testing.assert_array_equal(buf[at:at + ref.size], ref)
+        at += ref.size
+    with pytest.raises(ValueError, match="drive_out"):
+        into.process(np.zeros(10), np.zeros(10), np.zeros(10), drive_out=np.empty(10 * 44100 // 2000 + 1))

@@ -8,6 +8,7 @@ import pytest
 from surfhap import ChainConfig, constant_scan, load_material, strokes
 from surfhap.texture import render
 from surfhap.models.texture import ARModel, TextureBank
+from surfhap.models.trajectory import Trajectory
 from surfhap.report.figures import render_spectrum
 from surfhap.signal.bands import spectral_deviation_db
 
@@ -137,3 +138,20 @@ def test_expected_texture_psd_of_builtin_materials_matches_the_render(name, gain
     band = (f >= 5.0) & (f <= 25.0)
     ratio_db = 10 * np.log10(trapezoid(p[band], f[band]) / trapezoid(e[band], f[band]))
     assert abs(ratio_db) <= 1.0, ratio_db
+
+
+def test_kept_render_summary_is_numpy_of_its_arrays():
+    """render() keeps its arrays (allocated once from the trajectory's length, each block
+    written in place) and takes its statistics from them in one pass at the end: the summary
+    is numpy's reductions of those arrays, whatever the block size."""
+    tr = strokes(0.1, 0.4, 3.3)
+    lifted = Trajectory(t=tr.t, x=tr.x, y=tr.y, load=np.where((tr.t > 1.0) & (tr.t < 1.6), 0.0, tr.load))
+    r = render(load_material("leather"), lifted, ChainConfig(drive_rate=20000), block_seconds=0.1)
+    s = r.summary()
+    assert r.friction_sim.size == r.load.size == r.n_total and r.drive.size == 10 * r.n_total
+    assert s["mean_friction_sim_n"] == np.mean(r.friction_sim)
+    assert s["max_abs_voltage"] == np.max(np.abs(r.drive))
+    on = r.load > 0
+    assert 0 < on.sum() < on.size
+    textural = r.target[on] - r.low_band.force(r.load, r.mu_low)[on]
+    assert s["texture_share"] == np.sqrt(np.sum(textural**2) / on.sum()) / (np.sum(r.target[on]) / on.sum())

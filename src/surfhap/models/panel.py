@@ -28,7 +28,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from surfhap.models.device_curve import DeviceCurve
 from surfhap.models.electrostatics import ElectrostaticStack
-from surfhap.signal.resample import RationalResampler
+from surfhap.signal.resample import RationalResampler, resample_block
 
 __all__ = ["DisplayModel", "SimulatedDisplay"]
 
@@ -100,9 +100,10 @@ class DisplayModel(BaseModel):
 
 
 @numba.njit(cache=True, nogil=True)
-def _display_kernel(drive, load, state, a, mu, c0, c1, c2, scale, top, out):
+def _display_kernel(drive, load, state, a, mu, c0, c1, c2, scale, top, force, z, Hr, L, M, t0, out):
     # state: [previous drive, previous V_eff]; added friction: the display's curve at
-    # u = min(|V_eff| scale, top) while driven (c0 + c1 u + c2 u^2; default 0, 0, mu k)
+    # u = min(|V_eff| scale, top) while driven (c0 + c1 u + c2 u^2; default 0, 0, mu k), into
+    # force at the drive rate, then decimated into out by the resampler z .. t0; returns the count
     pv = state[0]
     ve = state[1]
     for i in range(drive.shape[0]):
@@ -112,18 +113,18 @@ def _display_kernel(drive, load, state, a, mu, c0, c1, c2, scale, top, out):
         fn = load[i]
         u = min(abs(ve) * scale, top)
         added = (c2 * u + c1) * u + c0 if u > 0.0 else 0.0
-        out[i] = mu * fn + added if fn > 0.0 else 0.0
+        force[i] = mu * fn + added if fn > 0.0 else 0.0
     state[0] = pv
     state[1] = ve
+    return resample_block(force, z, Hr, L, M, t0, out)
 
 
 class SimulatedDisplay:
     """``process(drive, load) -> friction`` at ``friction_rate``.
 
     drive (m,) V and load (m,) N at the drive rate; returns the friction force (N) low-passed
-    and decimated to ``friction_rate``. ``last_friction_drive_rate`` keeps the undecimated force of
-    the last block and ``last_v_eff`` the effective voltage, for inspection. The added friction
-    is the display's :attr:`DisplayModel.curve` at ``|V_eff|`` (``mu_panel k V_eff^2`` without a
+    and decimated to ``friction_rate`` (one compiled call per block). The added friction is the
+    display's :attr:`DisplayModel.curve` at ``|V_eff|`` (``mu_panel k V_eff^2`` without a
     measured curve; an intensity curve at ``|V_eff| / v_max``), 0 without drive.
     """
 
@@ -139,7 +140,6 @@ class SimulatedDisplay:
         self._state = np.zeros(2)
         self._down = RationalResampler(self.drive_rate, self.friction_rate)
         self.delay = self._down.delay
-        self.last_friction_drive_rate = np.zeros(0)
 
     def reset(self) -> None:
         self._state[:] = 0.0
@@ -148,7 +148,6 @@ class SimulatedDisplay:
     def process(self, drive: np.ndarray, load: np.ndarray) -> np.ndarray:
         drive = np.ascontiguousarray(drive, dtype=np.float64)
         load = np.ascontiguousarray(load, dtype=np.float64)
-        force = np.empty_like(drive)
-        _display_kernel(drive, load, self._state, self._a, self.model.mu_panel, *self._curve, force)
-        self.last_friction_drive_rate = force
-        return self._down.process(force)
+        force, out = np.empty_like(drive), np.empty(drive.shape[0] * self._down.L // self._down.M + 2)
+        m = _display_kernel(drive, load, self._state, self._a, self.model.mu_panel, *self._curve, force, *self._down.kernel_args(), out)
+        return out[:m]

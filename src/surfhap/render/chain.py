@@ -219,9 +219,10 @@ class TextureChain:
         self._index = np.zeros(64, dtype=np.int64)
         self._resampler, self._safety = self.upsampler.kernel_args(), self.safety.kernel_args()
 
-    def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray, x=None, y=None) -> ChainBlock:
+    def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray, x=None, y=None, drive_out=None) -> ChainBlock:
         """One block (see the module docstring); ``x``, ``y`` (the finger position) are not
-        used by a texture (:class:`~surfhap.render.block.Renderer` protocol)."""
+        used by a texture (:class:`~surfhap.render.block.Renderer` protocol); ``drive_out`` (an
+        offline render's kept array) receives the drive samples in place of a new array."""
         speed = np.ascontiguousarray(speed, dtype=float)
         load = np.ascontiguousarray(load, dtype=float)
         touch_time = np.ascontiguousarray(touch_time, dtype=float)
@@ -236,7 +237,9 @@ class TextureChain:
         _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
         texture = self.synth.process(clean[0], clean[1]) if self.synth is not None else np.zeros(n)
         law = self.law.process(clean[0], clean[1], texture)
-        drive, load_drive = np.empty(size), np.empty(size)
+        drive, load_drive = np.empty(size) if drive_out is None else drive_out[:size], np.empty(size)
+        if drive.shape[0] < size:
+            raise ValueError(f"drive_out holds {drive.shape[0]} samples, the block needs {size}")
         m = _drive_tail(law.voltage, load, touch_time, self._state, self._work, self._index, self._resampler, self._safety,
                         drive, load_drive)
         return ChainBlock(drive[:m], load_drive[:m], law.target, TextureDetail(texture, law))

@@ -67,23 +67,26 @@ class RenderStats:
     def add_model(self, load: np.ndarray, voltage: np.ndarray, target: np.ndarray, low: np.ndarray, v_max: float) -> None:
         """Account one block at the control rate: load (n,) N, envelope (n,) V, the law's
         target (n,) N and its low band (n,) N."""
-        self.n_model += int(load.shape[0])
-        sat = (load > 0) & (voltage >= v_max)
-        if np.any(sat):
-            lowest = float(np.min(load[sat]))
-            self.onset_load = lowest if self.onset_load is None else min(self.onset_load, lowest)
         on = load > 0
-        self.touching += int(np.count_nonzero(on))
-        self.target_sum += float(np.sum(target[on]))
-        self.texture_sq_sum += float(np.sum(np.square(target[on] - low[on])))
+        n, touching = load.shape[0], int(np.count_nonzero(on))
+        if touching < n:  # the touching samples (all of them, the usual block: no copies)
+            load, voltage, target, low = load[on], voltage[on], target[on], low[on]
+        sat = voltage >= v_max
+        if sat.any():
+            lowest = float(load[sat].min())
+            self.onset_load = lowest if self.onset_load is None else min(self.onset_load, lowest)
+        self.n_model += n
+        self.touching += touching
+        self.target_sum += float(target.sum())
+        self.texture_sq_sum += float(np.square(target - low).sum())
 
     def add_drive(self, drive: np.ndarray) -> None:
         self.n_drive += int(drive.shape[0])
         if drive.size:
-            self.max_abs_drive = max(self.max_abs_drive, float(np.max(np.abs(drive))))
+            self.max_abs_drive = max(self.max_abs_drive, float(drive.max()), -float(drive.min()))
 
     def add_friction(self, friction: np.ndarray) -> None:
-        self.friction_sum += float(np.sum(friction))
+        self.friction_sum += float(friction.sum())
 
 
 @dataclass

@@ -50,8 +50,8 @@ class OfflineEngine:
         self.block_frames = int(block_frames)
         self.counters = {"touches": 0, "touches_ignored": 0, "stale_stamps": 0, "underruns": 0}
         self.hold = TouchHold(rows, TouchPredictor(), 0.05, self.counters)
-        self.n = 0
-        self.block = None
+        self.n = self.n_drive = 0
+        self.block = self.drive_out = None  # drive_out: where the chain writes the drive (a kept array), else new arrays
 
     def render(self, frames: int, now: float | None = None) -> np.ndarray:
         fm, k0 = self.drive_rate, self.n
@@ -59,9 +59,10 @@ class OfflineEngine:
         inputs = np.empty((5, frames))
         self.hold.fill(k0, fm, inputs)
         speed, load, touch_time, xs, ys = inputs
-        out = self.chain.process(speed, load, touch_time, xs, ys)
+        out = self.chain.process(speed, load, touch_time, xs, ys, None if self.drive_out is None else self.drive_out[self.n_drive:])
         self.block = (k0, speed, load, out)
         self.n += frames
+        self.n_drive += out.drive.shape[0]
         return out.drive
 
 
@@ -75,38 +76,53 @@ class RenderRecorder:
         chain = engine.chain
         self.engine, self.display, self.n_total, self.progress = engine, display, n_total, progress
         self.channels = channels
-        self.parts: dict[str, list] | None = {k: [] for k in CHANNELS} if keep else None
+        n_drive = math.ceil(n_total * chain.drive_rate / chain.control_rate)  # the resampler's exact total
+        # kept arrays allocated once at full length, blocks written in; the chain writes the drive (+2: its bound)
+        self.arrays = {k: np.empty(n_drive + 2 if k == "drive" else n_total) for k in CHANNELS} if keep else None
+        engine.drive_out = self.arrays["drive"] if keep else None
         self.stats = RenderStats(has_texture=chain.law.uses_texture)
-        self.preview = PreviewRecorder(n_total, math.ceil(n_total * chain.drive_rate / chain.control_rate), chain.control_rate,
-                                       chain.drive_rate, chain.law.low_band, columns=preview_columns)
+        self.preview = PreviewRecorder(n_total, n_drive, chain.control_rate, chain.drive_rate, chain.law.low_band,
+                                       columns=preview_columns)
         self.n_fric = 0
         self.last_fric = 0.0
 
-    def _put(self, name: str, arr: np.ndarray) -> None:
+    def _put(self, name: str, arr: np.ndarray, at: int) -> None:
         if self.channels is not None:
             self.channels(name, arr)
-        if self.parts is not None:
-            self.parts[name].append(arr)
+        if self.arrays is not None:
+            self.arrays[name][at:at + arr.shape[0]] = arr
+
+    def _account(self, start: int, speed, load, target, mu_low, voltage, drive, friction) -> None:
+        """Statistics and preview of model samples from ``start``, their drive and friction (None: later)."""
+        chain = self.engine.chain
+        self.stats.add_model(load, voltage, target, chain.law.low_band.force(load, mu_low), chain.config.limits.v_max)
+        self.preview.add_model(start, speed, load, target, mu_low, voltage)
+        self.preview.add_drive(self.stats.n_drive, drive)
+        self.stats.add_drive(drive)
+        if friction is not None:
+            self.stats.add_friction(friction)
+            self.preview.add_friction(start, friction)
 
     def emit(self, volts: np.ndarray) -> None:
         start, speed, load, out = self.engine.block
-        law, chain = out.drive_law, self.engine.chain
+        law = out.drive_law
         for name, arr in (("speed", speed), ("load", load), ("texture", out.texture), ("mu_low", law.mu_low),
-                          ("mu_tex", law.mu_tex), ("target", law.target), ("voltage", law.voltage), ("drive", volts)):
-            self._put(name, arr)
-        self.stats.add_model(load, law.voltage, law.target, chain.law.low_band.force(load, law.mu_low), chain.config.limits.v_max)
-        self.preview.add_model(start, speed, load, law.target, law.mu_low, law.voltage)
-        self.preview.add_drive(self.stats.n_drive, volts)
-        self.stats.add_drive(volts)
+                          ("mu_tex", law.mu_tex), ("target", law.target), ("voltage", law.voltage)):
+            self._put(name, arr, start)
+        if self.channels is not None:
+            self.channels("drive", volts)  # a kept drive is in place already (engine.drive_out)
+        if self.arrays is None:  # kept arrays are accounted in one pass at the end (finish)
+            self._account(start, speed, load, law.target, law.mu_low, law.voltage, volts, None)
         end = start + speed.shape[0]
         self._friction(self.display.process(volts, out.load_drive)[:end - self.n_fric])
         if self.progress is not None:
             self.progress(end / self.n_total)
 
     def _friction(self, fric: np.ndarray) -> None:
-        self._put("friction_sim", fric)
-        self.stats.add_friction(fric)
-        self.preview.add_friction(self.n_fric, fric)
+        self._put("friction_sim", fric, self.n_fric)
+        if self.arrays is None:
+            self.stats.add_friction(fric)
+            self.preview.add_friction(self.n_fric, fric)
         self.n_fric += fric.shape[0]
         if fric.shape[0]:
             self.last_fric = float(fric[-1])
@@ -116,8 +132,9 @@ class RenderRecorder:
         while self.n_fric < n_done:  # the display's decimator lags: hold its last value over the tail
             self._friction(np.full(min(self.engine.block_frames, n_done - self.n_fric), self.last_fric))
         arrays = {}
-        if self.parts is not None:
-            arrays = {k: np.concatenate(v) if v else np.zeros(0) for k, v in self.parts.items()}
+        if self.arrays is not None:
+            a = arrays = {k: v[:self.engine.n_drive if k == "drive" else n_done] for k, v in self.arrays.items()}
+            self._account(0, a["speed"], a["load"], a["target"], a["mu_low"], a["voltage"], a["drive"], a["friction_sim"])
             chain = self.engine.chain
             uses_acc = chain.law.uses_texture and material.texture.quantity == "acceleration"
             arrays["acc"] = arrays["texture"] if uses_acc else None
