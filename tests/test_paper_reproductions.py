@@ -251,3 +251,61 @@ def test_004_raw_score_anova_does_not_reproduce(tmp_path, monkeypatch):
     _, tests = _sliding(tmp_path, monkeypatch, anova="repeated")
     got = [round(tests[e]["statistic"], 2) for e in ("visual", "tactile", "comparison")]
     assert got != [9.56, 3.64, 3.0]
+
+
+# 000 Sec. 4 (14 participants, 10 materials, 7-point scales): real vs virtual r = .935
+# (p = 7.3e-5) roughness, .926 (p = 1.22e-4) stickiness; similarity data-driven 5.15 (SD 1.07),
+# square wave 3.95 (SD 1.52), F(1,260) = 85.795 for the rendering method; similarity vs real
+# roughness r = -.936 (p = 6.9e-5), vs real stickiness r = -.851 (p = 2e-3). Ratings are not
+# published. Q000: per-material sums over the 14 participants of the real / virtual ratings, each
+# split as evenly as possible over participants; SIM000: each participant's similarity ratings
+# (materials in the design's order); both found by a search for ratings that reproduce the
+# printed figures (partly circular, as for 004). F: with integer ratings and the printed means,
+# 14 SS_error is even, so 85.795 (14 SS_error = 4276.6) cannot occur; the nearest is 85.807.
+Q000 = {("real", "roughness"): [31, 22, 88, 19, 32, 64, 90, 27, 21, 53],
+        ("virtual", "roughness"): [25, 17, 65, 17, 36, 72, 73, 31, 24, 58],
+        ("real", "stickiness"): [61, 31, 57, 29, 35, 54, 68, 35, 33, 66],
+        ("virtual", "stickiness"): [55, 36, 56, 37, 47, 46, 66, 45, 41, 66]}
+SIM000 = {"data-driven": ["6646653664", "6746553674", "6746553664", "6647553654", "6646653564", "6646663564",
+                          "6646753554", "5646653654", "5646653664", "5646653665", "5646553665", "5646653665",
+                          "5646653665", "5646653664"],
+          "square-wave": ["7432364334", "4432433114", "5253432331", "4575151344", "5555434334", "6454573125",
+                          "7664644434", "4356465526", "6752374566", "4255243462", "4335355444", "7133267244",
+                          "2243433576", "3243243542"]}
+
+
+def _ratings(tmp_path, monkeypatch, **params):
+    from surfhap.lab.designs import ZHAO_MATERIALS
+
+    _fast_log(monkeypatch)
+    study = _study(tmp_path, "zhao-ratings", 14, **params)
+    for p in range(14):
+        def ans(t, r, p=p):
+            c = t.condition
+            m = ZHAO_MATERIALS.index(c["material"])
+            if t.task == "similarity":
+                return SIM000[c["method"]][p][m]
+            total = Q000[c["source"], c["adjective"]][m]
+            return str(total // 14 + ((p - m) % 14 < total % 14))
+        _run(study, f"P{p + 1:02d}", ans)
+    return _tests(study)
+
+
+def test_000_correlations_and_between_subjects_method_anova(tmp_path, monkeypatch):
+    res, tests = _ratings(tmp_path, monkeypatch)
+    for name, r, p, digits in (("roughness: real vs virtual", .935, 7.3e-5, 2),
+                               ("stickiness: real vs virtual", .926, 1.22e-4, 3),
+                               ("similarity (data-driven) vs roughness (real)", -.936, 6.9e-5, 2),
+                               ("similarity (data-driven) vs stickiness (real)", -.851, 2e-3, 1)):
+        t = tests[name]
+        assert (round(t["statistic"], 3), float(f"{t['p']:.{digits}g}"), t["df"]) == (r, p, 8)
+    sec = next(s for s in res.sections if s.title == "Similarity ratings")
+    assert sorted(tuple(r[2:]) for r in sec.tables[0][1]) == [("3.95", "1.52"), ("5.15", "1.07")]
+    f = tests["method"]
+    assert f["df"] == [1, 260] and f["p"] < .05 and "between-subjects" in f["method"]
+    assert f["statistic"] == pytest.approx(85.795, abs=0.013)  # 85.807: see above
+
+
+def test_000_repeated_measures_anova_does_not_reproduce(tmp_path, monkeypatch):
+    _, tests = _ratings(tmp_path, monkeypatch, anova="repeated")
+    assert tests["method"]["df"] != [1, 260] and tests["method"]["statistic"] != pytest.approx(85.795, abs=0.013)
