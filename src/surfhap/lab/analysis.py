@@ -1,6 +1,7 @@
 """Statistics of perception studies on scipy / statsmodels, results as objects with named fields:
 proportions with intervals, participant means, binomial / z / t tests, Bonferroni, confusion
-matrices, Pearson correlation, repeated-measures ANOVA and KinesTouch discrimination scores."""
+matrices, Pearson correlation, repeated-measures and between-subjects factorial ANOVA and
+KinesTouch discrimination scores (the aligned rank transform: :mod:`surfhap.lab.art`)."""
 
 from __future__ import annotations
 

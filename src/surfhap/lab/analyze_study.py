@@ -22,7 +22,7 @@ shape-choice        confusion of shape vs answer; proportion correct overall and
                     (002 Sec. 3.4.2)
 scene-recognition   proportion of objects right per task and light; four-way repeated-measures
                     ANOVA task x light x profile x configuration (002 Table 2; params
-                    anova: repeated | art)
+                    anova: repeated | between)
 sliding-pairs       discrimination score |2p - 1| per participant, comparison, visual and
                     tactile condition; aligned rank transform ANOVA on the scores (004 Sec.
                     5.3, :mod:`surfhap.lab.art`; params anova: art | repeated)
@@ -99,7 +99,7 @@ def _anova(sec: Section, records, depvar: str, subject: str, factors: list[str],
               A.factorial_anova(records, depvar, factors) if kind == "between" else
               A.rm_anova(records, depvar, subject, factors))
     except Exception as exc:  # noqa: BLE001 - too few complete participants is a normal state
-        sec.text.append(f"no {_ANOVA[kind]}: {exc}")
+        sec.text.append(f"no {kind} ANOVA: {exc}")
         return
     sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
                                                      for e, f, d1, d2, p in an.rows]))

@@ -109,7 +109,7 @@ class ShapeChoiceParams(_P):
 
 
 class SceneParams(_P):
-    anova: Literal["repeated", "art"] = "repeated"  # 002 Table 2: four-way within-subject ANOVA
+    anova: Literal["repeated", "between"] = "repeated"  # 002 Table 2: four-way within-subject ANOVA
 
 
 class SlidingParams(_P):
