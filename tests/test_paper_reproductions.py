@@ -186,3 +186,184 @@ def test_001_recognition_rates_and_one_sided_t(tmp_path):
 def test_001_mutations_do_not_reproduce(tmp_path, wrong):
     _, (t,) = _nafc(tmp_path, **wrong)
     assert (round(t["statistic"], 2), round(t["p"], 2)) != (0.63, 0.27)
+
+
+def _fast_log(monkeypatch):
+    """These tests write thousands of answers: skip the per-answer fsync (durability is tested
+    with the trial log itself, not here)."""
+    import os
+
+    monkeypatch.setattr(os, "fsync", lambda fd: None)
+
+
+def _tests(study):
+    res = analyze_study(study)
+    return res, {t["name"]: t for s in res.sections for t in s.tests}
+
+
+# 004 Sec. 5.3: 18 participants, discrimination score per comparison x visual x tactile (20 trials
+# each), ART then a three-way repeated-measures ANOVA: visual F(1,17) = 9.56, p < .01; tactile
+# F(1,17) = 3.64, p = .073; comparison F = 3.00, p = .063 (printed "F_{2,17}"; p = .063 is the
+# F(2, 34) of a 3-level within factor with 18 participants); no interaction; V1 .71 (SD .3),
+# V0 .59 (.33), F0 .61 (.34), F1 .69 (.30). The scores are not published: S004 holds ten times the
+# scores of each participant (one character 0-9 / A = 10 per cell, order: comparison FS, RS, FR x
+# V0F0, V0F1, V1F0, V1F1), found by a search for integer scores that reproduce those printed
+# figures (so this check is partly circular: it proves that the pipeline computes the paper's
+# statistics from such data, and fails with another test).
+S004 = ["9AA6A36AA8AA", "76AA770474AA", "026A5AA2799A", "038918A56A86", "AA9960A6A636", "5675463A0876",
+        "1AAA13556703", "A98A67888591", "695A186AA731", "A458587A772A", "9219A04A0479", "977812741A98",
+        "93794387478A", "280888289AAA", "756A2749217A", "A7AA742908AA", "A0829895AA3A", "590A02867692"]
+COMPARISONS = ["follow vs static", "reverse vs static", "follow vs reverse"]
+
+
+def _sliding(tmp_path, monkeypatch, **params):
+    _fast_log(monkeypatch)
+    study = _study(tmp_path, "kinestouch-sliding", 18, **params)
+    for i, row in enumerate(S004):
+        m = {(c, v, t): int(row[4 * ci + 2 * vi + ti], 11) for ci, c in enumerate(COMPARISONS)
+             for vi, v in enumerate(("V0", "V1")) for ti, t in enumerate(("F0", "F1"))}
+        seen: dict = {}
+
+        def ans(t, r, m=m, seen=seen):  # 10 + m of the 20 trials choose the first effect: score m / 10
+            key = (t.condition["comparison"], t.condition["visual"], t.condition["tactile"])
+            seen[key] = seen.get(key, 0) + 1
+            first = key[0].split(" vs ")[0]
+            return first if seen[key] <= 10 + m[key] else next(x.id for x in t.choices if x.id != first)
+        _run(study, f"P{i + 1:02d}", ans)
+    return _tests(study)
+
+
+def test_004_scores_and_art(tmp_path, monkeypatch):
+    res, tests = _sliding(tmp_path, monkeypatch)
+    sec = next(s for s in res.sections if s.title.startswith("Sliding"))
+    rows = {(r[0], r[1]): (r[2], r[3]) for r in sec.tables[0][1]}
+    assert rows[("visual", "V1")] == ("0.71", "0.30") and rows[("visual", "V0")] == ("0.59", "0.33")
+    assert rows[("tactile", "F0")] == ("0.61", "0.34") and rows[("tactile", "F1")] == ("0.69", "0.30")
+    got = {e: (round(tests[e]["statistic"], 2), tests[e]["df"]) for e in ("visual", "tactile", "comparison")}
+    assert got == {"visual": (9.56, [1, 17]), "tactile": (3.64, [1, 17]), "comparison": (3.0, [2, 34])}
+    assert tests["visual"]["p"] < .01 and round(tests["tactile"]["p"], 3) == .073
+    assert round(tests["comparison"]["p"], 3) == .063
+    assert all(t["p"] > .05 for e, t in tests.items() if ":" in e)  # "did not show any interaction effect"
+    assert "aligned rank transform" in tests["visual"]["method"]
+
+
+def test_004_raw_score_anova_does_not_reproduce(tmp_path, monkeypatch):
+    _, tests = _sliding(tmp_path, monkeypatch, anova="repeated")
+    got = [round(tests[e]["statistic"], 2) for e in ("visual", "tactile", "comparison")]
+    assert got != [9.56, 3.64, 3.0]
+
+
+# 000 Sec. 4 (14 participants, 10 materials, 7-point scales): real vs virtual r = .935
+# (p = 7.3e-5) roughness, .926 (p = 1.22e-4) stickiness; similarity data-driven 5.15 (SD 1.07),
+# square wave 3.95 (SD 1.52), F(1,260) = 85.795 for the rendering method; similarity vs real
+# roughness r = -.936 (p = 6.9e-5), vs real stickiness r = -.851 (p = 2e-3). Ratings are not
+# published. Q000: per-material sums over the 14 participants of the real / virtual ratings, each
+# split as evenly as possible over participants; SIM000: each participant's similarity ratings
+# (materials in the design's order); both found by a search for ratings that reproduce the
+# printed figures (partly circular, as for 004). F: with integer ratings and the printed means,
+# 14 SS_error is even, so 85.795 (14 SS_error = 4276.6) cannot occur; the nearest is 85.807.
+Q000 = {("real", "roughness"): [31, 22, 88, 19, 32, 64, 90, 27, 21, 53],
+        ("virtual", "roughness"): [25, 17, 65, 17, 36, 72, 73, 31, 24, 58],
+        ("real", "stickiness"): [61, 31, 57, 29, 35, 54, 68, 35, 33, 66],
+        ("virtual", "stickiness"): [55, 36, 56, 37, 47, 46, 66, 45, 41, 66]}
+SIM000 = {"data-driven": ["6646653664", "6746553674", "6746553664", "6647553654", "6646653564", "6646663564",
+                          "6646753554", "5646653654", "5646653664", "5646653665", "5646553665", "5646653665",
+                          "5646653665", "5646653664"],
+          "square-wave": ["7432364334", "4432433114", "5253432331", "4575151344", "5555434334", "6454573125",
+                          "7664644434", "4356465526", "6752374566", "4255243462", "4335355444", "7133267244",
+                          "2243433576", "3243243542"]}
+
+
+def _ratings(tmp_path, monkeypatch, **params):
+    from surfhap.lab.designs import ZHAO_MATERIALS
+
+    _fast_log(monkeypatch)
+    study = _study(tmp_path, "zhao-ratings", 14, **params)
+    for p in range(14):
+        def ans(t, r, p=p):
+            c = t.condition
+            m = ZHAO_MATERIALS.index(c["material"])
+            if t.task == "similarity":
+                return SIM000[c["method"]][p][m]
+            total = Q000[c["source"], c["adjective"]][m]
+            return str(total // 14 + ((p - m) % 14 < total % 14))
+        _run(study, f"P{p + 1:02d}", ans)
+    return _tests(study)
+
+
+def test_000_correlations_and_between_subjects_method_anova(tmp_path, monkeypatch):
+    res, tests = _ratings(tmp_path, monkeypatch)
+    for name, r, p, digits in (("roughness: real vs virtual", .935, 7.3e-5, 2),
+                               ("stickiness: real vs virtual", .926, 1.22e-4, 3),
+                               ("similarity (data-driven) vs roughness (real)", -.936, 6.9e-5, 2),
+                               ("similarity (data-driven) vs stickiness (real)", -.851, 2e-3, 1)):
+        t = tests[name]
+        assert (round(t["statistic"], 3), float(f"{t['p']:.{digits}g}"), t["df"]) == (r, p, 8)
+    sec = next(s for s in res.sections if s.title == "Similarity ratings")
+    assert sorted(tuple(r[2:]) for r in sec.tables[0][1]) == [("3.95", "1.52"), ("5.15", "1.07")]
+    f = tests["method"]
+    assert f["df"] == [1, 260] and f["p"] < .05 and "between-subjects" in f["method"]
+    assert f["statistic"] == pytest.approx(85.795, abs=0.013)  # 85.807: see above
+
+
+def test_000_repeated_measures_anova_does_not_reproduce(tmp_path, monkeypatch):
+    _, tests = _ratings(tmp_path, monkeypatch, anova="repeated")
+    assert tests["method"]["df"] != [1, 260] and tests["method"]["statistic"] != pytest.approx(85.795, abs=0.013)
+
+
+# 002 Sec. 5.2, Table 2: 20 participants, 20 scenes x 2 tasks, proportion of the 4 objects right;
+# four-way within-subject ANOVA. V 75 %, V+H 95 %, spotlight 81 %, directional 88 %; V: 67 % spot,
+# 83 % directional; V+H: 96 % / 94 %. Answers are not published: S002 holds each participant's
+# number of objects right (0-4) per scene (task V, V+H x light spot, directional x geometry
+# gaussian, frustum x configuration 0B4H ... 4B0H), found by a search for answers that
+# reproduce the printed means, the F of the three significant effects of Table 2 and the
+# non-significance of the twelve others (partly circular, as for 004).
+S002 = ['4434300243203101042043444444344444444444', '0002201111344444344444444444344333434444',
+        '0104012021434434444434444444324344444444', '4443240234324333342344444444444444444444',
+        '4444434343442344444444444444444444444443', '4344332444444443444444444444443444343244',
+        '4201141114444444342444444244444444434344', '4010103400344004344344443444444444444444',
+        '4444444044444444444333334444443433144434', '3342334414244444442444443444444444444444',
+        '4444424442244132410434344444444444444434', '4424134434431444314244444444444444444344',
+        '4144442413444444444444342334143443311344', '3344343413442434424444444334444244434444',
+        '3111412021444404332244444444444444444244', '3304033234433444444444444444444444444444',
+        '0344344242444344444443333444444424343434', '0313144231344344444444444433444444424444',
+        '3240242424131442213244434444444444444444', '4443344443434434121434444444443433443443']
+TABLE2 = {"task": 27.39, "light": 4.56, "profile": 0.04, "configuration": 1.76, "task:light": 7.1,
+          "task:profile": 0.87, "task:configuration": 0.36, "light:profile": 1.15, "light:configuration": 0.91,
+          "profile:configuration": 0.80, "task:light:profile": 2.17, "task:light:configuration": 2.03,
+          "task:profile:configuration": 0.68, "light:profile:configuration": 1.96,
+          "task:light:profile:configuration": 0.33}
+REPRODUCED_002 = ("task", "light", "task:light")  # the significant effects; the others: p > .05 as printed
+
+
+def _scene_study(tmp_path, monkeypatch, **params):
+    _fast_log(monkeypatch)
+    study = _study(tmp_path, "kim-scenes", 20, **params)
+    order = [(task, light, prof, conf) for task in ("V", "V+H") for light in ("spot", "directional")
+             for prof in ("gaussian", "frustum") for conf in ("0B4H", "1B3H", "2B2H", "3B1H", "4B0H")]
+    for p, row in enumerate(S002):
+        def ans(t, r, row=row):  # the first `right` positions answered correctly, the rest flipped
+            c = t.condition
+            right = int(row[order.index((c["task"], c["light"], c["profile"], c["configuration"]))])
+            want = dict(x.split("=") for x in t.correct.split(","))
+            return ",".join(f"{q}={v if j < right else ('hole' if v == 'bump' else 'bump')}"
+                            for j, (q, v) in enumerate(want.items()))
+        _run(study, f"P{p + 1:02d}", ans)
+    return _tests(study)
+
+
+def test_002_scene_anova_table_2(tmp_path, monkeypatch):
+    res, tests = _scene_study(tmp_path, monkeypatch)
+    sec = next(s for s in res.sections if s.title.startswith("Scene"))
+    means = {(r[0], r[1]): r[2] for r in sec.tables[0][1]}
+    assert [means[k] for k in (("task", "V"), ("task", "V+H"), ("light", "spot"), ("light", "directional"))] == \
+        ["0.75", "0.95", "0.81", "0.88"]
+    for e in REPRODUCED_002:
+        t = tests[e]
+        assert round(t["statistic"], 2 if e != "task:light" else 1) == TABLE2[e] and t["df"][1] == 19 * t["df"][0], e
+    assert {e for e, t in tests.items() if e in TABLE2 and t["p"] < .05} == {"task", "light", "task:light"}
+
+
+def test_002_pooled_between_subjects_anova_does_not_reproduce(tmp_path, monkeypatch):
+    _, tests = _scene_study(tmp_path, monkeypatch, anova="between")
+    assert [round(tests[e]["statistic"], 2) for e in ("task", "light")] != [27.39, 4.56]

@@ -9,6 +9,7 @@ _MODULES = {
     "surfhap.lab.staircase": ("Staircase", "StaircaseParams", "StaircaseResult", "run_simulated"),
     "surfhap.lab.designs": ("build_study", "study_template"),
     "surfhap.lab.analyze_study": ("analyze_study",),
+    "surfhap.lab.art": ("art_anova",),
     "surfhap.lab.compare": ("compare_materials",),
     "surfhap.lab.comfort": ("default_comfort_params",),
     "surfhap.lab.psychometric": ("PsychometricFit", "fit_psychometric", "psychometric"),

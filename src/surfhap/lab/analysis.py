@@ -1,6 +1,7 @@
 """Statistics of perception studies on scipy / statsmodels, results as objects with named fields:
 proportions with intervals, participant means, binomial / z / t tests, Bonferroni, confusion
-matrices, Pearson correlation, repeated-measures ANOVA and KinesTouch discrimination scores."""
+matrices, Pearson correlation, repeated-measures and between-subjects factorial ANOVA and
+KinesTouch discrimination scores (the aligned rank transform: :mod:`surfhap.lab.art`)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from surfhap.results import Result, jsonable
 
 __all__ = ["ProportionResult", "proportions", "participant_means", "TestResult", "binomial_test", "z_test_one",
            "z_test_two", "t_test", "bonferroni", "ConfusionResult", "confusion", "PearsonResult", "pearson",
-           "AnovaResult", "rm_anova", "discrimination_score"]
+           "AnovaResult", "rm_anova", "factorial_anova", "discrimination_score"]
 
 
 @dataclass(frozen=True)
@@ -278,18 +279,46 @@ def pearson(x: Sequence[float], y: Sequence[float], labels: Sequence[str] = (), 
 
 
 @dataclass(frozen=True)
-class AnovaResult:
-    """Repeated-measures ANOVA: rows of (effect, F, df_num, df_den, p); subjects; depvar."""
+class AnovaResult(Result):
+    """Factorial ANOVA: rows of (effect, F, df_num, df_den, p); subjects (observations when
+    between-subjects); depvar; method."""
 
     rows: tuple[tuple[str, float, float, float, float], ...]
     subjects: int
     depvar: str
+    method: str = "repeated-measures ANOVA"
 
     def effect(self, name: str) -> tuple[str, float, float, float, float]:
         for r in self.rows:
             if r[0] == name:
                 return r
         raise KeyError(name)
+
+    def summary(self) -> dict:
+        return jsonable({"method": self.method, "depvar": self.depvar, "subjects": self.subjects,
+                         "effects": [dict(zip(("effect", "F", "df_num", "df_den", "p"), r)) for r in self.rows]})
+
+
+def factorial_anova(records: Sequence[dict], depvar: str, factors: Sequence[str]) -> AnovaResult:
+    """Between-subjects full-factorial ANOVA (every record one independent observation):
+    statsmodels OLS with sum-to-zero contrasts, type III sums of squares."""
+    import pandas as pd
+    import statsmodels.formula.api as smf
+    from statsmodels.stats.anova import anova_lm
+
+    df = pd.DataFrame.from_records(list(records))
+    for col in (depvar, *factors):
+        if col not in df.columns:
+            raise ConfigError(f"no column {col!r}", field="records")
+    data = pd.DataFrame({f"f{i}": df[f].astype(str) for i, f in enumerate(factors)})
+    data["y"] = df[depvar].astype(float)
+    terms = "*".join(f"C(f{i}, Sum)" for i in range(len(factors)))
+    tab = anova_lm(smf.ols(f"y ~ {terms}", data).fit(), typ=3)
+    res = tab.loc["Residual"]
+    rows = tuple((":".join(factors[int(t.split(",")[0][3:])] for t in str(idx).split(":")), float(r["F"]),
+                  float(r["df"]), float(res["df"]), float(r["PR(>F)"]))
+                 for idx, r in tab.iterrows() if str(idx).startswith("C("))
+    return AnovaResult(rows, len(df), depvar, "between-subjects ANOVA")
 
 
 def rm_anova(records: Sequence[dict], depvar: str, subject: str, within: Sequence[str]) -> AnovaResult:

@@ -14,15 +14,18 @@ identification      confusion matrix per condition; proportion correct per mater
                     two-sided unpooled two-proportion z test between conditions per material,
                     Bonferroni (003 Tables III-IV; params alternative, pooled)
 ratings             real-vs-virtual mean rating per material and adjective, Pearson r;
-                    similarity per rendering method, repeated-measures ANOVA (000 Sec. 4)
+                    similarity per rendering method: between-subjects method x material
+                    ANOVA, data-driven similarity vs real ratings, Pearson r (000 Sec. 4;
+                    params anova: between | repeated)
 shape-choice        confusion of shape vs answer; proportion correct overall and per
                     condition; one-sided t test of the participants' proportions against 0.25
                     (002 Sec. 3.4.2)
 scene-recognition   proportion of objects right per task and light; four-way repeated-measures
-                    ANOVA task x light x profile x configuration (002 Table 2)
+                    ANOVA task x light x profile x configuration (002 Table 2; params
+                    anova: repeated | between)
 sliding-pairs       discrimination score |2p - 1| per participant, comparison, visual and
-                    tactile condition; repeated-measures ANOVA on the scores (004 Sec. 5.3;
-                    the paper used an aligned-rank transform first, which statsmodels lacks)
+                    tactile condition; aligned rank transform ANOVA on the scores (004 Sec.
+                    5.3, :mod:`surfhap.lab.art`; params anova: art | repeated)
 =================== =======================================================================
 
 Every test also goes to :meth:`StudyAnalysis.results` (``results.json`` of ``study analyze``).
@@ -37,6 +40,7 @@ import numpy as np
 
 from surfhap.errors import StudyFormatError
 from surfhap.lab import analysis as A
+from surfhap.lab.art import art_anova
 from surfhap.lab.designs import analysis_params
 from surfhap.lab.schema import Study, load_study
 from surfhap.lab.study_result import Section, StudyAnalysis
@@ -84,17 +88,23 @@ def _pp(records, value=lambda r: float(r["score"]), key="participant"):
     return {k: float(np.mean(v)) for k, v in acc.items()}
 
 
-def _anova(sec: Section, *args) -> None:
-    """The table of ``A.rm_anova(*args)`` into ``sec``, or why there is none."""
+_ANOVA = {"repeated": "F (repeated-measures ANOVA)", "between": "F (between-subjects ANOVA)",
+          "art": "F (aligned rank transform, repeated-measures ANOVA on the aligned ranks)"}
+
+
+def _anova(sec: Section, records, depvar: str, subject: str, factors: list[str], kind: str = "repeated") -> None:
+    """The ANOVA table (``kind``: repeated, between or art) into ``sec``, or why there is none."""
     try:
-        an = A.rm_anova(*args)
+        an = (art_anova(records, depvar, subject, factors) if kind == "art" else
+              A.factorial_anova(records, depvar, factors) if kind == "between" else
+              A.rm_anova(records, depvar, subject, factors))
     except Exception as exc:  # noqa: BLE001 - too few complete participants is a normal state
-        sec.text.append(f"no repeated-measures ANOVA: {exc}")
+        sec.text.append(f"no {kind} ANOVA: {exc}")
         return
     sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
                                                      for e, f, d1, d2, p in an.rows]))
     for e, f, d1, d2, p in an.rows:
-        sec.add(e, A.TestResult("F (repeated-measures ANOVA)", f, p, (d1, d2)), list(args[3]))
+        sec.add(e, A.TestResult(_ANOVA[kind], f, p, (d1, d2)), list(factors))
 
 
 def _nafc(study, recs):
@@ -227,7 +237,18 @@ def _ratings(study, recs):
         sec.tables.append((["method", "n", "mean", "SD"], rows))
         sec.text.append("; ".join(f"{r[0]} {r[2]} (SD {r[3]})" for r in rows))
         _anova(sec, [{"p": r["participant"], "method": r["condition"]["method"], "material": r["condition"]["material"],
-                      "y": float(r["answer"])} for r in sim], "y", "p", ["method", "material"])
+                      "y": float(r["answer"])} for r in sim], "y", "p", ["method", "material"], analysis_params(study).anova)
+        dd = {m[0]: np.mean([float(r["answer"]) for r in rs]) for m, rs in _by(sim, "material", "method").items()
+              if m[1] == "data-driven"}
+        for a in study.params["adjectives"]:  # 000 Sec. 4: data-driven similarity vs the real rating
+            real = {m[0]: np.mean([float(r["answer"]) for r in rs]) for m, rs in
+                    _by([r for r in recs if r["task"] == "rating"], "material", "adjective", "source").items()
+                    if m[1:] == (a, "real")}
+            labs = [m for m in mats if m in dd and m in real]
+            if len(labs) >= 3:
+                pr = A.pearson([dd[m] for m in labs], [real[m] for m in labs], labs)
+                sec.text.append(sec.add(f"similarity (data-driven) vs {a} (real)",
+                                        A.TestResult("r (Pearson)", pr.r, pr.p, pr.n - 2, estimate=pr.r), labs))
         out.append(sec)
     return out
 
@@ -265,7 +286,7 @@ def _scenes(study, recs):
     sec.figures.append(("scenes_task", res, {"chance": 0.5}))
     factors = ["task", "light", "profile", "configuration"]
     _anova(sec, [{"p": r["participant"], **{f: r["condition"][f] for f in factors}, "y": r["score"]} for r in recs],
-           "y", "p", factors)
+           "y", "p", factors, analysis_params(study).anova)
     return [sec]
 
 
@@ -295,7 +316,7 @@ def _sliding(study, recs):
             rows.append([factor, lev, f"{np.mean(v):.2f}", f"{np.std(v, ddof=1) if len(v) > 1 else 0:.2f}", len(v)])
     sec.tables.append((["factor", "level", "mean score", "SD", "n"], rows))
     sec.text.append("mean discrimination score " + f"{np.mean([s['score'] for s in scores]):.2f}")
-    _anova(sec, scores, "score", "participant", ["visual", "tactile", "comparison"])
+    _anova(sec, scores, "score", "participant", ["visual", "tactile", "comparison"], analysis_params(study).anova)
     return [sec]
 
 

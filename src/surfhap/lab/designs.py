@@ -100,6 +100,8 @@ class RatingsParams(_P):
     adjectives: dict[str, tuple[str, str]] = Field(default_factory=lambda: {"roughness": ("smooth", "rough"),
                                                                             "stickiness": ("slippery", "sticky")})
     square_frequencies: dict[str, float] | None = None
+    # 000 Sec. 4: F(1, 260) is a between-subjects method x material ANOVA over all 280 ratings
+    anova: Literal["between", "repeated"] = "between"
 
 
 class ShapeChoiceParams(_P):
@@ -108,13 +110,14 @@ class ShapeChoiceParams(_P):
 
 
 class SceneParams(_P):
-    pass
+    anova: Literal["repeated", "between"] = "repeated"  # 002 Table 2: four-way within-subject ANOVA
 
 
 class SlidingParams(_P):
     repetitions: int = Field(10, ge=1, le=100)
     blocks_per_session: int = Field(2, ge=1, le=4)
     practice_trials: int = Field(2, ge=0, le=20)  # at the start of each session (004 Sec. 5.2), not analysed
+    anova: Literal["art", "repeated"] = "art"  # 004 Sec. 5.3: aligned rank transform, then the ANOVA
 
 
 def _params(model: type[_P], design: DesignSpec) -> _P:
