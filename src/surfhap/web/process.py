@@ -71,8 +71,8 @@ class EngineEnd:
         while not self._stop.is_set():
             try:
                 rows = np.frombuffer(self.touch_in.recv_bytes(), dtype=np.float64).reshape(-1, COLS)
-            except (EOFError, OSError, ValueError):
-                return  # the web process ended (or the link was closed)
+            except (EOFError, OSError, ValueError, TypeError):
+                return  # the web process ended (or the link was closed: TypeError mid-read)
             for src, t_ev, t_arr, x, y, load, n in rows.tolist():
                 # the web process's arrival stamp: push_touch applies the arrival law to it
                 if not push(int(src), x, y, load, t_event=t_ev, t_arrival=t_arr):
