@@ -17,55 +17,122 @@ prints one JSON object.
 from __future__ import annotations
 
 import asyncio
+import base64
+import gc
 import json
+import os
 import re
 import sys
 import time
 
 import numpy as np
+from websockets.frames import apply_mask  # the C speedup the server uses too
 
 __all__ = ["run_clients"]
 
-_ACK = re.compile(r'"ack":\s*(-?\d+)')
-_REJ = re.compile(r'"rejected":\s*(\d+)')
+_ACK = re.compile(rb'"ack":\s*(-?\d+)')
+_REJ = re.compile(rb'"rejected":\s*(\d+)')
 
 
-class _Client:
-    """One page client: sends ``move`` events when the shared ticker says so, reads its
-    trace frames and records the ack lag of every event."""
+def _frame(opcode: int, payload: bytes, mask: bytes) -> bytes:
+    """One client -> server WebSocket frame (RFC 6455: FIN, masked with ``mask``)."""
+    n = len(payload)
+    size = bytes([0x80 | n]) if n < 126 else (bytes([0xFE]) + n.to_bytes(2, "big") if n < 65536
+                                              else bytes([0xFF]) + n.to_bytes(8, "big"))
+    return bytes([0x80 | opcode]) + size + mask + apply_mask(payload, mask)
 
-    def __init__(self, k: int, n: int):
+
+class _Client(asyncio.Protocol):
+    """One page client as a bare WebSocket client on an asyncio protocol (the handshake,
+    masked text frames out, the server's unmasked frames in): a browser does this in native
+    code, and the generator shares the machine with the server, so it costs one
+    ``transport.write`` per event and no task. It sends ``move`` events when the shared ticker
+    says so, reads its trace frames and records the ack lag of every event."""
+
+    def __init__(self, k: int, n: int, host: str, path: str, origin: str):
         self.k, self.n = k, n
         self.sent_at = np.full(n, np.nan)
         self.lags: list[float] = []
         self.gaps: list[float] = []
         self.last_ack = -1
         self.rejected = 0
-        self.ws = None
+        self.mask = os.urandom(4)
+        key = base64.b64encode(os.urandom(16)).decode()
+        self.request = (f"GET {path} HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                        f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\nOrigin: {origin}\r\n\r\n").encode()
+        self.buf = bytearray()
+        self.upgraded = False
+        self.t_prev = None
+        self.transport = None
+        loop = asyncio.get_running_loop()
+        self.opened, self.done = loop.create_future(), loop.create_future()
 
-    async def read(self) -> None:
-        t_prev = None
-        while self.last_ack < self.n - 1:
-            try:
-                raw = await asyncio.wait_for(self.ws.recv(), 10.0)
-            except (asyncio.TimeoutError, Exception):  # noqa: BLE001
+    def connection_made(self, transport) -> None:
+        self.transport = transport
+        transport.write(self.request)
+
+    def connection_lost(self, exc) -> None:
+        if not self.opened.done():
+            self.opened.set_exception(ConnectionError("the server refused the WebSocket"))
+        if not self.done.done():
+            self.done.set_result(None)
+
+    def send(self, text: str) -> None:
+        self.transport.write(_frame(0x1, text.encode(), self.mask))
+
+    def data_received(self, data: bytes) -> None:
+        buf = self.buf
+        buf += data
+        if not self.upgraded:
+            end = buf.find(b"\r\n\r\n")
+            if end < 0:
                 return
-            t = time.perf_counter()
-            if t_prev is not None:
-                self.gaps.append(t - t_prev)
-            t_prev = t
-            # only the acknowledgement is needed: read it without parsing the whole frame
-            mo = _ACK.search(raw, 0, 200)
-            if mo is None:
-                continue
-            a = int(mo.group(1))
-            mr = _REJ.search(raw, 0, 300)
-            self.rejected = int(mr.group(1)) if mr else self.rejected
-            if a > self.last_ack:
-                for s in range(self.last_ack + 1, min(a, self.n - 1) + 1):
-                    if self.sent_at[s] == self.sent_at[s]:
-                        self.lags.append(t - self.sent_at[s])
-                self.last_ack = a
+            if not buf.startswith(b"HTTP/1.1 101"):
+                self.transport.close()
+                return
+            del buf[:end + 4]
+            self.upgraded = True
+            self.opened.set_result(None)
+        t = time.perf_counter()
+        while len(buf) >= 2:
+            n, off = buf[1] & 0x7F, 2
+            if n >= 126:
+                off = 4 if n == 126 else 10
+                if len(buf) < off:
+                    return
+                n = int.from_bytes(buf[2:off], "big")
+            if len(buf) < off + n:
+                return
+            opcode, payload = buf[0] & 0x0F, bytes(buf[off:off + n])
+            del buf[:off + n]
+            if opcode == 0x8:  # close
+                self.transport.close()
+            elif opcode == 0x1:
+                self.frame(t, payload)
+
+    def frame(self, t: float, raw: bytes) -> None:
+        if self.t_prev is not None:
+            self.gaps.append(t - self.t_prev)
+        self.t_prev = t
+        # only the acknowledgement is needed: read it without parsing the whole frame
+        mo = _ACK.search(raw, 0, 200)
+        if mo is None:
+            return
+        a = int(mo.group(1))
+        mr = _REJ.search(raw, 0, 300)
+        self.rejected = int(mr.group(1)) if mr else self.rejected
+        if a > self.last_ack:
+            for s in range(self.last_ack + 1, min(a, self.n - 1) + 1):
+                if self.sent_at[s] == self.sent_at[s]:
+                    self.lags.append(t - self.sent_at[s])
+            self.last_ack = a
+        if self.last_ack >= self.n - 1 and not self.done.done():
+            self.done.set_result(None)
+
+    def close(self) -> None:
+        if not self.transport.is_closing():
+            self.transport.write(_frame(0x8, (1000).to_bytes(2, "big"), self.mask))
+            self.transport.close()
 
     def result(self) -> dict:
         lag = np.array(self.lags) if self.lags else np.array([np.inf])
@@ -77,36 +144,35 @@ class _Client:
 async def _clients(url: str, origin: str, n_clients: int, rate: float, seconds: float) -> list[dict]:
     """``n_clients`` clients, each sending ``move`` events at ``rate`` Hz for ``seconds``: one
     ticker sends every client's event of a tick (one timer wake-up per tick for all clients,
-    so the generator itself stays light), each client reads its frames in its own task."""
-    import websockets
+    so the generator itself stays light); the clients read their frames as they arrive."""
+    from urllib.parse import urlsplit
 
+    u = urlsplit(url)
+    loop = asyncio.get_running_loop()
     n = int(rate * seconds)
-    clients = [_Client(k, n) for k in range(n_clients)]
-    for c in clients:
-        c.ws = await websockets.connect(url, origin=origin, open_timeout=20, close_timeout=2)
-        await c.ws.send(json.dumps({"type": "hello", "w": 1000, "h": 700}))
-    readers = [asyncio.get_running_loop().create_task(c.read()) for c in clients]
+    clients = []
+    for k in range(n_clients):
+        _, c = await loop.create_connection(lambda k=k: _Client(k, n, u.netloc, u.path, origin), u.hostname, u.port)
+        await asyncio.wait_for(c.opened, 20.0)
+        c.send(json.dumps({"type": "hello", "w": 1000, "h": 700}))
+        clients.append(c)
+    gc.freeze()  # the cyclic collector never scans the setup again (no pause of the ticker)
     t0 = time.perf_counter()
     for i in range(n):
-        # always yield, also when behind schedule: websockets' send does not, and readers that
-        # never run would count the generator's own backlog as the server's ack lag
+        # always yield, also when behind schedule: the clients read their frames meanwhile,
+        # else the generator's own backlog would count as the server's ack lag
         await asyncio.sleep(max(0.0, t0 + i / rate - time.perf_counter()))
         for c in clients:
             ph = (i / rate) * 0.5 + c.k * 0.013
             x = 0.1 + 0.8 * abs((ph % 2.0) - 1.0)
             c.sent_at[i] = time.perf_counter()
-            # formatted, not json.dumps'd: the generator shares the machine with the server
-            await c.ws.send(f'{{"type":"move","seq":{i},"t":{(c.sent_at[i] - t0) * 1e3:.3f},"x":{x:.6f},'
-                            f'"y":{0.2 + 0.6 * (c.k % 10) / 10:.3f},"p":0.5}}')
+            c.send(f'{{"type":"move","seq":{i},"t":{(c.sent_at[i] - t0) * 1e3:.3f},"x":{x:.6f},'
+                   f'"y":{0.2 + 0.6 * (c.k % 10) / 10:.3f},"p":0.5}}')
     for c in clients:
-        await c.ws.send(json.dumps({"type": "up", "seq": n, "t": (time.perf_counter() - t0) * 1e3}))
-    try:
-        await asyncio.wait_for(asyncio.gather(*readers), 5.0)
-    except asyncio.TimeoutError:
-        for r in readers:
-            r.cancel()
+        c.send(json.dumps({"type": "up", "seq": n, "t": (time.perf_counter() - t0) * 1e3}))
+    await asyncio.wait([c.done for c in clients], timeout=5.0)
     for c in clients:
-        await c.ws.close()
+        c.close()
     return [c.result() for c in clients]
 
 

@@ -99,6 +99,37 @@ def _poll(page, expr: str) -> None:
     poll(page, expr, PATIENCE_MS)
 
 
+def test_page_sends_one_move_per_animation_frame():
+    """Pointer events faster than the display (a pen, a 240 Hz digitiser): 50 moves dispatched
+    in one task are one message, the newest position, sent on the next animation frame."""
+    _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
+    from surfhap.web import create_app
+    from surfhap.live.config import ServerConfig
+    from surfhap.web.server import ServerThread
+    from surfhap.live.session import build_session
+
+    session = build_session("cork")
+    session.start()
+    srv = ServerThread(create_app(ServerConfig(port=0), touch=session), port=0).start()
+    try:
+        with chromium_page(srv.url + "/", 900, 700, PATIENCE_MS) as page:
+            _poll(page, "window.surfhap && window.surfhap.open")
+            in_task = page.evaluate("""() => {
+                const s = document.getElementById('surface'), r = s.getBoundingClientRect(), st = window.surfhap;
+                const sent0 = st.sent;
+                for (let i = 0; i < 50; i++)
+                    s.dispatchEvent(new PointerEvent('pointermove', {buttons: 1, clientX: r.left + 10 + i,
+                                                                     clientY: r.top + r.height / 2, pressure: 0.5}));
+                return st.sent - sent0; }""")
+            _poll(page, "window.surfhap.sent >= 1 && window.surfhap.acked >= 0")
+            stats = page.evaluate("() => Object.assign({}, window.surfhap)")
+            page.evaluate("() => document.getElementById('surface').dispatchEvent(new PointerEvent('pointerup'))")
+    finally:
+        srv.stop()
+        session.stop()
+    assert in_task == 0, "moves sent within the events' task, not on the animation frame"
+    assert stats["coalesced"] == 49
+
 def test_ff_page_panel_shows_device_position_force_and_button_press():
     """`ff run SCENE --touch web`: the page's force-feedback panel (values read from the DOM)
     shows the force of the loop and a device position that moves under the dragging finger,

@@ -13,7 +13,8 @@ import numpy as np
 
 from surfhap.live.session import build_session
 from surfhap.web.link import EngineLink, LocalLink, as_link
-from surfhap.web.process import EngineEnd, ProcessLink, describe
+from surfhap.web import process
+from surfhap.web.process import FLUSH_S, EngineEnd, ProcessLink, describe
 
 PATIENCE = 30.0
 
@@ -46,9 +47,9 @@ def test_touches_reach_the_engine_and_frames_come_back():
 
     async def scenario():
         task = asyncio.get_running_loop().create_task(link.stream(lambda f, s: got.append((f, s))))
-        for k in range(10):  # one sample per turn of the loop: each one is sent
+        for k in range(10):  # one sample per flush window: each one is sent
             assert link.push_touch(1001, 0.01 + 0.001 * k, 0.02, 0.5, t_event=1.25 + k)
-            await asyncio.sleep(0)
+            await asyncio.sleep(2 * FLUSH_S)  # its timer runs after the flush's
         deadline = time.monotonic() + PATIENCE
         while (len(got) < 6 or end.received < 10) and time.monotonic() < deadline:
             await asyncio.sleep(0.02)
@@ -80,7 +81,7 @@ def test_samples_of_one_turn_are_coalesced_to_the_newest_per_client():
         for k in range(500):
             for src in (7, 8):
                 assert link.push_touch(src, 0.001 * k, 0.01 * src, 0.5, t_event=float(k))
-        await asyncio.sleep(0)  # the turn ends: one flush
+        await asyncio.sleep(2 * FLUSH_S)  # the window ends: one flush
 
     asyncio.run(burst())
     rows = np.frombuffer(touch_in.recv_bytes(), dtype=np.float64).reshape(-1, 7)
@@ -88,6 +89,30 @@ def test_samples_of_one_turn_are_coalesced_to_the_newest_per_client():
     assert rows[:, 0].tolist() == [7.0, 8.0] and np.all(rows[:, 1] == 499.0)  # the newest of each
     assert np.allclose(rows[:, 3], 0.499) and np.allclose(rows[:, 4], [0.07, 0.08])
     assert rows[:, 6].tolist() == [500.0, 500.0] and link.coalesced == 998
+
+
+def test_touches_of_one_flush_window_reach_the_engine_in_one_message(monkeypatch):
+    """Many clients' samples, read in separate turns of the event loop, go to the engine in one
+    pipe message per flush window (one write and one wake-up of the engine's reader for all
+    of them), each client's newest with the count it stands for."""
+    monkeypatch.setattr(process, "FLUSH_S", 0.5)  # a window no loaded machine misses here
+    session = build_session("cork")
+    touch_in, touch_out, trace_in, _ = _pipes()
+    link = ProcessLink(describe(session), touch_out, trace_in)
+
+    async def turns():
+        for k in range(4):
+            for src in range(10):  # ten clients, one sample each per turn
+                assert link.push_touch(src, 0.001 * k, 0.01, 0.5, t_event=float(k))
+                await asyncio.sleep(0)
+        deadline = time.monotonic() + PATIENCE
+        while link.pending and time.monotonic() < deadline:
+            await asyncio.sleep(0.01)
+
+    asyncio.run(turns())
+    rows = np.frombuffer(touch_in.recv_bytes(), dtype=np.float64).reshape(-1, 7)
+    assert not touch_in.poll(0) and rows[:, 0].tolist() == list(range(10))
+    assert np.all(rows[:, 1] == 3.0) and np.all(rows[:, 6] == 4.0) and link.coalesced == 30
 
 
 def test_a_stalled_engine_side_keeps_the_newest_touch_and_never_blocks():

@@ -520,3 +520,37 @@ def test_slowloris_through_the_command_line_keeps_the_page_and_the_log_small(tmp
     assert len(lines) < 60 and len(log_text) < 20000, log_text[:3000]
     assert "Too many open files" not in log_text
     assert info["server"]["connections"]["max"] == 256 and info["server"]["connections"]["evicted"] > 0
+
+
+def test_a_client_backlog_does_not_hold_the_event_loop():
+    """uvicorn queues every message of one socket read (thousands from a client that a starved
+    server reads late) and receiving a queued message does not yield: the client's loop must
+    yield every few messages, or no trace frame (no acknowledgement) reaches anyone meanwhile."""
+    from surfhap.live.sources import RateLimiter, RejectLog
+    from surfhap.web.touch import FAIR_TURN, Client, pointer_messages
+
+    backlog = [{"type": "websocket.receive", "text": json.dumps({"type": "move", "seq": i, "t": 8.0 * i, "x": 0.5,
+                                                                 "y": 0.5})} for i in range(1000)]
+    backlog.append({"type": "websocket.disconnect"})
+
+    class QueuedSocket:  # like uvicorn's receive on a non-empty queue: returns without suspending
+        async def receive(self):
+            return backlog.pop(0)
+
+    handled, seen = [], []
+
+    async def other_task():  # another client's sender: what did it see at each turn it got?
+        while len(handled) < 1000:
+            seen.append(len(handled))
+            await asyncio.sleep(0)
+
+    async def scenario():
+        client = Client(1, "test", RateLimiter(1e6, 1e6, t=0.0))
+        other = asyncio.get_running_loop().create_task(other_task())
+        await pointer_messages(QueuedSocket(), ServerConfig(), client, RejectLog(), handled.append)
+        await other
+
+    asyncio.run(scenario())
+    assert len(handled) == 1000 and handled[-1].seq == 999
+    steps = [0, *seen, 1000]  # messages handled by each of the other task's turns
+    assert max(b - a for a, b in zip(steps, steps[1:])) <= FAIR_TURN

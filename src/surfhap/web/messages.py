@@ -78,13 +78,14 @@ class Up(_Message):
 
 
 ClientMessage = Annotated[Union[Hello, Move, Up], Field(discriminator="type")]
-_ADAPTER = TypeAdapter(ClientMessage)
+# the compiled validator itself: TypeAdapter.validate_json's Python wrapper cost a third more
+_VALIDATE_JSON = TypeAdapter(ClientMessage).validator.validate_json
 
 
 def parse_message(text: str | bytes) -> Hello | Move | Up:
     """The validated message in ``text`` (JSON); raises pydantic's ``ValidationError``
     (:func:`reason` makes it one line) for anything else, also malformed JSON."""
-    return _ADAPTER.validate_json(text)
+    return _VALIDATE_JSON(text)
 
 
 def reason(errors: list) -> str:

@@ -3,11 +3,12 @@ otherwise share the GIL with the web traffic), linked by two standard-library pi
 (``multiprocessing.Pipe``: OS pipes, reachable only by the two processes):
 
 * touches, web -> engine: :class:`ProcessLink` keeps the newest sample of each client (only
-  the newest position matters: samples of one client arriving within one turn of the event
-  loop are coalesced, so nothing queues up when the web process falls behind) and once per
-  turn sends them as rows (source, source time, arrival time on the shared monotonic clock,
-  x, y, load, samples coalesced into the row) in atomic messages of at most :data:`BATCH`
-  rows while the pipe has room (else shortly after): the loop never waits on the pipe.
+  the newest position matters: samples of one client arriving within :data:`FLUSH_S` are
+  coalesced, so nothing queues up when the web process falls behind) and :data:`FLUSH_S`
+  after the first of them sends them as rows (source, source time, arrival time on the
+  shared monotonic clock, x, y, load, samples coalesced into the row) in atomic messages of
+  at most :data:`BATCH` rows while the pipe has room (else shortly after): the loop never
+  waits on the pipe.
   :class:`EngineEnd`'s reader thread pushes the rows into the engine's non-blocking touch
   ring, whose arrival law applies to the stamps (a stale stamp stays stale);
 * trace, engine -> web: :class:`EngineEnd` sends a frame at ``trace_hz`` (the engine status
@@ -17,6 +18,7 @@ otherwise share the GIL with the web traffic), linked by two standard-library pi
 from __future__ import annotations
 
 import asyncio
+import gc
 import logging
 import math
 import multiprocessing as mp
@@ -36,6 +38,10 @@ COLS = 7  # source, t_event, t_arrival, x, y, load, samples
 # rows per message: with multiprocessing's 4-byte header, 73 rows stay within PIPE_BUF (4096
 # bytes), so a message goes into a pipe that select() reports writable in one atomic write
 BATCH = 73
+# the touches of all clients go to the engine together, at most this long (s) after the first:
+# one pipe write and one wake-up of the engine's reader per window instead of one per event
+# (pages send <= 240 Hz, so a client's samples are 4 ms or more apart and none is coalesced)
+FLUSH_S = 0.001
 
 
 class EngineEnd:
@@ -65,8 +71,8 @@ class EngineEnd:
         while not self._stop.is_set():
             try:
                 rows = np.frombuffer(self.touch_in.recv_bytes(), dtype=np.float64).reshape(-1, COLS)
-            except (EOFError, OSError, ValueError):
-                return  # the web process ended (or the link was closed)
+            except (EOFError, OSError, ValueError, TypeError):
+                return  # the web process ended (or the link was closed: TypeError mid-read)
             for src, t_ev, t_arr, x, y, load, n in rows.tolist():
                 # the web process's arrival stamp: push_touch applies the arrival law to it
                 if not push(int(src), x, y, load, t_event=t_ev, t_arrival=t_arr):
@@ -92,7 +98,7 @@ class EngineEnd:
 
 class ProcessLink:
     """Web side :class:`~surfhap.web.link.EngineLink` to the engine in the parent process:
-    ``push_touch`` keeps the newest sample per source (``pending``, sent once per loop turn;
+    ``push_touch`` keeps the newest sample per source (``pending``, sent :data:`FLUSH_S` later;
     ``coalesced`` counts the samples it superseded), ``stream`` publishes the frames that
     arrive on ``trace_in``. ``about``: :func:`describe` of the session; ``on_engine_gone``:
     called (in the event loop) when the trace pipe ends."""
@@ -113,15 +119,15 @@ class ProcessLink:
         return dict(self._info)
 
     def push_touch(self, source: int, x: float, y: float, load: float, t_event: float = math.nan) -> bool:
-        """Keep this sample as ``source``'s newest (event-loop thread); sent at the end of the
-        loop's turn."""
+        """Keep this sample as ``source``'s newest (event-loop thread); sent within
+        :data:`FLUSH_S`."""
         old = self.pending.get(source)
         n = 1.0 if old is None else old[6] + 1.0
         self.coalesced += old is not None
         self.pending[source] = (float(source), t_event, now(), x, y, load, n)
         if not self._flush_due:
             self._flush_due = True
-            asyncio.get_running_loop().call_soon(self._flush)
+            asyncio.get_running_loop().call_later(FLUSH_S, self._flush)
         return True
 
     def _flush(self) -> None:
@@ -187,6 +193,9 @@ def _web_main(cfg, about: dict, touch_out, trace_in, log_level: int) -> None:
     app = create_app(cfg, touch=ProcessLink(about, touch_out, trace_in, on_engine_gone=lambda: os._exit(0)))
     server = uvicorn.Server(uvicorn_config(app, cfg)[0])
     touch_out.send(("ok", sock.getsockname()[1]))
+    # what exists now (~10^5 objects) is never scanned again by the cyclic collector: a full
+    # collection over it paused the event loop for 0.1-0.5 s under load
+    gc.freeze()
     server.run(sockets=[sock])
 
 

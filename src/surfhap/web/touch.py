@@ -32,6 +32,10 @@ PAGE_CSP = "default-src 'self'; connect-src 'self' ws: wss:; img-src 'self' data
 # server that fell this far behind is still read as the page sent it, not as a flood
 CATCH_UP_S = 10.0
 SLOW_SENDS = 5  # a trace send blocked for this many send_timeouts closes the client
+# receiving a queued message does not yield to the event loop: a client whose backlog (one read
+# of the socket, thousands of messages) is handled in one go held the loop for seconds, with
+# no trace frame (no acknowledgement) for anyone, so a client's loop yields every few messages
+FAIR_TURN = 8
 
 
 @dataclass
@@ -75,12 +79,17 @@ class Client:
 async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: RejectLog,
                            handle: Callable[[Union[Hello, Move, Up]], None]) -> None:
     """``handle`` each validated message (:mod:`surfhap.web.messages`) of the WebSocket ``ws``
-    until it closes (a callback, not an async generator: cheaper per message). A binary, oversized, invalid or too frequent message (``client.limiter`` on
-    :meth:`Client.clock`) is counted on ``client`` and logged (throttled) through ``rejects``;
-    after ``cfg.max_rejects`` the socket is closed."""
+    until it closes (a callback, not an async generator: cheaper per message). A binary,
+    oversized, invalid or too frequent message (``client.limiter`` on :meth:`Client.clock`) is
+    counted on ``client`` and logged (throttled) through ``rejects``; after ``cfg.max_rejects``
+    the socket is closed. Every :data:`FAIR_TURN` messages the loop yields to the event loop."""
     from starlette.websockets import WebSocketDisconnect
 
+    n = 0
     while True:
+        n += 1
+        if n % FAIR_TURN == 0:
+            await asyncio.sleep(0)
         try:  # a closed socket ends the loop; an error in ``handle`` propagates
             msg = await ws.receive()
         except (WebSocketDisconnect, RuntimeError):

@@ -48,31 +48,44 @@
     send({ type: "hello", w: Math.max(10, r.width), h: Math.max(10, r.height) });
   }
 
-  // While a finger rests, browsers send no pointermove; the engine's watchdog would then
-  // fade the output after 50 ms. A resting contact is re-sent every 20 ms (keep-alive).
-  let down = null, lastSend = 0;
+  // One move per animation frame: pointer events can come faster than the display (pens,
+  // 240 Hz digitisers, browsers that do not align them to frames); only the newest position
+  // of a frame is sent (stats.coalesced counts the others). While a finger rests, browsers
+  // send no pointermove; the engine's watchdog would then fade the output after 50 ms. A
+  // resting contact is re-sent every 20 ms (keep-alive).
+  let down = null, lastSend = 0, pending = null, frameAsked = false;
+  stats.coalesced = 0;
   function sendMove(t, x, y, p) {
+    pending = null;
     const s = seq++;
     if (send({ type: "move", seq: s, t: t, x: x, y: y, p: p })) {
       stats.sent++; lastSend = performance.now(); sentAt.set(s, lastSend);
       if (sentAt.size > 512) sentAt.delete(sentAt.keys().next().value);
     }
   }
+  function flushMove() {
+    if (pending) sendMove(pending.t, pending.x, pending.y, pending.p);
+  }
   function onMove(e) {
     if (e.type === "pointermove" && e.buttons === 0) return; // hovering mouse or pen: no contact
     const r = surface.getBoundingClientRect();
     down = { x: (e.clientX - r.left) / r.width, y: (e.clientY - r.top) / r.height, p: e.pressure > 0 ? e.pressure : 0.5 };
-    sendMove(e.timeStamp, down.x, down.y, down.p);
+    if (pending) stats.coalesced++;
+    pending = { t: e.timeStamp, x: down.x, y: down.y, p: down.p };
+    if (!frameAsked) { frameAsked = true; requestAnimationFrame(() => { frameAsked = false; flushMove(); }); }
     e.preventDefault();
   }
   function onUp(e) {
+    flushMove(); // the last position first, then the lift
     down = null;
     const s = seq++;
     if (send({ type: "up", seq: s, t: e.timeStamp })) { stats.sent++; sentAt.set(s, performance.now()); }
   }
   setInterval(() => {
     const t = performance.now();
-    if (down && t - lastSend >= 20) { sendMove(t, down.x, down.y, down.p); stats.keepAlive = (stats.keepAlive || 0) + 1; }
+    if (!down || t - lastSend < 20) return;
+    if (pending) flushMove(); // no animation frame for 20 ms (a hidden or busy page)
+    else { sendMove(t, down.x, down.y, down.p); stats.keepAlive = (stats.keepAlive || 0) + 1; }
   }, 10);
   surface.addEventListener("pointerdown", (e) => { surface.setPointerCapture(e.pointerId); onMove(e); });
   surface.addEventListener("pointermove", onMove);
