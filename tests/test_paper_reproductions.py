@@ -225,6 +225,8 @@ def _sliding(tmp_path, monkeypatch, **params):
         seen: dict = {}
 
         def ans(t, r, m=m, seen=seen):  # 10 + m of the 20 trials choose the first effect: score m / 10
+            if t.practice:  # the practice trials that open each session are not analysed
+                return t.choices[0].id
             key = (t.condition["comparison"], t.condition["visual"], t.condition["tactile"])
             seen[key] = seen.get(key, 0) + 1
             first = key[0].split(" vs ")[0]
