@@ -110,6 +110,15 @@ def _pearson():
     return pearson([1.0, 2.0, 3.5, 4.0], [1.2, 1.9, 3.0, 4.4], labels=["w", "x", "y", "z"])
 
 
+def _art():
+    from surfhap.lab.art import art_anova
+
+    rng = np.random.default_rng(4)  # 6 subjects x 2 x 2 cells, an effect of a
+    recs = [{"s": s, "a": a, "b": b, "y": float(a == "a1") + rng.normal()} for s in range(6)
+            for a in ("a0", "a1") for b in ("b0", "b1")]
+    return art_anova(recs, "y", "s", ["a", "b"])
+
+
 def _study():
     from surfhap.lab.analyze_study import Section, StudyAnalysis
 
@@ -164,7 +173,7 @@ def _shape_result():
 
 BUILDERS = {f.__name__[1:]: f for f in (
     _friction_fit, _accel_fit, _imu_fit, _order_selection, _shape_calibration, _profile, _lab_calibration,
-    _comparison, _staircase, _proportions, _confusion, _pearson, _study, _ff_sim, _gain_plan, _fidelity,
+    _comparison, _staircase, _proportions, _confusion, _pearson, _art, _study, _ff_sim, _gain_plan, _fidelity,
     _device_curve, _shape_result)}
 
 

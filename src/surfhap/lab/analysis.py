@@ -298,6 +298,12 @@ class AnovaResult(Result):
         return jsonable({"method": self.method, "depvar": self.depvar, "subjects": self.subjects,
                          "effects": [dict(zip(("effect", "F", "df_num", "df_den", "p"), r)) for r in self.rows]})
 
+    def plot(self, ax=None):
+        """F of every effect, labelled with its df and p."""
+        from surfhap.report.lab_figures import plot_anova
+
+        return plot_anova(self, ax)
+
 
 def factorial_anova(records: Sequence[dict], depvar: str, factors: Sequence[str]) -> AnovaResult:
     """Between-subjects full-factorial ANOVA (every record one independent observation):

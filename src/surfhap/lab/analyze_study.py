@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from surfhap.errors import StudyFormatError
+from surfhap.errors import ConfigError, StudyFormatError
 from surfhap.lab import analysis as A
 from surfhap.lab.art import art_anova
 from surfhap.lab.designs import analysis_params
@@ -98,13 +98,14 @@ def _anova(sec: Section, records, depvar: str, subject: str, factors: list[str],
         an = (art_anova(records, depvar, subject, factors) if kind == "art" else
               A.factorial_anova(records, depvar, factors) if kind == "between" else
               A.rm_anova(records, depvar, subject, factors))
-    except Exception as exc:  # noqa: BLE001 - too few complete participants is a normal state
+    except (ConfigError, ValueError, np.linalg.LinAlgError) as exc:  # too few complete participants: a normal state
         sec.text.append(f"no {kind} ANOVA: {exc}")
         return
     sec.tables.append((["effect", "F", "df", "p"], [[e, f"{f:.3f}", f"({d1:g}, {d2:g})", f"{p:.3g}"]
                                                      for e, f, d1, d2, p in an.rows]))
     for e, f, d1, d2, p in an.rows:
         sec.add(e, A.TestResult(_ANOVA[kind], f, p, (d1, d2)), list(factors))
+    sec.figures.append((f"{kind} ANOVA", an, {}))
 
 
 def _nafc(study, recs):

@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 from surfhap.report.axes import figure_axes
 
 __all__ = ["plot_calibration", "plot_confusion", "plot_proportions", "plot_rating_scatter", "plot_staircase",
-           "plot_comparison"]
+           "plot_comparison", "plot_anova"]
 
 
 def plot_calibration(cal, ax=None) -> Figure:
@@ -123,4 +123,21 @@ def plot_comparison(comp, ax=None) -> Figure:
     for ax in axs:
         ax.legend(fontsize=8)
     fig.suptitle(f"strokes at {comp.speed * 1e3:g} mm/s, {comp.load:g} N, {comp.duration:g} s")
+    return fig
+
+
+def plot_anova(an, ax=None, alpha: float = 0.05) -> Figure:
+    """F of every effect of an ANOVA (``AnovaResult``) as horizontal bars, each labelled with its
+    df and p; effects with p < ``alpha`` filled, the others hollow."""
+    fig, (ax,) = figure_axes(ax, 1, (6, 0.5 + 0.45 * len(an.rows)))
+    names = [r[0] for r in an.rows]
+    y = np.arange(len(names))
+    for k, (_, f, d1, d2, p) in enumerate(an.rows):
+        sig = p < alpha
+        ax.barh(k, f, color="C0" if sig else "none", edgecolor="C0")
+        ax.annotate(f" F({d1:g}, {d2:g}) = {f:.2f}, p = {p:.3g}", (f, k), va="center", fontsize=8)
+    ax.set_yticks(y, names)
+    ax.invert_yaxis()
+    ax.set(xlabel="F", title=f"{an.method}: {an.depvar} ({an.subjects} subjects; filled: p < {alpha:g})")
+    ax.margins(x=0.6)
     return fig
