@@ -137,7 +137,12 @@ class TextureBank:
         return self.models[int(self.select(np.array([speed]))[0])].psd(self.sample_rate, freqs)
 
     def moments_at(self, speed: float, load: float) -> tuple[float, float]:
-        return self.models[int(self.select(np.array([speed]))[0])].moments(self.sample_rate)
+        return self.moments[int(self.select(np.array([speed]))[0])]
+
+    @cached_property
+    def moments(self) -> list[tuple[float, float]]:
+        """(sd, slope sd) of each model at the bank's sample rate (see :meth:`ARModel.moments`)."""
+        return [m.moments(self.sample_rate) for m in self.models]
 
     def select(self, speed: np.ndarray) -> np.ndarray:
         """Index of the nearest-reference-speed model for each speed (n,) m/s -> (n,) int."""
