@@ -163,7 +163,8 @@ def stream_render(material: Material, trajectory: Trajectory, config: ChainConfi
 
 
 def render(material: Material, trajectory: Trajectory, config: ChainConfig | None = None, *,
-           block_seconds: float = 1.0, progress: Callable[[float], None] | None = None) -> RenderResult:
+           block_seconds: float = 4.0, progress: Callable[[float], None] | None = None) -> RenderResult:
     """Render ``trajectory`` over ``material`` on the simulated display, arrays kept in memory;
-    see :class:`~surfhap.render.offline.RenderResult`."""
+    see :class:`~surfhap.render.offline.RenderResult`. The block length changes only the speed
+    (fewer per-block calls), never a sample."""
     return stream_render(material, trajectory, config, None, block_seconds=block_seconds, progress=progress, keep=True)
