@@ -20,8 +20,8 @@ refuses to start (:func:`required_comfort_voltage`), as it does while a staircas
 
 ``method="questplus"`` (:class:`ComfortOptions`) runs QUEST+ instead (Watson 2017,
 :class:`~surfhap.lab.questplus.QuestStair`): 40 trials on 1 dB-spaced levels 5-250 V, a logistic
-P(uncomfortable) with a 1 % lapse; its estimate is the 20.6 % point of the posterior-mean
-function, and the comfort voltage is again one 2 dB step below it. ``study analyze`` fits a
+P(uncomfortable) with a 1 % lapse; its estimate is the 20.6 % point of the function at the
+posterior-mean parameters, and the comfort voltage is again one 2 dB step below it. ``study analyze`` fits a
 psychometric function to either method's trials (:func:`comfort_fit`).
 
 The answers go to their own append-only log ``logs/<P>-comfort.jsonl``; a killed run resumes
