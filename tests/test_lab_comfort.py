@@ -166,7 +166,8 @@ def test_questplus_or_staircase_threshold_with_its_ci_in_results_json(study, tmp
     """The simulated participant ('study comfort --simulate') is uncomfortable with probability
     1 / (1 + exp(-(v - 120) / 12)): 50 % at 120 V; Levitt's/QUEST+'s 20.6 % target point is
     120 + 12 ln(0.206 / 0.794) = 103.8 V. Through the CLI, with each method, 'study analyze'
-    puts the fitted 50 % point and its bootstrap CI into results.json; the CI covers 120 V."""
+    puts the 50 % point and its 95 % credible interval into results.json; it covers 120 V, and
+    the ML psychometric fit lies near it."""
     for p, method in (("P01", "staircase"), ("P02", "questplus")):
         assert main(["study", "comfort", str(study), "-p", p, "--simulate", "3", "--method", method]) == 0
     doc = json.loads((study / "logs" / "P02-comfort.json").read_text())
@@ -178,6 +179,7 @@ def test_questplus_or_staircase_threshold_with_its_ci_in_results_json(study, tmp
     assert [(e["participant"], e["method"].split()[-2]) for e in est] == [("P01", "staircase"), ("P02", "questplus")]
     for e in est:
         assert e["ci"][0] <= 120.0 <= e["ci"][1] and e["ci"][0] <= e["value"] <= e["ci"][1]
+        assert e["ml_value"] == pytest.approx(120.0, rel=0.25) and e["n"] >= 29
     assert est[1]["ci"][1] - est[1]["ci"][0] < 40.0  # QUEST+ places its trials around the threshold
 
 

@@ -328,8 +328,8 @@ _ANALYSES = {"nafc": _nafc, "realism": _realism, "identification": _identificati
 
 def _comfort_section(folder: Path) -> Section | None:
     """Comfort voltages measured with 'study comfort' (logs/<P>-comfort.json), if any, and the
-    psychometric fit (50 % point, bootstrap CI) to each run's trials (logs/<P>-comfort.jsonl)."""
-    from surfhap.lab.comfort import comfort_fit, read_comfort
+    50 % point with its credible interval from each run's trials (logs/<P>-comfort.jsonl)."""
+    from surfhap.lab.comfort import comfort_estimate, read_comfort
 
     rows, sec = [], Section("Comfort thresholds (staircase)")
     for p in sorted((folder / "logs").glob("*-comfort.json")):
@@ -341,16 +341,15 @@ def _comfort_section(folder: Path) -> Section | None:
             raise StudyFormatError("not a comfort result", source=str(p), field="comfort_voltage") from None
         log = read_log(p.with_suffix(".jsonl"))
         try:
-            fit = comfort_fit(log.trials)
+            e = comfort_estimate(log.trials)
         except ConfigError:  # fewer than two levels: nothing to fit
             rows[-1] += ["-", "-"]
             continue
         method = next((s["config"].get("method", "staircase") for s in log.sessions), "staircase")
-        rows[-1] += [f"{fit.threshold:.1f}", "{:.1f}-{:.1f}".format(*fit.ci["threshold"])]
-        sec.estimates.append(jsonable({"name": "50 % discomfort voltage", "participant": d["participant"],
-                                       "value": fit.threshold, "ci": fit.ci["threshold"], "n": int(fit.trials.sum()),
-                                       "method": f"logistic ML fit (lapse {fit.lapse:g}, {fit.n_boot} parametric "
-                                                 f"bootstrap CI) to the {method} trials"}))
+        rows[-1] += [f"{e['value']:.1f}", "{:.1f}-{:.1f}".format(*e["ci"])]
+        sec.estimates.append(jsonable({"name": "50 % discomfort voltage", "participant": d["participant"], **e,
+                                       "method": "posterior mean, 95 % credible interval (logistic, lapse 1 %, "
+                                                 f"flat prior; ml_value: ML fit) of the {method} trials"}))
     if not rows:
         return None
     volts = [float(r[1]) for r in rows if r[1] != "-"]

@@ -21,8 +21,8 @@ refuses to start (:func:`required_comfort_voltage`), as it does while a staircas
 ``method="questplus"`` (:class:`ComfortOptions`) runs QUEST+ instead (Watson 2017,
 :class:`~surfhap.lab.questplus.QuestStair`): 40 trials on 1 dB-spaced levels 5-250 V, a logistic
 P(uncomfortable) with a 1 % lapse; its estimate is the 20.6 % point of the function at the
-posterior-mean parameters, and the comfort voltage is again one 2 dB step below it. ``study analyze`` fits a
-psychometric function to either method's trials (:func:`comfort_fit`).
+posterior-mean parameters, and the comfort voltage is again one 2 dB step below it. ``study analyze`` estimates the
+50 % point with its credible interval from either method's trials (:func:`comfort_estimate`).
 
 The answers go to their own append-only log ``logs/<P>-comfort.jsonl``; a killed run resumes
 by replaying the logged answers into the staircase (it is deterministic). The result is written
@@ -43,11 +43,11 @@ from surfhap.checked import Checked
 from surfhap.errors import StudyFormatError
 from surfhap.lab.schema import load_study
 from surfhap.lab.session import SAFETY_V_MAX
-from surfhap.lab.questplus import QuestStair
+from surfhap.lab.questplus import QuestPlus, QuestStair
 from surfhap.lab.staircase import Staircase, StaircaseParams
 from surfhap.lab.triallog import TrialLog, now_iso
 
-__all__ = ["ComfortRunner", "ComfortOptions", "comfort_fit", "default_comfort_params", "comfort_voltage_of", "read_comfort", "required_comfort_voltage",
+__all__ = ["ComfortRunner", "ComfortOptions", "comfort_estimate", "default_comfort_params", "comfort_voltage_of", "read_comfort", "required_comfort_voltage",
            "comfort_ceiling", "COMFORT_FREQUENCY", "COMFORT_TARGET"]
 
 COMFORT_FREQUENCY = 100.0  # Hz, inside Zhao et al.'s 30-300 Hz baseline range (design choice)
@@ -89,17 +89,25 @@ def comfort_ceiling(threshold: float | None, params: StaircaseParams) -> float |
     return float(min(max(v, params.min_level), params.max_level))
 
 
-def comfort_fit(records: list[dict], n_boot: int = 100, seed: int = 0):
-    """A logistic P(uncomfortable | V) (no guess, QUEST+'s 1 % lapse) fitted by maximum likelihood to a
-    comfort run's trial ``records`` (``level_V``, ``answer``), with ``n_boot`` bootstrap 95 % CIs:
-    a :class:`~surfhap.lab.psychometric.PsychometricFit` whose threshold is the 50 % point."""
+def comfort_estimate(records: list[dict]) -> dict:
+    """The 50 % discomfort voltage from a comfort run's trial ``records`` (``level_V``, ``answer``),
+    whichever method placed them: ``value`` and ``ci`` are the posterior mean and central 95 %
+    credible interval of the threshold under QUEST+'s model (logistic P(uncomfortable), 1 % lapse,
+    flat prior over 5-250 V x slopes 0.01-1 /V); ``ml_value`` is the maximum-likelihood fit's
+    threshold (:func:`~surfhap.lab.psychometric.fit_psychometric`, same model). ConfigError with
+    fewer than two levels."""
     from surfhap.lab.psychometric import fit_psychometric
 
     v = np.round([float(r["level_V"]) for r in records], 6)
     levels, idx = np.unique(v, return_inverse=True)
-    no = np.bincount(idx, weights=[r["answer"] == "no" for r in records], minlength=levels.size)
-    return fit_psychometric(levels, np.bincount(idx, minlength=levels.size), no, lapse=COMFORT_LAPSE, n_boot=n_boot,
-                            seed=seed)
+    no = np.array([r["answer"] == "no" for r in records])
+    ml = fit_psychometric(levels, np.bincount(idx, minlength=levels.size), np.bincount(idx, no, levels.size),
+                          lapse=COMFORT_LAPSE)
+    q = QuestPlus.psychometric(levels, np.geomspace(5.0, SAFETY_V_MAX, 141), np.geomspace(0.01, 1.0, 21),
+                               (COMFORT_LAPSE,), guess=0.0)
+    for x, n in zip(v, no):
+        q.update(x, int(n))
+    return {"value": float(q.mean()[0]), "ci": q.interval(0), "ml_value": ml.threshold, "n": len(records)}
 
 
 def read_comfort(path: Path) -> dict:

@@ -87,6 +87,13 @@ class QuestPlus:
         """(p,) the posterior mean of the parameters."""
         return self.posterior @ self.params
 
+    def interval(self, column: int = 0, mass: float = 0.95) -> tuple[float, float]:
+        """The central ``mass`` credible interval of parameter ``column`` (its marginal posterior's
+        cumulative sum, interpolated linearly between grid values)."""
+        vals, inv = np.unique(self.params[:, column], return_inverse=True)
+        cdf = np.cumsum(np.bincount(inv, weights=self.posterior))
+        return tuple(float(np.interp(q, cdf, vals)) for q in ((1 - mass) / 2, (1 + mass) / 2))
+
     def mode(self) -> np.ndarray:
         """(p,) the parameter vector of greatest posterior probability."""
         return self.params[int(np.argmax(self.posterior))]
