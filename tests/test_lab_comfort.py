@@ -160,3 +160,29 @@ def test_a_comfort_result_of_the_old_one_up_one_down_rule_is_refused(study, caps
     assert main(["study", "run", str(study), "-p", "P01", "--simulate", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "1-up/1-down" in err[0] and "P01-comfort.json" in err[0], err
+
+
+def test_questplus_or_staircase_threshold_with_its_ci_in_results_json(study, tmp_path):
+    """The simulated participant ('study comfort --simulate') is uncomfortable with probability
+    1 / (1 + exp(-(v - 120) / 12)): 50 % at 120 V; Levitt's/QUEST+'s 20.6 % target point is
+    120 + 12 ln(0.206 / 0.794) = 103.8 V. Through the CLI, with each method, 'study analyze'
+    puts the 50 % point and its 95 % credible interval into results.json; it covers 120 V, and
+    the ML psychometric fit lies near it."""
+    for p, method in (("P01", "staircase"), ("P02", "questplus")):
+        assert main(["study", "comfort", str(study), "-p", p, "--simulate", "3", "--method", method]) == 0
+    doc = json.loads((study / "logs" / "P02-comfort.json").read_text())
+    assert len(doc["levels_V"]) == 40 and doc["staircase_threshold_V"] == pytest.approx(103.8, rel=0.1)
+    assert read_log(study / "logs" / "P02-comfort.jsonl").sessions[0]["config"]["method"] == "questplus"
+    assert main(["study", "run", str(study), "-p", "P01", "--simulate", "1"]) == 0
+    assert main(["study", "analyze", str(study), "--report", str(tmp_path / "rep")]) == 0
+    est = json.loads((tmp_path / "rep" / "results.json").read_text())["estimates"]
+    assert [(e["participant"], e["method"].split()[-2]) for e in est] == [("P01", "staircase"), ("P02", "questplus")]
+    for e in est:
+        assert e["ci"][0] <= 120.0 <= e["ci"][1] and e["ci"][0] <= e["value"] <= e["ci"][1]
+        assert e["ml_value"] == pytest.approx(120.0, rel=0.25) and e["n"] >= 29
+    assert est[1]["ci"][1] - est[1]["ci"][0] < 40.0  # QUEST+ places its trials around the threshold
+
+
+def test_a_bad_comfort_method_is_one_line_exit_2(study, capsys):
+    assert main(["study", "comfort", str(study), "-p", "P01", "--simulate", "1", "--method", "quest"]) == 2
+    assert "method" in capsys.readouterr().err

@@ -70,3 +70,42 @@ def test_bad_params():
         StaircaseParams(start=float("nan"))
     with pytest.raises(ConfigError, match="unknown"):
         StaircaseParams(start=1.0, unknown=2)
+
+
+def _scripted(params, answers):
+    """Feed ``answers`` until the staircase finishes; the result."""
+    s = Staircase(params)
+    for a in answers:
+        if s.finished:
+            break
+        s.update(a)
+    assert s.finished
+    return s.result()
+
+
+def test_initial_one_up_one_down_rule_until_the_first_reversal():
+    # PsychoPy's applyInitialRule, worked by hand for 1-up/3-down, start 10, step 1:
+    # T: 10->9, T: 9->8, F: 8->9 (reversal 1, 1-up/3-down from now), T T T: 9 (three times) -> 8 (reversal 2),
+    # F: 8->9 (reversal 3)
+    answers = [True, True, False, True, True, True, False]
+    base = dict(start=10.0, steps=(1.0,), up=1, down=3, max_trials=7, max_reversals=99)
+    res = _scripted(StaircaseParams(**base, initial_rule=True), answers)
+    assert list(res.levels) == [10, 9, 8, 9, 9, 9, 8] and list(res.reversal_trials) == [2, 5, 6]
+    # without it the 3-down rule holds from the start: 10 10 10 (F: up) 11 11 11 (down, reversal) 10 (F: reversal)
+    res = _scripted(StaircaseParams(**base), answers)
+    assert list(res.levels) == [10, 10, 10, 11, 11, 11, 10] and list(res.reversal_trials) == [5, 6]
+
+
+@pytest.mark.parametrize("max_trials,max_reversals,answers,either,both", [
+    # trials reached first: 10 9 8 7 stop ("either"); "both" goes on 6 5 (F, reversal 1) 6 (T, reversal 2)
+    (4, 2, [True] * 5 + [False, True, True], [10, 9, 8, 7], [10, 9, 8, 7, 6, 5, 6]),
+    # reversals reached first: 10 9 (rev 1) 10 (rev 2) stop; "both" goes on to 6 trials
+    (6, 2, [True, False] * 4, [10, 9, 10], [10, 9, 10, 9, 10, 9]),
+])
+def test_stop_when_trials_and_reversals_are_both_reached(max_trials, max_reversals, answers, either, both):
+    base = dict(start=10.0, steps=(1.0,), up=1, down=1, max_trials=max_trials, max_reversals=max_reversals)
+    res = _scripted(StaircaseParams(**base), answers)
+    assert list(res.levels) == either and res.stopped_by in ("trials", "reversals")
+    res = _scripted(StaircaseParams(**base, stop="both"), answers)
+    assert list(res.levels) == both and res.stopped_by == "trials and reversals"
+    assert res.levels.size >= max_trials and res.reversal_trials.size >= max_reversals

@@ -117,3 +117,14 @@ def test_reproduces_watson_2017_examples(example):
         q.update(stim, int(correct))
     threshold, slope, lapse = q.mode()
     assert (threshold, slope / _DB, lapse) == pytest.approx(example["mode"])
+
+
+def test_credible_interval_of_a_normal_posterior():
+    # a prior (the posterior before any trial) shaped as N(3, 2) over a fine threshold grid: its
+    # central 95 % interval is 3 -+ 1.96 x 2 (scipy's normal quantiles, independent of the code)
+    from scipy.stats import norm
+
+    thr = np.linspace(-12.0, 18.0, 3001)
+    q = QuestPlus.psychometric([0.0, 1.0], thr, [1.0], prior=norm.pdf(thr, 3.0, 2.0))
+    assert q.interval(0) == pytest.approx(norm.ppf([0.025, 0.975], 3.0, 2.0), abs=0.02)
+    assert q.interval(1) == (1.0, 1.0)

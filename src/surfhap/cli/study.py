@@ -6,7 +6,7 @@
     surfhap study new DESIGN --out STUDY/ [--seed N] [--participants N]
     surfhap study run STUDY --participant P01 [--gain G] [--comfort-voltage V] [--port 8780]
     surfhap study run STUDY --participant P01 --simulate SEED     (dry run, no page)
-    surfhap study comfort STUDY --participant P01 [--output sim]      (comfort voltage, staircase)
+    surfhap study comfort STUDY --participant P01 [--method questplus] [--output sim]  (comfort voltage)
     surfhap study status STUDY
     surfhap study analyze STUDY --report DIR
     surfhap study export LOG --format csv|bids --out PATH           (LOG: a log or a study folder)
@@ -274,6 +274,7 @@ def comfort(
     study: Path = typer.Argument(..., help="Study folder."),
     participant: str = typer.Option(..., "--participant", "-p", help="Participant id, e.g. P01."),
     start: float = typer.Option(60.0, "--start", help="First amplitude (V)."),
+    method: str = typer.Option("staircase", "--method", help="Adaptive method: staircase | questplus (QUEST+)."),
     material: Optional[str] = typer.Option(None, "--material", help="Material of the square wave (default: the "
                                                                     "study's first)."),
     host: str = typer.Option("127.0.0.1", "--host", help="Address the page binds."),
@@ -289,12 +290,9 @@ def comfort(
     uses it as the session's safety limit."""
     import numpy as np
 
-    from surfhap.lab.comfort import ComfortRunner, comfort_ceiling, default_comfort_params
-    from surfhap.lab.session import SAFETY_V_MAX
+    from surfhap.lab.comfort import ComfortOptions, ComfortRunner, comfort_ceiling
 
-    if not 5.0 <= start <= SAFETY_V_MAX:
-        raise ConfigError(f"must be within 5-{SAFETY_V_MAX:g} V", source="--start", field="start")
-    runner = ComfortRunner(study, participant, default_comfort_params(start), material=material)
+    runner = ComfortRunner(study, participant, material=material, options=ComfortOptions(method=method, start=start))
     try:
         if simulate is not None:
             rng = np.random.default_rng(simulate)

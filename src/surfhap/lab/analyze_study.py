@@ -45,6 +45,7 @@ from surfhap.lab.designs import analysis_params
 from surfhap.lab.schema import Study, load_study
 from surfhap.lab.study_result import Section, StudyAnalysis
 from surfhap.lab.triallog import read_log
+from surfhap.results import jsonable
 
 __all__ = ["Section", "StudyAnalysis", "analyze_study", "load_trials"]
 
@@ -326,10 +327,11 @@ _ANALYSES = {"nafc": _nafc, "realism": _realism, "identification": _identificati
 
 
 def _comfort_section(folder: Path) -> Section | None:
-    """Comfort voltages measured with 'study comfort' (logs/<P>-comfort.json), if any."""
-    from surfhap.lab.comfort import read_comfort
+    """Comfort voltages measured with 'study comfort' (logs/<P>-comfort.json), if any, and the
+    50 % point with its credible interval from each run's trials (logs/<P>-comfort.jsonl)."""
+    from surfhap.lab.comfort import comfort_estimate, read_comfort
 
-    rows = []
+    rows, sec = [], Section("Comfort thresholds (staircase)")
     for p in sorted((folder / "logs").glob("*-comfort.json")):
         d = read_comfort(p)
         try:
@@ -337,13 +339,24 @@ def _comfort_section(folder: Path) -> Section | None:
                          len(d["levels_V"]), d["stopped_by"]])
         except (KeyError, TypeError):
             raise StudyFormatError("not a comfort result", source=str(p), field="comfort_voltage") from None
+        log = read_log(p.with_suffix(".jsonl"))
+        try:
+            e = comfort_estimate(log.trials)
+        except ConfigError:  # fewer than two levels: nothing to fit
+            rows[-1] += ["-", "-"]
+            continue
+        method = next((s["config"].get("method", "staircase") for s in log.sessions), "staircase")
+        rows[-1] += [f"{e['value']:.1f}", "{:.1f}-{:.1f}".format(*e["ci"])]
+        sec.estimates.append(jsonable({"name": "50 % discomfort voltage", "participant": d["participant"], **e,
+                                       "method": "posterior mean, 95 % credible interval (logistic, lapse 1 %, "
+                                                 f"flat prior; ml_value: ML fit) of the {method} trials"}))
     if not rows:
         return None
     volts = [float(r[1]) for r in rows if r[1] != "-"]
-    sec = Section("Comfort thresholds (staircase)")
     sec.text.append(f"median {np.median(volts):.0f} V, range {min(volts):.0f}-{max(volts):.0f} V" if volts else
                     "no threshold reached")
-    sec.tables.append((["participant", "comfort voltage (V)", "trials", "stopped by"], rows))
+    sec.tables.append((["participant", "comfort voltage (V)", "trials", "stopped by", "50 % point (V)",
+                        "95 % CI (V)"], rows))
     return sec
 
 

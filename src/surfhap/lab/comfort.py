@@ -18,6 +18,12 @@ No reversal (e.g. "uncomfortable" all the way down to the 5 V floor, or "comfort
 250 V limit) gives no threshold: the result records ``comfort_voltage: null`` and ``study run``
 refuses to start (:func:`required_comfort_voltage`), as it does while a staircase is unfinished.
 
+``method="questplus"`` (:class:`ComfortOptions`) runs QUEST+ instead (Watson 2017,
+:class:`~surfhap.lab.questplus.QuestStair`): 40 trials on 1 dB-spaced levels 5-250 V, a logistic
+P(uncomfortable) with a 1 % lapse; its estimate is the 20.6 % point of the function at the
+posterior-mean parameters, and the comfort voltage is again one 2 dB step below it. ``study analyze`` estimates the
+50 % point with its credible interval from either method's trials (:func:`comfort_estimate`).
+
 The answers go to their own append-only log ``logs/<P>-comfort.jsonl``; a killed run resumes
 by replaying the logged answers into the staircase (it is deterministic). The result is written
 to ``logs/<P>-comfort.json``.
@@ -28,14 +34,20 @@ from __future__ import annotations
 import json
 import threading
 from pathlib import Path
+from typing import Literal
 
+import numpy as np
+from pydantic import Field
+
+from surfhap.checked import Checked
 from surfhap.errors import StudyFormatError
 from surfhap.lab.schema import load_study
 from surfhap.lab.session import SAFETY_V_MAX
+from surfhap.lab.questplus import QuestPlus, QuestStair
 from surfhap.lab.staircase import Staircase, StaircaseParams
 from surfhap.lab.triallog import TrialLog, now_iso
 
-__all__ = ["ComfortRunner", "default_comfort_params", "comfort_voltage_of", "read_comfort", "required_comfort_voltage",
+__all__ = ["ComfortRunner", "ComfortOptions", "comfort_estimate", "default_comfort_params", "comfort_voltage_of", "read_comfort", "required_comfort_voltage",
            "comfort_ceiling", "COMFORT_FREQUENCY", "COMFORT_TARGET"]
 
 COMFORT_FREQUENCY = 100.0  # Hz, inside Zhao et al.'s 30-300 Hz baseline range (design choice)
@@ -44,6 +56,16 @@ COMFORT_FREQUENCY = 100.0  # Hz, inside Zhao et al.'s 30-300 Hz baseline range (
 # P(uncomfortable) at which the default staircase settles: up after 3 "comfortable" (negatives),
 # down after 1 "uncomfortable" (positive): (1 - p)^3 = 1/2
 COMFORT_TARGET = 1.0 - 0.5 ** (1.0 / 3.0)
+QUEST_TRIALS = 40
+COMFORT_LAPSE = 0.01  # P(uncomfortable) tops out at 99 % in QUEST+'s model and in the analysis fit
+
+
+class ComfortOptions(Checked):
+    """method: "staircase" (:func:`default_comfort_params`) or "questplus" (module docstring);
+    start: the staircase's first level (V)."""
+
+    method: Literal["staircase", "questplus"] = "staircase"
+    start: float = Field(default=60.0, ge=5.0, le=SAFETY_V_MAX)
 
 
 def default_comfort_params(start: float = 60.0) -> StaircaseParams:
@@ -65,6 +87,27 @@ def comfort_ceiling(threshold: float | None, params: StaircaseParams) -> float |
     step = params.steps[-1]
     v = threshold * 10.0 ** (-step / 20.0) if params.step_type == "db" else threshold - step
     return float(min(max(v, params.min_level), params.max_level))
+
+
+def comfort_estimate(records: list[dict]) -> dict:
+    """The 50 % discomfort voltage from a comfort run's trial ``records`` (``level_V``, ``answer``),
+    whichever method placed them: ``value`` and ``ci`` are the posterior mean and central 95 %
+    credible interval of the threshold under QUEST+'s model (logistic P(uncomfortable), 1 % lapse,
+    flat prior over 5-250 V x slopes 0.01-1 /V); ``ml_value`` is the maximum-likelihood fit's
+    threshold (:func:`~surfhap.lab.psychometric.fit_psychometric`, same model). ConfigError with
+    fewer than two levels."""
+    from surfhap.lab.psychometric import fit_psychometric
+
+    v = np.round([float(r["level_V"]) for r in records], 6)
+    levels, idx = np.unique(v, return_inverse=True)
+    no = np.array([r["answer"] == "no" for r in records])
+    ml = fit_psychometric(levels, np.bincount(idx, minlength=levels.size), np.bincount(idx, no, levels.size),
+                          lapse=COMFORT_LAPSE)
+    q = QuestPlus.psychometric(levels, np.geomspace(5.0, SAFETY_V_MAX, 141), np.geomspace(0.01, 1.0, 21),
+                               (COMFORT_LAPSE,), guess=0.0)
+    for x, n in zip(v, no):
+        q.update(x, int(n))
+    return {"value": float(q.mean()[0]), "ci": q.interval(0), "ml_value": ml.threshold, "n": len(records)}
 
 
 def read_comfort(path: Path) -> dict:
@@ -115,27 +158,31 @@ class ComfortRunner:
     limit_s = None  # the square wave plays while touched: no stimulus time limit
 
     def __init__(self, study_dir: str | Path, participant: str, params: StaircaseParams | None = None,
-                 material: str | None = None):
+                 material: str | None = None, options: ComfortOptions | None = None):
         self.dir = Path(study_dir)
         study = load_study(self.dir)
         self.plan = study.participant(participant)
-        self.params = params or default_comfort_params()
+        self.options = options or ComfortOptions()
+        self.params = params or default_comfort_params(self.options.start)
         self.material = material or next((str(s.render["material"]) for t in self.plan.trials for s in t.stimuli
                                           if "material" in s.render), "cork")
         from surfhap import __version__
 
         self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}-comfort.jsonl", participant=self.plan.id,
                             config={"participant": self.plan.id, "procedure": "comfort staircase",
+                                    "method": self.options.method,
                                     "staircase": self.params.model_dump(mode="json"),
                                     "material": self.material, "square_frequency": COMFORT_FREQUENCY},
                             software_version=__version__)
-        self.stair = Staircase(self.params)
+        quest = self.options.method == "questplus"
+        self.stair = (QuestStair(np.geomspace(5.0, SAFETY_V_MAX, 35), np.geomspace(0.01, 1.0, 9), QUEST_TRIALS,
+                                 COMFORT_TARGET, COMFORT_LAPSE) if quest else Staircase(self.params))
         for rec in self.log.contents.trials:  # replay a killed run
             self.stair.update(rec["answer"] == "no")
         self.gain = 1.0
         self.last_record = None
         self._lock = threading.Lock()
-        self.total = self.params.max_trials
+        self.total = QUEST_TRIALS if quest else self.params.max_trials
 
     @property
     def n_done(self) -> int:
@@ -201,9 +248,9 @@ class ComfortRunner:
         out = {"participant": self.plan.id, "comfort_voltage": comfort_ceiling(res.threshold, p),
                "staircase_threshold_V": res.threshold, "stopped_by": res.stopped_by,
                "reversal_levels_V": res.reversal_levels.tolist(), "levels_V": res.levels.tolist(),
-               "method": f"{p.up}-up/{p.down}-down staircase on a constant-amplitude square wave (Zhao et al. "
+               "method": f"{'QUEST+' if self.options.method == 'questplus' else f'{p.up}-up/{p.down}-down staircase'} on a constant-amplitude square wave (Zhao et al. "
                          f"Sec. 2-3); comfort voltage one {p.steps[-1]:g} {'dB' if p.step_type == 'db' else 'V'} "
-                         "step below the mean of the last reversals",
+                         "step below the estimate",
                "finished_at": now_iso()}
         (self.dir / "logs" / f"{self.plan.id}-comfort.json").write_text(json.dumps(out, indent=1) + "\n")
 

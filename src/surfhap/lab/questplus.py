@@ -14,7 +14,7 @@ import numpy as np
 from surfhap.errors import ConfigError
 from surfhap.lab.psychometric import Shape, psychometric
 
-__all__ = ["QuestPlus"]
+__all__ = ["QuestPlus", "QuestStair"]
 
 
 def _entropy(p: np.ndarray) -> np.ndarray:
@@ -87,6 +87,52 @@ class QuestPlus:
         """(p,) the posterior mean of the parameters."""
         return self.posterior @ self.params
 
+    def interval(self, column: int = 0, mass: float = 0.95) -> tuple[float, float]:
+        """The central ``mass`` credible interval of parameter ``column`` (its marginal posterior's
+        cumulative sum, interpolated linearly between grid values)."""
+        vals, inv = np.unique(self.params[:, column], return_inverse=True)
+        cdf = np.cumsum(np.bincount(inv, weights=self.posterior))
+        return tuple(float(np.interp(q, cdf, vals)) for q in ((1 - mass) / 2, (1 + mass) / 2))
+
     def mode(self) -> np.ndarray:
         """(p,) the parameter vector of greatest posterior probability."""
         return self.params[int(np.argmax(self.posterior))]
+
+
+class QuestStair:
+    """QUEST+ with the staircase's interface (:attr:`level`, :meth:`update` with a "positive"
+    response, :attr:`finished`, :meth:`result`), for yes/no answers: P(positive | x) is the
+    ``shape`` function of ``levels`` over thresholds = ``levels`` x ``slopes``, no guess, a fixed
+    ``lapse``; ``max_trials`` trials. The result's ``threshold`` is the level where the
+    posterior-mean function of the posterior-mean parameters reaches ``target``
+    (0.5: the threshold parameter)."""
+
+    def __init__(self, levels, slopes, max_trials: int, target: float = 0.5, lapse: float = 0.01):
+        self.q = QuestPlus.psychometric(levels, levels, slopes, (lapse,), guess=0.0)
+        self.max_trials, self.target, self.lapse = max_trials, target, lapse
+        self._levels: list[float] = []
+        self._responses: list[bool] = []
+        self.level = self.q.next_stimulus()
+
+    @property
+    def finished(self) -> bool:
+        return len(self._levels) >= self.max_trials
+
+    def update(self, positive: bool) -> None:
+        if self.finished:
+            raise ConfigError("the QUEST+ run has finished", field="questplus")
+        self.q.update(self.level, int(bool(positive)))
+        self._levels.append(self.level)
+        self._responses.append(bool(positive))
+        self.level = self.q.next_stimulus()
+
+    def result(self):
+        """A :class:`~surfhap.lab.staircase.StaircaseResult` (no reversals) with the posterior estimate."""
+        from surfhap.lab.staircase import StaircaseResult
+
+        thr, slope, _ = self.q.mean()
+        f = self.target / (1.0 - self.lapse)  # logistic: invert target = (1 - lapse) F
+        est = float(thr + np.log(f / (1.0 - f)) / slope) if self._levels else None
+        empty = np.zeros(0)
+        return StaircaseResult(np.array(self._levels), np.array(self._responses, dtype=bool), empty.astype(int),
+                               empty, est, "trials" if self.finished else "running")

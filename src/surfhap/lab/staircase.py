@@ -5,7 +5,8 @@ staircase method").
 Rule: the level goes *down* one step after ``down`` consecutive "positive" responses (correct,
 "I feel it", "too strong") and *up* one step after ``up`` consecutive negative ones. A
 reversal is a change of direction. The run stops after ``max_trials`` trials or
-``max_reversals`` reversals, whichever comes first; the threshold is the mean of the last
+``max_reversals`` reversals, whichever comes first (``stop="either"``), or, as PsychoPy's
+``StairHandler`` (``stop="both"``), only once both counts are reached; the threshold is the mean of the last
 ``average_last`` reversal levels (geometric mean for a ``"db"`` staircase). An up/down
 staircase converges to the level where P(positive)^down = 0.5 for up = 1 (Levitt 1971):
 1-up/1-down 50 %, 1-up/2-down 70.7 %, 1-up/3-down 79.4 %; for down = 1 where
@@ -15,11 +16,12 @@ P(negative)^up = 0.5: 3-up/1-down 20.6 % positives (the comfort staircase,
 Steps: ``steps`` is a list; step ``steps[min(r, len-1)]`` is used after ``r`` reversals (a
 step rule such as (8, 4, 2) halves the step after the first reversals). ``step_type``
 "linear" adds/subtracts the step (level units), "db" multiplies by 10^(+-step/20).
+``initial_rule`` (PsychoPy's ``applyInitialRule``) steps after every response (1-up/1-down)
+until the first reversal; ``up``/``down`` apply from then on.
 The level is clamped to [min_level, max_level]; for a drive voltage, max_level is the safety
 limit (250 V), so a staircase can never ask for more.
 
-QUEST+ is not included: the maintained Python implementation on PyPI (``questplus``) is
-GPL-3, which the BSD core may not depend on.
+QUEST+ is :mod:`surfhap.lab.questplus` (own code: the PyPI ``questplus`` is GPL-3).
 """
 
 from __future__ import annotations
@@ -56,7 +58,8 @@ def target_probability(up: int, down: int) -> float:
 class StaircaseParams(Checked):
     """start: first level; steps: step sizes by reversal count (level units, or dB for
     ``step_type="db"``); up/down: consecutive negatives/positives to step up/down;
-    max_trials / max_reversals: stop rules; average_last: reversals averaged for the
+    max_trials / max_reversals: stop rules (``stop``: "either" reached, or "both");
+    initial_rule: 1-up/1-down until the first reversal; average_last: reversals averaged for the
     threshold; min_level / max_level: clamp (max_level <= safety limit for voltages)."""
 
     start: FiniteFloat
@@ -67,6 +70,8 @@ class StaircaseParams(Checked):
     max_trials: int = Field(default=100, ge=1)
     max_reversals: int = Field(default=12, ge=1)
     average_last: int = Field(default=6, ge=1)
+    stop: Literal["either", "both"] = "either"
+    initial_rule: bool = False
     min_level: float = 0.0
     max_level: float = np.inf
 
@@ -83,7 +88,7 @@ class StaircaseParams(Checked):
 class StaircaseResult(Result):
     """levels (n,), responses (n,) bool, reversal_trials (r,) indices of the trials whose
     level is a reversal point, reversal_levels (r,), threshold (None if there are no
-    reversals), stopped_by: "trials" | "reversals" | "running"."""
+    reversals), stopped_by: "trials" | "reversals" | "trials and reversals" | "running"."""
 
     levels: np.ndarray
     responses: np.ndarray
@@ -129,7 +134,8 @@ class Staircase:
     @property
     def finished(self) -> bool:
         p = self.params
-        return len(self._levels) >= p.max_trials or self.n_reversals >= p.max_reversals
+        done = (len(self._levels) >= p.max_trials, self.n_reversals >= p.max_reversals)
+        return all(done) if p.stop == "both" else any(done)
 
     def _step(self, sign: int) -> None:
         p = self.params
@@ -147,7 +153,9 @@ class Staircase:
         trial = len(self._levels)
         self._levels.append(self.level)
         self._responses.append(positive)
-        if self._run >= (self.params.down if positive else self.params.up):
+        p = self.params
+        up, down = (1, 1) if p.initial_rule and not self._rev_trials else (p.up, p.down)
+        if self._run >= (down if positive else up):
             self._run = 0
             sign = -1 if positive else +1
             if self._direction != 0 and sign != self._direction:
@@ -164,8 +172,8 @@ class Staircase:
         if rl.size:
             last = rl[-min(p.average_last, rl.size):]
             thr = float(np.exp(np.mean(np.log(last)))) if p.step_type == "db" else float(np.mean(last))
-        stopped = ("reversals" if self.n_reversals >= p.max_reversals else
-                   "trials" if lv.size >= p.max_trials else "running")
+        stopped = ("running" if not self.finished else "trials and reversals" if p.stop == "both" else
+                   "reversals" if self.n_reversals >= p.max_reversals else "trials")
         return StaircaseResult(lv, np.array(self._responses, dtype=bool), rt, rl, thr, stopped)
 
 

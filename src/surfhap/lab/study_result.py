@@ -26,6 +26,7 @@ class Section:
     tables: list[tuple[list[str], list[list]]] = field(default_factory=list)
     figures: list[tuple[str, object, dict]] = field(default_factory=list)
     tests: list[dict] = field(default_factory=list)  # for results.json, see :meth:`add`
+    estimates: list[dict] = field(default_factory=list)  # for results.json: name, value, ci, method, n
 
     def add(self, label: str, t: A.TestResult, groups: list[str], p_adj: float | None = None,
             correction: str = "") -> str:
@@ -74,9 +75,10 @@ class StudyAnalysis(Result):
 
     def results(self) -> dict:
         """results.json: every test of every section (name, groups, statistic, df, p, adjusted p,
-        alternative, method, effect size)."""
+        alternative, method, effect size) and every estimate (name, value, 95 % CI, method, n)."""
         return jsonable({"name": self.name, "kind": self.kind, "participants": self.participants,
-                         "tests": [{"section": s.title, **t} for s in self.sections for t in s.tests]})
+                         "tests": [{"section": s.title, **t} for s in self.sections for t in s.tests],
+                         "estimates": [{"section": s.title, **e} for s in self.sections for e in s.estimates]})
 
     def plot(self, ax=None):
         """Every figure of the sections, one panel each (see :mod:`surfhap.report.lab_report`)."""
