@@ -139,6 +139,9 @@ def run(
     ff_device: Optional[str] = typer.Option(None, "--ff-device", help="Play force-feedback stimuli ({\"effect\": "
                                             "...}, 004) on this device: sim (the simulated one; with --simulate the "
                                             "simulated participant strokes each stimulus on it)."),
+    allow_same_day: bool = typer.Option(False, "--allow-same-day", help="Start the participant's next session "
+                                        "on the day the previous one ran (refused by default: sessions on "
+                                        "different days)."),
     display: DisplayOption = None,
     config: ConfigOption = None,
 ) -> None:
@@ -170,6 +173,7 @@ def run(
                          "limit")
     runner = SessionRunner(study, participant, gain=gain, comfort_voltage=comfort_voltage,
                            mode="simulated" if simulate is not None else "page", display=disp,
+                           allow_same_day=allow_same_day,
                            extra_config={"comfort_voltage_from": "study comfort" if measured is not None else
                                          ("--comfort-voltage" if comfort_voltage is not None else None)})
     try:
@@ -192,6 +196,9 @@ def run(
             else:
                 _run_page(runner, host, port, output, amp_gain, guard, lsl, ff_device)
         stderr.print(f"{runner.plan.id}: {runner.n_done}/{runner.total} trials logged in {runner.log.path}")
+        if runner.finished and runner.later:
+            stdout.print(f"{runner.plan.id}: session {runner.study_session} done; session {runner.study_session + 1} "
+                         "on another day ('study run' again)")
     finally:
         runner.close()
     guard.finish("paused; every answered trial is in the log (run again to resume)")

@@ -306,6 +306,7 @@ def _sliding(design: DesignSpec, p: SlidingParams, i: int, pid: str) -> tuple[st
         for k in [-1 - j for j in range(len(practice) if first_of_session else 0)] + list(rng.permutation(len(items))):
             a, c = practice[k] if k < 0 else items[k]
             _trial(pid, trials, block=b, block_label=block, task="sliding", practice=k < 0,
+                   session=b // p.blocks_per_session + 1,
                    prompt="On which one did you feel more sliding?" + (" (practice)" if k < 0 else ""),
                    stimuli=[Stimulus(label="1st", render={"effect": a}), Stimulus(label="2nd", render={"effect": c})],
                    choices=[Choice(id=a, label="1st"), Choice(id=c, label="2nd")],

@@ -56,6 +56,8 @@ class Trial(_Strict):
     response "choice": one of ``choices``; "toggles": each of ``toggles`` (e.g. scene
     positions) is set to one of ``choices`` and the answer is ``"TL=bump,TR=hole,..."``.
     ``correct`` is the right answer when there is one (None for preferences and ratings).
+    ``session``: the study session (a separate day, from 1) the trial belongs to; a run stops
+    at the end of a session's trials (e.g. 004: two blocks per session).
     """
 
     id: str
@@ -71,6 +73,7 @@ class Trial(_Strict):
     correct: str | None = None
     condition: dict[str, str | int | float] = {}
     practice: bool = False  # a practice trial: logged with "practice": true, left out of the analysis
+    session: int = Field(1, ge=1)
 
 
 class ParticipantPlan(_Strict):

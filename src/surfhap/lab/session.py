@@ -9,6 +9,11 @@ Gain: ``gain`` multiplies the drive laws' alpha for this participant (Otake et a
 it per participant near preset values) and ``v_max`` is the session's safety limit, the
 smaller of the design's (<= 250 V) and the participant's comfort voltage (e.g. a staircase
 threshold, Zhao et al.). Whatever the gain, the safety stage clamps every sample to v_max.
+
+Sessions on different days: a run covers the trials of one study session (``Trial.session``)
+and is then ``finished``; the next study session is refused on a calendar day on which the
+previous one ran, unless ``allow_same_day`` (``study run --allow-same-day``). Each session
+record of the log holds its ``date`` and ``study_session``.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ import hashlib
 import platform
 import threading
 import time
+from datetime import date
 from pathlib import Path
 
 from typing import TYPE_CHECKING
@@ -29,10 +35,15 @@ from surfhap.lab.triallog import TrialLog, now_iso
 if TYPE_CHECKING:
     from surfhap.models.panel import DisplayModel
 
-__all__ = ["SessionRunner", "check_answer", "SAFETY_V_MAX", "MAX_GAIN"]
+__all__ = ["SessionRunner", "check_answer", "local_today", "SAFETY_V_MAX", "MAX_GAIN"]
 
 SAFETY_V_MAX = 250.0  # V, Otake et al. 2022 Sec. IV-D
 MAX_GAIN = 4.0  # largest per-participant multiplier of alpha (design choice: beyond it the safety clamp dominates)
+
+
+def local_today() -> date:
+    """The calendar day of the lab (local time): sessions on different days are compared by it."""
+    return date.today()
 
 
 def check_answer(trial: Trial, answer: str) -> tuple[str, float | None]:
@@ -67,7 +78,7 @@ class SessionRunner:
 
     def __init__(self, study_dir: str | Path, participant: str, *, gain: float | None = None,
                  comfort_voltage: float | None = None, mode: str = "page", extra_config: dict | None = None,
-                 display: DisplayModel | None = None):
+                 display: DisplayModel | None = None, today: date | None = None, allow_same_day: bool = False):
         self.dir = Path(study_dir)
         self.study: Study = load_study(self.dir)
         self.plan = self.study.participant(participant)
@@ -104,7 +115,19 @@ class SessionRunner:
             self.log.close()
             raise StudyFormatError(f"log holds trials that are not in the study ({sorted(unknown)[:3]})",
                                    source=str(self.log.path), field="trial_id")
-        self._pending = [t for t in self.plan.trials if t.id not in done]
+        todo = [t for t in self.plan.trials if t.id not in done]
+        self.study_session = todo[0].session if todo else max(t.session for t in self.plan.trials)
+        self._pending = [t for t in todo if t.session == self.study_session]
+        self.later = len(todo) - len(self._pending)  # trials of the sessions still to come (other days)
+        day = (today or local_today()).isoformat()
+        prev_days = sorted({s["config"].get("date") for s in self.log.contents.sessions
+                            if s["config"].get("study_session") == self.study_session - 1} - {None})
+        if self._pending and day in prev_days and not allow_same_day:
+            self.log.close()
+            raise ConfigError(f"session {self.study_session} of {self.plan.id} on the day of session "
+                              f"{self.study_session - 1} ({day}): come back another day (or --allow-same-day)",
+                              source="--participant", field="session")
+        config.update(date=day, study_session=self.study_session)  # the session record, written with its first line
         self._resting = False
         self.last_record: dict | None = None
         if done and self._pending:
@@ -118,10 +141,11 @@ class SessionRunner:
 
     @property
     def n_done(self) -> int:
-        return self.total - len(self._pending)
+        return self.total - len(self._pending) - self.later
 
     @property
     def finished(self) -> bool:
+        """Nothing more to run now: the study, or this session of it (``later`` > 0), is done."""
         return not self._pending
 
     def current(self) -> Trial | None:
@@ -132,8 +156,8 @@ class SessionRunner:
         with self._lock:
             base = {"done": self.n_done, "total": self.total, "participant": self.plan.id}
             t = self.current()
-            if t is None:
-                return {**base, "status": "done"}
+            if t is None:  # next_session: come back another day
+                return {**base, "status": "done", **({"next_session": self.study_session + 1} if self.later else {})}
             # block_label (the condition) is for the experimenter; the page shows only numbers (blinding)
             blocks = sorted({x.block for x in self.plan.trials})
             base["block_number"] = blocks.index(t.block) + 1
@@ -198,7 +222,8 @@ class SessionRunner:
                 self._pending.pop(0)
                 nxt = self.current()
                 if nxt is None:
-                    self.log.event("end", completed=self.n_done)
+                    self.log.event("end" if not self.later else "session-end", completed=self.n_done,
+                                   study_session=self.study_session)
                 elif nxt.block != t.block and self.study.design.session.rest_between_blocks:
                     self._resting = True
                     self.log.event("rest", after_block=t.block_label, next_block=nxt.block_label)

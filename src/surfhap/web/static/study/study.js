@@ -41,7 +41,11 @@
     $("progress").textContent = st.total ? `${st.done} / ${st.total}` : "";
     // never the block's label: it names the condition, which the participant must not know
     $("block").textContent = st.blocks > 1 && st.block_number ? `block ${st.block_number} of ${st.blocks}` : "";
-    if (st.status === "done") { show("done"); S.trialId = null; return; }
+    if (st.status === "done") {  // next_session: this session is over, the study is not
+      $("done-text").textContent = st.next_session ? "Thank you! This session is done; please come back another day."
+        : "Thank you! The session is complete.";
+      show("done"); S.trialId = null; return;
+    }
     if (st.status === "rest") {
       $("next-block").textContent = st.block_number ? `Next: block ${st.block_number} of ${st.blocks}` : "";
       show("rest"); S.trialId = null; return;
