@@ -92,6 +92,10 @@ def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSigna
         if st["status"] == "rest":
             runner.resume()
             continue
+        if st["status"] == "info":  # the form: the first offered answer, the lower bound, "simulated"
+            runner.info({f["id"]: f["choices"][0] if f["kind"] == "choice" else
+                         ("simulated" if f["kind"] == "text" else f["min"] or 0.0) for f in st["info"]})
+            continue
         t = runner.current()
         for i, stim in enumerate(t.stimuli if ff is not None else ()):  # each stimulus stroked on the device
             runner.stimulus(t.id, i)

@@ -15,12 +15,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from surfhap.errors import StudyFormatError
 from surfhap.exchange.files import read_model
 
-__all__ = ["DESIGN_FORMAT", "STUDY_FORMAT", "KINDS", "Choice", "Stimulus", "Trial", "ParticipantPlan", "DesignSpec",
+__all__ = ["DESIGN_FORMAT", "STUDY_FORMAT", "KINDS", "Choice", "Stimulus", "Trial", "ParticipantPlan", "InfoField",
+           "DesignSpec",
            "Session", "Study", "load_design", "load_study"]
 
 DESIGN_FORMAT = "surfhap-study-design"
@@ -98,6 +99,25 @@ class Session(_Strict):
     blank_until_release: bool = False
 
 
+class InfoField(_Strict):
+    """One question of the participant-information form, shown before the first trial:
+    ``kind`` "number" (within ``min``..``max``), "choice" (one of ``choices``) or "text"
+    (at most 200 characters). The answers are logged once (event ``participant-info``)."""
+
+    id: str = Field(min_length=1, max_length=32, pattern=r"^[a-z][a-z0-9_]*$")
+    label: str = Field(min_length=1, max_length=200)
+    kind: Literal["number", "choice", "text"]
+    choices: list[str] = []
+    min: float | None = None
+    max: float | None = None
+
+    @model_validator(mode="after")
+    def _choices(self) -> "InfoField":
+        if (self.kind == "choice") != (len(self.choices) >= 2):
+            raise ValueError("choices: a choice field needs two or more, other kinds none")
+        return self
+
+
 class DesignSpec(_Strict):
     format: Literal["surfhap-study-design"] = DESIGN_FORMAT
     version: Literal[1] = 1
@@ -108,6 +128,7 @@ class DesignSpec(_Strict):
     participants: int = Field(ge=1, le=1000)
     params: dict[str, Any] = {}
     session: Session = Session()
+    participant_info: list[InfoField] = []  # e.g. age, handedness, gender
     note: str = ""
 
 

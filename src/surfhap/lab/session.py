@@ -29,13 +29,13 @@ from typing import TYPE_CHECKING
 
 from surfhap.errors import ConfigError, StudyFormatError
 from surfhap.lab.blinding import choice_key
-from surfhap.lab.schema import Study, Trial, load_study
+from surfhap.lab.schema import InfoField, Study, Trial, load_study
 from surfhap.lab.triallog import TrialLog, now_iso
 
 if TYPE_CHECKING:
     from surfhap.models.panel import DisplayModel
 
-__all__ = ["SessionRunner", "check_answer", "local_today", "SAFETY_V_MAX", "MAX_GAIN"]
+__all__ = ["SessionRunner", "check_answer", "check_info", "local_today", "SAFETY_V_MAX", "MAX_GAIN"]
 
 SAFETY_V_MAX = 250.0  # V, Otake et al. 2022 Sec. IV-D
 MAX_GAIN = 4.0  # largest per-participant multiplier of alpha (design choice: beyond it the safety clamp dominates)
@@ -71,6 +71,31 @@ def check_answer(trial: Trial, answer: str) -> tuple[str, float | None]:
         return norm, None
     want = dict(item.split("=", 1) for item in trial.correct.split(","))
     return norm, sum(parts[k] == want[k] for k in trial.toggles) / len(trial.toggles)
+
+
+def check_info(fields: list[InfoField], answers: dict[str, str | float]) -> dict[str, str | float]:
+    """The participant-information ``answers`` checked against the design's ``fields`` (every
+    field answered, nothing else); ConfigError naming the field."""
+    extra = sorted(set(answers) - {f.id for f in fields})
+    if extra:
+        raise ConfigError(f"{extra[0]!r} is not a field of the form", field="participant_info")
+    out: dict[str, str | float] = {}
+    for f in fields:
+        v, where = answers.get(f.id), f"participant_info.{f.id}"
+        if f.kind == "number":
+            try:
+                x = float(v)  # the page's number input may send text
+            except (TypeError, ValueError):
+                raise ConfigError(f"{v!r} is not a number", field=where) from None
+            if not (x == x and (f.min is None or x >= f.min) and (f.max is None or x <= f.max)):
+                raise ConfigError(f"{x:g} is outside {f.min}..{f.max}", field=where)
+            out[f.id] = x
+        elif not isinstance(v, str) or not v.strip() or len(v) > 200 or (f.kind == "choice" and v not in f.choices):
+            raise ConfigError("missing or not one of the offered answers" if f.kind == "choice"
+                              else "must be text of 1-200 characters", field=where)
+        else:
+            out[f.id] = v.strip()
+    return out
 
 
 class SessionRunner:
@@ -128,6 +153,10 @@ class SessionRunner:
                               f"{self.study_session - 1} ({day}): come back another day (or --allow-same-day)",
                               source="--participant", field="session")
         config.update(date=day, study_session=self.study_session)  # the session record, written with its first line
+        # the participant-information form: answered once, before the first trial
+        self._info = self.study.design.participant_info
+        self._info_needed = bool(self._info) and not any(e["event"] == "participant-info"
+                                                         for e in self.log.contents.events)
         self._resting = False
         self.last_record: dict | None = None
         if done and self._pending:
@@ -158,6 +187,8 @@ class SessionRunner:
             t = self.current()
             if t is None:  # next_session: come back another day
                 return {**base, "status": "done", **({"next_session": self.study_session + 1} if self.later else {})}
+            if self._info_needed:
+                return {**base, "status": "info", "info": [f.model_dump() for f in self._info]}
             # block_label (the condition) is for the experimenter; the page shows only numbers (blinding)
             blocks = sorted({x.block for x in self.plan.trials})
             base["block_number"] = blocks.index(t.block) + 1
@@ -185,12 +216,22 @@ class SessionRunner:
                 t = self.current()
                 self.log.event("rest-end", next_block=t.block_label if t else None)
 
+    def info(self, answers: dict[str, str | float]) -> dict:
+        """Record the participant-information form (:func:`check_info`) once; returns the new
+        state plus ``"accepted"`` (False: already recorded, nothing written)."""
+        with self._lock:
+            accepted = self._info_needed
+            if accepted:
+                self.log.event("participant-info", answers=check_info(self._info, answers))
+                self._info_needed = False
+        return {**self.state(), "accepted": accepted}
+
     def stimulus(self, trial_id: str, index: int):
         """The participant selected stimulus ``index`` of the current trial; returns its
         Stimulus (to render), or None if ``trial_id`` is not the current trial."""
         with self._lock:
             t = self.current()
-            if t is None or t.id != trial_id or self._resting or not 0 <= index < len(t.stimuli):
+            if t is None or t.id != trial_id or self._resting or self._info_needed or not 0 <= index < len(t.stimuli):
                 return None
             self._stimulus_log.setdefault(trial_id, []).append(
                 [index, round(time.monotonic() - self._shown_at.get(trial_id, time.monotonic()), 4)])
@@ -202,7 +243,7 @@ class SessionRunner:
         click or a page left open from before a restart."""
         with self._lock:
             t = self.current()
-            if t is None or t.id != trial_id or self._resting:
+            if t is None or t.id != trial_id or self._resting or self._info_needed:
                 accepted = False
             else:
                 norm, score = check_answer(t, answer)

@@ -10,7 +10,7 @@
   let T = null, need = new Set(), clock = null;
 
   function show(id) {
-    for (const s of ["loading", "trial", "rest", "done"]) $(s).hidden = s !== id;
+    for (const s of ["loading", "info", "trial", "rest", "done"]) $(s).hidden = s !== id;
     S.status = id;
   }
   function error(msg) { $("error").textContent = msg; $("error").hidden = !msg; }
@@ -45,6 +45,10 @@
       $("done-text").textContent = st.next_session ? "Thank you! This session is done; please come back another day."
         : "Thank you! The session is complete.";
       show("done"); S.trialId = null; return;
+    }
+    if (st.status === "info") {  // the participant-information form, before the first trial
+      if (S.status !== "info") form(st.info);
+      show("info"); S.trialId = null; return;
     }
     if (st.status === "rest") {
       $("next-block").textContent = st.block_number ? `Next: block ${st.block_number} of ${st.blocks}` : "";
@@ -160,6 +164,32 @@
       gate();
     }
   }
+
+  function form(fields) {
+    const box = $("info-fields"); box.replaceChildren();
+    for (const f of fields) {
+      const label = document.createElement("label"); label.textContent = f.label;
+      let input;
+      if (f.kind === "choice") {
+        input = document.createElement("select"); input.add(new Option("", ""));
+        for (const c of f.choices) input.add(new Option(c, c));
+      } else {
+        input = document.createElement("input"); input.type = f.kind === "number" ? "number" : "text";
+        if (f.kind === "number") { input.step = "any"; if (f.min !== null) input.min = f.min; if (f.max !== null) input.max = f.max; }
+        else input.maxLength = 200;
+      }
+      input.name = f.id; input.dataset.kind = f.kind; input.required = true;
+      label.append(input); box.append(label);
+    }
+  }
+  $("info").addEventListener("submit", async (ev) => {
+    ev.preventDefault();
+    const answers = {};
+    for (const el of $("info-fields").querySelectorAll("[name]"))
+      answers[el.name] = el.dataset.kind === "number" ? Number(el.value) : el.value;
+    try { const st = await state("POST", "/api/info", { answers }); error(""); render(st); }
+    catch (e) { error(e.message); }
+  });
 
   $("continue").onclick = async () => { render(await state("POST", "/api/resume")); };
 
