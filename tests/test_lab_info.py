@@ -106,3 +106,45 @@ def test_bids_participants_tsv_holds_the_answers(tmp_path):
     assert people["participant_id"].tolist() == ["sub-P01", "sub-P02"]
     assert people["age"].tolist() == [18.0, 18.0] and people["handedness"].tolist() == ["left", "left"]
     assert people["gender"].tolist() == ["simulated"] * 2
+
+
+def test_the_form_in_chromium_on_a_tablet(tmp_path):
+    """The form fits a 1024 x 600 tablet, a refused answer shows its field, a valid one starts
+    the first trial."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent / "live_support"))
+    pytest.importorskip("playwright.sync_api")
+    from browser_support import CHROMIUM, chromium_page, poll
+
+    if not Path(CHROMIUM).exists():
+        pytest.skip("no Chromium")
+    from surfhap.lab.session import SessionRunner
+    from surfhap.live.config import ServerConfig
+    from surfhap.web import create_app
+    from surfhap.web.server import ServerThread
+    from surfhap.web.study import StudyPage
+
+    _, study = _study(tmp_path)
+    runner = SessionRunner(study, "P01", mode="page")
+    server = ServerThread(create_app(ServerConfig(port=0), study=StudyPage(runner))).start()
+    try:
+        with chromium_page(server.url + "/", 1024, 600, 60_000) as page:
+            page.wait_for_selector("#info:not([hidden])", timeout=60_000)
+            page.fill("input[name=age]", "12")
+            page.select_option("select[name=handedness]", "right")
+            page.fill("input[name=gender]", "non-binary")
+            page.evaluate("document.getElementById('info').noValidate = true")  # the server checks too
+            page.click("#info button")
+            page.wait_for_selector("#error:not([hidden])", timeout=60_000)
+            assert "participant_info.age" in page.inner_text("#error")
+            page.fill("input[name=age]", "45")
+            assert page.locator("#info button").bounding_box()["y"] < 600
+            page.screenshot(path=str(tmp_path / "info-1024x600.png"))
+            page.click("#info button")
+            poll(page, f"window.study.trialId === {runner.current().id!r}", 60_000)
+    finally:
+        server.stop()
+        runner.close()
+    assert _info_events(study)[0]["answers"] == {"age": 45.0, "handedness": "right", "gender": "non-binary"}
