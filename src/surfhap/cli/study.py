@@ -102,7 +102,9 @@ def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSigna
             ff.select(stim.render)
             ff.explore(4.0 if ff.limit_s is None else ff.limit_s + 0.5, stim.label)
         ids = [c.id for c in t.choices]
-        if t.response == "toggles":
+        if t.response == "text":
+            ans = f"simulated description {rng.integers(1000)}"
+        elif t.response == "toggles":
             want = dict(x.split("=") for x in t.correct.split(",")) if t.correct else {}
             ans = ",".join(f"{q}={want[q] if want and rng.random() < p_correct else ids[rng.integers(len(ids))]}"
                            for q in t.toggles)

@@ -55,7 +55,8 @@ class Trial(_Strict):
     """One trial: the stimuli, the question and its possible answers.
 
     response "choice": one of ``choices``; "toggles": each of ``toggles`` (e.g. scene
-    positions) is set to one of ``choices`` and the answer is ``"TL=bump,TR=hole,..."``.
+    positions) is set to one of ``choices`` and the answer is ``"TL=bump,TR=hole,..."``;
+    "text": a free-text answer (no choices), logged verbatim (002 Part 1: open descriptions).
     ``correct`` is the right answer when there is one (None for preferences and ratings).
     ``session``: the study session (a separate day, from 1) the trial belongs to; a run stops
     at the end of a session's trials (e.g. 004: two blocks per session).
@@ -68,13 +69,19 @@ class Trial(_Strict):
     task: str
     prompt: str
     stimuli: list[Stimulus]
-    response: Literal["choice", "toggles"] = "choice"
-    choices: list[Choice] = Field(min_length=2)
+    response: Literal["choice", "toggles", "text"] = "choice"
+    choices: list[Choice] = []
     toggles: list[str] = []
     correct: str | None = None
     condition: dict[str, str | int | float] = {}
     practice: bool = False  # a practice trial: logged with "practice": true, left out of the analysis
     session: int = Field(1, ge=1)
+
+    @model_validator(mode="after")
+    def _choices(self) -> "Trial":
+        if (self.response == "text") == (len(self.choices) >= 2):
+            raise ValueError("choices: two or more for a choice or toggles answer, none for text")
+        return self
 
 
 class ParticipantPlan(_Strict):

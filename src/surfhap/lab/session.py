@@ -35,9 +35,10 @@ from surfhap.lab.triallog import TrialLog, now_iso
 if TYPE_CHECKING:
     from surfhap.models.panel import DisplayModel
 
-__all__ = ["SessionRunner", "check_answer", "check_info", "local_today", "SAFETY_V_MAX", "MAX_GAIN"]
+__all__ = ["SessionRunner", "check_answer", "check_info", "local_today", "SAFETY_V_MAX", "MAX_GAIN", "TEXT_MAX"]
 
 SAFETY_V_MAX = 250.0  # V, Otake et al. 2022 Sec. IV-D
+TEXT_MAX = 500  # characters of a free-text answer (the page's request allows no more)
 MAX_GAIN = 4.0  # largest per-participant multiplier of alpha (design choice: beyond it the safety clamp dominates)
 
 
@@ -49,7 +50,12 @@ def local_today() -> date:
 def check_answer(trial: Trial, answer: str) -> tuple[str, float | None]:
     """Normalise and validate ``answer``; returns (answer, score) where score is 1/0 for a
     choice with a correct answer, the fraction of correct positions for toggles, None when the
-    trial has no correct answer. Raises ConfigError for an answer the trial does not offer."""
+    trial has no correct answer. Raises ConfigError for an answer the trial does not offer.
+    A free-text answer is kept verbatim: 1 to TEXT_MAX characters, not only white space."""
+    if trial.response == "text":
+        if not answer.strip() or len(answer) > TEXT_MAX:
+            raise ConfigError(f"a text answer needs 1-{TEXT_MAX} characters", field="answer")
+        return answer, None
     ids = [c.id for c in trial.choices]
     if trial.response == "choice":
         if answer not in ids:

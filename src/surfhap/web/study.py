@@ -106,7 +106,8 @@ def study_router(page: StudyPage, cfg: ServerConfig):
             return {**participant_state(runner.state()), "accepted": False}
         try:
             key = choice_key([c["id"] for c in t["choices"]])
-            st = runner.answer(tid, real_answer(key, ans, t["response"] == "toggles"), rt_s)
+            real = ans if t["response"] == "text" else real_answer(key, ans, t["response"] == "toggles")
+            st = runner.answer(tid, real, rt_s)
         except InputError as exc:  # the runner's message may name choice ids: the page gets the field
             log.warning("study page: answer %r to %s refused: %s", ans, tid, exc)
             return JSONResponse({"error": f"invalid answer ({exc.field})"}, status_code=400)

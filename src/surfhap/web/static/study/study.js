@@ -73,7 +73,11 @@
     $("stimuli-caption").hidden = stim.hidden;
     const ch = $("choices"); ch.replaceChildren();
     const tg = $("toggles"); tg.replaceChildren();
-    if (t.response === "toggles") {
+    const text = $("text"); text.value = ""; text.hidden = t.response !== "text";
+    if (t.response === "text") {  // a free-text answer, sent verbatim
+      ch.hidden = true; tg.hidden = true; $("submit").hidden = false;
+      $("submit").onclick = () => answer(t.id, text.value);
+    } else if (t.response === "toggles") {
       ch.hidden = true; tg.hidden = false; $("submit").hidden = false;
       const values = t.choices.map((c) => c.id);
       t.toggles.forEach((pos) => {
@@ -123,8 +127,9 @@
   function gate() {
     const open = [...need].every((i) => S.played.includes(i));
     S.answerable = open;
-    for (const b of document.querySelectorAll("#choices button, #toggles button")) b.disabled = !open;
-    $("submit").disabled = !open || (T && T.response === "toggles" && Object.keys(toggleValues).length !== T.toggles.length);
+    for (const b of document.querySelectorAll("#choices button, #toggles button, #text")) b.disabled = !open;
+    $("submit").disabled = !open || (T && T.response === "toggles" && Object.keys(toggleValues).length !== T.toggles.length)
+      || (T && T.response === "text" && !$("text").value.trim());
   }
   function played(i) {
     if (!S.played.includes(i)) S.played.push(i);
@@ -191,6 +196,7 @@
     catch (e) { error(e.message); }
   });
 
+  $("text").addEventListener("input", gate);
   $("continue").onclick = async () => { render(await state("POST", "/api/resume")); };
 
   // touch pad -> live engine (ignored by the server when no live output is configured)
