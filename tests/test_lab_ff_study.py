@@ -10,6 +10,7 @@ it still."""
 from __future__ import annotations
 
 import json
+from datetime import date
 
 import numpy as np
 
@@ -53,15 +54,19 @@ def test_004_protocol_options_of_the_built_in_design():
 
 def test_004_study_runs_end_to_end_on_the_simulated_ff_device(tmp_path):
     folder = _study(tmp_path)
-    runner = SessionRunner(folder, "P01", mode="simulated")
-    assert runner.limit_s == LIMIT_S
-    ff = FFStimulusPlayer(FFStudySession(simulated=True), limit_s=runner.limit_s)
+    ff = FFStimulusPlayer(FFStudySession(simulated=True), limit_s=LIMIT_S)
     ff.session.start()
     try:
-        _simulate(runner, 3, 0.8, 0.0, StopSignals(), ff)
+        for day in (1, 2):  # 004's two sessions, on two days
+            runner = SessionRunner(folder, "P01", mode="simulated", today=date(2026, 11, day))
+            assert runner.limit_s == LIMIT_S and runner.study_session == day
+            try:
+                _simulate(runner, 3, 0.8, 0.0, StopSignals(), ff)
+            finally:
+                runner.close()
     finally:
         ff.session.stop()
-        runner.close()
+    assert not runner.later
     plan = runner.plan.trials
     log = read_log(folder / "logs" / "P01.jsonl")
     assert [t["trial_id"] for t in log.trials] == [t.id for t in plan]

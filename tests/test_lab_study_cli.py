@@ -15,8 +15,10 @@ TEMPLATES = ["otake2021-3afc", "otake2022-realism", "otake2022-identification", 
 def test_new_run_analyze_every_template(tmp_path, name, capsys):
     study = tmp_path / "s"
     assert main(["study", "new", name, "--out", str(study), "--participants", "3", "--seed", "4"]) == 0
-    for p in ("P01", "P02", "P03"):
-        assert main(["study", "run", str(study), "-p", p, "--simulate", "7", "--p-correct", "0.9"]) == 0
+    for p in ("P01", "P02", "P03"):  # 004's two sessions (another day each): both today, by override
+        for _ in range(2 if name == "kinestouch-sliding" else 1):
+            assert main(["study", "run", str(study), "-p", p, "--simulate", "7", "--p-correct", "0.9",
+                         "--allow-same-day"]) == 0
     assert main(["study", "analyze", str(study), "--report", str(tmp_path / "rep")]) == 0
     html = (tmp_path / "rep" / "index.html").read_text()
     assert "<table" in html or "<img" in html

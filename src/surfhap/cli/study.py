@@ -92,13 +92,19 @@ def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSigna
         if st["status"] == "rest":
             runner.resume()
             continue
+        if st["status"] == "info":  # the form: the first offered answer, the lower bound, "simulated"
+            runner.info({f["id"]: f["choices"][0] if f["kind"] == "choice" else
+                         ("simulated" if f["kind"] == "text" else f["min"] or 0.0) for f in st["info"]})
+            continue
         t = runner.current()
         for i, stim in enumerate(t.stimuli if ff is not None else ()):  # each stimulus stroked on the device
             runner.stimulus(t.id, i)
             ff.select(stim.render)
             ff.explore(4.0 if ff.limit_s is None else ff.limit_s + 0.5, stim.label)
         ids = [c.id for c in t.choices]
-        if t.response == "toggles":
+        if t.response == "text":
+            ans = f"simulated description {rng.integers(1000)}"
+        elif t.response == "toggles":
             want = dict(x.split("=") for x in t.correct.split(",")) if t.correct else {}
             ans = ",".join(f"{q}={want[q] if want and rng.random() < p_correct else ids[rng.integers(len(ids))]}"
                            for q in t.toggles)
@@ -139,6 +145,9 @@ def run(
     ff_device: Optional[str] = typer.Option(None, "--ff-device", help="Play force-feedback stimuli ({\"effect\": "
                                             "...}, 004) on this device: sim (the simulated one; with --simulate the "
                                             "simulated participant strokes each stimulus on it)."),
+    allow_same_day: bool = typer.Option(False, "--allow-same-day", help="Start the participant's next session "
+                                        "on the day the previous one ran (refused by default: sessions on "
+                                        "different days)."),
     display: DisplayOption = None,
     config: ConfigOption = None,
 ) -> None:
@@ -170,6 +179,7 @@ def run(
                          "limit")
     runner = SessionRunner(study, participant, gain=gain, comfort_voltage=comfort_voltage,
                            mode="simulated" if simulate is not None else "page", display=disp,
+                           allow_same_day=allow_same_day,
                            extra_config={"comfort_voltage_from": "study comfort" if measured is not None else
                                          ("--comfort-voltage" if comfort_voltage is not None else None)})
     try:
@@ -192,6 +202,9 @@ def run(
             else:
                 _run_page(runner, host, port, output, amp_gain, guard, lsl, ff_device)
         stderr.print(f"{runner.plan.id}: {runner.n_done}/{runner.total} trials logged in {runner.log.path}")
+        if runner.finished and runner.later:
+            stdout.print(f"{runner.plan.id}: session {runner.study_session} done; session {runner.study_session + 1} "
+                         "on another day ('study run' again)")
     finally:
         runner.close()
     guard.finish("paused; every answered trial is in the log (run again to resume)")

@@ -256,6 +256,7 @@ def _ratings(study, recs):
 
 
 def _shape_choice(study, recs):
+    recs = [r for r in recs if r["task"] == "shape"]  # not the free-text descriptions (Part 1)
     labels = ["bump", "hole", "flat", "none"]
     conf = A.confusion([r["correct"] for r in recs], [r["answer"] for r in recs], labels, title="shape")
     sec = Section("Closed choice: bump / hole / flat")

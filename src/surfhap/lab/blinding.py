@@ -17,7 +17,8 @@ from surfhap.errors import ConfigError
 __all__ = ["STATE_FIELDS", "TRIAL_FIELDS", "choice_key", "participant_state", "real_answer"]
 
 #: fields of a runner's state the page receives (not: block_label, next_block, participant)
-STATE_FIELDS = ("status", "done", "total", "block_number", "blocks", "accepted")
+STATE_FIELDS = ("status", "done", "total", "block_number", "blocks", "accepted", "next_session",
+                "info")  # info: the participant-information form (labels and answers offered, no condition)
 #: fields of the current trial the page receives (choices and real samples made opaque)
 TRIAL_FIELDS = ("id", "prompt", "response", "stimuli", "toggles", "image", "touch", "limit_s", "blank")
 

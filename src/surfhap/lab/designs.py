@@ -106,6 +106,7 @@ class RatingsParams(_P):
 
 class ShapeChoiceParams(_P):
     repetitions: int = Field(1, ge=1, le=20)
+    descriptions: bool = False  # 002 Sec. 4 Part 1: first a free-text description of each stimulus
     grains: dict[str, str] = Field(default_factory=lambda: {"HG1": "edge-soft", "HG2": "area-grainy"})  # 002 Sec. 3.1.2
 
 
@@ -255,12 +256,20 @@ def _shape_choice(design: DesignSpec, p: ShapeChoiceParams, i: int, pid: str) ->
     conds += [("flat", "", g) for g in p.grains]
     items = [c for c in conds for _ in range(p.repetitions)]
     trials: list[Trial] = []
+    if p.descriptions:  # Part 1 before Part 2 (after a short break: the rest screen); own stream
+        for k in np.random.default_rng([design.seed, i, 2]).permutation(len(conds)):
+            shape, prof, grain = conds[int(k)]
+            _trial(pid, trials, block=0, block_label="open description", task="description", response="text",
+                   prompt="Describe what you felt, in your own words.",
+                   stimuli=[Stimulus(label="touch", render={"profile1d": shape, "mapping": prof or "IP0.5",
+                                                            "grain": p.grains[grain]})],
+                   condition={"shape": shape, "profile": prof or "-", "grain": grain})
     for k in rng.permutation(len(items)):
         shape, prof, grain = items[k]
         # the formative 1-D profiles (Sec. 3.1); the flat surface has no intensity profile in
         # Table 1: it is played with IP0.5's offset (zero force -> intensity 0.5)
         render = {"profile1d": shape, "mapping": prof or "IP0.5", "grain": p.grains[grain]}
-        _trial(pid, trials, block=0, block_label="closed choice", task="shape",
+        _trial(pid, trials, block=int(p.descriptions), block_label="closed choice", task="shape",
                prompt="Which shape did you feel?", stimuli=[Stimulus(label="touch", render=render)],
                choices=[Choice(id=x, label=lab) for x, lab in (("bump", "bump"), ("hole", "hole"),
                                                                 ("flat", "flat surface"), ("none", "none of these"))],
@@ -306,6 +315,7 @@ def _sliding(design: DesignSpec, p: SlidingParams, i: int, pid: str) -> tuple[st
         for k in [-1 - j for j in range(len(practice) if first_of_session else 0)] + list(rng.permutation(len(items))):
             a, c = practice[k] if k < 0 else items[k]
             _trial(pid, trials, block=b, block_label=block, task="sliding", practice=k < 0,
+                   session=b // p.blocks_per_session + 1,
                    prompt="On which one did you feel more sliding?" + (" (practice)" if k < 0 else ""),
                    stimuli=[Stimulus(label="1st", render={"effect": a}), Stimulus(label="2nd", render={"effect": c})],
                    choices=[Choice(id=a, label="1st"), Choice(id=c, label="2nd")],

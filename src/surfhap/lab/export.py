@@ -120,8 +120,10 @@ def _sidecar(table: pd.DataFrame, task: str, name: str) -> dict:
     return side
 
 
-def write_bids(table: pd.DataFrame, out: Path, name: str, groups: dict[str, str]) -> list[Path]:
-    """Write ``table`` as a BIDS ``beh`` dataset into ``out``; returns the files written."""
+def write_bids(table: pd.DataFrame, out: Path, name: str, groups: dict[str, str],
+               info: dict[str, dict] | None = None) -> list[Path]:
+    """Write ``table`` as a BIDS ``beh`` dataset into ``out``; returns the files written.
+    ``info``: participant -> the participant-information answers (columns of participants.tsv)."""
     from surfhap import __version__
 
     out.mkdir(parents=True, exist_ok=True)
@@ -132,9 +134,10 @@ def write_bids(table: pd.DataFrame, out: Path, name: str, groups: dict[str, str]
     written = [out / "dataset_description.json", out / "participants.tsv"]
     written[0].write_text(json.dumps({"Name": name, "BIDSVersion": BIDS_VERSION, "DatasetType": "raw",
                                       "GeneratedBy": [{"Name": "surfhap", "Version": __version__}]}, indent=1))
-    pd.DataFrame({"participant_id": [f"sub-{s}" for s in subs.values()],
-                  "group": [groups.get(p) or None for p in subs]}).to_csv(written[1], sep="\t", na_rep="n/a",
-                                                                          index=False)
+    people = pd.DataFrame({"participant_id": [f"sub-{s}" for s in subs.values()],
+                           "group": [groups.get(p) or None for p in subs]})
+    answers = pd.DataFrame([(info or {}).get(p, {}) for p in subs]).replace(r"[\t\r\n]", " ", regex=True)
+    pd.concat([people, answers], axis=1).to_csv(written[1], sep="\t", na_rep="n/a", index=False)
     with_ses = bool((table.groupby("participant")["session"].nunique() > 1).any())
     tasks = table["task"].fillna("study")
     clean = table.replace(r"[\t\r\n]", " ", regex=True)  # a BIDS TSV value holds no tab or line break
@@ -167,4 +170,6 @@ def export_logs(source: str | Path, fmt: str, out: str | Path) -> list[Path]:
     configs = [s.get("config") or {} for log in logs for s in log.sessions]
     name = next((str(c["design"]) for c in configs if c.get("design")), "surfhap study")
     groups = {str(c.get("participant")): str(c.get("group") or "") for c in configs}
-    return write_bids(table, out, name, groups)
+    info = {str(log.sessions[0]["config"].get("participant")): e["answers"] for log in logs for e in log.events
+            if e["event"] == "participant-info" and log.sessions}
+    return write_bids(table, out, name, groups, info)

@@ -15,12 +15,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from surfhap.errors import StudyFormatError
 from surfhap.exchange.files import read_model
 
-__all__ = ["DESIGN_FORMAT", "STUDY_FORMAT", "KINDS", "Choice", "Stimulus", "Trial", "ParticipantPlan", "DesignSpec",
+__all__ = ["DESIGN_FORMAT", "STUDY_FORMAT", "KINDS", "Choice", "Stimulus", "Trial", "ParticipantPlan", "InfoField",
+           "DesignSpec",
            "Session", "Study", "load_design", "load_study"]
 
 DESIGN_FORMAT = "surfhap-study-design"
@@ -54,8 +55,11 @@ class Trial(_Strict):
     """One trial: the stimuli, the question and its possible answers.
 
     response "choice": one of ``choices``; "toggles": each of ``toggles`` (e.g. scene
-    positions) is set to one of ``choices`` and the answer is ``"TL=bump,TR=hole,..."``.
+    positions) is set to one of ``choices`` and the answer is ``"TL=bump,TR=hole,..."``;
+    "text": a free-text answer (no choices), logged verbatim (002 Part 1: open descriptions).
     ``correct`` is the right answer when there is one (None for preferences and ratings).
+    ``session``: the study session (a separate day, from 1) the trial belongs to; a run stops
+    at the end of a session's trials (e.g. 004: two blocks per session).
     """
 
     id: str
@@ -65,12 +69,19 @@ class Trial(_Strict):
     task: str
     prompt: str
     stimuli: list[Stimulus]
-    response: Literal["choice", "toggles"] = "choice"
-    choices: list[Choice] = Field(min_length=2)
+    response: Literal["choice", "toggles", "text"] = "choice"
+    choices: list[Choice] = []
     toggles: list[str] = []
     correct: str | None = None
     condition: dict[str, str | int | float] = {}
     practice: bool = False  # a practice trial: logged with "practice": true, left out of the analysis
+    session: int = Field(1, ge=1)
+
+    @model_validator(mode="after")
+    def _choices(self) -> "Trial":
+        if (self.response == "text") == (len(self.choices) >= 2):
+            raise ValueError("choices: two or more for a choice or toggles answer, none for text")
+        return self
 
 
 class ParticipantPlan(_Strict):
@@ -95,6 +106,25 @@ class Session(_Strict):
     blank_until_release: bool = False
 
 
+class InfoField(_Strict):
+    """One question of the participant-information form, shown before the first trial:
+    ``kind`` "number" (within ``min``..``max``), "choice" (one of ``choices``) or "text"
+    (at most 200 characters). The answers are logged once (event ``participant-info``)."""
+
+    id: str = Field(min_length=1, max_length=32, pattern=r"^[a-z][a-z0-9_]*$")
+    label: str = Field(min_length=1, max_length=200)
+    kind: Literal["number", "choice", "text"]
+    choices: list[str] = []
+    min: float | None = None
+    max: float | None = None
+
+    @model_validator(mode="after")
+    def _choices(self) -> "InfoField":
+        if (self.kind == "choice") != (len(self.choices) >= 2):
+            raise ValueError("choices: a choice field needs two or more, other kinds none")
+        return self
+
+
 class DesignSpec(_Strict):
     format: Literal["surfhap-study-design"] = DESIGN_FORMAT
     version: Literal[1] = 1
@@ -105,6 +135,7 @@ class DesignSpec(_Strict):
     participants: int = Field(ge=1, le=1000)
     params: dict[str, Any] = {}
     session: Session = Session()
+    participant_info: list[InfoField] = []  # e.g. age, handedness, gender
     note: str = ""
 
 

@@ -9,6 +9,11 @@ Gain: ``gain`` multiplies the drive laws' alpha for this participant (Otake et a
 it per participant near preset values) and ``v_max`` is the session's safety limit, the
 smaller of the design's (<= 250 V) and the participant's comfort voltage (e.g. a staircase
 threshold, Zhao et al.). Whatever the gain, the safety stage clamps every sample to v_max.
+
+Sessions on different days: a run covers the trials of one study session (``Trial.session``)
+and is then ``finished``; the next study session is refused on a calendar day on which the
+previous one ran, unless ``allow_same_day`` (``study run --allow-same-day``). Each session
+record of the log holds its ``date`` and ``study_session``.
 """
 
 from __future__ import annotations
@@ -17,28 +22,40 @@ import hashlib
 import platform
 import threading
 import time
+from datetime import date
 from pathlib import Path
 
 from typing import TYPE_CHECKING
 
 from surfhap.errors import ConfigError, StudyFormatError
 from surfhap.lab.blinding import choice_key
-from surfhap.lab.schema import Study, Trial, load_study
+from surfhap.lab.schema import InfoField, Study, Trial, load_study
 from surfhap.lab.triallog import TrialLog, now_iso
 
 if TYPE_CHECKING:
     from surfhap.models.panel import DisplayModel
 
-__all__ = ["SessionRunner", "check_answer", "SAFETY_V_MAX", "MAX_GAIN"]
+__all__ = ["SessionRunner", "check_answer", "check_info", "local_today", "SAFETY_V_MAX", "MAX_GAIN", "TEXT_MAX"]
 
 SAFETY_V_MAX = 250.0  # V, Otake et al. 2022 Sec. IV-D
+TEXT_MAX = 500  # characters of a free-text answer (the page's request allows no more)
 MAX_GAIN = 4.0  # largest per-participant multiplier of alpha (design choice: beyond it the safety clamp dominates)
+
+
+def local_today() -> date:
+    """The calendar day of the lab (local time): sessions on different days are compared by it."""
+    return date.today()
 
 
 def check_answer(trial: Trial, answer: str) -> tuple[str, float | None]:
     """Normalise and validate ``answer``; returns (answer, score) where score is 1/0 for a
     choice with a correct answer, the fraction of correct positions for toggles, None when the
-    trial has no correct answer. Raises ConfigError for an answer the trial does not offer."""
+    trial has no correct answer. Raises ConfigError for an answer the trial does not offer.
+    A free-text answer is kept verbatim: 1 to TEXT_MAX characters, not only white space."""
+    if trial.response == "text":
+        if not answer.strip() or len(answer) > TEXT_MAX:
+            raise ConfigError(f"a text answer needs 1-{TEXT_MAX} characters", field="answer")
+        return answer, None
     ids = [c.id for c in trial.choices]
     if trial.response == "choice":
         if answer not in ids:
@@ -62,12 +79,37 @@ def check_answer(trial: Trial, answer: str) -> tuple[str, float | None]:
     return norm, sum(parts[k] == want[k] for k in trial.toggles) / len(trial.toggles)
 
 
+def check_info(fields: list[InfoField], answers: dict[str, str | float]) -> dict[str, str | float]:
+    """The participant-information ``answers`` checked against the design's ``fields`` (every
+    field answered, nothing else); ConfigError naming the field."""
+    extra = sorted(set(answers) - {f.id for f in fields})
+    if extra:
+        raise ConfigError(f"{extra[0]!r} is not a field of the form", field="participant_info")
+    out: dict[str, str | float] = {}
+    for f in fields:
+        v, where = answers.get(f.id), f"participant_info.{f.id}"
+        if f.kind == "number":
+            try:
+                x = float(v)  # the page's number input may send text
+            except (TypeError, ValueError):
+                raise ConfigError(f"{v!r} is not a number", field=where) from None
+            if not (x == x and (f.min is None or x >= f.min) and (f.max is None or x <= f.max)):
+                raise ConfigError(f"{x:g} is outside {f.min}..{f.max}", field=where)
+            out[f.id] = x
+        elif not isinstance(v, str) or not v.strip() or len(v) > 200 or (f.kind == "choice" and v not in f.choices):
+            raise ConfigError("missing or not one of the offered answers" if f.kind == "choice"
+                              else "must be text of 1-200 characters", field=where)
+        else:
+            out[f.id] = v.strip()
+    return out
+
+
 class SessionRunner:
     """One participant's session over ``study_dir`` (holding ``study.json``)."""
 
     def __init__(self, study_dir: str | Path, participant: str, *, gain: float | None = None,
                  comfort_voltage: float | None = None, mode: str = "page", extra_config: dict | None = None,
-                 display: DisplayModel | None = None):
+                 display: DisplayModel | None = None, today: date | None = None, allow_same_day: bool = False):
         self.dir = Path(study_dir)
         self.study: Study = load_study(self.dir)
         self.plan = self.study.participant(participant)
@@ -104,7 +146,23 @@ class SessionRunner:
             self.log.close()
             raise StudyFormatError(f"log holds trials that are not in the study ({sorted(unknown)[:3]})",
                                    source=str(self.log.path), field="trial_id")
-        self._pending = [t for t in self.plan.trials if t.id not in done]
+        todo = [t for t in self.plan.trials if t.id not in done]
+        self.study_session = todo[0].session if todo else max(t.session for t in self.plan.trials)
+        self._pending = [t for t in todo if t.session == self.study_session]
+        self.later = len(todo) - len(self._pending)  # trials of the sessions still to come (other days)
+        day = (today or local_today()).isoformat()
+        prev_days = sorted({s["config"].get("date") for s in self.log.contents.sessions
+                            if s["config"].get("study_session") == self.study_session - 1} - {None})
+        if self._pending and day in prev_days and not allow_same_day:
+            self.log.close()
+            raise ConfigError(f"session {self.study_session} of {self.plan.id} on the day of session "
+                              f"{self.study_session - 1} ({day}): come back another day (or --allow-same-day)",
+                              source="--participant", field="session")
+        config.update(date=day, study_session=self.study_session)  # the session record, written with its first line
+        # the participant-information form: answered once, before the first trial
+        self._info = self.study.design.participant_info
+        self._info_needed = bool(self._info) and not any(e["event"] == "participant-info"
+                                                         for e in self.log.contents.events)
         self._resting = False
         self.last_record: dict | None = None
         if done and self._pending:
@@ -118,10 +176,11 @@ class SessionRunner:
 
     @property
     def n_done(self) -> int:
-        return self.total - len(self._pending)
+        return self.total - len(self._pending) - self.later
 
     @property
     def finished(self) -> bool:
+        """Nothing more to run now: the study, or this session of it (``later`` > 0), is done."""
         return not self._pending
 
     def current(self) -> Trial | None:
@@ -132,8 +191,10 @@ class SessionRunner:
         with self._lock:
             base = {"done": self.n_done, "total": self.total, "participant": self.plan.id}
             t = self.current()
-            if t is None:
-                return {**base, "status": "done"}
+            if t is None:  # next_session: come back another day
+                return {**base, "status": "done", **({"next_session": self.study_session + 1} if self.later else {})}
+            if self._info_needed:
+                return {**base, "status": "info", "info": [f.model_dump() for f in self._info]}
             # block_label (the condition) is for the experimenter; the page shows only numbers (blinding)
             blocks = sorted({x.block for x in self.plan.trials})
             base["block_number"] = blocks.index(t.block) + 1
@@ -161,12 +222,22 @@ class SessionRunner:
                 t = self.current()
                 self.log.event("rest-end", next_block=t.block_label if t else None)
 
+    def info(self, answers: dict[str, str | float]) -> dict:
+        """Record the participant-information form (:func:`check_info`) once; returns the new
+        state plus ``"accepted"`` (False: already recorded, nothing written)."""
+        with self._lock:
+            accepted = self._info_needed
+            if accepted:
+                self.log.event("participant-info", answers=check_info(self._info, answers))
+                self._info_needed = False
+        return {**self.state(), "accepted": accepted}
+
     def stimulus(self, trial_id: str, index: int):
         """The participant selected stimulus ``index`` of the current trial; returns its
         Stimulus (to render), or None if ``trial_id`` is not the current trial."""
         with self._lock:
             t = self.current()
-            if t is None or t.id != trial_id or self._resting or not 0 <= index < len(t.stimuli):
+            if t is None or t.id != trial_id or self._resting or self._info_needed or not 0 <= index < len(t.stimuli):
                 return None
             self._stimulus_log.setdefault(trial_id, []).append(
                 [index, round(time.monotonic() - self._shown_at.get(trial_id, time.monotonic()), 4)])
@@ -178,7 +249,7 @@ class SessionRunner:
         click or a page left open from before a restart."""
         with self._lock:
             t = self.current()
-            if t is None or t.id != trial_id or self._resting:
+            if t is None or t.id != trial_id or self._resting or self._info_needed:
                 accepted = False
             else:
                 norm, score = check_answer(t, answer)
@@ -198,7 +269,8 @@ class SessionRunner:
                 self._pending.pop(0)
                 nxt = self.current()
                 if nxt is None:
-                    self.log.event("end", completed=self.n_done)
+                    self.log.event("end" if not self.later else "session-end", completed=self.n_done,
+                                   study_session=self.study_session)
                 elif nxt.block != t.block and self.study.design.session.rest_between_blocks:
                     self._resting = True
                     self.log.event("rest", after_block=t.block_label, next_block=nxt.block_label)

@@ -11,7 +11,7 @@ Page -> server (JSON text, one per pointer event), one pydantic discriminated un
 Numbers must be JSON numbers within their ranges; NaN, ±inf and numbers too large for a float
 (``1e400``, ``10**400``) are invalid like any out-of-range value (the rule of
 :func:`surfhap.live.sources.finite_in_range`); unknown keys are ignored. The study page's POST
-bodies are :class:`StimulusRequest` and :class:`AnswerRequest`.
+bodies are :class:`StimulusRequest`, :class:`AnswerRequest` and :class:`InfoRequest`.
 
 Server -> page at ``trace_hz`` (:func:`trace_message`): ``{"type": "trace", "ack": seq,
 "ack_t": ms, "received": n, "rejected": n, "t": [...], "v": [...], "f": [...], "target": [...],
@@ -29,7 +29,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 
 __all__ = ["Hello", "Move", "Up", "ClientMessage", "parse_message", "reason", "number", "page_to_surface",
-           "trace_message", "encode", "json_default", "CSS_PX_M", "StimulusRequest", "AnswerRequest"]
+           "trace_message", "encode", "json_default", "CSS_PX_M", "StimulusRequest", "AnswerRequest",
+           "InfoRequest"]
 
 CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres (CSS reference pixel: 1/96 inch)
 
@@ -113,6 +114,14 @@ class AnswerRequest(_Message):
     trial_id: TrialId
     answer: Annotated[str, Field(max_length=500, strict=True)]
     rt_ms: Optional[number(0.0, 86_400_000.0)] = None
+
+
+class InfoRequest(_Message):
+    """Study page ``POST /api/info``: the participant-information form, field id -> answer."""
+
+    answers: Annotated[dict[Annotated[str, Field(max_length=32)],
+                            Union[Annotated[str, Field(max_length=200, strict=True)], number(-1e9, 1e9)]],
+                       Field(max_length=50)]
 
 
 def page_to_surface(msg: Move, width_px: float, height_px: float, space, surface: bool) -> tuple[float, float, float]:

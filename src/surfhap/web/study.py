@@ -3,7 +3,8 @@
 The page polls ``GET /api/state``, shows the current trial (prompt, one button per stimulus,
 a touch pad, the answers; a rest screen between blocks), asks for a stimulus with ``POST
 /api/stimulus`` and answers with ``POST /api/answer`` (response time measured in the page),
-logged by the :class:`~surfhap.lab.session.SessionRunner` before the reply. With a
+logged by the :class:`~surfhap.lab.session.SessionRunner` before the reply. A design's
+participant-information form is shown first (status "info") and sent with ``POST /api/info``. With a
 :class:`~surfhap.lab.stimuli.StimulusPlayer`, the pad's pointer events (``/ws``, the touch
 page's messages and checks) drive the live engine and a stimulus swaps its renderer.
 Request bodies are pydantic models (:mod:`surfhap.web.messages`); the app's request guard
@@ -23,7 +24,7 @@ from surfhap.lab.markers import NullMarkers
 from surfhap.lab.stimuli import FFStimulusPlayer, StimulusPlayer, scene_picture
 from surfhap.live.config import ServerConfig
 from surfhap.live.sources import RateLimiter, RejectLog
-from surfhap.web.messages import AnswerRequest, StimulusRequest
+from surfhap.web.messages import AnswerRequest, InfoRequest, StimulusRequest
 from surfhap.web.touch import Client, pointer_messages
 
 __all__ = ["StudyPage", "study_router"]
@@ -105,7 +106,8 @@ def study_router(page: StudyPage, cfg: ServerConfig):
             return {**participant_state(runner.state()), "accepted": False}
         try:
             key = choice_key([c["id"] for c in t["choices"]])
-            st = runner.answer(tid, real_answer(key, ans, t["response"] == "toggles"), rt_s)
+            real = ans if t["response"] == "text" else real_answer(key, ans, t["response"] == "toggles")
+            st = runner.answer(tid, real, rt_s)
         except InputError as exc:  # the runner's message may name choice ids: the page gets the field
             log.warning("study page: answer %r to %s refused: %s", ans, tid, exc)
             return JSONResponse({"error": f"invalid answer ({exc.field})"}, status_code=400)
@@ -118,6 +120,16 @@ def study_router(page: StudyPage, cfg: ServerConfig):
             markers.push("answer", trial=tid, answer=ans, rt_s=rt_s)
             if st["status"] in ("rest", "done"):
                 markers.push("rest" if st["status"] == "rest" else "end")
+        return participant_state(st)
+
+    @router.post("/api/info")
+    def info(req: InfoRequest):
+        if runner.state()["status"] != "info":  # answered already (or a runner without a form)
+            return {**participant_state(runner.state()), "accepted": False}
+        try:
+            st = runner.info(req.answers)
+        except InputError as exc:  # names the form's field only (no condition in the form)
+            return JSONResponse({"error": f"{exc.field}: {exc.message}"}, status_code=400)
         return participant_state(st)
 
     @router.post("/api/resume")

@@ -10,7 +10,7 @@
   let T = null, need = new Set(), clock = null;
 
   function show(id) {
-    for (const s of ["loading", "trial", "rest", "done"]) $(s).hidden = s !== id;
+    for (const s of ["loading", "info", "trial", "rest", "done"]) $(s).hidden = s !== id;
     S.status = id;
   }
   function error(msg) { $("error").textContent = msg; $("error").hidden = !msg; }
@@ -41,7 +41,15 @@
     $("progress").textContent = st.total ? `${st.done} / ${st.total}` : "";
     // never the block's label: it names the condition, which the participant must not know
     $("block").textContent = st.blocks > 1 && st.block_number ? `block ${st.block_number} of ${st.blocks}` : "";
-    if (st.status === "done") { show("done"); S.trialId = null; return; }
+    if (st.status === "done") {  // next_session: this session is over, the study is not
+      $("done-text").textContent = st.next_session ? "Thank you! This session is done; please come back another day."
+        : "Thank you! The session is complete.";
+      show("done"); S.trialId = null; return;
+    }
+    if (st.status === "info") {  // the participant-information form, before the first trial
+      if (S.status !== "info") form(st.info);
+      show("info"); S.trialId = null; return;
+    }
     if (st.status === "rest") {
       $("next-block").textContent = st.block_number ? `Next: block ${st.block_number} of ${st.blocks}` : "";
       show("rest"); S.trialId = null; return;
@@ -65,7 +73,11 @@
     $("stimuli-caption").hidden = stim.hidden;
     const ch = $("choices"); ch.replaceChildren();
     const tg = $("toggles"); tg.replaceChildren();
-    if (t.response === "toggles") {
+    const text = $("text"); text.value = ""; text.hidden = t.response !== "text";
+    if (t.response === "text") {  // a free-text answer, sent verbatim
+      ch.hidden = true; tg.hidden = true; $("submit").hidden = false;
+      $("submit").onclick = () => answer(t.id, text.value);
+    } else if (t.response === "toggles") {
       ch.hidden = true; tg.hidden = false; $("submit").hidden = false;
       const values = t.choices.map((c) => c.id);
       t.toggles.forEach((pos) => {
@@ -115,8 +127,9 @@
   function gate() {
     const open = [...need].every((i) => S.played.includes(i));
     S.answerable = open;
-    for (const b of document.querySelectorAll("#choices button, #toggles button")) b.disabled = !open;
-    $("submit").disabled = !open || (T && T.response === "toggles" && Object.keys(toggleValues).length !== T.toggles.length);
+    for (const b of document.querySelectorAll("#choices button, #toggles button, #text")) b.disabled = !open;
+    $("submit").disabled = !open || (T && T.response === "toggles" && Object.keys(toggleValues).length !== T.toggles.length)
+      || (T && T.response === "text" && !$("text").value.trim());
   }
   function played(i) {
     if (!S.played.includes(i)) S.played.push(i);
@@ -157,6 +170,33 @@
     }
   }
 
+  function form(fields) {
+    const box = $("info-fields"); box.replaceChildren();
+    for (const f of fields) {
+      const label = document.createElement("label"); label.textContent = f.label;
+      let input;
+      if (f.kind === "choice") {
+        input = document.createElement("select"); input.add(new Option("", ""));
+        for (const c of f.choices) input.add(new Option(c, c));
+      } else {
+        input = document.createElement("input"); input.type = f.kind === "number" ? "number" : "text";
+        if (f.kind === "number") { input.step = "any"; if (f.min !== null) input.min = f.min; if (f.max !== null) input.max = f.max; }
+        else input.maxLength = 200;
+      }
+      input.name = f.id; input.dataset.kind = f.kind; input.required = true;
+      label.append(input); box.append(label);
+    }
+  }
+  $("info").addEventListener("submit", async (ev) => {
+    ev.preventDefault();
+    const answers = {};
+    for (const el of $("info-fields").querySelectorAll("[name]"))
+      answers[el.name] = el.dataset.kind === "number" ? Number(el.value) : el.value;
+    try { const st = await state("POST", "/api/info", { answers }); error(""); render(st); }
+    catch (e) { error(e.message); }
+  });
+
+  $("text").addEventListener("input", gate);
   $("continue").onclick = async () => { render(await state("POST", "/api/resume")); };
 
   // touch pad -> live engine (ignored by the server when no live output is configured)
