@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import sys
 import tomllib
+from functools import cache
 from importlib.metadata import packages_distributions
 from pathlib import Path
 
@@ -34,7 +35,14 @@ def _declared() -> tuple[set[str], dict[str, set[str]]]:
 def _distributions(import_name: str) -> set[str]:
     """Distribution names that provide a top-level import (the import name itself when the
     distribution is not installed here, e.g. an extra that `make test` does not install)."""
-    return {_norm(d) for d in packages_distributions().get(import_name, [import_name])}
+    return {_norm(d) for d in _installed().get(import_name, [import_name])}
+
+
+@cache
+def _installed() -> dict[str, list[str]]:
+    """Top-level import -> distributions, read once: every installed file is walked, which took
+    seconds per import checked."""
+    return packages_distributions()
 
 
 def _third_party_imports(root: Path):
