@@ -29,12 +29,16 @@ from pydantic import Field
 
 from surfhap.checked import checked_dataclass
 
-__all__ = ["DeviceParams", "FALCON", "K_MAX", "TABLET_MASS", "GRAVITY", "FALCON_GAIN"]
+__all__ = ["DeviceParams", "FALCON", "K_MAX", "TABLET_MASS", "GRAVITY", "FALCON_GAIN", "SMOOTHING", "VELOCITY_ALPHA",
+           "TOUCH_LATENCY"]
 
 K_MAX = 1000.0  # N/m: "1 N/mm in our setup" (004 Sec. 3.1)
 TABLET_MASS = 0.389  # kg: Galaxy Tab SM-T810 (004 Sec. 4.1)
 GRAVITY = 9.81  # m/s^2
 FALCON_GAIN = 4.5  # requested / produced force of a Falcon through CHAI3D (004 Sec. 4.3)
+SMOOTHING = 0.15  # position smoothing alpha of eq. 7 (004 Sec. 4.2)
+VELOCITY_ALPHA = 0.45  # velocity smoothing per touch sample (004 Sec. 4.2)
+TOUCH_LATENCY = 0.040  # s, the tablet's touch latency, "a few dozens of ms" (004 Sec. 4.2)
 
 
 _FMax = Annotated[float, Field(ge=0.01, le=100.0, allow_inf_nan=False)]  # N per axis

@@ -199,7 +199,6 @@ class StimulusPlayer(_TimedPlayer):
 #: the force-feedback stimuli of 004 Sec. 5.2: built-in ff scene of each (None: STATIC, the
 #: tablet held at X0 by the centring of eq. 5, no effect)
 FF_EFFECTS = {"follow": "follow", "reverse": "reverse", "static": None}
-FF_TOUCH_LATENCY = 0.040  # s, the tablet's touch latency ("a few dozens of ms", 004 Sec. 4.2; as 'ff run')
 
 
 class FFStudySession:
@@ -212,7 +211,7 @@ class FFStudySession:
 
     def __init__(self, simulated: bool = False):
         from surfhap.ff.engine import FFEngine
-        from surfhap.ff.params import DeviceParams
+        from surfhap.ff.params import SMOOTHING, TOUCH_LATENCY, VELOCITY_ALPHA, DeviceParams
         from surfhap.ff.scene import load_scene
         from surfhap.live.ff_devices import SimDeviceBackend
         from surfhap.live.ff_loop import FFLoop
@@ -225,8 +224,8 @@ class FFStudySession:
         self.effects = {name: [] if sc is None else load_scene(sc, self.device).effects for name, sc in FF_EFFECTS.items()}
         w, h = load_scene("follow", self.device).size
         self.space = TouchSpace(width=w, height=h, max_load=2.0)
-        self.engine = FFEngine([], self.device, TouchPredictor(latency=FF_TOUCH_LATENCY, alpha=0.15,
-                                                               velocity_alpha=0.45), touch_latency=FF_TOUCH_LATENCY)
+        self.engine = FFEngine([], self.device, TouchPredictor(latency=TOUCH_LATENCY, alpha=SMOOTHING,
+                                                               velocity_alpha=VELOCITY_ALPHA), touch_latency=TOUCH_LATENCY)
         self.backend = SimDeviceBackend(SimDevice(gain=self.device.gain), self.device.gain)
         self.simulated = simulated
         self.loop = FFLoop(self.engine, self.backend, clock=SimClock() if simulated else None, realtime=not simulated)
@@ -297,6 +296,7 @@ class FFStimulusPlayer(_TimedPlayer):
         m/s, "mask" (n,)}``, one row per tick."""
         from surfhap.models.trajectory import Trajectory
         from surfhap.runtime.loop import run
+        from surfhap.ff.params import TOUCH_LATENCY
         from surfhap.sim.ff_device import SimFinger
 
         ses = self.session
@@ -306,7 +306,7 @@ class FFStimulusPlayer(_TimedPlayer):
         t = np.arange(0.0, duration, 1.0 / rate)
         sp = ses.space
         finger = SimFinger(Trajectory(t0 + t, sp.width / 2 + 0.03 * np.sin(np.pi * t), np.full(t.size, sp.height / 2),
-                                      np.ones(t.size), name="0.5 Hz strokes"), latency=FF_TOUCH_LATENCY)
+                                      np.ones(t.size), name="0.5 Hz strokes"), latency=TOUCH_LATENCY)
         rec = _Explore(self, finger, int(round((duration + 0.4) * rate)))
         effect = self.current  # muted at the time limit
         run(rec, loop, loop.clock, rec, total_frames=rec.n, lead=0.0)
