@@ -162,7 +162,8 @@ def simulate_cmd(
 
 def run_cmd(
     scene: str = typer.Argument(..., help="Built-in scene name or scene JSON file."),
-    device: str = typer.Option("sim", "--device", help="sim | osc://HOST:PORT (a device bridge receiving /surfhap/ff/force)."),
+    device: str = typer.Option("sim", "--device", help="sim | osc://HOST:PORT (a device bridge receiving /surfhap/ff/force) | haply://HOST:PORT (a Haply Inverse3 through its Inverse Service, e.g. haply://127.0.0.1:10001; --gain defaults to 1, the service takes newtons)."),
+    device_silence_ms: float = typer.Option(20.0, "--device-silence-ms", help="haply device: no state from the service for this long ends the run (exit 3) once the force has ramped to zero (default 20 ms, the rig's fail-safe target)."),
     device_listen: str = typer.Option("127.0.0.1:9101", "--device-listen", help="HOST:PORT where the bridge sends /surfhap/ff/position (osc device)."),
     touch: str = typer.Option("osc://127.0.0.1:9100", "--touch", help="osc://HOST:PORT (listen for /surfhap/touch, screen coordinates) | web (the touch page) | trajectory:FILE.csv (finger in the world, as for simulate)."),
     host: str = typer.Option("127.0.0.1", "--host", help="Address of the touch page (--touch web)."),
@@ -189,7 +190,8 @@ def run_cmd(
     configure_logging(verbose)  # rate-limited: a flood of rejected touches is one line per kind per second
     if duration < 0 or duration > 86400:
         raise ConfigError("must be within 0-86400 s", source="--duration")
-    dev = _device(gain, slew, f_max)
+    haply = device.startswith("haply://")
+    dev = _device(1.0 if gain is None and haply else gain, slew, f_max)
     sc = load_scene(scene, dev)
     if trajectory is not None:
         touch = f"trajectory:{trajectory}"
@@ -199,6 +201,12 @@ def run_cmd(
         from surfhap.sim.ff_device import SimDevice
 
         backend = SimDeviceBackend(SimDevice(gain=dev.gain), dev.gain)
+    elif haply:
+        from surfhap.live.ff_haply import HaplyDevice, parse_haply_url
+
+        if not 1.0 <= device_silence_ms <= 1000.0:
+            raise ConfigError("must be within 1-1000 ms", source="--device-silence-ms")
+        backend = HaplyDevice(*parse_haply_url(device, "--device"), dev.gain, silence=device_silence_ms * 1e-3)
     else:  # the bridge's address: its own names (host and port are the touch page's)
         bridge_host, bridge_port = parse_osc_url(device, "--device")
         backend = OscDeviceBackend(bridge_host, bridge_port, dev.gain,
@@ -284,6 +292,8 @@ def _require_extras(touch: str, device: str, feedback: Optional[str]) -> None:
         require_modules("fastapi", "starlette", "uvicorn")
     if touch.startswith("osc://") or device.startswith("osc://") or feedback is not None:
         require_modules("pythonosc")
+    if device.startswith("haply://"):
+        require_modules("websockets")
 
 
 class _WebSource:
