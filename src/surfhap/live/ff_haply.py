@@ -28,8 +28,8 @@ sender thread sends the newest force (a late sender sends the latest, never a ba
 
 Fail safe: positions older than ``device_timeout`` -> the safety stage ramps the force to zero
 (the one watchdog, :mod:`surfhap.ff.engine`); a command unanswered for ``silence`` s (issue 19:
-20 ms) or a closed connection -> :meth:`HaplyDevice.read` raises :class:`DeviceSilent`, so the
-loop stops through the safety stage and the command exits 3. A malformed message (not JSON, no
+20 ms; ``OPEN_TIMEOUT`` until the service has answered once) or a closed connection ->
+:meth:`HaplyDevice.read` raises :class:`DeviceSilent`, so the loop stops through the safety stage and the command exits 3. A malformed message (not JSON, no
 state of this device, a missing, non-numeric or non-finite coordinate) is counted
 (``malformed``) and ignored: one bad frame does not end a session, and since it never refreshes
 the position, a stream of them is silence and ends the run as such.
@@ -41,6 +41,7 @@ import json
 import logging
 import math
 import threading
+from contextlib import ExitStack
 
 from surfhap.errors import ConfigError
 from surfhap.live.netaddr import parse_host_port
@@ -98,7 +99,7 @@ class HaplyDevice:
         self._cmd = (0, 0.0, 0.0, 0.0)  # (write number, fx, fy, fz) in the service's frame: one tuple store
         self._asked = None  # now() of the oldest unanswered command
         self._wake = threading.Event()
-        self._ws = None
+        self._ws = self._stack = None
         self._threads: list[threading.Thread] = []
         self._run = False
         self.closed = ""
@@ -108,15 +109,16 @@ class HaplyDevice:
         from websockets.exceptions import WebSocketException
         from websockets.sync.client import connect
 
+        self._stack = ExitStack()  # the connection as a context (the form websockets >= 17.1 asks for)
         try:
-            ws = connect(self.uri, open_timeout=OPEN_TIMEOUT, compression=None)
+            ws = self._stack.enter_context(connect(self.uri, open_timeout=OPEN_TIMEOUT, compression=None))
         except (OSError, WebSocketException) as exc:
             raise OSError(f"no Haply Inverse Service at {self.uri} ({exc})") from None
         try:
             entry = json.loads(ws.recv(timeout=OPEN_TIMEOUT))["inverse3"][0]
             self.device_id, self._p0 = entry["device_id"], _cursor(entry)
         except (OSError, WebSocketException, ValueError, KeyError, TypeError, IndexError, RecursionError) as exc:
-            ws.close()
+            self._stack.close()
             raise OSError(f"the Haply Inverse Service at {self.uri} reported no Inverse3 ({exc!r})") from None
         self._pos = (0.0, 0.0, 0.0, now())
         self._ws, self._run, self._asked, self.closed = ws, True, None, ""
@@ -133,7 +135,7 @@ class HaplyDevice:
         if self._threads:
             self._threads[0].join(1.0)
         if self._ws is not None:
-            self._ws.close()
+            self._stack.close()
         for th in self._threads[1:]:
             th.join(1.0)
 
@@ -142,9 +144,10 @@ class HaplyDevice:
 
     def read(self, t: float):
         a = self._asked
-        if self.closed or (a is not None and now() - a > self.silence):
+        wait = self.silence if self.received else OPEN_TIMEOUT  # the first answer: still opening the session
+        if self.closed or (a is not None and now() - a > wait):
             raise DeviceSilent(f"no state from the Haply Inverse Service at {self.uri} for "
-                               f"{self.silence * 1e3:g} ms" + (f" ({self.closed})" if self.closed else "")
+                               f"{wait * 1e3:g} ms" + (f" ({self.closed})" if self.closed else "")
                                + (f", {self.malformed} malformed messages" if self.malformed else ""))
         return self._pos
 
