@@ -307,3 +307,34 @@ def test_sigterm_ramps_the_force_to_zero_and_exits_130(service):
     assert np.all(after[-1] == 0.0)
     # put down over land_time (1.5 s), not dropped: many commands on the way from the weight to 0 N
     assert np.count_nonzero((after[:, 2] > 0.01) & (after[:, 2] < weight - 0.01)) >= 100
+
+
+# ----------------------------------------------------------------- study run --ff-device haply://
+def _study(tmp_path):
+    from test_lab_ff_study import _study as study_folder
+
+    return study_folder(tmp_path)
+
+
+def test_study_without_a_service_is_one_line_naming_the_address_exit_2(tmp_path, capsys):
+    folder, port = _study(tmp_path), free_port()
+    assert main(["study", "run", str(folder), "-p", "P01", "--ff-device", f"haply://127.0.0.1:{port}",
+                 "--port", "0"]) == 2
+    errors = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error")]
+    assert len(errors) == 1 and f"ws://127.0.0.1:{port}" in errors[0], errors
+    assert main(["study", "run", str(folder), "-p", "P01", "--simulate", "1", "--ff-device",
+                 f"haply://127.0.0.1:{port}"]) == 2  # a simulated participant strokes the simulated device only
+    assert "--ff-device" in capsys.readouterr().err
+
+
+def test_study_on_a_silent_haply_ends_with_exit_3_and_zero_force(service, tmp_path, capsys):
+    """The study's force loop on the Inverse3: the service goes silent, the force ramps to zero,
+    the page stops and the command exits 3 with one error line."""
+    reset(service)
+    service.silent_after = 200
+    folder = _study(tmp_path)
+    assert main(["study", "run", str(folder), "-p", "P01", "--ff-device", f"haply://127.0.0.1:{service.port}",
+                 "--port", "0"]) == 3
+    errors = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error")]
+    assert len(errors) == 1 and "no state from the Haply Inverse Service" in errors[0], errors
+    assert len(service.forces) > 200 and np.all(np.array(service.forces[-1]) == 0.0)

@@ -144,7 +144,8 @@ def run(
                                                   "answer); needs the 'lsl' extra (pylsl)."),
     ff_device: Optional[str] = typer.Option(None, "--ff-device", help="Play force-feedback stimuli ({\"effect\": "
                                             "...}, 004) on this device: sim (the simulated one; with --simulate the "
-                                            "simulated participant strokes each stimulus on it)."),
+                                            "simulated participant strokes each stimulus on it) | haply://HOST:PORT "
+                                            "(a Haply Inverse3, as 'ff run --device')."),
     allow_same_day: bool = typer.Option(False, "--allow-same-day", help="Start the participant's next session "
                                         "on the day the previous one ran (refused by default: sessions on "
                                         "different days)."),
@@ -158,8 +159,9 @@ def run(
     from surfhap.lab.comfort import required_comfort_voltage
     from surfhap.lab.session import SessionRunner
 
-    if ff_device not in (None, "sim"):
-        raise ConfigError("expected sim (the simulated force-feedback device)", source="--ff-device")
+    if ff_device not in (None, "sim") and not (ff_device.startswith("haply://") and simulate is None):
+        raise ConfigError("expected sim (the simulated force-feedback device; the only one with --simulate) or "
+                          "haply://HOST:PORT", source="--ff-device")
     if ff_device is not None and output is not None:
         raise ConfigError("give either --ff-device (force feedback) or --output (electrostatic)", source="--ff-device")
     disp = None if display is None and config is None else resolve_display(display, config)
@@ -231,10 +233,19 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
     if ff_device is not None:
         from surfhap.lab.stimuli import FFStimulusPlayer, FFStudySession
 
-        player = FFStimulusPlayer(FFStudySession(), limit_s=runner.limit_s)
+        backend = None
+        if ff_device.startswith("haply://"):
+            from surfhap.live.ff_haply import HaplyDevice, parse_haply_url
+
+            backend = HaplyDevice(*parse_haply_url(ff_device, "--ff-device"))
+        player = FFStimulusPlayer(FFStudySession(backend=backend), limit_s=runner.limit_s)
         session = player.session
         player.mute()
-        session.start()
+        try:
+            session.start()
+        except OSError:  # no device: one line, exit 2 (the loop's process settings restored)
+            session.stop()
+            raise
     elif output is not None:
         from surfhap.live.session import build_session
 
@@ -245,6 +256,7 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
                                 limit_s=runner.limit_s)
         player.mute()
         session.start()
+    ff_loop = session.loop if ff_device is not None else None  # a failed force loop ends the page
     try:
         page = StudyPage(runner, player, markers)
         server = ServerThread(create_app(ServerConfig(host=host, port=port), study=page), host, port).start()
@@ -269,7 +281,7 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
 
     try:
         with Live(table(), console=stderr, refresh_per_second=4, transient=False) as live:
-            while not runner.finished and not guard.wait(0.25):
+            while not runner.finished and not guard.wait(0.25) and not (ff_loop is not None and ff_loop.done.is_set()):
                 live.update(table())
             live.update(table())
         if not stderr.is_terminal:  # a redirected Live table ends without a newline: the next line starts its own
@@ -280,6 +292,10 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
         if session is not None:
             session.stop()
         server.stop()
+    if ff_loop is not None and ff_loop.error is not None:  # the force loop failed (e.g. a silent device): exit 3
+        from surfhap.cli.ff import _exit_if_failed
+
+        _exit_if_failed(ff_loop.error)
 
 
 @study_app.command("comfort")

@@ -203,13 +203,14 @@ FF_EFFECTS = {"follow": "follow", "reverse": "reverse", "static": None}
 
 class FFStudySession:
     """The force-feedback loop of a study (:class:`surfhap.live.ff_loop.FFLoop`, the one of
-    ``ff run`` / ``ff simulate``) on the simulated device (:mod:`surfhap.sim.ff_device`):
+    ``ff run`` / ``ff simulate``) on the simulated device (:mod:`surfhap.sim.ff_device`) or on
+    ``backend`` (a device of :mod:`surfhap.live.ff_devices` / :mod:`surfhap.live.ff_haply`):
     ``start`` / ``stop`` it; ``space``
     is the content rectangle of the 004 scenes (the page's pad spans it). With ``simulated``
     the loop runs on a :class:`~surfhap.runtime.clock.SimClock`, advanced only by
     :meth:`FFStimulusPlayer.explore` (a simulated participant), else on its wall-clock thread."""
 
-    def __init__(self, simulated: bool = False):
+    def __init__(self, simulated: bool = False, backend=None):
         from surfhap.ff.engine import FFEngine
         from surfhap.ff.params import SMOOTHING, TOUCH_LATENCY, VELOCITY_ALPHA, DeviceParams
         from surfhap.ff.scene import load_scene
@@ -226,7 +227,9 @@ class FFStudySession:
         self.space = TouchSpace(width=w, height=h, max_load=2.0)
         self.engine = FFEngine([], self.device, TouchPredictor(latency=TOUCH_LATENCY, alpha=SMOOTHING,
                                                                velocity_alpha=VELOCITY_ALPHA), touch_latency=TOUCH_LATENCY)
-        self.backend = SimDeviceBackend(SimDevice(gain=self.device.gain), self.device.gain)
+        # another device (:mod:`surfhap.live.ff_devices`, e.g. a Haply Inverse3) only on the wall clock
+        self.backend = backend if backend is not None else SimDeviceBackend(SimDevice(gain=self.device.gain),
+                                                                          self.device.gain)
         self.simulated = simulated
         self.loop = FFLoop(self.engine, self.backend, clock=SimClock() if simulated else None, realtime=not simulated)
 
