@@ -65,12 +65,17 @@ def poll(cond, timeout: float = 30.0) -> bool:
     return True
 
 
+def answered(be: HaplyDevice, n: int) -> bool:
+    """Wait until ``n`` answers have arrived (read() takes them; the loop's next tick would)."""
+    return poll(lambda: be.read(0.0) is not None and be.received + be.malformed >= n)
+
+
 def lockstep(loop: FFLoop, svc: HaplyService, be: HaplyDevice) -> bool:
     """One tick, then wait for the service to get its command and for its answer to arrive."""
     k = svc.messages
     go = loop.tick_once(now())
     assert svc.wait(lambda: svc.messages > k), "the service got no command"
-    assert poll(lambda: be.received + be.malformed >= svc.messages), "no answer"
+    assert answered(be, svc.messages), "no answer"
     return go
 
 
@@ -94,7 +99,7 @@ def test_frame_units_and_messages_against_the_service(service):
         d = np.array([0.004, 0.003, -0.002])
         service.script.append(tuple(np.add(P0, d)))
         be.write(np.array([1.0, 2.0, 3.0]), 0.0)
-        assert poll(lambda: be.received == 1)
+        assert answered(be, 1) and be.received == 1
         assert np.allclose(be.read(0.0)[:3], M * d, atol=1e-12)
         assert service.forces == [(1.0, -2.0, 3.0)]
         assert service.sessions == [{"configure": {"profile": {"name": "surfhap"}}}]
@@ -115,11 +120,11 @@ def test_malformed_messages_are_counted_and_ignored(service):
         service.inject.extend(bad)
         for k in range(len(bad)):
             be.write(np.zeros(3), 0.0)
-            assert poll(lambda: be.malformed == k + 1)
+            assert answered(be, k + 1) and be.malformed == k + 1
             assert be.read(0.0)[:3] == (0.0, 0.0, 0.0)
         service.script.append((P0[0] + 0.001, P0[1], P0[2]))
         be.write(np.zeros(3), 0.0)
-        assert poll(lambda: be.received == 1) and be.malformed == len(bad)
+        assert answered(be, len(bad) + 1) and be.received == 1 and be.malformed == len(bad)
         assert be.read(0.0)[0] == pytest.approx(0.001)
     finally:
         be.stop()
@@ -132,7 +137,7 @@ def test_only_malformed_answers_are_silence(service):
     be.start()
     try:
         be.write(np.zeros(3), 0.0)
-        assert poll(lambda: be.received == 1)
+        assert answered(be, 1) and be.received == 1
         service.inject.extend(["{}"] * 100000)
         t0 = now()
 

@@ -23,8 +23,10 @@ inventory (start with the end effector at the workspace centre). The service spe
 newtons, as surfhap does: gain 1. Its ``cursor_velocity`` is not used (the safety stage
 differentiates the positions itself: one law).
 
-Threads: the haptic thread only stores and reads tuples; a receiver thread parses the states, a
-sender thread sends the newest force (a late sender sends the latest, never a backlog).
+No thread of its own: the haptic thread does the I/O, non-blocking (websockets' sans-I/O
+protocol on a TCP socket): :meth:`HaplyDevice.write` sends the tick's command, :meth:`HaplyDevice.read`
+takes every answer that has arrived, the newest position last. So a stall of surfhap's own process
+is not taken for a silent device: the first read after it finds the answers that came meanwhile.
 
 Fail safe: positions older than ``device_timeout`` -> the safety stage ramps the force to zero
 (the one watchdog, :mod:`surfhap.ff.engine`); a command unanswered for ``silence`` s (issue 19:
@@ -40,8 +42,7 @@ from __future__ import annotations
 import json
 import logging
 import math
-import threading
-from contextlib import ExitStack
+import socket
 
 from surfhap.errors import ConfigError
 from surfhap.live.netaddr import parse_host_port
@@ -90,59 +91,79 @@ class HaplyDevice:
     name = "haply"
 
     def __init__(self, host: str, port: int, gain: float = 1.0, silence: float = SILENCE):
-        self.uri = f"ws://{f'[{host}]' if ':' in host else host}:{int(port)}"
+        self.host, self.port = host, int(port)
+        self.uri = f"ws://{f'[{host}]' if ':' in host else host}:{self.port}"
         self.gain = float(gain)
         self.silence = float(silence)
         self.device_id = None
         self._p0 = (0.0, 0.0, 0.0)
         self._pos = (0.0, 0.0, 0.0, -math.inf)
-        self._cmd = (0, 0.0, 0.0, 0.0)  # (write number, fx, fy, fz) in the service's frame: one tuple store
         self._asked = None  # now() of the oldest unanswered command
-        self._wake = threading.Event()
-        self._ws = self._stack = None
-        self._threads: list[threading.Thread] = []
-        self._run = False
+        self._sock = self._proto = None
+        self._out = bytearray()  # bytes the socket did not take yet
         self.closed = ""
         self.sent = self.received = self.malformed = self.errors = 0
 
     def start(self) -> None:
-        from websockets.exceptions import WebSocketException
-        from websockets.sync.client import connect
+        from websockets.client import ClientProtocol
+        from websockets.uri import parse_uri
 
-        self._stack = ExitStack()  # the connection as a context (the form websockets >= 17.1 asks for)
+        self._out.clear()
+        self.closed, self._asked, self.sent = "", None, 0
         try:
-            ws = self._stack.enter_context(connect(self.uri, open_timeout=OPEN_TIMEOUT, compression=None))
-        except (OSError, WebSocketException) as exc:
+            self._sock = socket.create_connection((self.host, self.port), timeout=OPEN_TIMEOUT)
+        except OSError as exc:
             raise OSError(f"no Haply Inverse Service at {self.uri} ({exc})") from None
-        try:
-            entry = json.loads(ws.recv(timeout=OPEN_TIMEOUT))["inverse3"][0]
+        self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)  # one small frame per tick: no delay
+        self._proto = ClientProtocol(parse_uri(self.uri))
+        self._proto.send_request(self._proto.connect())
+        first = []
+        try:  # blocking, with the open timeout: the handshake, then the initial inventory
+            self._sock.sendall(b"".join(self._proto.data_to_send()))
+            while not first and not self.closed:
+                first = self._receive(self._sock.recv(1 << 16))
+            entry = json.loads(first[0])["inverse3"][0]
             self.device_id, self._p0 = entry["device_id"], _cursor(entry)
-        except (OSError, WebSocketException, ValueError, KeyError, TypeError, IndexError, RecursionError) as exc:
-            self._stack.close()
-            raise OSError(f"the Haply Inverse Service at {self.uri} reported no Inverse3 ({exc!r})") from None
+        except (OSError, ValueError, KeyError, TypeError, IndexError, RecursionError) as exc:
+            self._sock.close()
+            self._sock = None
+            raise OSError(f"the Haply Inverse Service at {self.uri} reported no Inverse3 "
+                          f"({self.closed or repr(exc)})") from None
+        self._sock.setblocking(False)
         self._pos = (0.0, 0.0, 0.0, now())
-        self._ws, self._run, self._asked, self.closed = ws, True, None, ""
-        self._threads = [threading.Thread(target=f, name=f"surfhap-ff-haply-{n}", daemon=True)
-                         for f, n in ((self._send, "out"), (self._receive, "in"))]
-        for th in self._threads:
-            th.start()
         log.info("ff haply device %s at %s", self.device_id, self.uri)
 
     def stop(self) -> None:
-        """Send the last force written (the loop's final zero), then close."""
-        self._run = False
-        self._wake.set()
-        if self._threads:
-            self._threads[0].join(1.0)
-        if self._ws is not None:
-            self._stack.close()
-        for th in self._threads[1:]:
-            th.join(1.0)
+        """Send what is pending (the loop's final zero force) and a close frame, then close."""
+        if self._sock is None:
+            return
+        try:
+            if not self.closed:
+                self._proto.send_close()
+                self._out += b"".join(self._proto.data_to_send())
+            self._sock.settimeout(OPEN_TIMEOUT)
+            self._sock.sendall(self._out)
+        except Exception:  # noqa: BLE001 - the service is gone: nothing more to tell it
+            log.debug("ff haply device: could not flush on stop", exc_info=True)
+        self._sock.close()
+        self._sock = None
 
     def press(self, load: float) -> None:
         pass  # the real finger presses on the real screen
 
     def read(self, t: float):
+        """Take every answer that has arrived; the newest position (m, surfhap frame) and its arrival."""
+        while not self.closed:
+            try:
+                data = self._sock.recv(1 << 16)
+            except (BlockingIOError, InterruptedError):
+                break
+            except OSError as exc:
+                self.closed = f"connection lost: {exc}"
+                break
+            for raw in self._receive(data):
+                self.accept(raw)
+        self._flush()
         a = self._asked
         wait = self.silence if self.received else OPEN_TIMEOUT  # the first answer: still opening the session
         if self.closed or (a is not None and now() - a > wait):
@@ -152,41 +173,55 @@ class HaplyDevice:
         return self._pos
 
     def write(self, force, t: float) -> None:
+        """Send ``gain M force`` as this tick's ``set_cursor_force`` (the first one names the session)."""
+        if self.closed:
+            self.errors += 1
+            return
         g = self.gain
-        self._cmd = (self._cmd[0] + 1, float(force[0]) * g, -float(force[1]) * g, float(force[2]) * g)
+        msg = {"inverse3": [{"device_id": self.device_id, "commands": {"set_cursor_force": {"vector": {
+            "x": float(force[0]) * g, "y": -float(force[1]) * g, "z": float(force[2]) * g}}}}]}
+        if self.sent == 0:
+            msg["session"] = {"configure": {"profile": {"name": PROFILE}}}
+        self._proto.send_text(json.dumps(msg).encode())
+        self._out += b"".join(self._proto.data_to_send())
+        self.sent += 1
         if self._asked is None:
             self._asked = now()
-        self._wake.set()
+        self._flush()
 
-    # ------------------------------------------------------------- I/O threads
-    def _send(self) -> None:
-        last = 0
-        while True:
-            self._wake.wait()
-            self._wake.clear()
-            n, fx, fy, fz = self._cmd
-            if n != last:
-                last = n
-                msg = {"inverse3": [{"device_id": self.device_id,
-                                     "commands": {"set_cursor_force": {"vector": {"x": fx, "y": fy, "z": fz}}}}]}
-                if self.sent == 0:
-                    msg["session"] = {"configure": {"profile": {"name": PROFILE}}}
-                try:
-                    self._ws.send(json.dumps(msg))
-                    self.sent += 1
-                except Exception:  # noqa: BLE001 - closed: read() reports it, the loop ramps down
-                    self.errors += 1
-            if not self._run:
-                return
+    # ------------------------------------------------------------- I/O
+    def _flush(self) -> None:
+        if self._out and not self.closed:
+            try:
+                del self._out[:self._sock.send(self._out)]
+            except (BlockingIOError, InterruptedError):
+                pass  # the socket is full: the rest goes with the next call
+            except OSError as exc:
+                self.errors += 1
+                self.closed = f"connection lost: {exc}"
 
-    def _receive(self) -> None:
-        try:
-            for raw in self._ws:
-                self.accept(raw)
-        except Exception as exc:  # noqa: BLE001 - any end of the connection is reported by read()
-            log.debug("ff haply device: connection ended", exc_info=exc)
-        if self._run:
+    def _receive(self, data: bytes) -> list[bytes]:
+        """Feed ``data`` (b"": the peer closed) to the protocol; the text messages it completed."""
+        from websockets.frames import Frame, Opcode
+
+        p = self._proto
+        if data:
+            p.receive_data(data)
+        else:
+            p.receive_eof()
+        texts = []
+        for ev in p.events_received():
+            if not isinstance(ev, Frame):  # the handshake's response
+                if p.handshake_exc is not None:
+                    raise OSError(f"WebSocket handshake refused: {p.handshake_exc}")
+            elif ev.opcode is Opcode.CLOSE:
+                self.closed = "the service closed the connection"
+            elif ev.opcode in (Opcode.TEXT, Opcode.BINARY, Opcode.CONT):
+                texts.append(ev.data if ev.opcode is Opcode.TEXT and ev.fin else b"")  # a fragment: malformed
+        if not data:
             self.closed = "the service closed the connection"
+        self._out += b"".join(p.data_to_send())  # pongs, the close reply
+        return texts
 
     def accept(self, raw) -> bool:
         """Take one message of the service; True when it carried this device's cursor position."""
@@ -200,7 +235,7 @@ class HaplyDevice:
                             self.malformed)
             return False
         p0 = self._p0
-        self._pos = (x - p0[0], -(y - p0[1]), z - p0[2], now())  # one tuple store: atomic
+        self._pos = (x - p0[0], -(y - p0[1]), z - p0[2], now())
         self._asked = None
         self.received += 1
         return True
