@@ -22,6 +22,7 @@ import collections
 import json
 import threading
 
+from websockets.exceptions import ConnectionClosed
 from websockets.sync.server import serve
 
 
@@ -41,6 +42,7 @@ class HaplyService:
         self.sessions: list[dict] = []  # every "session" part received
         self.messages = 0
         self.connections = 0
+        self.finished = 0  # connections whose every message has been handled
         self.changed = threading.Condition()
         self.server = self.thread = None
         self.port = 0
@@ -73,24 +75,35 @@ class HaplyService:
 
     def _handler(self, ws) -> None:
         self.connections += 1
-        ws.send(self.inventory())
-        for raw in ws:
-            msg = json.loads(raw)
+        try:
+            ws.send(self.inventory())
+            for raw in ws:
+                self._take(json.loads(raw))
+                if not self.silent.is_set():
+                    try:
+                        ws.send(self.inject.popleft() if self.inject else self.update())
+                    except ConnectionClosed:  # the client is closing: still take what it sent before
+                        pass
+        except ConnectionClosed:  # a client that closes without waiting for the close reply
+            pass
+        finally:
             with self.changed:
-                for e in msg.get("inverse3", []):
-                    f = e.get("commands", {}).get("set_cursor_force")
-                    if f is not None and e.get("device_id") == self.device_id:
-                        v = f["vector"]
-                        self.forces.append((float(v["x"]), float(v["y"]), float(v["z"])))
-                if "session" in msg:
-                    self.sessions.append(msg["session"])
-                self.messages += 1
-                if self.silent_after is not None and self.messages > self.silent_after:
-                    self.silent.set()
+                self.finished += 1
                 self.changed.notify_all()
-            if self.silent.is_set():
-                continue
-            ws.send(self.inject.popleft() if self.inject else self.update())
+
+    def _take(self, msg: dict) -> None:
+        with self.changed:
+            for e in msg.get("inverse3", []):
+                f = e.get("commands", {}).get("set_cursor_force")
+                if f is not None and e.get("device_id") == self.device_id:
+                    v = f["vector"]
+                    self.forces.append((float(v["x"]), float(v["y"]), float(v["z"])))
+            if "session" in msg:
+                self.sessions.append(msg["session"])
+            self.messages += 1
+            if self.silent_after is not None and self.messages > self.silent_after:
+                self.silent.set()
+            self.changed.notify_all()
 
     # ------------------------------------------------------------- life cycle
     def start(self) -> "HaplyService":
@@ -108,6 +121,10 @@ class HaplyService:
         """Wait until ``cond()`` holds (checked on each message received); False on timeout (a failure guard)."""
         with self.changed:
             return self.changed.wait_for(cond, timeout)
+
+    def wait_closed(self, timeout: float = 60.0) -> bool:
+        """Wait until every connection so far has ended and each of its messages was recorded."""
+        return self.wait(lambda: self.finished == self.connections, timeout)
 
     def __enter__(self) -> "HaplyService":
         return self.start()

@@ -134,15 +134,19 @@ class HaplyDevice:
         log.info("ff haply device %s at %s", self.device_id, self.uri)
 
     def stop(self) -> None:
-        """Send what is pending (the loop's final zero force) and a close frame, then close."""
+        """Send what is pending (the loop's final zero force) and a close frame, and wait for the
+        service to close (closing first, with its answers unread, would reset the connection and
+        could drop the last commands at the service)."""
         if self._sock is None:
             return
         try:
             if not self.closed:
                 self._proto.send_close()
                 self._out += b"".join(self._proto.data_to_send())
-            self._sock.settimeout(OPEN_TIMEOUT)
-            self._sock.sendall(self._out)
+                self._sock.settimeout(OPEN_TIMEOUT)
+                self._sock.sendall(self._out)
+                while self._sock.recv(1 << 16):
+                    pass
         except Exception:  # noqa: BLE001 - the service is gone: nothing more to tell it
             log.debug("ff haply device: could not flush on stop", exc_info=True)
         self._sock.close()
