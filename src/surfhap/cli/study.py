@@ -232,20 +232,13 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
     session = player = None
     if ff_device is not None:
         from surfhap.lab.stimuli import FFStimulusPlayer, FFStudySession
+        from surfhap.live.ff_haply import HaplyDevice, parse_haply_url
 
-        backend = None
-        if ff_device.startswith("haply://"):
-            from surfhap.live.ff_haply import HaplyDevice, parse_haply_url
-
-            backend = HaplyDevice(*parse_haply_url(ff_device, "--ff-device"))
-        player = FFStimulusPlayer(FFStudySession(backend=backend), limit_s=runner.limit_s)
+        haply = HaplyDevice(*parse_haply_url(ff_device, "--ff-device")) if ff_device.startswith("haply://") else None
+        player = FFStimulusPlayer(FFStudySession(backend=haply), limit_s=runner.limit_s)
         session = player.session
         player.mute()
-        try:
-            session.start()
-        except OSError:  # no device: one line, exit 2 (the loop's process settings restored)
-            session.stop()
-            raise
+        session.start()  # no Haply service: one line naming it, exit 2
     elif output is not None:
         from surfhap.live.session import build_session
 
