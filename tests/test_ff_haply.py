@@ -272,6 +272,12 @@ def test_bad_haply_address_is_one_line_exit_2(capsys, url):
     assert code == 2 and len(err.strip().splitlines()) == 1 and "--device" in err, err
 
 
+def test_silence_out_of_range_is_one_line_exit_2(capsys):
+    code, out, err = run(capsys, "ff", "run", "follow", "--device", "haply://127.0.0.1:10001", "--touch",
+                         "osc://127.0.0.1:0", "--device-silence-ms", "0")
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "--device-silence-ms" in err, err
+
+
 def test_silent_service_ramps_to_zero_and_ends_the_run_exit_3(service):
     """The service stops answering (it still records the commands): the safety stage ramps the
     force to zero, the run ends with one line and exit 3 (default --device-silence-ms 20)."""

@@ -21,6 +21,9 @@ position is used only from the bridge's own address with this session's token
 (:class:`~surfhap.live.ff_bridge_wire.PositionReceiver`, shared with ``ff bridge-check``) and a
 sequence number above the last one accepted; anything else is dropped and counted
 (``dropped_sender``, ``dropped_token``, ``dropped_sequence``, ``rejected``).
+
+``haply``: :class:`surfhap.live.ff_haply.HaplyDevice`, a Haply Inverse3 through its Inverse
+Service (JSON over a local WebSocket; its own module).
 """
 
 from __future__ import annotations

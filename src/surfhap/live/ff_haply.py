@@ -109,7 +109,8 @@ class HaplyDevice:
         from websockets.uri import parse_uri
 
         self._out.clear()
-        self.closed, self._asked, self.sent = "", None, 0
+        self.closed, self._asked = "", None
+        self.sent = self.received = self.malformed = self.errors = 0
         try:
             self._sock = socket.create_connection((self.host, self.port), timeout=OPEN_TIMEOUT)
         except OSError as exc:
