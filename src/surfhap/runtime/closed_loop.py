@@ -111,7 +111,10 @@ class FrictionController:
         self._fallback_rate = (1.0 - design.drift_amplitude) * self.ki
         self._d = max(1, int(round(design.block * self.rate)))  # control samples per mean of the history
         self._hist = np.zeros((2, self._d * int(round(design.window / design.block))))  # G F_low, f_meas (N)
-        self._lag = int(round(design.lag / design.block))
+        m = self._hist.shape[1] // self._d
+        # BandSplit.low is linear: its value lag means before the window's end is weights @ means,
+        # the weights (m,) its response to each unit mean (computed once)
+        self._weights = np.ascontiguousarray(self.split.low(np.eye(m), self.rate / self._d)[:, m - 1 - int(round(design.lag / design.block))])
         self.reset()
 
     def reset(self) -> None:
@@ -144,8 +147,7 @@ class FrictionController:
             step = self._fallback_rate * dt
             self.u = max(self.u - step, 1.0) if self.u > 1.0 else min(self.u + step, 1.0)
         elif self._valid >= self._hist.shape[1] and not (saturated or self._limited):
-            means = self._hist.reshape(2, -1, self._d).mean(axis=2)  # the low band of means over one block period
-            lo = self.split.low(means, self.rate / self._d)[:, -1 - self._lag]
+            lo = self._hist.reshape(2, -1, self._d).mean(axis=2) @ self._weights  # low band of means over block periods
             if lo[0] > 0.0:
                 self.u = float(np.clip(self.u + self.ki * (1.0 - lo[1] / lo[0]) * dt, self.u_lo, self.u_hi))
         if self.u == 1.0:

@@ -146,7 +146,8 @@ class LoopFigures:
     law_rms      : N, RMS of G F_low (the scale of the error).
     clamped      : drive samples the safety stage clamped (|V| > v_max).
     at_limit     : drive samples at v_max.
-    centres, texture_band : (b,) Hz and dB (N^2/Hz): octave-band power of the texture band."""
+    centres, texture_band : (b,) Hz and dB (N^2/Hz): octave-band power of the texture band
+                   (cutoff up to half the texture model's rate)."""
 
     low_band_rms: float
     law_rms: float
@@ -163,7 +164,8 @@ def loop_figures(r: RenderResult, warmup: float = 1.0, cutoff: float = 3.5) -> L
     law = r.rendering_gain * r.low_band.force(r.load, r.mu_low)
     steady = (r.t >= warmup) & (r.load > 0)
     f, psd = welch(high[steady], fs=rate, nperseg=int(2 ** np.ceil(np.log2(4 * rate / cutoff))))
-    centres, bands = band_average(f, psd, cutoff, rate / 2, fraction=1)
+    top = min(rate, r.texture_rate or rate) / 2  # the texture model's band (above it: the resampler's floor)
+    centres, bands = band_average(f, psd, cutoff, top, fraction=1)
     at_limit = int(np.count_nonzero(np.abs(r.drive) >= r.v_max * (1 - 1e-9)))
     return LoopFigures(float(np.sqrt(np.mean((low - law)[steady] ** 2))), float(np.sqrt(np.mean(law[steady] ** 2))),
                        int(r.safety.clamped), at_limit, centres, 10.0 * np.log10(bands))
