@@ -104,3 +104,43 @@ def test_chain_reset_resets_the_loop():
     loop.controller.u = 1.2
     chain.reset()
     assert loop.controller.u == 1.0 and chain.correction is loop
+
+
+def test_comparison_summary_and_plot():
+    import json
+
+    from matplotlib.figure import Figure
+
+    c = compare_loops(load_material("cork"), constant_scan(0.1, 0.5, 4.0), ChainConfig(seed=1), warmup=1.0)
+    assert set(json.loads(json.dumps(c.summary()))) >= {"open_low_band_rms_n", "closed_low_band_rms_n", "ratio"}
+    fig = c.plot()
+    assert isinstance(fig, Figure) and len(fig.axes[0].lines) == 2
+    ax = Figure().subplots()
+    assert c.plot(ax) is ax.figure
+
+
+def test_play_closes_the_loop_over_the_simulated_sensor(tmp_path, capsys):
+    from surfhap.cli import main
+    from surfhap.live.session import build_session
+
+    session = build_session("cork", sensor="sim")
+    assert isinstance(session.engine.renderer.correction, SensorLoop)
+    assert session.engine.renderer.correction.sensor.name == "sim"
+    out = tmp_path / "drive.npz"
+    code = main(["play", "cork", "--clock", "sim", "--sensor", "sim", "--output", f"file:{out}",
+                 "--scan", "speed=0.1,load=0.5,duration=1"])
+    assert code == 0, capsys.readouterr().err
+    assert np.load(out)["drive"].size > 0
+
+
+def test_bad_sensor_option_is_one_line_exit_2(capsys):
+    from surfhap.cli import main
+    from surfhap.errors import ConfigError
+    from surfhap.live.engine_config import EngineConfig
+    from surfhap.live.session import build_session
+
+    code = main(["play", "cork", "--clock", "sim", "--scan", "speed=0.1,load=0.5,duration=1", "--sensor", "netft://192.0.2.1"])
+    err = capsys.readouterr().err
+    assert code == 2 and "unknown sensor" in err and len(err.strip().splitlines()) == 1, err
+    with pytest.raises(ConfigError, match="simulated display"):
+        build_session("cork", engine_config=EngineConfig(simulate_display=False), sensor="sim")

@@ -106,6 +106,11 @@ class SensedDisplay:
         self.delay = display.delay
         self._m = self._k = 0
 
+    def reset(self) -> None:
+        self.display.reset()
+        self.sensor.close()
+        self._m = self._k = 0
+
     def process(self, drive: np.ndarray, load: np.ndarray) -> np.ndarray:
         m = drive.shape[0]
         gain = self.drift.ratio((self._m + np.arange(m)) / self.display.drive_rate)
