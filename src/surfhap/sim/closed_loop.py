@@ -1,13 +1,6 @@
-"""Closed-loop friction on the simulated display: a drifting k, a delayed noisy force sensor,
-and the figures of issue 19's target (:func:`compare_loops`, used by the test and the benchmark).
-
-The display is :class:`~surfhap.models.panel.SimulatedDisplay` with its added friction scaled
-by :class:`Drift` ``r(t) = k(t) / k``; :class:`SimForceSensor` (a
-:class:`~surfhap.runtime.protocols.ForceSensor`) measures its friction and the load with
-Gaussian noise and delivers each sample ``delay`` s after it was taken. One render runs the
-one loop (:func:`surfhap.runtime.loop.run`, simulated clock) with the offline engine and
-recorder; the closed loop is :class:`surfhap.runtime.closed_loop.SensorLoop` on the chain.
-"""
+"""Closed-loop friction on the simulated display (:class:`Drift` of its k) with a delayed, noisy
+:class:`SimForceSensor`, run on the one loop (simulated clock, offline engine and recorder), and
+the figures of issue 19's target (:func:`compare_loops`: the test and the benchmark)."""
 
 from __future__ import annotations
 
@@ -37,10 +30,8 @@ __all__ = ["Drift", "SensorModel", "SimForceSensor", "simulate", "LoopFigures", 
 
 @checked_dataclass
 class Drift:
-    """``r(t) = k(t) / k = (1 + amplitude sin(2 pi t / period)) (1 + step [t >= step_time])``.
-
-    Issue 19's scenario: a +-30 % slow drift over a minute and a step; the step (+20 % at half
-    the minute) keeps r within the +-30 % the loop is designed for (0.84 - 1.3)."""
+    """``r(t) = k(t) / k = (1 + amplitude sin(2 pi t / period)) (1 + step [t >= step_time])``:
+    issue 19's +-30 % over a minute and a step (+20 % at half of it keeps r within 0.84-1.3)."""
 
     amplitude: Annotated[float, Field(ge=0, lt=1)] = 0.3
     period: Annotated[float, Field(gt=0, allow_inf_nan=False)] = 60.0
@@ -145,14 +136,10 @@ def simulate(material: Material, trajectory: Trajectory, config: ChainConfig | N
 
 @dataclass(frozen=True)
 class LoopFigures:
-    """Figures of one render against the law, after ``warmup`` s, while touching.
-
-    low_band_rms : N, RMS of BandSplit.low(added friction) - G F_low (the law's low band).
-    law_rms      : N, RMS of G F_low (the scale of the error).
-    clamped      : drive samples the safety stage clamped (|V| > v_max).
-    at_limit     : drive samples at v_max.
-    centres, texture_band : (b,) Hz and dB (N^2/Hz): octave-band power of the texture band
-                   (cutoff up to half the texture model's rate)."""
+    """One render against the law after ``warmup`` s while touching: low_band_rms N (RMS of
+    BandSplit.low(added friction) - G F_low), law_rms N (of G F_low), clamped (drive samples the
+    safety stage clamped) and at_limit (at v_max), texture_band (b,) dB re 1 N^2/Hz in octave
+    bands (centres (b,) Hz) from the cut-off to half the texture model's rate."""
 
     low_band_rms: float
     law_rms: float
@@ -164,23 +151,21 @@ class LoopFigures:
 
 def loop_figures(r: RenderResult, warmup: float = 1.0, cutoff: float = 3.5) -> LoopFigures:
     rate = float(r.control_rate)
-    split = BandSplit(cutoff=cutoff)
-    low, high = split.split(r.added_friction, rate)
+    low, high = BandSplit(cutoff=cutoff).split(r.added_friction, rate)
     law = r.rendering_gain * r.low_band.force(r.load, r.mu_low)
     steady = (r.t >= warmup) & (r.load > 0)
     f, psd = welch(high[steady], fs=rate, nperseg=int(2 ** np.ceil(np.log2(4 * rate / cutoff))))
-    top = min(rate, r.texture_rate or rate) / 2  # the texture model's band (above it: the resampler's floor)
-    centres, bands = band_average(f, psd, cutoff, top, fraction=1)
-    at_limit = int(np.count_nonzero(np.abs(r.drive) >= r.v_max * (1 - 1e-9)))
+    centres, bands = band_average(f, psd, cutoff, min(rate, r.texture_rate or rate) / 2, fraction=1)
     return LoopFigures(float(np.sqrt(np.mean((low - law)[steady] ** 2))), float(np.sqrt(np.mean(law[steady] ** 2))),
-                       int(r.safety.clamped), at_limit, centres, 10.0 * np.log10(bands))
+                       int(r.safety.clamped), int(np.count_nonzero(np.abs(r.drive) >= r.v_max * (1 - 1e-9))),
+                       centres, 10.0 * np.log10(bands))
 
 
 @dataclass(frozen=True)
 class LoopComparison(Result):
-    """Open and closed loop under one drift: ``ratio`` = closed / open low-band RMS error (target
-    <= 1/3), ``texture_db`` the largest |closed - open| octave-band power of the texture band (dB,
-    target <= 1), the clamped and at-limit drive samples of each."""
+    """Open and closed loop under one drift: ``ratio`` closed / open low-band RMS error (target
+    <= 1/3), ``texture_db`` the largest |closed - open| octave-band change of the texture band
+    (target <= 1 dB)."""
 
     open: LoopFigures
     closed: LoopFigures
@@ -200,7 +185,6 @@ class LoopComparison(Result):
                          "closed_clamped": c.clamped, "open_at_limit": o.at_limit, "closed_at_limit": c.at_limit})
 
     def plot(self, ax=None):
-        """The texture band's octave-band power, open and closed (:mod:`surfhap.report.loop_figures`)."""
         from surfhap.report.loop_figures import plot_loop_comparison
 
         return plot_loop_comparison(self, ax)
@@ -208,7 +192,7 @@ class LoopComparison(Result):
 
 def compare_loops(material: Material, trajectory: Trajectory, config: ChainConfig | None = None, *, drift: Drift | None = None,
                   sensor: SensorModel | None = None, design: LoopDesign | None = None, warmup: float = 1.0) -> LoopComparison:
-    """Render open and closed loop under the same drift and texture seed; their figures."""
+    """Open and closed loop under the same drift and seeds."""
     design = design or LoopDesign()
     runs = [simulate(material, trajectory, config, drift=drift, sensor=sensor, design=design, closed=c) for c in (False, True)]
     return LoopComparison(*(loop_figures(r, warmup, design.cutoff) for r in runs))
