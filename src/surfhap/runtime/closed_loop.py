@@ -5,8 +5,9 @@ The display's gain drifts (``r(t) = k(t) / k``). The law's low-band target ``F_l
 ``F = target + (u - 1) F_low``, then mapped by the law's own feed-forward (``DriveLaw.voltage_for``).
 ``u`` integrates ``e = 1 - low(f_meas) / low(G F_low)`` (``f_meas = shear - mu_panel normal``, G
 the rendering gain, ``low`` the one :class:`~surfhap.signal.bands.BandSplit`): ``du/dt = Ki (1 - r u)``.
-Bounds ``u`` in ``[1/(1+D), 1/(1-D)]``; anti-windup: no integration in a block after the safety
-stage clamped or the headroom limit (each sample at most ``max(v_open_loop, v_max)``) bound;
+Bounds ``u`` in ``[1/(1+D), 1/(1-D)]``; headroom: a block takes the share of the correction that
+keeps each sample at most ``max(v_open_loop, v_max)``; anti-windup: no integration in a block
+after the safety stage clamped or the headroom limit bound;
 fall-back: no sensor sample for ``loss_timeout`` -> ``u`` ramps to 1 at ``(1 - D) Ki`` per s.
 
 Gain (:class:`LoopDesign`): the low band is computed over ``2 / cutoff`` s of means over one
@@ -64,7 +65,7 @@ class LoopDesign:
 
 class FrictionController:
     """The numerical loop (allocated once, ``reset()``, ``process`` per block): ``voltage_for``
-    maps a target (n,) N to (n,) V, ``gain`` is G, ``v_max`` V the safety limit, ``rate`` Hz."""
+    maps a target (n,) N to (n,) V, ``gain`` is G, ``v_max`` V the safety stage's limit, ``rate`` Hz."""
 
     def __init__(self, design: LoopDesign, rate: int, gain: float, v_max: float, voltage_for):
         self.design, self.rate, self.gain, self.v_max, self.voltage_for = design, int(rate), float(gain), float(v_max), voltage_for
@@ -103,10 +104,14 @@ class FrictionController:
         if self.u == 1.0:
             self._limited = False
             return voltage
-        corrected = self.voltage_for(target + (self.u - 1.0) * low)
-        out = np.minimum(corrected, np.maximum(voltage, self.v_max))
-        self._limited = bool(np.any(out < corrected))
-        return out
+        # headroom: the correction's share rho in [0, 1] of the block (one factor, no corners)
+        # that keeps every sample at most max(open loop, v_max)
+        change = self.voltage_for(target + (self.u - 1.0) * low) - voltage
+        room = np.maximum(voltage, self.v_max) - voltage
+        over = change > room
+        rho = float(np.min(room[over] / change[over])) if over.any() else 1.0
+        self._limited = rho < 1.0
+        return voltage + rho * change
 
 
 class SensorLoop:

@@ -138,13 +138,15 @@ def simulate(material: Material, trajectory: Trajectory, config: ChainConfig | N
 class LoopFigures:
     """One render against the law after ``warmup`` s while touching: low_band_rms N (RMS of
     BandSplit.low(added friction) - G F_low), law_rms N (of G F_low), clamped (drive samples the
-    safety stage clamped) and at_limit (at v_max), texture_band (b,) dB re 1 N^2/Hz in octave
+    safety stage clamped) and at_limit (at v_max), envelope_over (control-rate envelope samples
+    above v_max, before the tail), texture_band (b,) dB re 1 N^2/Hz in octave
     bands (centres (b,) Hz) from the cut-off to half the texture model's rate."""
 
     low_band_rms: float
     law_rms: float
     clamped: int
     at_limit: int
+    envelope_over: int
     centres: np.ndarray
     texture_band: np.ndarray
 
@@ -158,7 +160,7 @@ def loop_figures(r: RenderResult, warmup: float = 1.0, cutoff: float = 3.5) -> L
     centres, bands = band_average(f, psd, cutoff, min(rate, r.texture_rate or rate) / 2, fraction=1)
     return LoopFigures(float(np.sqrt(np.mean((low - law)[steady] ** 2))), float(np.sqrt(np.mean(law[steady] ** 2))),
                        int(r.safety.clamped), int(np.count_nonzero(np.abs(r.drive) >= r.v_max * (1 - 1e-9))),
-                       centres, 10.0 * np.log10(bands))
+                       int(np.count_nonzero(r.voltage > r.v_max)), centres, 10.0 * np.log10(bands))
 
 
 @dataclass(frozen=True)
@@ -182,7 +184,8 @@ class LoopComparison(Result):
         o, c = self.open, self.closed
         return jsonable({"open_low_band_rms_n": o.low_band_rms, "closed_low_band_rms_n": c.low_band_rms, "ratio": self.ratio,
                          "law_rms_n": o.law_rms, "texture_band_max_db": self.texture_db, "open_clamped": o.clamped,
-                         "closed_clamped": c.clamped, "open_at_limit": o.at_limit, "closed_at_limit": c.at_limit})
+                         "closed_clamped": c.clamped, "open_at_limit": o.at_limit, "closed_at_limit": c.at_limit,
+                         "open_envelope_over": o.envelope_over, "closed_envelope_over": c.envelope_over})
 
     def plot(self, ax=None):
         from surfhap.report.loop_figures import plot_loop_comparison
