@@ -13,8 +13,9 @@ fall-back: no sensor sample for ``loss_timeout`` -> ``u`` ramps to 1 at ``(1 - D
 Gain (:class:`LoopDesign`): the low band is computed over ``2 / cutoff`` s of means over one
 update period and read ``1 / (2 cutoff)`` s before the end, so the loop delay is ``tau =
 sensor_delay + 1 / (2 cutoff) + block``. An integrator behind a delay has the phase margin
-``pi/2 - w_c tau`` at ``w_c = r Ki``; 60 degrees (the usual rule, Astrom & Murray, Feedback
-Systems, Sec. 11.4) at the largest gain ``r = 1 + D`` gives ``Ki = (pi/6) / ((1 + D) tau)``. A
+``pi/2 - w_c tau`` at ``w_c = r Ki``; 60 degrees (the well-damped end of the usual 30-60 degree
+design range, Astrom & Murray, Feedback Systems, loop shaping) at the largest gain ``r = 1 + D``
+gives ``Ki = (pi/6) / ((1 + D) tau)``. A
 drift ``D sin(2 pi t / P)`` moves at most ``2 pi D / P`` per s; a type-1 loop follows it with
 the error ``2 pi D / (P (1 - D) Ki)`` (:attr:`LoopDesign.tracking_error`).
 """
@@ -40,7 +41,8 @@ class LoopDesign:
     """What the gain and bounds derive from (module docstring), SI: sensor_delay (issue 19:
     1-5 ms, default its upper end), drift_amplitude D and drift_period (issue 19: +-30 % over
     a minute), block (the update period), cutoff (3.5 Hz, 003 Sec. II), loss_timeout (issue
-    19: 20 ms)."""
+    19: 20 ms); ``block`` is a stated choice (10 ms: the simulation's update; a shorter live
+    block only shortens the delay, i.e. adds margin)."""
 
     sensor_delay: Annotated[float, Field(ge=0, le=0.1)] = 0.005
     drift_amplitude: Annotated[float, Field(gt=0, lt=1)] = 0.3
