@@ -349,6 +349,7 @@ def _comfort_section(folder: Path) -> Section | None:
         method = next((s["config"].get("method", "staircase") for s in log.sessions), "staircase")
         rows[-1] += [f"{e['value']:.1f}", "{:.1f}-{:.1f}".format(*e["ci"])]
         sec.estimates.append(jsonable({"name": "50 % discomfort voltage", "participant": d["participant"], **e,
+                                       "adaptive": method, "adaptive_estimate_V": d.get("staircase_threshold_V"),
                                        "method": "posterior mean, 95 % credible interval (logistic, lapse 1 %, "
                                                  f"flat prior; ml_value: ML fit) of the {method} trials"}))
     if not rows:
