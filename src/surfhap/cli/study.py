@@ -325,7 +325,8 @@ def comfort(
         if runner.finished:
             v = comfort_ceiling(res.threshold, runner.params)
             thr = ("none (no reversal): 'study run' will not start" if v is None else
-                   f"{v:.1f} V (one {runner.params.steps[-1]:g} dB step below the staircase's {res.threshold:.1f} V)")
+                   f"{v:.1f} V (one {runner.params.steps[-1]:g} dB step below the {runner.adaptive.method} estimate "
+                   f"{res.threshold:.1f} V)")
             stdout.print(f"{runner.plan.id}: comfort voltage {thr} after {res.levels.size} trials "
                          f"({res.stopped_by})")
         else:
