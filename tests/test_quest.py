@@ -101,8 +101,8 @@ def test_psychopy_questhandler_as_a_reference():
     assert q.mean() == pytest.approx(qh.mean(), abs=0.02) and q.sd() == pytest.approx(qh.sd(), abs=0.02)
 
 
-def _design(tmp_path, adaptive):
-    spec = template("kim-shapes", participants=1).model_dump(mode="json")
+def _design(tmp_path, adaptive, participants=1):
+    spec = template("kim-shapes", participants=participants).model_dump(mode="json")
     spec["adaptive"] = adaptive
     (tmp_path / "design.json").write_text(json.dumps(spec))
     return tmp_path / "design.json"
@@ -140,3 +140,23 @@ def test_a_bad_adaptive_field_is_one_line_naming_the_file_and_field_exit_2(tmp_p
     assert main(["study", "new", str(d), "--out", str(tmp_path / "s")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "design.json" in err[0] and f"{field}:" in err[0], err
+
+
+def test_method_option_overrides_the_design_with_that_methods_comfort_defaults(tmp_path):
+    """A design choosing a staircase; 'study comfort --method quest' runs QUEST with the comfort
+    defaults (yes/no, T at 20.6 % uncomfortable, prior centred on --start, 40 trials in 5-250 V)."""
+    d = _design(tmp_path, {"method": "staircase", "start": 60, "up": 3, "down": 1, "step_type": "db", "steps": [4, 2],
+                           "min_level": 5, "max_level": 240}, participants=2)
+    study = tmp_path / "s"
+    assert main(["study", "new", str(d), "--out", str(study)]) == 0
+    assert main(["study", "comfort", str(study), "-p", "P01", "--simulate", "3", "--method", "quest"]) == 0
+    doc = json.loads((study / "logs" / "P01-comfort.json").read_text())
+    a = doc["adaptive"]
+    assert a["method"] == "quest" and a["gamma"] == 0 and a["p_threshold"] == pytest.approx(1 - 0.5 ** (1 / 3))
+    assert a["prior_mean"] == pytest.approx(math.log10(60)) and len(doc["levels_V"]) == 40
+    assert 5.0 <= min(doc["levels_V"]) and max(doc["levels_V"]) <= 250.0
+    assert doc["staircase_threshold_V"] == pytest.approx(103.8, rel=0.2)
+    assert main(["study", "comfort", str(study), "-p", "P02", "--simulate", "3"]) == 0  # the design's own staircase
+    doc = json.loads((study / "logs" / "P02-comfort.json").read_text())
+    assert doc["adaptive"]["method"] == "staircase" and doc["adaptive"]["max_level"] == 240
+    assert doc["adaptive"]["steps"] == [4, 2] and max(doc["levels_V"]) <= 240
