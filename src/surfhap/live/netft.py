@@ -113,6 +113,7 @@ class NetFT:
         view, off, size = memoryview(self._buf), 0, RECORD.itemsize
         while True:
             if off + size > len(self._buf):
+                view.release()
                 self._buf.extend(bytes(len(self._buf)))
                 view = memoryview(self._buf)
             try:
@@ -122,7 +123,9 @@ class NetFT:
             except OSError as exc:  # ICMP port unreachable on loopback, network down
                 raise SensorSilent(f"stream failed: {exc.strerror or exc}", source=self.name) from None
             off += size if n == size else 0  # a datagram of another size is not a record
-        return np.frombuffer(bytes(view[:off]), dtype=RECORD)
+        data = bytes(view[:off])
+        view.release()
+        return np.frombuffer(data, dtype=RECORD)
 
     def read(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         now = time.monotonic()

@@ -1,0 +1,139 @@
+"""Display calibration on the rig: play Kim et al.'s intensity steps, record the force sensor, fit.
+
+The steps (Kim et al. 2017, shared/papers/002 Sec. 2.2): intensities 0.1, 0.2, ..., 1.0, 20 s of
+data each, the drive on while the pen crosses one of the eight sectors of its circular path
+(Fig. 3a): on for 1/8 of each revolution, which lasts 2 pi r / v = 2 pi 0.03 m / 0.065 m/s = 2.9 s
+(Sec. 2.1: 3 cm radius, 6.5 cm/s). Intensity ``I`` is played as the envelope ``I v_max`` (V, the
+safety stage's limit) under the default polarity carrier (2 kHz, 003 Sec. IV-D), so each step is
+a voltage-input tribometer recording and :func:`surfhap.lab.calibration.calibrate` (unchanged)
+gives k and the device curve.
+
+:class:`StepRenderer` is an ordinary :class:`~surfhap.runtime.protocols.Renderer` behind its own
+:class:`~surfhap.render.safety.SafetyStage`; the engine's output pass follows. Each batch of
+sensor records is pushed to the engine as a touch sample (load = the measured normal force),
+so the safety stage's watchdog (timeout ``SENSOR_WATCHDOG``, then its 5 ms ramp) zeroes the
+drive when the sensor goes silent, and its lift threshold when the pen is off the panel.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from surfhap.errors import ConfigError
+from surfhap.render.block import RenderBlock
+from surfhap.render.carrier import PolarityCarrier
+from surfhap.render.chain import DEFAULT_CARRIER
+from surfhap.render.safety import SafetyLimits, SafetyStage
+
+__all__ = ["KIM_LEVELS", "STEP_SECONDS", "REVOLUTION", "SENSOR_WATCHDOG", "StepSchedule", "StepRenderer",
+           "record_steps", "step_recordings"]
+
+KIM_LEVELS = tuple(round(0.1 * i, 1) for i in range(1, 11))  # 002 Sec. 2.2: 0.1-1.0, step 0.1
+STEP_SECONDS = 20.0  # 002 Sec. 2.2: 20 s of data per trial
+REVOLUTION = 2 * math.pi * 0.03 / 0.065  # s, 002 Sec. 2.1: 3 cm radius at 6.5 cm/s
+SECTORS = 8  # 002 Sec. 2.2, Fig. 3a: the drive on in one of eight sectors
+SENSOR_WATCHDOG = 0.020  # s without a sensor record -> ramp to zero (issue 19 target: silent 20 ms)
+CONTROL_RATE = 1000  # Hz, model rate of the step renderer (the level changes at most every revolution / 8)
+
+
+class StepSchedule:
+    """Level ``levels[j]`` (intensity) during step ``j`` (``step_seconds`` each), on during the last
+    1/8 of each ``revolution``; ``level(t)`` -> intensity (n,) at renderer times ``t`` s (0 after the end)."""
+
+    def __init__(self, levels=KIM_LEVELS, step_seconds: float = STEP_SECONDS, revolution: float = REVOLUTION):
+        self.levels = np.asarray(levels, float)
+        if self.levels.size < 3 or not np.all((self.levels > 0) & (self.levels <= 1)):
+            raise ConfigError("need three intensities or more, each in (0, 1]", field="levels")
+        if not (step_seconds >= revolution > 0):
+            raise ConfigError("a step must last one revolution or more", field="step_seconds")
+        self.step_seconds, self.revolution = float(step_seconds), float(revolution)
+        self.duration = self.levels.size * self.step_seconds
+
+    def step(self, t: np.ndarray) -> np.ndarray:
+        return np.floor(np.asarray(t, float) / self.step_seconds).astype(int)
+
+    def level(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, float)
+        j = self.step(t)
+        on = np.mod(t, self.revolution) >= self.revolution * (1 - 1 / SECTORS)
+        ok = (j >= 0) & (j < self.levels.size)
+        return np.where(ok & on, self.levels[np.clip(j, 0, self.levels.size - 1)], 0.0)
+
+
+class StepRenderer:
+    """The steps of ``schedule`` as a :class:`~surfhap.runtime.protocols.Renderer`: envelope
+    ``level v_max`` at ``drive_rate``, polarity carrier, then the safety stage (``limits``).
+
+    The schedule runs on ``clock`` (the engine's, s) from the last :meth:`reset` (``t0``), not on
+    the count of samples rendered: a block the output skipped (an underrun) does not shift the
+    steps against the sensor's record of them."""
+
+    uses_position = False
+    control_rate = CONTROL_RATE
+
+    def __init__(self, schedule: StepSchedule, drive_rate: int, limits: SafetyLimits, clock):
+        if drive_rate % CONTROL_RATE:
+            raise ConfigError(f"must be a multiple of {CONTROL_RATE} Hz", field="drive_rate")
+        self.schedule, self.drive_rate, self.ratio = schedule, int(drive_rate), int(drive_rate) // CONTROL_RATE
+        self.v_max, self.clock = limits.v_max, clock
+        self._safety = SafetyStage(drive_rate, limits)
+        self._carrier = PolarityCarrier(DEFAULT_CARRIER, drive_rate)
+        self.reset()
+
+    @property
+    def safety(self) -> SafetyStage:
+        return self._safety
+
+    def reset(self) -> None:
+        self._n, self.t0 = 0, self.clock()
+        self._safety.reset()
+        self._carrier.reset()
+
+    def process(self, speed, load, touch_time, x=None, y=None) -> RenderBlock:
+        n = np.asarray(load).shape[0]
+        td = (self._n * self.ratio + np.arange(n * self.ratio)) / self.drive_rate  # the touch ages: model time
+        self._n += n
+        drive = self._carrier.process(self.schedule.level(self.clock() - self.t0 + td - td[:1]) * self.v_max)
+        load_d = np.repeat(np.asarray(load, float), self.ratio)
+        age = td - np.repeat(np.asarray(touch_time, float), self.ratio)
+        return RenderBlock(self._safety.process(drive, load_d, age), load_d, np.zeros(n))
+
+
+def record_steps(sensor, engine, schedule: StepSchedule, *, keep_running=lambda: True, poll: float = 0.001):
+    """Run ``schedule`` on a started ``engine`` (a :class:`StepRenderer` behind it) while polling
+    ``sensor``; returns (t, normal, shear, intensity) (n,) on the renderer's schedule clock. Each batch of
+    records is one touch sample (load = the newest normal force). A silent sensor raises
+    :class:`~surfhap.live.netft.SensorSilent` after the safety stage has zeroed the drive."""
+    parts = []
+    offset = None  # renderer clock - sensor clock, set at the first batch
+    while keep_running() and not engine.halted:
+        t, fn, fs = sensor.read()
+        if t.size:
+            engine.push_touch(-1, 0.0, 0.0, float(fn[-1]))
+            if offset is None:
+                offset = engine.clock() - engine.renderer.t0 - float(t[-1])
+            parts.append((t + offset, fn, fs))
+            if t[-1] + offset >= schedule.duration:
+                break
+        time.sleep(poll)
+    if not parts:
+        return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)
+    t, fn, fs = (np.concatenate(c) for c in zip(*parts))
+    return t, fn, fs, schedule.level(t)
+
+
+def step_recordings(t, normal, shear, intensity, schedule: StepSchedule, sample_rate: float, v_max: float, source: str):
+    """One voltage-input :class:`~surfhap.exchange.tribometer.TribometerRecording` per step."""
+    from surfhap.exchange.tribometer import TribometerRecording
+
+    j = schedule.step(t)
+    recs = []
+    for k in range(schedule.levels.size):
+        m = j == k
+        recs.append(TribometerRecording.from_arrays(
+            input="voltage", lateral_force=shear[m], normal_force=normal[m], level=intensity[m] * v_max,
+            sample_rate=sample_rate, source=f"{source} step {k + 1} (intensity {schedule.levels[k]:g})"))
+    return recs
