@@ -30,7 +30,7 @@ calibrate_app = typer.Typer(no_args_is_help=True, add_completion=False, pretty_e
 _sensor_opts = sensor_options()
 
 
-def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear):
+def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear, sensor_timeout):
     """Play the steps on ``output``, record ``sensor``: one tribometer recording per step (exit 3
     when the sensor falls silent or the output fails, after the drive has ramped to zero)."""
     import time
@@ -48,7 +48,7 @@ def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear
         fail(f"--levels: expected comma-separated intensities, got {levels!r}")
     schedule = rig.StepSchedule(lv, step_seconds or rig.STEP_SECONDS, revolution or rig.REVOLUTION)
     out = parse_output(output)
-    limits = SafetyLimits(**({} if v_max is None else {"v_max": v_max}), watchdog_timeout=rig.SENSOR_WATCHDOG)
+    limits = SafetyLimits(**({} if v_max is None else {"v_max": v_max}), watchdog_timeout=sensor_timeout)
     from surfhap.runtime.clock import now
 
     engine = LiveEngine(rig.StepRenderer(schedule, out.default_drive_rate, limits, now))
@@ -58,7 +58,7 @@ def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear
     try:
         while not dev.read()[0].size:  # the stream is up (else SensorSilent after 1 s: exit 2) before any drive
             time.sleep(0.001)
-        dev.timeout = rig.SENSOR_WATCHDOG
+        dev.timeout = sensor_timeout
         backend = open_backend(out)
         backend.start(engine)
         stdout.print(f"playing {schedule.levels.size} intensities x {schedule.step_seconds:g} s on {output}, "
@@ -110,6 +110,9 @@ def tribometer(
                                                "for 1/8 (default Kim et al.: one of 8 sectors, 2 pi 3 cm / 6.5 cm/s = 2.9 s)."),
     v_max: Optional[float] = typer.Option(None, "--v-max", help="With --live: volts at intensity 1, the safety "
                                                                 "limit (default 250 V)."),
+    sensor_timeout: float = typer.Option(0.020, "--sensor-timeout", min=0.001, max=1.0,
+                                         help="With --live: seconds without a sensor record before the drive ramps "
+                                              "to zero and the command ends (exit 3); issue 19's fail-safe: 20 ms."),
     normal: str = _sensor_opts["normal"],
     shear: str = _sensor_opts["shear"],
 ) -> None:
@@ -121,14 +124,15 @@ def tribometer(
     plot = figure_path(plot, "--plot")
     if live == bool(recordings) or live != bool(sensor):
         fail("give tribometer recordings, or --live with --sensor (and no recordings)")
-    recs = _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear) if live else \
+    recs = _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear, sensor_timeout) if live else \
         [read_tribometer(p) for p in recordings]
     leaks = [read_tribometer(p) for p in (leakage or [])]
     cal = calibrate(recs, curve=curve, guard=guard, volts_per_unit=volts_per_unit, leakage_recordings=leaks)
     opts = f" --curve {curve} --guard {guard:g}" + (f" --volts-per-unit {volts_per_unit:g}" if volts_per_unit else "")
     opts += "".join(f" --leakage {shlex.quote(str(p))}" for p in (leakage or []))
     if live:
-        given = (("levels", levels), ("step-seconds", step_seconds), ("revolution", revolution), ("v-max", v_max))
+        given = (("levels", levels), ("step-seconds", step_seconds), ("revolution", revolution), ("v-max", v_max),
+                 ("sensor-timeout", sensor_timeout))
         opts += (f" --live --sensor {shlex.quote(sensor)} --output {shlex.quote(output)}" + "".join(
             f" --{k} {v}" for k, v in given if v is not None) + f" --normal {normal} --shear {shear}")
     command = ("surfhap calibrate tribometer " + " ".join(shlex.quote(str(p)) for p in recordings or [])

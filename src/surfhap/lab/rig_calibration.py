@@ -11,8 +11,8 @@ gives k and the device curve.
 :class:`StepRenderer` is an ordinary :class:`~surfhap.runtime.protocols.Renderer` behind its own
 :class:`~surfhap.render.safety.SafetyStage`; the engine's output pass follows. Each batch of
 sensor records is pushed to the engine as a touch sample (load = the measured normal force),
-so the safety stage's watchdog (timeout ``SENSOR_WATCHDOG``, then its 5 ms ramp) zeroes the
-drive when the sensor goes silent, and its lift threshold when the pen is off the panel.
+so the safety stage's watchdog (its timeout set to the sensor timeout, 20 ms by default: issue
+19's fail-safe; then its 5 ms ramp) zeroes the drive when the sensor goes silent, and its lift threshold when the pen is off the panel.
 """
 
 from __future__ import annotations
@@ -28,14 +28,13 @@ from surfhap.render.carrier import PolarityCarrier
 from surfhap.render.chain import DEFAULT_CARRIER
 from surfhap.render.safety import SafetyLimits, SafetyStage
 
-__all__ = ["KIM_LEVELS", "STEP_SECONDS", "REVOLUTION", "SENSOR_WATCHDOG", "StepSchedule", "StepRenderer",
+__all__ = ["KIM_LEVELS", "STEP_SECONDS", "REVOLUTION", "StepSchedule", "StepRenderer",
            "record_steps", "step_recordings"]
 
 KIM_LEVELS = tuple(round(0.1 * i, 1) for i in range(1, 11))  # 002 Sec. 2.2: 0.1-1.0, step 0.1
 STEP_SECONDS = 20.0  # 002 Sec. 2.2: 20 s of data per trial
 REVOLUTION = 2 * math.pi * 0.03 / 0.065  # s, 002 Sec. 2.1: 3 cm radius at 6.5 cm/s
 SECTORS = 8  # 002 Sec. 2.2, Fig. 3a: the drive on in one of eight sectors
-SENSOR_WATCHDOG = 0.020  # s without a sensor record -> ramp to zero (issue 19 target: silent 20 ms)
 CONTROL_RATE = 1000  # Hz, model rate of the step renderer (the level changes at most every revolution / 8)
 
 
