@@ -81,9 +81,12 @@ def test_sequence_wrap_is_not_a_gap_and_drops_are_counted():
 
 
 def test_silent_box_raises_after_the_timeout():
-    with NetFTBox(1000, silent_after=0) as box:
+    with NetFTBox(1000, silent_after=0) as box:  # never streams: refused at the start
+        with pytest.raises(SensorSilent, match=r"netft://127\.0\.0\.1:\d+: no record within 0.1 s"):
+            _sensor(box, timeout=0.1)
+    with NetFTBox(1000, silent_after=20) as box:  # streams, then falls silent
         dev = _sensor(box, timeout=0.1)
-        with pytest.raises(SensorSilent, match=r"netft://127\.0\.0\.1:\d+: no record"):
+        with pytest.raises(SensorSilent, match=r"netft://127\.0\.0\.1:\d+: no record for \d+ ms"):
             end = time.monotonic() + GUARD
             while time.monotonic() < end:
                 dev.read()
@@ -121,7 +124,7 @@ def test_record_force_silent_box_is_one_line_exit_2(tmp_path, capsys):
         code, _, err = run(capsys, "record", "force", box.address, "--duration", 1, "--out", tmp_path / "f.csv",
                            "--timeout", 0.2)
     assert code == 2 and err.count("\n") == 1
-    assert f"netft://127.0.0.1:{box.port}: no record" in err
+    assert f"netft://127.0.0.1:{box.port}: no record within 0.2 s" in err
     assert not (tmp_path / "f.csv").exists()
 
 

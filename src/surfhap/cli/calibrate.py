@@ -18,7 +18,7 @@ from typing import Optional
 import typer
 
 from surfhap.cli._common import error_line, fail, figure_path, stdout
-from surfhap.cli.record import open_sensor, report_status, sensor_options
+from surfhap.cli.record import NORMAL, SHEAR, open_sensor, report_status
 
 __all__ = ["register"]
 
@@ -27,20 +27,16 @@ calibrate_app = typer.Typer(no_args_is_help=True, add_completion=False, pretty_e
                                  "recordings (Kim et al. 2017 Sec. 2.2), written as a display file.")
 
 
-_sensor_opts = sensor_options()
-
-
 def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear, sensor_timeout):
     """Play the steps on ``output``, record ``sensor``: one tribometer recording per step (exit 3
     when the sensor falls silent or the output fails, after the drive has ramped to zero)."""
-    import time
-
     from surfhap.cli._output import parse_output
     from surfhap.lab import rig_calibration as rig
     from surfhap.live.backends.output import open_backend
     from surfhap.live.engine import LiveEngine
     from surfhap.live.netft import SensorSilent
     from surfhap.render.safety import SafetyLimits
+    from surfhap.runtime.clock import now
 
     try:
         lv = [float(v) for v in levels.split(",")] if levels else rig.KIM_LEVELS
@@ -49,32 +45,23 @@ def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear
     schedule = rig.StepSchedule(lv, step_seconds or rig.STEP_SECONDS, revolution or rig.REVOLUTION)
     out = parse_output(output)
     limits = SafetyLimits(**({} if v_max is None else {"v_max": v_max}), watchdog_timeout=sensor_timeout)
-    from surfhap.runtime.clock import now
-
     engine = LiveEngine(rig.StepRenderer(schedule, out.default_drive_rate, limits, now))
     engine.warm_up()  # compiled kernels loaded before the stream starts
-    dev = open_sensor(sensor, "--sensor", normal, shear, timeout=1.0)
-    backend = None
+    dev = open_sensor(sensor, "--sensor", normal, shear, timeout=1.0)  # streaming (else exit 2) before any drive
+    dev.timeout = sensor_timeout
+    backend, failure = open_backend(out), None
     try:
-        while not dev.read()[0].size:  # the stream is up (else SensorSilent after 1 s: exit 2) before any drive
-            time.sleep(0.001)
-        dev.timeout = sensor_timeout
-        backend = open_backend(out)
         backend.start(engine)
         stdout.print(f"playing {schedule.levels.size} intensities x {schedule.step_seconds:g} s on {output}, "
                      f"recording {dev.name}")
         t, fn, fs, level = rig.record_steps(dev, engine, schedule)
-    except SensorSilent as exc:
-        if backend is None:
-            raise
-        backend.stop()
-        error_line(f"{exc}; the drive ramped to zero")
-        raise typer.Exit(3) from None
+    except SensorSilent as exc:  # the watchdog has begun the ramp to zero; the stop ramp ends it
+        failure = str(exc)
     finally:
         dev.close()
-    backend.stop()
-    if engine.failure:
-        error_line(f"{engine.failure}; the drive ramped to zero")
+        backend.stop()
+    if failure or engine.failure:
+        error_line(f"{failure or engine.failure}; the drive ramped to zero")
         raise typer.Exit(3)
     report_status(dev)
     stdout.print(f"recorded {t.size} samples, {dev.gaps} gaps ({dev.lost} records lost)")
@@ -113,8 +100,8 @@ def tribometer(
     sensor_timeout: float = typer.Option(0.020, "--sensor-timeout", min=0.001, max=1.0,
                                          help="With --live: seconds without a sensor record before the drive ramps "
                                               "to zero and the command ends (exit 3); issue 19's fail-safe: 20 ms."),
-    normal: str = _sensor_opts["normal"],
-    shear: str = _sensor_opts["shear"],
+    normal: str = NORMAL,
+    shear: str = SHEAR,
 ) -> None:
     """Fit the device curve and k, mu_panel from tribometer recordings; write CAL.json."""
     from surfhap.exchange.display_file import write_display_json

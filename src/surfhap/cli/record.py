@@ -17,19 +17,16 @@ import typer
 
 from surfhap.cli._common import fail, stdout, warning_line
 
-__all__ = ["register", "open_sensor", "sensor_options", "report_status"]
+__all__ = ["register", "open_sensor", "report_status", "NORMAL", "SHEAR"]
 
 record_app = typer.Typer(no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
                          help="Record a rig's sensors (ATI Net F/T over RDT).")
 
 
-def sensor_options():
-    """The axis and timeout options shared by every command that opens a force sensor."""
-    return dict(
-        normal=typer.Option("z", "--normal", help="Sensor axis of the normal force, optionally signed (z, -z, x, ...): "
-                                                  "pressing on the panel must read positive."),
-        shear=typer.Option("x", "--shear", help="Sensor axis of the shear (friction) force, optionally signed."),
-    )
+# the axis options of every command that opens a force sensor
+NORMAL = typer.Option("z", "--normal", help="Sensor axis of the normal force, optionally signed (z, -z, x, ...): "
+                                            "pressing on the panel must read positive.")
+SHEAR = typer.Option("x", "--shear", help="Sensor axis of the shear (friction) force, optionally signed.")
 
 
 def open_sensor(text: str, option: str, normal: str, shear: str, timeout: float):
@@ -48,17 +45,14 @@ def report_status(sensor) -> None:
                      "(the box flags an error: see its web page)")
 
 
-_opts = sensor_options()
-
-
 @record_app.command("force")
 def force(
     sensor: str = typer.Argument(..., help="netft://HOST[:PORT][?http=PORT]: an ATI Net F/T box (RDT port 49152, "
                                            "configuration page on HTTP port 80 by default)."),
     duration: float = typer.Option(..., "--duration", min=0.001, help="Seconds to record (on the box's clock)."),
     out: Path = typer.Option(..., "--out", help="Recording CSV to write (time, normal_force, shear_force)."),
-    normal: str = _opts["normal"],
-    shear: str = _opts["shear"],
+    normal: str = NORMAL,
+    shear: str = SHEAR,
     timeout: float = typer.Option(1.0, "--timeout", min=0.001, max=60.0,
                                   help="Seconds without a record before the box counts as silent (exit 2): the box "
                                        "answers within one RDT period; 1 s also covers address resolution."),

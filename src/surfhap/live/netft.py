@@ -1,28 +1,20 @@
-"""ATI Net F/T over RDT (UDP): the force sensor under a tribometer rig's panel (issue 19).
+"""ATI Net F/T over RDT (UDP), written from ATI's manual 9620-05-NET FT ("Raw Data Transfer")::
 
-Written from ATI's Net F/T manual (9620-05-NET FT, "Raw Data Transfer"), not from a client
-library (``pynetft``/``netft`` would add a dependency for ~60 lines and hide the sequence
-gaps this module must count)::
+    request  8 B big-endian: uint16 0x1234, uint16 command (0x0002 start high-speed streaming,
+                             0x0000 stop), uint32 sample count (0 = endless), to UDP port 49152
+    record  36 B big-endian: uint32 rdt_sequence, ft_sequence, status; int32 Fx Fy Fz Tx Ty Tz counts
 
-    request  8 B big-endian:  uint16 0x1234, uint16 command (0x0002 start high-speed
-                              streaming, 0x0000 stop), uint32 sample count (0 = endless)
-    record  36 B big-endian:  uint32 rdt_sequence, uint32 ft_sequence, uint32 status,
-                              int32 Fx Fy Fz Tx Ty Tz (counts)
-
-sent to / from UDP port 49152. The box's ``http://HOST/netftapi2.xml`` gives the counts per
-force unit (``cfgcpf``), the force unit (``scfgfu``) and the RDT output rate (``comrdtrate``,
-Hz). The time of a record is ``(rdt_sequence - first) / comrdtrate`` on the box's clock; the
-sequence is unwrapped modulo 2^32, a jump of ``d > 1`` is one gap of ``d - 1`` lost records,
-a record that goes back (duplicate, reordered) is one gap and is dropped. A non-zero status
-word is counted and its first value kept. No record for ``timeout`` s -> :class:`SensorSilent`.
-
-Axes: ``normal`` and ``shear`` name a force axis with an optional sign, ``"z"``, ``"-z"``,
-``"x"``, ...; default normal = +Fz, shear = +Fx in the sensor frame (mount the sensor so that
-pressing on the panel gives +Fz, or pass ``"-z"``).
+``http://HOST/netftapi2.xml`` gives ``cfgcpf`` (counts per force unit), ``scfgfu`` (the unit)
+and ``comrdtrate`` (Hz). A record's time is ``(rdt_sequence - first) / comrdtrate`` (box clock),
+the sequence unwrapped modulo 2^32: a jump ``d > 1`` is one gap of ``d - 1`` lost records; a
+record going back is one gap and dropped. Non-zero status words are counted (first one kept).
+No record for ``timeout`` s: :class:`SensorSilent`. ``normal``/``shear``: a signed axis
+("z", "-z", "x", ...), default +Fz and +Fx in the sensor frame.
 """
 
 from __future__ import annotations
 
+import select
 import socket
 import struct
 import time
@@ -51,23 +43,19 @@ class SensorSilent(SensorError):
 
 
 def request(command: int, count: int = 0) -> bytes:
-    """The 8-byte RDT request."""
     return struct.pack(">HHI", HEADER, command, count)
 
 
 def _axis(spec: str, field: str) -> tuple[int, float]:
     s = spec.strip().lower()
-    sign = -1.0 if s.startswith("-") else 1.0
     if s.lstrip("+-") not in _AXES:
         raise InputError(f"{spec!r} is not a force axis (x, y, z, optionally signed: -z)", field=field)
-    return _AXES[s.lstrip("+-")], sign
+    return _AXES[s.lstrip("+-")], -1.0 if s.startswith("-") else 1.0
 
 
 class NetFT:
-    """A :class:`~surfhap.runtime.protocols.ForceSensor` on an ATI Net F/T box.
-
-    Construction reads ``netftapi2.xml`` and starts the stream; :meth:`read` drains the socket.
-    ``gaps``, ``lost``, ``status_count``, ``first_status``, ``records`` count what arrived."""
+    """A :class:`~surfhap.runtime.protocols.ForceSensor`: reads ``netftapi2.xml``, starts the
+    stream; :meth:`read` drains the socket. Counts: ``gaps``, ``lost``, ``status_count``."""
 
     def __init__(self, host: str, port: int = RDT_PORT, *, http_port: int = 80, normal: str = "z", shear: str = "x",
                  timeout: float = 1.0):
@@ -75,20 +63,23 @@ class NetFT:
         self._normal, self._shear = _axis(normal, "normal"), _axis(shear, "shear")
         self.timeout = float(timeout)
         self.rate, self.scale = self._config(host, http_port)
-        self.gaps = self.lost = self.status_count = self.records = 0
+        self.gaps = self.lost = self.status_count = 0
         self.first_status: int | None = None
         self._first: int | None = None
         self._last = 0  # unwrapped sequence of the last record kept
-        self._buf = bytearray(RECORD.itemsize * 8192)
         self._sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_DGRAM)
+        why = f"no record within {self.timeout:g} s of the start request: box silent or unreachable"
         try:
             self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)  # capped by the kernel's rmem_max
             self._sock.connect((host, port))
             self._sock.setblocking(False)
             self._sock.send(request(START))
+            streaming = select.select([self._sock], [], [], self.timeout)[0]
         except OSError as exc:
+            streaming, why = [], f"cannot start the RDT stream: {exc.strerror or exc}"
+        if not streaming:
             self._sock.close()
-            raise SensorError(f"cannot start the RDT stream: {exc.strerror or exc}", source=self.name) from None
+            raise SensorSilent(why, source=self.name)
         self._heard = time.monotonic()
 
     def _config(self, host: str, http_port: int) -> tuple[float, float]:
@@ -110,22 +101,15 @@ class NetFT:
         return rate, FORCE_UNITS[unit] / cpf
 
     def _drain(self) -> np.ndarray:
-        view, off, size = memoryview(self._buf), 0, RECORD.itemsize
+        got = []
         while True:
-            if off + size > len(self._buf):
-                view.release()
-                self._buf.extend(bytes(len(self._buf)))
-                view = memoryview(self._buf)
             try:
-                n = self._sock.recv_into(view[off:], size)
+                got.append(self._sock.recv(64))
             except BlockingIOError:
                 break
             except OSError as exc:  # ICMP port unreachable on loopback, network down
                 raise SensorSilent(f"stream failed: {exc.strerror or exc}", source=self.name) from None
-            off += size if n == size else 0  # a datagram of another size is not a record
-        data = bytes(view[:off])
-        view.release()
-        return np.frombuffer(data, dtype=RECORD)
+        return np.frombuffer(b"".join(d for d in got if len(d) == RECORD.itemsize), dtype=RECORD)  # others: no record
 
     def read(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         now = time.monotonic()
@@ -154,11 +138,10 @@ class NetFT:
         useq = self._last + np.cumsum(jumps)
         if useq.size:
             self._last = int(useq[-1])
-        bad = rec["status"] != 0
-        if bad.any():
-            self.status_count += int(bad.sum())
-            self.first_status = self.first_status if self.first_status is not None else int(rec["status"][bad][0])
-        self.records += rec.size
+        bad = rec["status"][rec["status"] != 0]
+        if bad.size:
+            self.status_count += bad.size
+            self.first_status = self.first_status if self.first_status is not None else int(bad[0])
         c = rec["counts"]
         (i, si), (j, sj) = self._normal, self._shear
         return ((useq - self._first - 1) / self.rate, si * self.scale * c[:, i].astype(float),
