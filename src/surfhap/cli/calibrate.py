@@ -6,7 +6,8 @@
                                  [--volts-per-unit G] [--guard 0.1] [--plot FIG.png] [--leakage DC.csv ...]
 
 Writes the display file (``surfhap-display`` version 1) that ``surfhap render/serve
---display CAL.json`` reads: k, mu_panel, the device curve, and the fit details.
+--display CAL.json`` reads: k, mu_panel, the device curve, and the fit details. With ``--live
+--sensor netft://HOST --output OUT`` it records the steps itself (:mod:`surfhap.lab.rig_calibration`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear
     """Play the steps on ``output``, record ``sensor``: one tribometer recording per step (exit 3
     when the sensor falls silent or the output fails, after the drive has ramped to zero)."""
     from surfhap.cli._output import parse_output
+    from surfhap.cli._signals import StopSignals
     from surfhap.lab import rig_calibration as rig
     from surfhap.live.backends.output import open_backend
     from surfhap.live.engine import LiveEngine
@@ -50,16 +52,18 @@ def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear
     dev = open_sensor(sensor, "--sensor", normal, shear, timeout=1.0)  # streaming (else exit 2) before any drive
     dev.timeout = sensor_timeout
     backend, failure = open_backend(out), None
-    try:
-        backend.start(engine)
-        stdout.print(f"playing {schedule.levels.size} intensities x {schedule.step_seconds:g} s on {output}, "
-                     f"recording {dev.name}")
-        t, fn, fs, level = rig.record_steps(dev, engine, schedule)
-    except SensorSilent as exc:  # the watchdog has begun the ramp to zero; the stop ramp ends it
-        failure = str(exc)
-    finally:
-        dev.close()
-        backend.stop()
+    with StopSignals() as guard:
+        try:
+            backend.start(engine)
+            stdout.print(f"playing {schedule.levels.size} intensities x {schedule.step_seconds:g} s on {output}, "
+                         f"recording {dev.name}")
+            t, fn, fs, level = rig.record_steps(dev, engine, schedule, keep_running=lambda: not guard.stopped)
+        except SensorSilent as exc:  # the watchdog has begun the ramp to zero; the stop ramp ends it
+            failure = str(exc)
+        finally:
+            dev.close()
+            backend.stop()
+    guard.finish("the drive ramped to zero; nothing written")
     if failure or engine.failure:
         error_line(f"{failure or engine.failure}; the drive ramped to zero")
         raise typer.Exit(3)
@@ -87,19 +91,17 @@ def tribometer(
     plot: Optional[Path] = typer.Option(None, "--plot", help="Also save a figure of the fits (PNG/PDF/SVG)."),
     live: bool = typer.Option(False, "--live", help="Record on the rig instead: play Kim et al.'s intensity steps "
                                                     "on --output, record --sensor (docs/live.md 'Your rig')."),
-    sensor: Optional[str] = typer.Option(None, "--sensor", help="With --live: netft://HOST[:PORT][?http=PORT]."),
-    output: str = typer.Option("sim", "--output", help="With --live: where the drive goes (sim, sound[:DEVICE], ...)."),
-    levels: Optional[str] = typer.Option(None, "--levels", help="With --live: intensities played, comma-separated "
-                                                                "(default Kim et al. 2017 Sec. 2.2: 0.1, 0.2, ..., 1.0)."),
-    step_seconds: Optional[float] = typer.Option(None, "--step-seconds", help="With --live: seconds per intensity "
-                                                                              "(default Kim et al.: 20)."),
-    revolution: Optional[float] = typer.Option(None, "--revolution", help="With --live: seconds per on/off cycle, on "
-                                               "for 1/8 (default Kim et al.: one of 8 sectors, 2 pi 3 cm / 6.5 cm/s = 2.9 s)."),
-    v_max: Optional[float] = typer.Option(None, "--v-max", help="With --live: volts at intensity 1, the safety "
-                                                                "limit (default 250 V)."),
+    sensor: Optional[str] = typer.Option(None, "--sensor", help="--live: netft://HOST[:PORT][?http=PORT]."),
+    output: str = typer.Option("sim", "--output", help="--live: where the drive goes (sim, sound[:DEVICE], ...)."),
+    levels: Optional[str] = typer.Option(None, "--levels", help="--live: intensities, comma-separated (Kim et al. "
+                                                                "Sec. 2.2: 0.1, 0.2, ..., 1.0)."),
+    step_seconds: Optional[float] = typer.Option(None, "--step-seconds", help="--live: s per intensity (Kim: 20)."),
+    revolution: Optional[float] = typer.Option(None, "--revolution", help="--live: s per on/off cycle, on for 1/8 "
+                                                                          "(Kim: 2 pi 3 cm / 6.5 cm/s = 2.9)."),
+    v_max: Optional[float] = typer.Option(None, "--v-max", help="--live: V at intensity 1, the safety limit (250)."),
     sensor_timeout: float = typer.Option(0.020, "--sensor-timeout", min=0.001, max=1.0,
-                                         help="With --live: seconds without a sensor record before the drive ramps "
-                                              "to zero and the command ends (exit 3); issue 19's fail-safe: 20 ms."),
+                                         help="--live: s without a sensor record before the drive ramps to zero "
+                                              "and the command ends, exit 3 (issue 19's fail-safe: 20 ms)."),
     normal: str = NORMAL,
     shear: str = SHEAR,
 ) -> None:

@@ -1,18 +1,12 @@
-"""Display calibration on the rig: play Kim et al.'s intensity steps, record the force sensor, fit.
+"""Display calibration on the rig: play Kim et al.'s intensity steps, record the force sensor.
 
-The steps (Kim et al. 2017, shared/papers/002 Sec. 2.2): intensities 0.1, 0.2, ..., 1.0, 20 s of
-data each, the drive on while the pen crosses one of the eight sectors of its circular path
-(Fig. 3a): on for 1/8 of each revolution, which lasts 2 pi r / v = 2 pi 0.03 m / 0.065 m/s = 2.9 s
-(Sec. 2.1: 3 cm radius, 6.5 cm/s). Intensity ``I`` is played as the envelope ``I v_max`` (V, the
-safety stage's limit) under the default polarity carrier (2 kHz, 003 Sec. IV-D), so each step is
-a voltage-input tribometer recording and :func:`surfhap.lab.calibration.calibrate` (unchanged)
-gives k and the device curve.
-
-:class:`StepRenderer` is an ordinary :class:`~surfhap.runtime.protocols.Renderer` behind its own
-:class:`~surfhap.render.safety.SafetyStage`; the engine's output pass follows. Each batch of
-sensor records is pushed to the engine as a touch sample (load = the measured normal force),
-so the safety stage's watchdog (its timeout set to the sensor timeout, 20 ms by default: issue
-19's fail-safe; then its 5 ms ramp) zeroes the drive when the sensor goes silent, and its lift threshold when the pen is off the panel.
+Steps (shared/papers/002 Sec. 2.2): intensities 0.1, 0.2, ..., 1.0, 20 s each; the drive on while
+the pen crosses one of eight sectors of its circle (Fig. 3a), i.e. for 1/8 of each revolution of
+2 pi r / v = 2 pi 0.03 m / 0.065 m/s = 2.9 s (Sec. 2.1). Intensity ``I`` is played as the envelope
+``I v_max`` under the 2 kHz polarity carrier, so each step is a voltage-input tribometer recording
+for the existing fit (:func:`surfhap.lab.calibration.calibrate`). Each batch of sensor records is
+one touch sample (load = measured normal force) of the engine: the safety stage's watchdog (its
+timeout = the sensor timeout) ramps the drive to zero when the sensor falls silent.
 """
 
 from __future__ import annotations
@@ -39,8 +33,8 @@ CONTROL_RATE = 1000  # Hz, model rate of the step renderer (the level changes at
 
 
 class StepSchedule:
-    """Level ``levels[j]`` (intensity) during step ``j`` (``step_seconds`` each), on during the last
-    1/8 of each ``revolution``; ``level(t)`` -> intensity (n,) at renderer times ``t`` s (0 after the end)."""
+    """``level(t)``: intensity ``levels[j]`` in step ``j`` (``step_seconds`` each) during the last
+    1/8 of each ``revolution``, else 0 (and 0 after the end); ``t`` (n,) s."""
 
     def __init__(self, levels=KIM_LEVELS, step_seconds: float = STEP_SECONDS, revolution: float = REVOLUTION):
         self.levels = np.asarray(levels, float)
@@ -63,12 +57,9 @@ class StepSchedule:
 
 
 class StepRenderer:
-    """The steps of ``schedule`` as a :class:`~surfhap.runtime.protocols.Renderer`: envelope
-    ``level v_max`` at ``drive_rate``, polarity carrier, then the safety stage (``limits``).
-
-    The schedule runs on ``clock`` (the engine's, s) from the last :meth:`reset` (``t0``), not on
-    the count of samples rendered: a block the output skipped (an underrun) does not shift the
-    steps against the sensor's record of them."""
+    """The steps as a :class:`~surfhap.runtime.protocols.Renderer`: envelope ``level v_max``,
+    polarity carrier, then its safety stage. The schedule runs on ``clock`` (the engine's) from
+    the last :meth:`reset` (``t0``), so a block the output skipped does not shift the steps."""
 
     uses_position = False
     control_rate = CONTROL_RATE
@@ -101,11 +92,10 @@ class StepRenderer:
         return RenderBlock(self._safety.process(drive, load_d, age), load_d, np.zeros(n))
 
 
-def record_steps(sensor, engine, schedule: StepSchedule, *, keep_running=lambda: True, poll: float = 0.001):
-    """Run ``schedule`` on a started ``engine`` (a :class:`StepRenderer` behind it) while polling
-    ``sensor``; returns (t, normal, shear, intensity) (n,) on the renderer's schedule clock. Each batch of
-    records is one touch sample (load = the newest normal force). A silent sensor raises
-    :class:`~surfhap.live.netft.SensorSilent` after the safety stage has zeroed the drive."""
+def record_steps(sensor, engine, schedule: StepSchedule, *, keep_running=lambda: True):
+    """Poll ``sensor`` while a started ``engine`` plays its :class:`StepRenderer`; returns (t,
+    normal, shear, intensity) (n,) on the schedule's clock. A silent sensor raises
+    :class:`~surfhap.live.netft.SensorSilent` (the watchdog has begun the ramp to zero)."""
     parts = []
     offset = None  # renderer clock - sensor clock, set at the first batch
     while keep_running() and not engine.halted:
@@ -117,7 +107,7 @@ def record_steps(sensor, engine, schedule: StepSchedule, *, keep_running=lambda:
             parts.append((t + offset, fn, fs))
             if t[-1] + offset >= schedule.duration:
                 break
-        time.sleep(poll)
+        time.sleep(0.001)  # poll: ~7 records at the Net F/T's 7 kHz, far inside a 20 ms timeout
     if not parts:
         return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)
     t, fn, fs = (np.concatenate(c) for c in zip(*parts))
