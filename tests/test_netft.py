@@ -216,3 +216,27 @@ def test_live_calibration_silent_sensor_ramps_to_zero_and_exits_3(tmp_path, caps
     after = [m for now, m in finger.rendered if now is not None and now > cut]
     assert after and max(after) == 0.0
     assert eng.failure is None and eng.output_safety_counters()["watchdog"] > 0
+
+
+@pytest.mark.parametrize("text, want", [
+    ("netft://192.168.1.1", ("192.168.1.1", 49152, 80)),
+    ("netft://192.168.1.1:5000", ("192.168.1.1", 5000, 80)),
+    ("netft://box.lab:5000?http=8080", ("box.lab", 5000, 8080)),
+    ("netft://[::1]:5000", ("::1", 5000, 80)),
+    ("netft://::1", ("::1", 49152, 80)),
+])
+def test_netft_address(text, want):
+    assert parse_netft_address(text, "--sensor") == want
+
+
+@pytest.mark.parametrize("args, field", [
+    (("record", "force", "osc://127.0.0.1:9", "--duration", 1), "expected netft://"),
+    (("record", "force", "netft://127.0.0.1:99999", "--duration", 1), "port"),
+    (("record", "force", "netft://127.0.0.1?https=1", "--duration", 1), "only ?http=PORT"),
+    (("calibrate", "tribometer", "--live"), "--live with --sensor"),
+    (("calibrate", "tribometer", "--live", "--sensor", "netft://127.0.0.1", "--levels", "0.5,x,1"), "--levels"),
+    (("calibrate", "tribometer", "--live", "--sensor", "netft://127.0.0.1", "--levels", "0.5,1"), "three intensities"),
+])
+def test_bad_rig_input_is_one_line_exit_2(tmp_path, capsys, args, field):
+    code, _, err = run(capsys, *args, "--out", tmp_path / "x.csv")
+    assert code == 2 and err.count("\n") == 1 and field in err
