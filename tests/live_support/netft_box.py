@@ -24,7 +24,7 @@ import threading
 import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
-CPF, CPT = 1_000_000, 1_000_000  # counts per N and per N m (a Nano17's order: ATI calibration sheets)
+CPF, CPT = 1_000_000, 1_000_000  # counts per N and per N m of this box (any positive integer: the client reads them)
 XML = ("<?xml version=\"1.0\"?><netft><cfgcpf>{cpf}</cfgcpf><cfgcpt>{cpt}</cfgcpt><scfgfu>{fu}</scfgfu>"
        "<scfgtu>N-m</scfgtu><comrdtrate>{rate}</comrdtrate><comrdte>Enabled</comrdte></netft>")
 
