@@ -5,8 +5,8 @@ simulated display with its fail-safe."""
 
 from __future__ import annotations
 
+import bisect
 import json
-import struct
 import time
 
 import numpy as np
@@ -131,8 +131,9 @@ def test_record_force_silent_box_is_one_line_exit_2(tmp_path, capsys):
 class SimFinger:
     """The smallest honest coupling of the sim output to the box: every block the sim backend
     emits (after the engine's output safety pass) drives a simulated display with a known k
-    under a fixed pen load; the box reports that display's newest friction as Fx and the load
-    as Fz. Also keeps the emitted blocks."""
+    under a fixed pen load; a box record reports that display's friction at the record's own
+    time as Fx (as a real box samples at its clock, even when this in-process box sends late)
+    and the load as Fz. Also keeps the emitted blocks."""
 
     LOAD = 0.470 * 9.81  # N, Kim et al. 2017 Sec. 2.1 counterweight
 
@@ -144,8 +145,8 @@ class SimFinger:
         self.display.process(np.zeros(40), np.full(40, self.LOAD))  # compiled before the backend's stall watch runs
         self.display.reset()
         self.mu = self.display.model.mu_panel
-        self.friction = self.mu * self.LOAD
-        self.blocks, self.engine = [], None
+        self.times, self.friction = [-np.inf], [self.mu * self.LOAD]  # (perf_counter at emit, newest friction)
+        self.blocks, self.engine, self.box = [], None, None
         self.rng = np.random.default_rng(0)
         original = SimBackend.emit
 
@@ -155,7 +156,8 @@ class SimFinger:
             self.blocks.append(np.array(volts))
             f = self.display.process(volts, np.full(volts.shape[0], self.LOAD))
             if f.size:
-                self.friction = float(f[-1])
+                self.times.append(time.perf_counter())
+                self.friction.append(float(f[-1]))
 
         monkeypatch.setattr(SimBackend, "emit", emit)
         from surfhap.live.engine import LiveEngine
@@ -171,7 +173,8 @@ class SimFinger:
         monkeypatch.setattr(LiveEngine, "render", logged)
 
     def forces(self, t):
-        return (self.friction + self.rng.normal(0.0, 0.002), 0.0, self.LOAD, 0.0, 0.0, 0.0)
+        i = bisect.bisect_right(self.times, self.box.t0 + t) - 1
+        return (self.friction[i] + self.rng.normal(0.0, 0.002), 0.0, self.LOAD, 0.0, 0.0, 0.0)
 
 
 # one revolution per step, on for 0.2 s of it; the 50 ms guard after each switch absorbs the sensor's
@@ -187,6 +190,7 @@ def test_live_calibration_recovers_the_simulated_display(tmp_path, capsys, monke
     finger = SimFinger(monkeypatch, k)
     out = tmp_path / "cal.json"
     with NetFTBox(2000, forces=finger.forces) as box:
+        finger.box = box
         code, stdout, err = run(capsys, "calibrate", "tribometer", "--live", "--sensor", box.address, *LIVE, *PATIENT,
                                 "--out", out)
     assert code == 0, err
@@ -204,6 +208,7 @@ def test_live_calibration_silent_sensor_ramps_to_zero_and_exits_3(tmp_path, caps
     finger = SimFinger(monkeypatch, 1.0e-5)
     out = tmp_path / "cal.json"
     with NetFTBox(2000, forces=finger.forces, silent_after=3000) as box:  # silent 1.5 s into the stream
+        finger.box = box
         code, _, err = run(capsys, "calibrate", "tribometer", "--live", "--sensor", box.address, *LIVE, "--out", out)
     assert code == 3 and err.count("\n") == 1
     assert f"netft://127.0.0.1:{box.port}: no record for" in err and "ramped to zero" in err

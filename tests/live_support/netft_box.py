@@ -9,7 +9,8 @@
 Faults: ``seq0`` (first rdt_sequence, e.g. 2**32 - 3 to wrap), ``drop`` (record indices
 never sent; their sequence numbers are skipped), ``status`` ({index: word}), ``silent_after``
 (stop sending after that many records while still running). ``forces(t)`` gives the six
-values (N, N m) of the record at box time ``t`` s (default: a fixed load).
+values (N, N m) of the record at box time ``t`` s (default: a fixed load); the stream started at
+``t0`` (``time.perf_counter``), so a record sent late still carries the values of its own time.
 
 Run alone (the benchmark): ``python netft_box.py --rate 7000`` prints ``UDP_PORT HTTP_PORT``.
 """
@@ -37,7 +38,7 @@ class NetFTBox:
         self.forces = forces or (lambda t: (0.2, 0.0, 4.6, 0.0, 0.0, 0.0))
         self.cpf, self.force_unit = cpf, force_unit
         self.requests: list[bytes] = []
-        self.sent = 0
+        self.sent, self.t0 = 0, 0.0
         self.udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.udp.bind((host, 0))
         self.udp.settimeout(0.05)
@@ -94,6 +95,7 @@ class NetFTBox:
                         self.requests.append(data)
                         if cmd == 0x0002:
                             self._stream, i, t0 = (peer, count), 0, time.perf_counter()
+                            self.t0 = t0
                         elif cmd == 0x0000:
                             self._stream = None
             except (socket.timeout, BlockingIOError):

@@ -96,21 +96,20 @@ def record_steps(sensor, engine, schedule: StepSchedule, *, keep_running=lambda:
     """Poll ``sensor`` while a started ``engine`` plays its :class:`StepRenderer`; returns (t,
     normal, shear, intensity) (n,) on the schedule's clock. A silent sensor raises
     :class:`~surfhap.live.netft.SensorSilent` (the watchdog has begun the ramp to zero)."""
-    parts = []
-    offset = None  # renderer clock - sensor clock, set at the first batch
+    parts, offset = [], np.inf  # schedule clock - sensor clock: the smallest lag seen (records arrive late, never early)
     while keep_running() and not engine.halted:
         t, fn, fs = sensor.read()
         if t.size:
             engine.push_touch(-1, 0.0, 0.0, float(fn[-1]))
-            if offset is None:
-                offset = engine.clock() - engine.renderer.t0 - float(t[-1])
-            parts.append((t + offset, fn, fs))
+            offset = min(offset, engine.clock() - engine.renderer.t0 - float(t[-1]))
+            parts.append((t, fn, fs))
             if t[-1] + offset >= schedule.duration:
                 break
         time.sleep(0.001)  # poll: ~7 records at the Net F/T's 7 kHz, far inside a 20 ms timeout
     if not parts:
         return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)
     t, fn, fs = (np.concatenate(c) for c in zip(*parts))
+    t = t + offset
     return t, fn, fs, schedule.level(t)
 
 
