@@ -36,6 +36,7 @@ def _need_chromium():
 def _assert_in_viewport(page, selectors, w, h):
     for sel in selectors:
         loc = page.locator(sel)
+        assert loc.count() >= 1, f"no {sel} on the page"
         for i in range(loc.count()):
             el = loc.nth(i)
             assert el.is_visible(), f"{sel} is not visible at {w}x{h}"
