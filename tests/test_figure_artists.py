@@ -103,6 +103,9 @@ def test_render_figure_draws_the_envelope_of_a_carrier_it_cannot_show():
     env = [c for c in ax.collections if "envelope" in c.get_label()]
     assert len(env) == 1 and "safety" in env[0].get_label()
     _all_lines_in_legend(ax)
+    finger, twin = axs[3], axs[4]  # the finger panel and its twin (load) axis
+    assert _legend_texts(twin) == ["speed (mm/s, left)", "load (N, right)"]
+    assert finger.get_ylabel() == "speed (mm/s)" and twin.get_ylabel() == "load (N)"
 
 
 def test_compare_spectrum_is_log_log_over_the_textures_band():

@@ -90,11 +90,14 @@ def plot_render(pv, ax=None) -> Figure:
         plain_log_ticks(ax.xaxis)
     ax.set(xlabel="frequency (Hz)", ylabel="PSD (N²/Hz)", title="added friction above 3.5 Hz")
     ax = axs[3]
-    ax.fill_between(pv.col_t, pv.speed_min * 1e3, pv.speed_max * 1e3, color="C2", lw=1, step="post")
+    sp = ax.fill_between(pv.col_t, pv.speed_min * 1e3, pv.speed_max * 1e3, color="C2", lw=1, step="post",
+                         label="speed (mm/s, left)")
     ax.set(xlabel="time (s)", ylabel="speed (mm/s)", title="finger (min/max per column)")
     ax2 = ax.twinx()
-    ax2.fill_between(pv.col_t, pv.load_min, pv.load_max, color="C4", lw=1, alpha=0.6, step="post")
+    ld = ax2.fill_between(pv.col_t, pv.load_min, pv.load_max, color="C4", lw=1, alpha=0.6, step="post",
+                          label="load (N, right)")
     ax2.set_ylabel("load (N)", color="C4")
+    ax2.legend(handles=[sp, ld], loc="lower right", fontsize=8)
     return fig
 
 
