@@ -69,8 +69,9 @@ def plot_render(pv, ax=None) -> Figure:
     ax.plot(t, pv.mu_panel * pv.win_load + g * pv.win_target, lw=0.8, color="C1", alpha=0.8, label=f"panel + target{scaled}")
     ax.plot(t, law_line(pv), lw=1.2, color="k", ls="--", label=f"panel + low band{scaled}")
     on = pv.load_max > 0
-    scan = f", median {np.median(pv.load_max[on]):.2g} N, {np.median(pv.speed_max[on]) * 1e3:.0f} mm/s" if on.any() else ""
-    ax.set(xlabel="time (s)", ylabel="lateral force (N)", title=f"{pv.material} — {pv.method}{scan}, {pv.span:g} s window")
+    scan = f", {np.median(pv.load_max[on]):.2g} N, {np.median(pv.speed_max[on]) * 1e3:.0f} mm/s" if on.any() else ""  # medians
+    ax.set(xlabel="time (s)", ylabel="lateral force (N)")
+    ax.set_title(f"{pv.material} — {pv.method}{scan}, {pv.span:g} s", fontsize=11)
     ax.legend(loc="upper right", fontsize=8)
     ax = axs[1]
     rate = 1.0 / float(np.median(np.diff(pv.drv_t))) if pv.drv_t.size > 1 else 0.0
