@@ -140,6 +140,19 @@ def test_criterion_axes_have_no_negative_ticks():
     _all_lines_in_legend(ax)
 
 
+def test_summed_criterion_axis_has_no_negative_ticks():
+    from types import SimpleNamespace
+
+    from surfhap.report.fit_figures import plot_accel_aic
+
+    orders = np.arange(0, 13)
+    fit = SimpleNamespace(orders=orders, total_criterion=5e3 / (1 + orders) + 3.0 * orders, order=8, criterion="aic")
+    ax = plot_accel_aic(fit).axes[0]
+    ax.get_figure().canvas.draw()
+    ticks = _visible_ticks(ax)
+    assert ax.get_ylim()[0] >= 0.0 and ticks.size >= 2 and np.all(ticks >= 0.0), ticks
+
+
 def test_gain_plan_figure_says_what_the_rendering_gain_means(demo):
     from surfhap.report.plan_figures import plot_gain_plans
 
