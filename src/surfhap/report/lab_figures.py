@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 from surfhap.report.axes import figure_axes
 
 __all__ = ["plot_calibration", "plot_confusion", "plot_proportions", "plot_rating_scatter", "plot_staircase",
-           "plot_comparison", "plot_anova"]
+           "plot_anova"]
 
 
 def plot_calibration(cal, ax=None) -> Figure:
@@ -111,29 +111,6 @@ def plot_staircase(result, ax=None) -> Figure:
         ax.axhline(result.threshold, color="C2", ls="--", label=f"threshold {result.threshold:.3g}")
     ax.set(xlabel="trial", ylabel="level", title="staircase")
     ax.legend(fontsize=8)
-    return fig
-
-
-def plot_comparison(comp, ax=None) -> Figure:
-    """Friction over speed and load, spectra of the added friction, voltage histograms (4 panels)."""
-    fig, axs = figure_axes(ax, 4, (13, 7.5), nrows=2, ncols=2)
-    a_v, a_l, a_s, a_h = axs
-    for i, p in enumerate(comp.profiles):
-        c = f"C{i}"
-        a_v.plot(p.speeds * 1e3, p.mu_speed, color=c, label=p.name)
-        a_l.plot(p.loads, p.force_load, color=c, label=p.name)
-        ok = p.freqs > 0
-        a_s.semilogy(p.freqs[ok], np.maximum(p.psd[ok], 1e-16), color=c, lw=0.9, label=p.name)
-        centres = 0.5 * (p.v_edges[1:] + p.v_edges[:-1])
-        a_h.step(centres, p.v_hist, where="mid", color=c, label=f"{p.name} (mean {p.v_mean:.0f} V)")
-    a_v.set(xlabel="speed (mm/s)", ylabel="friction coefficient", title=f"friction law at {comp.load:g} N")
-    a_l.set(xlabel="normal force (N)", ylabel="friction force (N)",
-            title=f"friction law at {comp.speed * 1e3:g} mm/s")
-    a_s.set(xlabel="frequency (Hz)", ylabel="PSD (N$^2$/Hz)", title="added friction on the simulated display")
-    a_h.set(xlabel="|drive| (V)", ylabel="fraction of samples", title="drive voltage (after the safety stage)")
-    for ax in axs:
-        ax.legend(fontsize=8)
-    fig.suptitle(f"strokes at {comp.speed * 1e3:g} mm/s, {comp.load:g} N, {comp.duration:g} s")
     return fig
 
 
