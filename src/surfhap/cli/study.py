@@ -6,7 +6,7 @@
     surfhap study new DESIGN --out STUDY/ [--seed N] [--participants N]
     surfhap study run STUDY --participant P01 [--gain G] [--comfort-voltage V] [--port 8780]
     surfhap study run STUDY --participant P01 --simulate SEED     (dry run, no page)
-    surfhap study comfort STUDY --participant P01 [--method questplus] [--output sim]  (comfort voltage)
+    surfhap study comfort STUDY --participant P01 [--method quest|questplus] [--output sim]  (comfort voltage)
     surfhap study status STUDY
     surfhap study analyze STUDY --report DIR
     surfhap study export LOG --format csv|bids --out PATH           (LOG: a log or a study folder)
@@ -160,8 +160,7 @@ def run(
     from surfhap.lab.session import SessionRunner
 
     if ff_device not in (None, "sim") and not (ff_device.startswith("haply://") and simulate is None):
-        raise ConfigError("expected sim (the simulated force-feedback device; the only one with --simulate) or "
-                          "haply://HOST:PORT", source="--ff-device")
+        raise ConfigError("expected sim or haply://HOST:PORT (with --simulate: sim)", source="--ff-device")
     if ff_device is not None and output is not None:
         raise ConfigError("give either --ff-device (force feedback) or --output (electrostatic)", source="--ff-device")
     disp = None if display is None and config is None else resolve_display(display, config)
@@ -296,7 +295,8 @@ def comfort(
     study: Path = typer.Argument(..., help="Study folder."),
     participant: str = typer.Option(..., "--participant", "-p", help="Participant id, e.g. P01."),
     start: float = typer.Option(60.0, "--start", help="First amplitude (V)."),
-    method: str = typer.Option("staircase", "--method", help="Adaptive method: staircase | questplus (QUEST+)."),
+    method: Optional[str] = typer.Option(None, "--method", help="Adaptive method: staircase | quest | questplus "
+                                                                "(default: the design's 'adaptive', else staircase)."),
     material: Optional[str] = typer.Option(None, "--material", help="Material of the square wave (default: the "
                                                                     "study's first)."),
     host: str = typer.Option("127.0.0.1", "--host", help="Address the page binds."),
@@ -333,7 +333,8 @@ def comfort(
         if runner.finished:
             v = comfort_ceiling(res.threshold, runner.params)
             thr = ("none (no reversal): 'study run' will not start" if v is None else
-                   f"{v:.1f} V (one {runner.params.steps[-1]:g} dB step below the staircase's {res.threshold:.1f} V)")
+                   f"{v:.1f} V (one {runner.params.steps[-1]:g} dB step below the {runner.adaptive.method} estimate "
+                   f"{res.threshold:.1f} V)")
             stdout.print(f"{runner.plan.id}: comfort voltage {thr} after {res.levels.size} trials "
                          f"({res.stopped_by})")
         else:
