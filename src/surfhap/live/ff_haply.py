@@ -1,40 +1,32 @@
-"""Haply Inverse3 as a force-feedback device (:class:`surfhap.live.ff_devices.FFDevice`): the
-Haply Inverse Service's simulation channel, JSON over a local WebSocket (service 3.x, port 10001).
+"""Haply Inverse3 as a force-feedback device (:class:`surfhap.live.ff_devices.FFDevice`) through
+the Inverse Service's simulation channel: JSON over a local WebSocket (service 3.x, port 10001).
 
-Protocol, as documented by Haply for the Inverse Service 3.5 ("Simulation Channel",
-https://docs.haply.co/inverseSDK/service/api/simulation; "WebSocket Protocol",
-https://docs.haply.co/inverseSDK/service/realtime/websocket-protocol; "Control Commands",
-https://docs.haply.co/inverseSDK/service/realtime/control-commands):
+Protocol (Haply's docs for service 3.5: https://docs.haply.co/inverseSDK/service/api/simulation,
+.../service/realtime/websocket-protocol, .../service/realtime/control-commands): on connect the
+service sends an inventory (``inverse3[i]``: ``device_id``, ``state.cursor_position`` {x, y, z} m),
+then exactly one state update per message it receives (the client sets the cadence). Each tick's
+:meth:`HaplyDevice.write` sends ``{"inverse3": [{"device_id", "commands": {"set_cursor_force":
+{"vector": {x, y, z}}}}]}`` (N; per tick: commands that stop leave the device idle), the first
+one also naming the session (``session.configure.profile.name``).
 
-* on connect the service sends an initial inventory, ``{"inverse3": [{"device_id", "config",
-  "state": {"cursor_position": {x, y, z} (m), "cursor_velocity", ...}, "status"}, ...], ...}``;
-* then exactly one state update (``{"inverse3": [{"device_id", "state", "status"}]}``) per message
-  it receives: the cadence is the client's. Each haptic tick's :meth:`HaplyDevice.write` sends one
-  ``{"inverse3": [{"device_id": ID, "commands": {"set_cursor_force": {"vector": {x, y, z}}}}]}``
-  (N, per tick: a device whose commands stop returns to idle); the first one also names the
-  session (``{"session": {"configure": {"profile": {"name": "surfhap"}}}}``).
+Frame: the service's default basis ``XYZ`` (.../service/commons/basis) is +X right, +Y away from
+the user, +Z up; surfhap's device frame (:mod:`surfhap.ff.params`) is x right, y down the screen
+(towards the user), z up. With the tablet flat on the end effector, top edge away from the user:
+``p = M (P - P0)``, ``F_service = gain M F``, ``M = diag(1, -1, 1)``, ``P0`` the inventory's cursor
+(X0). Metres and newtons on both sides: gain 1. ``cursor_velocity`` is unused (the safety stage
+differentiates positions itself).
 
-Frame: the service's default basis (``XYZ``, https://docs.haply.co/inverseSDK/service/commons/basis)
-is right-handed, +X right, +Y forward (away from the user), +Z up; surfhap's device frame
-(:mod:`surfhap.ff.params`) is x right, y down the screen (towards the user), z up, relative to X0.
-With the tablet flat on the end effector, its top edge away from the user: ``p = M (P - P0)`` and
-``F_service = gain M F`` with ``M = diag(1, -1, 1)``; ``P0`` is the cursor position of the initial
-inventory (start with the end effector at the workspace centre). The service speaks metres and
-newtons, as surfhap does: gain 1. Its ``cursor_velocity`` is not used (the safety stage
-differentiates the positions itself: one law).
+No thread of its own: the haptic thread does the non-blocking I/O (websockets' sans-I/O protocol
+on a TCP socket), so a stall of surfhap's own process is not taken for a silent device (the first
+read after it finds the answers that came meanwhile).
 
-No thread of its own: the haptic thread does the I/O, non-blocking (websockets' sans-I/O
-protocol on a TCP socket): :meth:`HaplyDevice.write` sends the tick's command, :meth:`HaplyDevice.read`
-takes every answer that has arrived, the newest position last. So a stall of surfhap's own process
-is not taken for a silent device: the first read after it finds the answers that came meanwhile.
-
-Fail safe: positions older than ``device_timeout`` -> the safety stage ramps the force to zero
-(the one watchdog, :mod:`surfhap.ff.engine`); a command unanswered for ``silence`` s (issue 19:
-20 ms; ``OPEN_TIMEOUT`` until the service has answered once) or a closed connection ->
-:meth:`HaplyDevice.read` raises :class:`DeviceSilent`, so the loop stops through the safety stage and the command exits 3. A malformed message (not JSON, no
-state of this device, a missing, non-numeric or non-finite coordinate) is counted
-(``malformed``) and ignored: one bad frame does not end a session, and since it never refreshes
-the position, a stream of them is silence and ends the run as such.
+Fail safe: no new position for ``device_timeout`` -> the safety stage ramps to zero (the one
+watchdog, :mod:`surfhap.ff.engine`); a command unanswered for ``silence`` s (issue 19: 20 ms;
+``OPEN_TIMEOUT`` until the first answer) or a closed connection -> :meth:`HaplyDevice.read` raises
+:class:`DeviceSilent`: the loop stops through the safety stage, the command exits 3. A malformed
+message (not JSON, no state of this device, a missing or non-finite coordinate) is counted
+(``malformed``) and ignored: one bad frame does not end a session, and as it never refreshes the
+position, a stream of them is silence.
 """
 
 from __future__ import annotations
