@@ -54,6 +54,7 @@ class Run:
         self.dev = fake.install(monkeypatch, fake.FakeDevice(**device))
         cfg = ChainConfig(drive_rate=RATE, **({} if limits is None else {"limits": limits}))
         self.engine = eng = LiveEngine(TextureChain(load_material("cork"), cfg), EngineConfig())
+        eng.warm_up()  # as a session does before its backend starts: kernels loaded
         self.rendered, self.stamps, self.touches = [], [], []
         render = eng.render
 
@@ -71,8 +72,9 @@ class Run:
         """Touches at 200 Hz for ``seconds`` (a finger sliding back and forth)."""
         t0 = time.perf_counter()
         while (t := time.perf_counter() - t0) < seconds:
-            self.touches.append(time.perf_counter())  # at or before the engine's arrival stamp
-            self.engine.push_touch(1, 0.02 + 0.04 * abs((t * 2.0) % 2.0 - 1.0), 0.03, 0.6, t_event=t)
+            self.touches.append(time.perf_counter())  # the engine's arrival stamp (the engine clock)
+            self.engine.push_touch(1, 0.02 + 0.04 * abs((t * 2.0) % 2.0 - 1.0), 0.03, 0.6, t_event=t,
+                                   t_arrival=self.touches[-1])
             time.sleep(0.005)
 
     def wait(self, cond) -> None:
@@ -160,22 +162,24 @@ def test_stop_ramps_to_zero_and_the_device_generates_the_ramp_before_the_task_st
 
 def test_an_underrun_is_counted_reported_and_the_output_restarts_from_zero(monkeypatch):
     # a rise limit of 10 V per sample (0 to v_max in 25 samples), so a step would show
-    r = Run(monkeypatch, underrun_at={400}, limits=SafetyLimits(rise_rate=2e5))
+    # the buffer runs empty while the output drives (> 50 V), after the first 300 writes
+    loud = lambda k, data: k > 300 and np.abs(data).max() * GAIN > 50  # noqa: E731
+    r = Run(monkeypatch, underrun_if=loud, limits=SafetyLimits(rise_rate=2e5))
     r.backend.start(r.engine)
-    stroke = threading.Thread(target=r.stroke, args=(0.8,))
+    stroke = threading.Thread(target=r.stroke, args=(1.2,))
     stroke.start()
-    r.wait(lambda: r.dev.n_writes > 500)
+    r.wait(lambda: r.dev.underrun_writes and r.dev.n_writes > r.dev.underrun_writes[0] + 100)
     r.backend.stop()
     stroke.join()
     eng = r.engine
     assert eng.counters["underruns"] == 1 and r.backend.underruns == 1 and eng.failure is None
     assert eng.status()["counters"]["underruns"] == 1 and r.backend.info()["underruns"] == 1
     names = r.dev.names()
-    k = [i for i, n in enumerate(names) if n == "AnalogSingleChannelWriter.write_many_sample"][399]
+    w = r.dev.underrun_writes[0]
+    k = [i for i, n in enumerate(names) if n == "AnalogSingleChannelWriter.write_many_sample"][w - 1]
     assert names[k + 1 : k + 4] == ["Task.stop", "AnalogSingleChannelWriter.write_many_sample", "Task.start"]
-    assert not np.any(r.dev.writes[400])  # the restart's buffer is 0 V
+    assert not np.any(r.dev.writes[w])  # the restart's buffer is 0 V
     assert len(r.dev.runs) == 2
-    assert np.abs(r.dev.runs[0][-40:]).max() * GAIN > 10, r.dev.runs[0][-40:]  # it was driving when the buffer ran empty
     # across the restart the rise limit holds from 0 V: the device idled at 0 V, then the
     # buffer of 0 V, then the engine's output rises from zero (no step to the old level)
     after = GAIN * r.dev.runs[1]
@@ -217,6 +221,16 @@ def test_a_missing_driver_or_device_is_one_line_and_exit_2(monkeypatch, capsys, 
     assert code == 2, err
     assert message in err and "--output" in err and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_a_simulated_clock_cannot_drive_the_daq(monkeypatch, capsys, tmp_path):
+    dev = fake.install(monkeypatch, fake.FakeDevice())
+    traj = tmp_path / "t.csv"
+    traj.write_text("time,x,y,load\n0,0.02,0.03,0.5\n0.1,0.03,0.03,0.5\n")
+    code = main(["play", "cork", "--output", "daq:Dev1/ao0", "--clock", "sim", "--trajectory", str(traj)])
+    err = capsys.readouterr().err
+    assert code == 2 and "--clock" in err and "Traceback" not in err
+    assert dev.calls == []  # the device was never opened
 
 
 def test_without_nidaqmx_the_output_says_what_to_install(monkeypatch, capsys):

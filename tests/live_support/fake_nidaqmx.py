@@ -115,12 +115,15 @@ def recorded(name):
 class FakeDevice:
     """``driver``: False -> ``Task()`` raises DaqNotFoundError. ``idle_zero``: the channel
     supports idling at 0 V. ``underrun_at``: write numbers (1-based, the prefill counts) that
-    raise the regeneration underrun. ``hang_at``: a write number that blocks until the task is
+    raise the regeneration underrun; ``underrun_if(k, data)``: the first write it is true for
+    does too (``underrun_writes`` lists them). ``hang_at``: a write number that blocks until the task is
     aborted. ``devices``: the device names that exist."""
 
-    def __init__(self, driver=True, idle_zero=True, underrun_at=(), hang_at=None, devices=("Dev1",)):
+    def __init__(self, driver=True, idle_zero=True, underrun_at=(), underrun_if=None, hang_at=None,
+                 devices=("Dev1",)):
         self.driver, self.idle_zero = driver, idle_zero
-        self.underrun_at, self.hang_at, self.devices = set(underrun_at), hang_at, tuple(devices)
+        self.underrun_at, self.underrun_if, self.hang_at, self.devices = set(underrun_at), underrun_if, hang_at, tuple(devices)
+        self.underrun_writes: list = []
         self.calls: list = []
         self.writes: list = []  # every array written, in order (AO volts)
         self.runs: list = []  # the samples each run of the task generated, AO volts
@@ -291,7 +294,8 @@ class FakeWriter:
         dev.n_writes += 1
         k = dev.n_writes
         dev.writes.append(data.copy())
-        if k in dev.underrun_at:
+        if k in dev.underrun_at or (dev.underrun_if is not None and not dev.underrun_writes and dev.underrun_if(k, data)):
+            dev.underrun_writes.append(k)
             with dev.lock:  # the buffer ran empty: the device stopped at the last sample written before
                 dev._pos = float(len(dev._pending))
                 dev.end_run()
