@@ -68,20 +68,27 @@ class Run:
         self.backend = open_backend(DaqOutput("Dev1/ao0"), OutputOptions(amp_gain=GAIN))
         self.backend.stall_timeout = stall_timeout
 
-    def stroke(self, seconds: float) -> None:
-        """Touches at 200 Hz for ``seconds`` (a finger sliding back and forth)."""
+    def stroke(self, seconds: float = GUARD, until=None) -> None:
+        """Touches at 200 Hz (a finger sliding back and forth) for ``seconds`` or until ``until()``."""
         t0 = time.perf_counter()
-        while (t := time.perf_counter() - t0) < seconds:
+        while (t := time.perf_counter() - t0) < seconds and not (until is not None and until()):
             self.touches.append(time.perf_counter())  # the engine's arrival stamp (the engine clock)
             self.engine.push_touch(1, 0.02 + 0.04 * abs((t * 2.0) % 2.0 - 1.0), 0.03, 0.6, t_event=t,
                                    t_arrival=self.touches[-1])
             time.sleep(0.005)
 
+    def stroking(self, until) -> threading.Thread:
+        """A finger stroking in its own thread until ``until()`` (or the failure guard)."""
+        th = threading.Thread(target=self.stroke, kwargs={"until": until})
+        th.start()
+        return th
+
     def wait(self, cond) -> None:
         end = time.monotonic() + GUARD
         while not cond() and time.monotonic() < end:
             time.sleep(0.005)
-        assert cond()
+        assert cond(), (self.engine.status(), self.dev.n_writes, len(self.touches),
+                        [float(np.abs(w).max()) for w in self.dev.writes[::50]])
 
     def generated(self) -> np.ndarray:
         """Volts at the amplifier: every sample the device generated, runs in order."""
@@ -117,7 +124,7 @@ def test_the_task_is_continuous_without_regeneration_and_its_buffer_is_sized_fro
 def test_the_samples_written_are_the_safety_stage_output_and_the_watchdog_holds_at_the_dac(monkeypatch):
     r = Run(monkeypatch)
     r.backend.start(r.engine)
-    r.stroke(0.3)
+    r.stroke(until=lambda: len(r.rendered) > 300 and max(np.abs(b).max() for b in r.rendered[-50:]) > 50)
     t_last = r.touches[-1]
     r.wait(lambda: len(r.stamps) > 0 and r.stamps[-1] > t_last + 0.1)  # the watchdog's 55 ms and more
     r.backend.stop()
@@ -145,10 +152,10 @@ def test_the_samples_written_are_the_safety_stage_output_and_the_watchdog_holds_
 def test_stop_ramps_to_zero_and_the_device_generates_the_ramp_before_the_task_stops(monkeypatch):
     r = Run(monkeypatch)
     r.backend.start(r.engine)
-    stroke = threading.Thread(target=r.stroke, args=(0.6,))
-    stroke.start()
-    r.wait(lambda: len(r.rendered) > 100 and np.abs(r.rendered[-1]).max() > 50)
-    r.backend.stop()  # what Ctrl-C and SIGTERM do (session.stop)
+    loud = lambda: len(r.rendered) > 100 and np.abs(r.rendered[-1]).max() > 50  # noqa: E731
+    stroke = r.stroking(until=lambda: r.engine.stopped)
+    r.wait(loud)
+    r.backend.stop()  # what Ctrl-C and SIGTERM do (session.stop), while the finger still slides
     stroke.join()
     assert r.engine.stopped and r.engine.failure is None
     assert r.dev.held == [0.0] and len(r.dev.runs) == 1
@@ -162,15 +169,15 @@ def test_stop_ramps_to_zero_and_the_device_generates_the_ramp_before_the_task_st
 
 def test_an_underrun_is_counted_reported_and_the_output_restarts_from_zero(monkeypatch):
     # a rise limit of 10 V per sample (0 to v_max in 25 samples), so a step would show
-    # the buffer runs empty while the output drives (> 50 V), after the first 300 writes
-    loud = lambda k, data: k > 300 and np.abs(data).max() * GAIN > 50  # noqa: E731
+    # the buffer runs empty while the output drives (> 50 V), after the first 100 writes
+    loud = lambda k, data: k > 100 and np.abs(data).max() * GAIN > 50  # noqa: E731
     r = Run(monkeypatch, underrun_if=loud, limits=SafetyLimits(rise_rate=2e5))
     r.backend.start(r.engine)
-    stroke = threading.Thread(target=r.stroke, args=(1.2,))
-    stroke.start()
-    r.wait(lambda: r.dev.underrun_writes and r.dev.n_writes > r.dev.underrun_writes[0] + 100)
-    r.backend.stop()
+    done = lambda: bool(r.dev.underrun_writes) and r.dev.n_writes > r.dev.underrun_writes[0] + 200  # noqa: E731
+    stroke = r.stroking(until=done)
+    r.wait(done)
     stroke.join()
+    r.backend.stop()
     eng = r.engine
     assert eng.counters["underruns"] == 1 and r.backend.underruns == 1 and eng.failure is None
     assert eng.status()["counters"]["underruns"] == 1 and r.backend.info()["underruns"] == 1
@@ -190,8 +197,7 @@ def test_an_underrun_is_counted_reported_and_the_output_restarts_from_zero(monke
 def test_a_hung_write_halts_the_engine_and_aborts_the_task(monkeypatch):
     r = Run(monkeypatch, stall_timeout=0.1, hang_at=200)
     r.backend.start(r.engine)
-    stroke = threading.Thread(target=r.stroke, args=(0.5,))
-    stroke.start()
+    stroke = r.stroking(until=lambda: r.engine.failure is not None)
     r.wait(lambda: r.engine.failure is not None)
     stroke.join()
     r.backend.stop()
@@ -213,6 +219,7 @@ def test_a_device_without_idle_at_zero_volts_is_used_and_said(monkeypatch, caplo
 @pytest.mark.parametrize("device,message", [
     ({"driver": False}, "no NI-DAQmx driver"),
     ({"devices": ("Dev2",)}, "cannot open DAQ channel Dev1/ao0"),
+    ({"max_rate": 10000}, "cannot open DAQ channel Dev1/ao0 at 20000 Hz"),
 ])
 def test_a_missing_driver_or_device_is_one_line_and_exit_2(monkeypatch, capsys, device, message):
     fake.install(monkeypatch, fake.FakeDevice(**device))
@@ -314,7 +321,7 @@ def test_every_call_exists_in_the_real_nidaqmx_with_a_compatible_signature(monke
     codes = {m.value for m in error_codes.DAQmxErrors}
     assert UNDERRUN_CODES <= codes
     assert error_codes.DAQmxErrors.GEN_STOPPED_TO_PREVENT_REGEN_OF_OLD_SAMPLES.value == fake.REGEN_STOPPED
-    for code in (fake.NOT_YET_WRITTEN, fake.ABORTED, fake.NO_DEVICE):
+    for code in (fake.NOT_YET_WRITTEN, fake.ABORTED, fake.NO_DEVICE, fake.INVALID_VALUE):
         assert code in codes
     assert math.isclose(inspect.signature(real.task.collections.AOChannelCollection.add_ao_voltage_chan)
                         .parameters["max_val"].default, 10.0)  # AO_RANGE: NI's default range

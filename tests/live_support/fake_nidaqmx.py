@@ -98,6 +98,7 @@ REGEN_STOPPED = -200290  # DAQmxErrors.GEN_STOPPED_TO_PREVENT_REGEN_OF_OLD_SAMPL
 NOT_YET_WRITTEN = -200292  # DAQmxErrors.SAMPLES_CAN_NOT_YET_BE_WRITTEN (a write timed out)
 ABORTED = -201452  # DAQmxErrors.OPERATION_ABORTED
 NO_DEVICE = -200220  # DAQmxErrors.INVALID_DEVICE_ID
+INVALID_VALUE = -200077  # DAQmxErrors.INVALID_ATTRIBUTE_VALUE
 
 
 # ---------------------------------------------------------------- the device and its task
@@ -117,13 +118,15 @@ class FakeDevice:
     supports idling at 0 V. ``underrun_at``: write numbers (1-based, the prefill counts) that
     raise the regeneration underrun; ``underrun_if(k, data)``: the first write it is true for
     does too (``underrun_writes`` lists them). ``hang_at``: a write number that blocks until the task is
-    aborted. ``devices``: the device names that exist."""
+    aborted. ``devices``: the device names that exist; ``max_rate``: its fastest sample clock (the
+    task refuses a faster one when it starts, as NI's commits the timing then)."""
 
     def __init__(self, driver=True, idle_zero=True, underrun_at=(), underrun_if=None, hang_at=None,
-                 devices=("Dev1",)):
+                 devices=("Dev1",), max_rate=1e6):
         self.driver, self.idle_zero = driver, idle_zero
         self.underrun_at, self.underrun_if, self.hang_at, self.devices = set(underrun_at), underrun_if, hang_at, tuple(devices)
         self.underrun_writes: list = []
+        self.max_rate = max_rate
         self.calls: list = []
         self.writes: list = []  # every array written, in order (AO volts)
         self.runs: list = []  # the samples each run of the task generated, AO volts
@@ -255,6 +258,8 @@ class FakeTask:
     @recorded("Task.start")
     def start(self):
         dev = self._dev
+        if dev.rate > dev.max_rate:
+            raise DaqError("Requested value is not a supported value for this property.", INVALID_VALUE)
         with dev.lock:
             assert dev._pending, "a non-regenerating task must be written before it starts"
             dev.running, dev._t = True, time.perf_counter()

@@ -104,25 +104,28 @@ class DaqBackend(PacedBackend):
             task = nidaqmx.Task()
         except self._errors.Error as exc:  # DaqNotFoundError: no driver
             raise ConfigError(f"no NI-DAQmx driver ({_first_line(exc)})", source="--output") from None
+        self._abort_mode = const.TaskMode.TASK_ABORT
+        self._drained.clear()
+        self._mark = None
         try:
             chan = task.ao_channels.add_ao_voltage_chan(self.channel, min_val=-peak, max_val=peak)
+            try:
+                chan.ao_idle_output_behavior = const.AOIdleOutputBehavior.ZERO_VOLTS
+                self.idle_zero = True
+            except self._errors.DaqError as exc:
+                log.warning("%s cannot idle at 0 V (%s): it holds its last sample when the generation stops",
+                            self.channel, _first_line(exc))
             task.timing.cfg_samp_clk_timing(rate, sample_mode=const.AcquisitionType.CONTINUOUS, samps_per_chan=buf)
             task.out_stream.regen_mode = const.RegenerationMode.DONT_ALLOW_REGENERATION
             task.out_stream.output_buf_size = buf
             self._writer = writers.AnalogSingleChannelWriter(task.out_stream, auto_start=False)
+            self._task = task
+            self._start_task()  # the device checks the rate and the buffer here
         except self._errors.Error as exc:
+            self._task = None
             task.close()
-            raise ConfigError(f"cannot open DAQ channel {self.channel} ({_first_line(exc)})", source="--output") from None
-        try:
-            chan.ao_idle_output_behavior = const.AOIdleOutputBehavior.ZERO_VOLTS
-            self.idle_zero = True
-        except self._errors.DaqError as exc:
-            log.warning("%s cannot idle at 0 V (%s): it holds its last sample when the generation stops",
-                        self.channel, _first_line(exc))
-        self._task, self._abort_mode = task, const.TaskMode.TASK_ABORT
-        self._drained.clear()
-        self._mark = None
-        self._start_task()
+            raise ConfigError(f"cannot open DAQ channel {self.channel} at {rate} Hz ({_first_line(exc)})",
+                              source="--output") from None
 
     def _start_task(self) -> None:
         """Fill the buffer with 0 V and start the generation (the sample counts restart at 0)."""
