@@ -22,7 +22,7 @@ $(PY):
 	$(PY) -m pip install --quiet --upgrade pip
 
 $(STAMP): pyproject.toml | $(PY)
-	$(PY) -m pip install --quiet -e ".[dev,live,lsl,dask]"
+	$(PY) -m pip install --quiet -e ".[dev,live,lsl,dask,daq]"
 	touch $(STAMP)
 
 system-deps:

@@ -53,19 +53,22 @@ def test_samples_reaching_jack_equal_engine_output(tmp_path):
     assert ch0.size > 40000 and np.abs(ch0).max() > 0.5, "the recorder heard no drive"
     if rec.ndim == 2:
         assert np.abs(rec[:, 1]).max() == 0.0  # drive only on channel 0
-    # Every JACK period the recorder received must be a stretch of the engine's output,
-    # in order. Periods that are silent are skipped (an xrun on a loaded machine inserts
-    # silence, which proves nothing either way); the rest must match exactly (to the
-    # recorder's 32-bit integer quantisation).
-    period = 48
+    assert_periods_match(produced, ch0)
+
+
+def assert_periods_match(produced: np.ndarray, ch: np.ndarray, period: int = 48) -> None:
+    """Every JACK period the recorder received on a channel ``ch`` must be a stretch of the
+    engine's output ``produced``, in order. Periods that are silent are skipped (an xrun on a
+    loaded machine inserts silence, which proves nothing either way); the rest must match
+    exactly (to the recorder's 32-bit integer quantisation)."""
     key = lambda a: np.round(a * 2.0**24).astype(np.int64).tobytes()  # noqa: E731
     windows: dict = {}
     for j in range(produced.size - period + 1):
         windows.setdefault(key(produced[j : j + period]), []).append(j)
-    n_chunks = ch0.size // period
+    n_chunks = ch.size // period
     loud, matched, last, in_order = 0, 0, -1, True
     for i in range(n_chunks):
-        chunk = ch0[i * period : (i + 1) * period]
+        chunk = ch[i * period : (i + 1) * period]
         if np.abs(chunk).max() < 1e-3:
             continue
         loud += 1
@@ -85,6 +88,48 @@ def test_samples_reaching_jack_equal_engine_output(tmp_path):
     assert loud > 0, "the recorder heard no drive"
     assert matched >= 0.98 * loud, f"only {matched} of {loud} recorded periods equal the engine output"
     assert in_order
+
+
+def test_drive_reaches_the_routed_channels_of_an_eight_channel_card_and_the_others_stay_silent(tmp_path):
+    # issue 19 #6: any subset of 2-8 channels (Syntacts is known to fail on 8-channel cards).
+    # The JACK dummy card has 8 playback channels; the drive goes to 0-based 1, 2, 5 and 7
+    # (the stream opens 0-7, one PortAudio port each, connected to system:playback_1-8).
+    _need_jack()
+    routed = (1, 2, 5, 7)
+    cmd = [sys.executable, "-c", "import sys; from surfhap.cli import main; sys.exit(main())"]
+    with jack_dummy(rate=48000, period=48, playback=8) as name:
+        env = jack_env(name)
+        r = subprocess.run([sys.executable, str(HERE / "live_support" / "sound_check.py"), str(tmp_path),
+                            ",".join(map(str, routed))], env=env, capture_output=True, text=True, timeout=600)
+        beyond = subprocess.run([*cmd, "play", "wood", "--output", "sound:system", "--channels", "2,8"],
+                                env=env, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    res = json.loads(r.stdout.strip().splitlines()[-1])
+    assert res["status"]["counters"]["errors"] == 0 and res["status"]["stopped"] is True
+    # which card channel each recorded port feeds: out_k -> system:playback_k, k = 1..8
+    feeds, port = {}, None
+    for line in res["connections"].splitlines():
+        if not line.startswith(" "):
+            port = line.strip()
+        elif port in res["ports"]:
+            feeds.setdefault(port, []).append(line.strip())
+    ports = sorted(res["ports"], key=lambda p: int(p.rsplit("_", 1)[1]))
+    assert [feeds.get(p) for p in ports] == [[f"system:playback_{k}"] for k in range(1, 9)]
+    produced = np.load(res["npy"]).astype(np.float64)
+    rate, rec = wavfile.read(res["wav"])
+    rec = rec.astype(np.float64) / 2.0**31 if rec.dtype == np.int32 else rec.astype(np.float64)
+    assert rate == 48000 and rec.shape[1] == 8
+    for c in range(8):
+        if c in routed:
+            assert np.abs(rec[:, c]).max() > 0.5, f"channel {c} heard no drive"
+            assert_periods_match(produced, rec[:, c])
+            np.testing.assert_array_equal(rec[:, c], rec[:, routed[0]])  # one drive, sample for sample
+        else:
+            assert np.abs(rec[:, c]).max() == 0.0, f"channel {c} is not routed but carries signal"
+    # a channel the card does not have: one line naming --channels, exit 2
+    assert beyond.returncode == 2, beyond.stderr
+    err = beyond.stderr.strip()
+    assert len(err.splitlines()) == 1 and "--channels" in err and "channel 8" in err and "Traceback" not in err
 
 
 def test_devices_and_play_through_jack(tmp_path):

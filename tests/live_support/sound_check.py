@@ -1,9 +1,11 @@
 """Play a scripted scan through PortAudio into a JACK server and record what reaches it.
 
 Run in its own process (PortAudio enumerates devices once per process) with
-``JACK_DEFAULT_SERVER`` set: opens the engine on the JACK "system" device, starts
-``jack_rec`` on the stream's output ports, streams touch samples, stops, and prints one
-JSON line: engine status, the samples the backend wrote (npy path) and the recording path.
+``JACK_DEFAULT_SERVER`` set: ``sound_check.py OUTDIR [CHANNELS]`` opens the engine on the JACK
+"system" device (drive on channel 0 of 2, or on the 0-based CHANNELS such as ``1,2,5,7``
+through the output registry, as ``--channels`` does), starts ``jack_rec`` on the stream's
+output ports, streams touch samples, stops, and prints one JSON line: engine status, the
+samples the backend wrote (npy path), the recording path and the ports' connections.
 """
 
 from __future__ import annotations
@@ -16,28 +18,36 @@ import time
 import numpy as np
 
 from surfhap.exchange.materials import load_material
+from surfhap.live.backends.output import OutputOptions, SoundOutput, open_backend
 from surfhap.live.backends.sound import SoundBackend, list_devices
 from surfhap.live.engine import LiveEngine
 from surfhap.live.engine_config import EngineConfig
 from surfhap.render.chain import ChainConfig, TextureChain
 
 
-def main(outdir: str) -> None:
+def main(outdir: str, channels: str | None = None) -> None:
     devices = list_devices()
     chain = TextureChain(load_material("cork"), ChainConfig(drive_rate=48000))
     engine = LiveEngine(chain, EngineConfig(block_seconds=0.001))
     engine.warm_up()
-    backend = SoundBackend(device="system", amp_gain=250.0, n_channels=2, channels=(0,), capture_seconds=3.0)
+    if channels is None:
+        backend = SoundBackend(device="system", amp_gain=250.0, n_channels=2, channels=(0,), capture_seconds=3.0)
+    else:
+        chans = tuple(int(c) for c in channels.split(","))
+        backend = open_backend(SoundOutput("system"), OutputOptions(amp_gain=250.0, channels=chans))
+        backend.capture_seconds = 3.0
     backend.start(engine)
     wav = f"{outdir}/jack_rec.wav"
     ports = []
     end = time.monotonic() + 60.0  # bounded, generous: the stream's ports appear once it runs
-    while not ports and time.monotonic() < end:
+    n_open = 2 if channels is None else max(chans) + 1  # the stream's channels: one port each
+    while len(ports) < n_open and time.monotonic() < end:
         lsp = subprocess.run(["jack_lsp"], capture_output=True, text=True, timeout=30).stdout.split()
         ports = [p for p in lsp if p.startswith("PortAudio") and ":out_" in p]
-        if not ports:
+        if len(ports) < n_open:
             time.sleep(0.05)
-    rec = subprocess.Popen(["jack_rec", "-f", wav, "-d", "1.2", "-b", "32", *sorted(ports)],
+    ports = sorted(ports, key=lambda p: int(p.rsplit("_", 1)[1]))  # out_1, out_2, ... (channel order)
+    rec = subprocess.Popen(["jack_rec", "-f", wav, "-d", "1.2", "-b", "32", *ports],
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     end = time.monotonic() + 60.0  # bounded: start the strokes once the recorder's ports exist
     while time.monotonic() < end and rec.poll() is None:
@@ -54,11 +64,13 @@ def main(outdir: str) -> None:
         k += 1
         time.sleep(0.005)
     rec.wait(120)
+    connections = subprocess.run(["jack_lsp", "-c"], capture_output=True, text=True, timeout=30).stdout
     backend.stop()
     np.save(f"{outdir}/engine_out.npy", backend.capture[: backend.captured])
     print(json.dumps({"devices": devices, "status": engine.status(), "touches": k, "ports": ports,
-                      "captured": backend.captured, "wav": wav, "npy": f"{outdir}/engine_out.npy"}))
+                      "captured": backend.captured, "wav": wav, "npy": f"{outdir}/engine_out.npy",
+                      "connections": connections}))
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    main(*sys.argv[1:3])

@@ -27,7 +27,7 @@ TrajectoryOption = Annotated[Optional[Path], typer.Option(
     "--trajectory", help="Recorded trajectory CSV: time (s), x, y (m), load (N); units may be given as x\\[mm].")]
 FigureOption = Annotated[bool, typer.Option("--figure/--no-figure", help="Write figure.png.")]
 LiveAmpGainOption = Annotated[float, typer.Option(
-    "--amp-gain", help="Amplifier gain, V per DAC full scale (sound/file outputs).")]
+    "--amp-gain", help="Amplifier gain, V per DAC full scale (sound/file outputs); V per V of its input (daq).")]
 
 # fitting many recordings
 JobsOption = Annotated[int, typer.Option("--jobs", help="Parallel workers, local processes (-1 = all cores): the jobs of a batch (one folder each under --out), or the fits of one fit.")]

@@ -2,17 +2,21 @@
 
 from __future__ import annotations
 
+import re
+
 from surfhap.errors import ConfigError
 
 __all__ = ["parse_output", "OUTPUT_FORMS"]
 
-OUTPUT_FORMS = "sim | file:PATH.wav|.npz | sound[:DEVICE] | osc://HOST:PORT[/intensity|/drive]"
+OUTPUT_FORMS = "sim | file:PATH.wav|.npz | sound[:DEVICE] | osc://HOST:PORT[/intensity|/drive] | daq:DEVICE/aoN"
+_DAQ_CHANNEL = re.compile(r"[^/\s:]+/ao[0-9]+")
 
 
 def parse_output(text: str | None):
     """``sim`` | ``file:PATH.wav|.npz`` | ``sound`` | ``sound:DEVICE`` | ``osc://HOST:PORT[/intensity|/drive]``
-    -> SimOutput | FileOutput | SoundOutput | OscOutput; bad text is one ConfigError naming --output."""
-    from surfhap.live.backends.output import FileOutput, OscOutput, SimOutput, SoundOutput
+    | ``daq:DEVICE/aoN`` -> SimOutput | FileOutput | SoundOutput | OscOutput | DaqOutput; bad text is one
+    ConfigError naming --output."""
+    from surfhap.live.backends.output import DaqOutput, FileOutput, OscOutput, SimOutput, SoundOutput
     from surfhap.live.netaddr import parse_osc_address
 
     text = (text or "sim").strip()
@@ -31,4 +35,9 @@ def parse_output(text: str | None):
         if mode not in ("intensity", "drive"):
             raise ConfigError(f"OSC output mode must be /intensity or /drive, got /{mode}", source="--output")
         return OscOutput(host, port, mode)
-    raise ConfigError(f"unknown output {text!r} (sim, file:PATH, sound[:DEVICE], osc://HOST:PORT)", source="--output")
+    if text.startswith("daq:"):
+        if not _DAQ_CHANNEL.fullmatch(text[4:]):
+            raise ConfigError(f"DAQ output needs a channel like daq:Dev1/ao0, got {text!r}", source="--output")
+        return DaqOutput(text[4:])
+    raise ConfigError(f"unknown output {text!r} (sim, file:PATH, sound[:DEVICE], osc://HOST:PORT, daq:DEV/aoN)",
+                      source="--output")

@@ -33,7 +33,7 @@ DEFAULT_SCAN = "speed=0.1,load=0.5,duration=3,length=0.08"
 ClockOption = typer.Option("wall", "--clock", help="wall: real time | sim: as fast as possible, the --trajectory's "
                            "samples arriving at their stamps (the drive equals `surfhap render` on it; no page).")
 DriveRateOption = Annotated[Optional[int], typer.Option("--drive-rate", help="DAC rate, Hz (default 48000 for sound, else 20000).")]
-ChannelsOption = Annotated[Optional[str], typer.Option("--channels", help="Sound output: 0-based channels that carry the drive, e.g. '0' or '0,2' (default: all).")]
+ChannelsOption = Annotated[Optional[str], typer.Option("--channels", help="Sound output: 0-based channels that carry the drive, any of the card's, e.g. '0' or '1,3,5'; the others stay silent (default: all).")]
 BlockMsOption = Annotated[float, typer.Option("--block-ms", help="Block period, ms.")]
 
 
@@ -114,7 +114,7 @@ def _allowed_hosts(host: str, values: list[str]) -> tuple[str, ...]:
 def serve_cmd(
     material: Optional[str] = typer.Option(None, "--material", help="Built-in material name or material file (default: cork)."),
     mesh: Optional[Path] = typer.Option(None, "--mesh", help="Render a 3-D mesh (OBJ, STL, PLY, ...) instead of a material; it is scaled to fit the touch surface."),
-    output: str = typer.Option("sim", "--output", help="sim | sound[:DEVICE] | file:PATH.wav|.npz | osc://HOST:PORT\\[/intensity|/drive]."),
+    output: str = typer.Option("sim", "--output", help="sim | sound[:DEVICE] | file:PATH.wav|.npz | osc://HOST:PORT\\[/intensity|/drive] | daq:DEV/aoN."),
     host: str = typer.Option("127.0.0.1", "--host", help="Address to bind. Anything but loopback exposes the page to your network."),
     port: int = typer.Option(8765, "--port", help="TCP port of the page."),
     allow_origin: List[str] = typer.Option([], "--allow-origin", help="Extra WebSocket origin to accept (repeatable), e.g. https://lab.example:8443."),
@@ -229,7 +229,7 @@ def devices_cmd() -> None:
 
 def play_cmd(
     material: str = typer.Argument(..., help="Built-in material name or material file."),
-    output: str = typer.Option("sim", "--output", help="sound[:DEVICE] | sim | file:PATH.wav|.npz | osc://HOST:PORT."),
+    output: str = typer.Option("sim", "--output", help="sound[:DEVICE] | sim | file:PATH.wav|.npz | osc://HOST:PORT | daq:DEV/aoN."),
     scan: Optional[str] = typer.Option(None, "--scan", help="Scripted strokes: 'speed=M/S,load=N,duration=S[,length=M][,rate=HZ]' "
                                        f"(default {DEFAULT_SCAN})."),
     trajectory: TrajectoryOption = None,

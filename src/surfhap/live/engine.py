@@ -187,6 +187,12 @@ class LiveEngine:
         self.halted = True
         self.counters["backend_failures"] += 1
 
+    def output_zeroed(self) -> None:
+        """The backend put 0 V out in place of rendered samples (a DAQ restarted after an
+        underrun): the output pass's rise limit starts again from 0 V. Call from the thread
+        that calls :meth:`render`."""
+        self.guard.silence()
+
     # ------------------------------------------------------------------ real-time side
     def render(self, frames: int, now: float | None = None) -> np.ndarray:
         """Produce the next ``frames`` drive samples (volts); returns a view of ``self.out``.

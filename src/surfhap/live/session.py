@@ -101,7 +101,7 @@ class LiveSession:
         from surfhap.runtime.loop import run
         from surfhap.runtime.sources import TrajectorySource, drive_frames, model_samples
 
-        if not isinstance(self.backend, PacedBackend):
+        if not isinstance(self.backend, PacedBackend) or self.backend.paced_by_device:
             raise ConfigError("a simulated clock needs an output without its own clock (sim, file:, osc://)",
                               source="--clock")
         eng = self.engine

@@ -105,6 +105,7 @@ class PacedBackend:
     name = "paced"
     drive_rate: int | None = None
     buffer: float = 0.005
+    paced_by_device = False  # True: the device's buffer paces the blocks (no simulated clock)
 
     def __init__(self, stall_timeout: float = STALL_TIMEOUT):
         self._thread: threading.Thread | None = None
@@ -127,7 +128,7 @@ class PacedBackend:
         self._run = True
         self._thread = threading.Thread(target=self._loop, name=f"surfhap-{self.name}", daemon=True)
         self._thread.start()
-        self._watch = StallWatch(engine, self.name, self.stall_timeout).start()
+        self._watch = StallWatch(engine, self.name, self.stall_timeout, on_stall=self.abort).start()
 
     def _loop(self) -> None:
         eng = self.engine
@@ -160,6 +161,9 @@ class PacedBackend:
 
     def close(self) -> None:
         pass
+
+    def abort(self) -> None:
+        """Called once by the stall watch (the engine is already halted): release a hung device."""
 
     def info(self) -> dict:
         return {"name": self.name}

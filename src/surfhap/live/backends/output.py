@@ -1,7 +1,7 @@
 """The outputs a live session can drive, as typed specs, and the registry that opens one.
 
-An output is one of :class:`SimOutput`, :class:`FileOutput`, :class:`SoundOutput` or
-:class:`OscOutput` (the command line's ``--output`` text becomes one in ``surfhap.cli``; the
+An output is one of :class:`SimOutput`, :class:`FileOutput`, :class:`SoundOutput`,
+:class:`OscOutput` or :class:`DaqOutput` (the command line's ``--output`` text becomes one in ``surfhap.cli``; the
 library never parses it). This module is the registry of backends: it imports the
 implementations on demand (an optional dependency such as sounddevice loads only when that
 output is chosen); they import only :mod:`surfhap.live.backends.base`.
@@ -14,7 +14,7 @@ from typing import ClassVar, Literal, Union
 
 from surfhap.errors import ConfigError
 
-__all__ = ["SimOutput", "FileOutput", "SoundOutput", "OscOutput", "Output", "OutputOptions", "open_backend"]
+__all__ = ["SimOutput", "FileOutput", "SoundOutput", "OscOutput", "DaqOutput", "Output", "OutputOptions", "open_backend"]
 
 
 @dataclass(frozen=True)
@@ -54,14 +54,23 @@ class OscOutput:
     default_drive_rate: ClassVar[int] = 20000
 
 
-Output = Union[SimOutput, FileOutput, SoundOutput, OscOutput]
+@dataclass(frozen=True)
+class DaqOutput:
+    """An NI-DAQmx analog output ``channel`` such as ``Dev1/ao0`` (nidaqmx and NI's driver)."""
+
+    channel: str
+    reaches_amplifier: ClassVar[bool] = True
+    default_drive_rate: ClassVar[int] = 20000
+
+
+Output = Union[SimOutput, FileOutput, SoundOutput, OscOutput, DaqOutput]
 
 
 @dataclass(frozen=True)
 class OutputOptions:
     """The typed options of the outputs; each backend takes only the ones it has.
 
-    amp_gain    : V per DAC full-scale unit (sound, file).
+    amp_gain    : V per DAC full-scale unit (sound, file); V per V at the amplifier input (daq).
     channels    : 0-based sound channels that carry the drive (sound; None = all).
     max_seconds : end a file recording with the stop ramp after this long (file; None = no cap).
     """
@@ -93,6 +102,10 @@ def open_backend(output: Output, options: OutputOptions | None = None):
         chans = opt.channels
         return SoundBackend(device=output.device, amp_gain=opt.amp_gain, channels=chans,
                             n_channels=None if chans is None else max(chans) + 1)
+    if isinstance(output, DaqOutput):
+        from surfhap.live.backends.daq import DaqBackend
+
+        return DaqBackend(output.channel, amp_gain=opt.amp_gain)
     from surfhap.live.backends.osc import OscBackend
 
     return OscBackend(output.host, output.port, mode=output.mode)

@@ -4,7 +4,10 @@ The stream runs at the engine's drive rate and block size; PortAudio's audio thr
 :meth:`SoundBackend._callback`, which only calls ``engine.render`` (the real-time contract of
 :mod:`surfhap.live.engine`) and writes ``volts / amp_gain`` (``amp_gain``: the amplifier's V
 per DAC full-scale unit; float32, clipped just below 1, since +1.0 wraps to -1 in some
-integer converters) to the 0-based ``channels`` (default: all).
+integer converters) to the 0-based ``channels`` (default: all), any subset of the device's
+channels; the stream opens channels 0 to the highest routed one and the others carry 0 V. The
+drive is one signal, so the engine's one output safety stage, before this fan-out, holds on
+every routed channel.
 
 Each block is rendered for the moment its first sample reaches the DAC
 (:meth:`surfhap.runtime.clock.AudioClock.dac_time`: ``outputBufferDacTime``, or the stream's
@@ -85,9 +88,14 @@ class SoundBackend:
             dev = sd.query_devices(self.device, "output")
         except (ValueError, sd.PortAudioError) as exc:
             raise ConfigError(f"no such output device ({exc}); see `surfhap devices`", source="--output") from None
-        n_ch = int(self.n_channels or dev["max_output_channels"])
-        if not 1 <= n_ch <= dev["max_output_channels"]:
-            raise ConfigError(f"device has {dev['max_output_channels']} output channels, asked for {n_ch}", field="channels")
+        m = int(dev["max_output_channels"])
+        bad = [c for c in self.channels or () if not 0 <= c < m]
+        if bad:
+            raise ConfigError(f"{dev['name']!r} has {m} output channels (0-{m - 1}); there is no channel {bad[0]}",
+                              source="--channels")
+        n_ch = int(self.n_channels or m)
+        if not 1 <= n_ch <= m:
+            raise ConfigError(f"device has {m} output channels, asked for {n_ch}", field="channels")
         chans = tuple(range(n_ch)) if self.channels is None else tuple(self.channels)
         if not chans or any(not 0 <= c < n_ch for c in chans):
             raise ConfigError(f"drive channels must be within 0-{n_ch - 1}", field="channels")
