@@ -244,6 +244,7 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
         player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max, display=runner.display,
                                 limit_s=runner.limit_s)
         player.mute()
+        stderr.print(f"preparing the stimuli: {player.prepare(runner.renders())} renderers")  # before the engine runs
         session.start()
     try:
         page = StudyPage(runner, player, markers)
@@ -253,6 +254,8 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
             session.stop()
         raise
     stderr.print(f"participant page: [bold]{server.url}[/]  (Ctrl-C pauses; run again to resume)")
+    stderr.print(f"experimenter page (keep this address to yourself): {server.url}/experimenter?token="
+                 f"{page.experimenter_token}", soft_wrap=True)
 
     def table() -> Table:
         tb = Table(show_header=False, box=None)
