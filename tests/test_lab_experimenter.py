@@ -29,9 +29,9 @@ def call(port, method, path, body=None, token=None):
             headers["X-Experimenter-Token"] = token
         c.request(method, path, body=None if body is None else json.dumps(body), headers=headers)
         r = c.getresponse()
-        text = r.read().decode()
-        return r.status, (json.loads(text) if r.getheader("content-type", "").startswith("application/json")
-                          else text)
+        data, kind = r.read(), r.getheader("content-type", "")
+        return r.status, (json.loads(data) if kind.startswith("application/json") else
+                          data.decode() if kind.startswith("text/") else data)
     finally:
         c.close()
 

@@ -218,34 +218,16 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
     from rich.table import Table
 
     from surfhap.lab.markers import open_markers
-    from surfhap.lab.stimuli import StimulusPlayer
     from surfhap.live.config import ServerConfig
     from surfhap.web import create_app
     from surfhap.web.server import ServerThread
-    from surfhap.web.study import StudyPage
+    from surfhap.web.study import StudyPage, start_player
 
     markers = open_markers(lsl, runner.plan.id)
     if markers.enabled:
         stderr.print(f"LSL markers: stream 'surfhap-{runner.plan.id}' (type Markers)")
-    session = player = None
-    if ff_device is not None:
-        from surfhap.lab.stimuli import FFStimulusPlayer, FFStudySession
-
-        player = FFStimulusPlayer(FFStudySession(), limit_s=runner.limit_s)
-        session = player.session
-        player.mute()
-        session.start()
-    elif output is not None:
-        from surfhap.live.session import build_session
-
-        first = next((str(s.render["material"]) for t in runner.plan.trials for s in t.stimuli if "material" in s.render),
-                     "cork")
-        session = build_session(first, parse_output(output), amp_gain=amp_gain, display=runner.display)
-        player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max, display=runner.display,
-                                limit_s=runner.limit_s)
-        player.mute()
-        stderr.print(f"preparing the stimuli: {player.prepare(runner.renders())} renderers")  # before the engine runs
-        session.start()
+    player = start_player(runner, None if output is None else parse_output(output), amp_gain, ff_device)
+    session = None if player is None else player.session
     try:
         page = StudyPage(runner, player, markers)
         server = ServerThread(create_app(ServerConfig(host=host, port=port), study=page), host, port).start()

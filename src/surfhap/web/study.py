@@ -31,7 +31,7 @@ from surfhap.web.experimenter import experimenter_router
 from surfhap.web.messages import AnswerRequest, InfoRequest, StimulusRequest
 from surfhap.web.touch import Client, pointer_messages
 
-__all__ = ["StudyPage", "study_router"]
+__all__ = ["StudyPage", "study_router", "start_player"]
 
 log = logging.getLogger("surfhap.lab")
 MAX_BODY = 4096  # an answer is a few dozen bytes; a toggles answer stays under 500 characters
@@ -48,6 +48,31 @@ class StudyPage:
     markers: object = field(default_factory=NullMarkers)
     #: the experimenter page's secret (:mod:`surfhap.web.experimenter`), printed once by ``study run``
     experimenter_token: str = field(default_factory=lambda: secrets.token_urlsafe(24), repr=False)
+
+
+def start_player(runner, output=None, amp_gain: float = 250.0, ff_device: str | None = None):
+    """The started live player of ``runner``'s session (``study run``), muted: on the
+    force-feedback loop (``ff_device``), on ``output`` (an Output of
+    :mod:`surfhap.live.backends.output`, every stimulus prepared before the engine starts,
+    :meth:`StimulusPlayer.prepare`), or None (answers only). Stop it with ``player.session.stop()``."""
+    if ff_device is not None:
+        from surfhap.lab.stimuli import FFStudySession
+
+        player = FFStimulusPlayer(FFStudySession(), limit_s=runner.limit_s)
+    elif output is not None:
+        from surfhap.live.session import build_session
+
+        first = next((str(s.render["material"]) for t in runner.plan.trials for s in t.stimuli if "material" in s.render),
+                     "cork")
+        session = build_session(first, output, amp_gain=amp_gain, display=runner.display)
+        player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max, display=runner.display,
+                                limit_s=runner.limit_s)
+        player.prepare(runner.renders())
+    else:
+        return None
+    player.mute()
+    player.session.start()
+    return player
 
 
 def study_router(page: StudyPage, cfg: ServerConfig):
