@@ -270,3 +270,81 @@ def test_training_trials_give_feedback_and_are_not_analysed(tmp_path):
     table = pd.read_csv(tmp_path / "t.csv")
     assert len(table) == 48 and table["training"].fillna(False).astype(bool).sum() == 16
     assert (table["practice"] == table["training"].fillna(False).astype(bool)).all()
+
+
+def test_pause_and_resume_clicked_on_the_experimenter_page_in_chromium(tmp_path):
+    """Two pages of one Chromium: the participant answers a training trial (feedback: right or
+    wrong and the right answer, then Next); the experimenter clicks Pause (the participant's
+    page shows the neutral paused screen, no trial) and Resume (the trial comes back)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent / "live_support"))
+    from browser_support import CHROMIUM, FLAGS, poll
+    from test_lab_page import _need_browser, opaque, play
+
+    _need_browser()
+    from playwright.sync_api import sync_playwright
+
+    from surfhap.lab.session import SessionRunner
+
+    design = {"format": "surfhap-study-design", "version": 1, "kind": "identification", "name": "browser",
+              "participants": 1, "seed": 3, "params": {"materials": ["cork", "denim"], "repetitions": 1,
+                                                       "training": 1}}
+    (tmp_path / "d.json").write_text(json.dumps(design))
+    assert main(["study", "new", str(tmp_path / "d.json"), "--out", str(tmp_path / "s")]) == 0
+    runner = SessionRunner(tmp_path / "s", "P01", mode="page")
+    first = runner.current()
+    wrong = next(c for c in first.choices if c.id != first.correct)
+    page, server = serve(runner)
+    ms = int(PATIENCE * 1000)
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+            try:
+                part = browser.new_page(viewport={"width": 1024, "height": 600})
+                part.goto(server.url + "/", timeout=ms)
+                exp = browser.new_page(viewport={"width": 1024, "height": 700})
+                exp.goto(f"{server.url}/experimenter?token={page.experimenter_token}", timeout=ms)
+                poll(exp, "window.experimenter.state && window.experimenter.state.trial === 1", ms)
+                assert exp.inner_text("#participant") == "P01" and exp.inner_text("#block") == "1 of 3"
+                assert exp.inner_text("#trial") == "1 of 8 (practice)" and " s" in exp.inner_text("#elapsed")
+                assert exp.inner_text("#condition") == "hidden (blinded design)"
+                # a training trial answered wrongly: feedback with the right answer
+                poll(part, f"window.study.trialId === {first.id!r}", ms)
+                assert "(training)" in part.inner_text("#prompt")
+                play(part)
+                part.click(f"#choices button[data-choice='{opaque(first, wrong.id)}']")
+                part.wait_for_selector("#feedback:not([hidden])", timeout=ms)
+                assert part.inner_text("#fb-result") == "Not quite."
+                assert part.inner_text("#fb-answer") == f"The right answer: {first.correct}"
+                for _ in range(2):  # the page's polls (the first surely rendered) must not replace the feedback
+                    with part.expect_response(lambda r: r.url.endswith("/api/state"), timeout=ms):
+                        pass
+                assert part.is_visible("#feedback") and part.evaluate("window.study.status") == "feedback"
+                part.click("#fb-next")
+                second = runner.current()
+                poll(part, f"window.study.trialId === {second.id!r}", ms)
+                # pause on the experimenter page
+                exp.click("#pause")
+                poll(part, "window.study.status === 'paused'", ms)
+                assert part.is_visible("#paused") and not part.is_visible("#trial")
+                assert "Paused" in part.inner_text("#paused")
+                poll(exp, "document.querySelector('#status').textContent === 'paused'", ms)
+                assert exp.is_disabled("#pause") and exp.is_enabled("#resume")
+                exp.fill("#note", "participant asked a question")
+                exp.click("#add-note")
+                poll(exp, "window.experimenter.notes === 1", ms)
+                exp.click("#resume")
+                poll(part, f"window.study.status === 'trial' && window.study.trialId === {second.id!r}", ms)
+                assert part.is_visible("#trial") and not part.is_visible("#paused")
+                exp.screenshot(path=str(tmp_path / "experimenter.png"))
+            finally:
+                browser.close()
+    finally:
+        server.stop()
+        runner.close()
+    log = read_log(tmp_path / "s" / "logs" / "P01.jsonl")
+    assert log.trials[0]["training"] and log.trials[0]["is_correct"] is False
+    assert [e["event"] for e in log.events] == ["pause", "note", "pause-end"]
+    assert log.events[1]["text"] == "participant asked a question" and log.events[1]["trial_id"] == second.id
