@@ -60,7 +60,7 @@
     }
     const t = st.trial;
     if (t.id === S.trialId && S.status === "trial") return;  // already shown
-    S.trialId = t.id; S.selected = null; S.played = []; toggleValues = {}; T = t;
+    S.trialId = t.id; S.selected = null; S.played = []; toggleValues = {}; T = t; error("");
     clearTimeout(clock); clock = null; blank(false);
     need = new Set(t.touch === false ? [] : t.stimuli.map((_, i) => i));  // a look-only trial: nothing to play
     $("prompt").textContent = t.prompt;
@@ -143,9 +143,11 @@
   }
   function blank(on) { S.blank = on; $("blank").hidden = !on; }
 
+  // a poll clears only its own "not reachable" message, never a refused form's or answer's
+  let unreachable = false;
   async function refresh() {
-    try { render(await state("GET", "/api/state")); error(""); }
-    catch (e) { error(`server not reachable (${e.message}); retrying`); }
+    try { render(await state("GET", "/api/state")); if (unreachable) { error(""); unreachable = false; } }
+    catch (e) { error(`server not reachable (${e.message}); retrying`); unreachable = true; }
   }
 
   async function select(tid, i) {
