@@ -50,13 +50,16 @@ def plot_confusion(result, ax=None) -> Figure:
     for i in range(p.shape[0]):
         for j in range(p.shape[1]):
             ax.text(j, i, f"{p[i, j]:.2f}", ha="center", va="center", color="w" if p[i, j] > 0.6 else "k", fontsize=8)
-    ax.set(xlabel="answered", ylabel="presented", title=f"{result.title} (overall {result.accuracy:.2f})")
+    ax.set(xlabel="answered", ylabel="presented",
+           title=f"{result.title}: trials pooled, n = {int(result.counts.sum())} (overall {result.accuracy:.2f})")
     fig.colorbar(im, ax=ax, shrink=0.8, label="proportion")
     return fig
 
 
 def plot_proportions(result, ax=None, chance: float | None = None) -> Figure:
-    """Bar chart of proportions with their confidence intervals."""
+    """Bar chart of proportions with their confidence intervals (within [0, 1]); the title says
+    whether the bars pool trials ("trials pooled, n = ...") or average participants ("mean of N
+    participants")."""
     fig, (ax,) = figure_axes(ax, 1, (6, 3.5))
     p, lo, hi = (np.asarray(a, dtype=float) for a in (result.proportion, result.ci_low, result.ci_high))
     x = np.arange(p.size)
@@ -66,7 +69,15 @@ def plot_proportions(result, ax=None, chance: float | None = None) -> Figure:
         ax.axhline(chance, color="C3", ls="--", lw=1, label=f"chance {chance:.2f}")
         ax.legend(fontsize=8)
     ax.set_xticks(x, list(result.labels), rotation=20, ha="right")
-    ax.set(ylim=(0, 1.05), ylabel="proportion", title=f"{result.title} ({result.method} {result.confidence:.0%} CI)")
+    if result.method == "participants":
+        n = sorted({int(k) for k in result.n})
+        what = (f"mean of {n[0] if len(n) == 1 else f'{n[0]}-{n[-1]}'} participants, "
+                f"{result.confidence:.0%} bootstrap CI over participants")
+    else:
+        what = (f"trials pooled, n = {int(np.sum(result.n))}, "
+                f"{'Wilson' if result.method == 'wilson' else 'Clopper-Pearson'} {result.confidence:.0%} CI")
+    ax.set(ylim=(0, 1.05), ylabel="mean proportion" if result.method == "participants" else "proportion",
+           title=f"{result.title} ({what})")
     return fig
 
 
