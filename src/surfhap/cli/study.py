@@ -102,7 +102,9 @@ def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSigna
             ff.select(stim.render)
             ff.explore(4.0 if ff.limit_s is None else ff.limit_s + 0.5, stim.label)
         ids = [c.id for c in t.choices]
-        if t.response == "text":
+        if t.training:  # answered right, drawing nothing: the experiment's answers stay those without training
+            ans = t.correct
+        elif t.response == "text":
             ans = f"simulated description {rng.integers(1000)}"
         elif t.response == "toggles":
             want = dict(x.split("=") for x in t.correct.split(",")) if t.correct else {}
@@ -112,7 +114,7 @@ def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSigna
             ans = t.correct
         else:
             ans = ids[int(rng.integers(len(ids)))]
-        runner.answer(t.id, ans, rt_client_s=float(rng.gamma(4.0, 0.5)))
+        runner.answer(t.id, ans, rt_client_s=None if t.training else float(rng.gamma(4.0, 0.5)))
         sys.stdout.write(f"logged {t.id}\n")
         sys.stdout.flush()
         if pace > 0:
