@@ -283,6 +283,8 @@ def test_cli_study_run_serves_the_page_until_done(tmp_path):
         assert answered == 4
         assert proc.wait(timeout=60) == 0
         assert tok not in (study / "logs" / "P01.jsonl").read_text()
+        reader.join(60)
+        assert "last answer" in "".join(lines) and "friction" not in "".join(lines)  # blinded: no condition
     finally:
         if proc.poll() is None:
             proc.kill()

@@ -246,12 +246,13 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
         st = runner.state()
         tb.add_row("participant", runner.plan.id + (f" ({runner.plan.group})" if runner.plan.group else ""))
         tb.add_row("progress", f"{runner.n_done}/{runner.total}")
-        tb.add_row("status", st["status"] + (f" - {st.get('block_label') or st.get('next_block') or ''}"))
+        blind = runner.study.design.session.blind_experimenter  # block labels and choice ids may name conditions
+        tb.add_row("status", st["status"] + ("" if blind else f" - {st.get('block_label') or st.get('next_block') or ''}"))
         last = runner.last_record
         if last:
             ok = "" if last["is_correct"] is None else (" correct" if last["is_correct"] else " wrong")
             rt = "" if last["rt_s"] is None else f", {last['rt_s']:.2f} s"
-            tb.add_row("last answer", f"{last['trial_id']}: {last['answer']}{ok}{rt}")
+            tb.add_row("last answer", f"{last['trial_id']}:{'' if blind else ' ' + str(last['answer'])}{ok}{rt}")
         return tb
 
     try:
