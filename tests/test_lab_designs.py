@@ -42,7 +42,7 @@ def test_realism_and_identification_otake2022():
             assert sorted(firsts) == ["friction+texture", "friction-only"]  # both orders
     ident = build_study(template("otake2022-identification", seed=1))
     for plan in ident.participants:
-        c = Counter((t.condition["condition"], t.correct) for t in plan.trials)
+        c = Counter((t.condition["condition"], t.correct) for t in plan.trials if not t.training)
         assert len(c) == 8 and set(c.values()) == {2}  # each material twice per condition
     assert Counter(p.group for p in ident.participants) == {"order-01": 7, "order-10": 7}
 

@@ -20,7 +20,10 @@ def study(tmp_path_factory):
     """003 identification, two participants: P01 answers 5 trials, stops and resumes (two log
     sessions); P02 runs in one go (the simulated participant of 'study run')."""
     folder = tmp_path_factory.mktemp("export") / "study"
-    assert main(["study", "new", "otake2022-identification", "--out", str(folder), "--participants", "2"]) == 0
+    design = folder.parent / "design.json"  # the template without its training trials (test_lab_experimenter)
+    design.write_text(json.dumps({"format": "surfhap-study-design", "version": 1, "kind": "identification",
+                                  "name": "Otake et al. 2022 Task 2: identification", "participants": 2}))
+    assert main(["study", "new", str(design), "--out", str(folder)]) == 0
     r = SessionRunner(folder, "P01", mode="test")
     for k in range(5):
         t = r.current()

@@ -154,7 +154,7 @@ def test_page_state_does_not_reveal_the_condition(tmp_path):
     study = _new_study(tmp_path, "otake2022-identification")
     r = SessionRunner(study, "P01", mode="test")
     st = r.state()
-    assert st["block_number"] == 1 and st["blocks"] == 2
+    assert st["block_number"] == 1 and st["blocks"] == 3  # training, then the two conditions
     page_js = (Path(__file__).resolve().parents[1] / "src/surfhap/web/static/study/study.js").read_text()
     assert "st.block_label" not in page_js and "st.next_block" not in page_js  # the page shows numbers only
     r.close()

@@ -261,6 +261,13 @@ def test_cli_study_run_serves_the_page_until_done(tmp_path):
             with urllib.request.urlopen(req, timeout=30) as r:
                 return json.loads(r.read())
 
+        # the experimenter page's address, printed once with its token (which the log never holds)
+        while "token=" not in "".join(lines) and time.monotonic() < end:
+            time.sleep(0.05)
+        (tok,) = re.findall(r"/experimenter\?token=([\w-]+)", "".join(lines))
+        req = urllib.request.Request(url + "/experimenter/api/state", headers={"X-Experimenter-Token": tok})
+        with urllib.request.urlopen(req, timeout=30) as r:
+            assert json.loads(r.read())["participant"] == "P01"
         answered = 0
         while time.monotonic() < end:
             st = call("/api/state")
@@ -275,6 +282,9 @@ def test_cli_study_run_serves_the_page_until_done(tmp_path):
             answered += st["accepted"]
         assert answered == 4
         assert proc.wait(timeout=60) == 0
+        assert tok not in (study / "logs" / "P01.jsonl").read_text()
+        reader.join(60)
+        assert "last answer" in "".join(lines) and "friction" not in "".join(lines)  # blinded: no condition
     finally:
         if proc.poll() is None:
             proc.kill()

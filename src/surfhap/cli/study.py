@@ -102,7 +102,9 @@ def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSigna
             ff.select(stim.render)
             ff.explore(4.0 if ff.limit_s is None else ff.limit_s + 0.5, stim.label)
         ids = [c.id for c in t.choices]
-        if t.response == "text":
+        if t.training:  # answered right, drawing nothing: the experiment's answers stay those without training
+            ans = t.correct
+        elif t.response == "text":
             ans = f"simulated description {rng.integers(1000)}"
         elif t.response == "toggles":
             want = dict(x.split("=") for x in t.correct.split(",")) if t.correct else {}
@@ -112,7 +114,7 @@ def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSigna
             ans = t.correct
         else:
             ans = ids[int(rng.integers(len(ids)))]
-        runner.answer(t.id, ans, rt_client_s=float(rng.gamma(4.0, 0.5)))
+        runner.answer(t.id, ans, rt_client_s=None if t.training else float(rng.gamma(4.0, 0.5)))
         sys.stdout.write(f"logged {t.id}\n")
         sys.stdout.flush()
         if pace > 0:
@@ -219,35 +221,22 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
     from rich.table import Table
 
     from surfhap.lab.markers import open_markers
-    from surfhap.lab.stimuli import StimulusPlayer
     from surfhap.live.config import ServerConfig
     from surfhap.web import create_app
     from surfhap.web.server import ServerThread
-    from surfhap.web.study import StudyPage
+    from surfhap.web.study import StudyPage, start_player
 
     markers = open_markers(lsl, runner.plan.id)
     if markers.enabled:
         stderr.print(f"LSL markers: stream 'surfhap-{runner.plan.id}' (type Markers)")
-    session = player = None
-    if ff_device is not None:
-        from surfhap.lab.stimuli import FFStimulusPlayer, FFStudySession
+    haply = None
+    if ff_device is not None and ff_device.startswith("haply://"):
         from surfhap.live.ff_haply import HaplyDevice, parse_haply_url
 
-        haply = HaplyDevice(*parse_haply_url(ff_device, "--ff-device")) if ff_device.startswith("haply://") else None
-        player = FFStimulusPlayer(FFStudySession(backend=haply), limit_s=runner.limit_s)
-        session = player.session
-        player.mute()
-        session.start()  # no Haply service: one line naming it, exit 2
-    elif output is not None:
-        from surfhap.live.session import build_session
-
-        first = next((str(s.render["material"]) for t in runner.plan.trials for s in t.stimuli if "material" in s.render),
-                     "cork")
-        session = build_session(first, parse_output(output), amp_gain=amp_gain, display=runner.display)
-        player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max, display=runner.display,
-                                limit_s=runner.limit_s)
-        player.mute()
-        session.start()
+        haply = HaplyDevice(*parse_haply_url(ff_device, "--ff-device"))
+    player = start_player(runner, None if output is None else parse_output(output), amp_gain,  # no Haply service: exit 2
+                          ff=ff_device is not None, ff_backend=haply)
+    session = None if player is None else player.session
     ff_loop = session.loop if ff_device is not None else None  # a failed force loop ends the page
     try:
         page = StudyPage(runner, player, markers)
@@ -257,18 +246,21 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
             session.stop()
         raise
     stderr.print(f"participant page: [bold]{server.url}[/]  (Ctrl-C pauses; run again to resume)")
+    stderr.print(f"experimenter page (keep this address to yourself): {server.url}/experimenter?token="
+                 f"{page.experimenter_token}", soft_wrap=True)
 
     def table() -> Table:
         tb = Table(show_header=False, box=None)
         st = runner.state()
         tb.add_row("participant", runner.plan.id + (f" ({runner.plan.group})" if runner.plan.group else ""))
         tb.add_row("progress", f"{runner.n_done}/{runner.total}")
-        tb.add_row("status", st["status"] + (f" - {st.get('block_label') or st.get('next_block') or ''}"))
+        blind = runner.study.design.session.blind_experimenter  # block labels and choice ids may name conditions
+        tb.add_row("status", st["status"] + ("" if blind else f" - {st.get('block_label') or st.get('next_block') or ''}"))
         last = runner.last_record
         if last:
             ok = "" if last["is_correct"] is None else (" correct" if last["is_correct"] else " wrong")
             rt = "" if last["rt_s"] is None else f", {last['rt_s']:.2f} s"
-            tb.add_row("last answer", f"{last['trial_id']}: {last['answer']}{ok}{rt}")
+            tb.add_row("last answer", f"{last['trial_id']}:{'' if blind else ' ' + str(last['answer'])}{ok}{rt}")
         return tb
 
     try:

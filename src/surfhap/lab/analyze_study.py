@@ -65,9 +65,12 @@ def load_trials(study_dir: str | Path) -> tuple[Study, list[dict], list[str], li
             continue
         if any(s.get("config", {}).get("study_sha256") not in (None, digest) for s in log.sessions):
             warnings.append(f"{plan.id}: logged against a different study.json (edited after the session?)")
-        analysed = [r for r in log.trials if not r.get("practice")]  # practice trials are not analysed
-        if len(analysed) < sum(not t.practice for t in plan.trials):
+        run = [r for r in log.trials if not r.get("practice")]  # practice (and training) trials are not analysed
+        if len(run) < sum(not t.practice for t in plan.trials):
             incomplete.append(plan.id)
+        analysed = [r for r in run if not r.get("skipped")]  # skipped by the experimenter: no answer
+        if len(analysed) < len(run):
+            warnings.append(f"{plan.id}: {len(run) - len(analysed)} trial(s) skipped by the experimenter, not analysed")
         records += [{**r, "participant": plan.id, "group": plan.group} for r in analysed]
     if not records:
         raise StudyFormatError("no trials logged yet", source=str(folder / "logs"), field="log")

@@ -18,7 +18,8 @@ __all__ = ["STATE_FIELDS", "TRIAL_FIELDS", "choice_key", "participant_state", "r
 
 #: fields of a runner's state the page receives (not: block_label, next_block, participant)
 STATE_FIELDS = ("status", "done", "total", "block_number", "blocks", "accepted", "next_session",
-                "info")  # info: the participant-information form (labels and answers offered, no condition)
+                "info",  # info: the participant-information form (labels and answers offered, no condition)
+                "feedback")  # a training trial's: right or not, the right answer's label (shown on its button)
 #: fields of the current trial the page receives (choices and real samples made opaque)
 TRIAL_FIELDS = ("id", "prompt", "response", "stimuli", "toggles", "image", "touch", "limit_s", "blank")
 

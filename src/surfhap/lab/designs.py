@@ -11,7 +11,8 @@ realism            4 materials x 2 rounds (a break between them) = 8 two-alterna
                    friction+texture vs friction-only; each material gets both presentation
                    orders over the two rounds
 identification     per condition: 4 materials x 2 = 8 trials, answer = one of the 4 materials;  003
-                   condition order alternates between participants
+                   condition order alternates between participants; the template opens with
+                   8 training trials with feedback (each material once per condition)
 ratings            block 1: 10 materials x (real, virtual) x (roughness, stickiness) on 7-point  000
                    scales; block 2: similarity (7 points) of each real material with its
                    data-driven rendering and with a constant-amplitude square wave (30-300 Hz)
@@ -92,6 +93,10 @@ class IdentificationParams(_P):
     # 003 Table IV: two-sided unpooled (Wald) z per material, Bonferroni (p = .04 / .04)
     alternative: Alternative = "two-sided"
     pooled: bool = False
+    # training with feedback before the first block: presentations of each material per
+    # condition (003 Sec. III-B: "a few minutes in a training session with feedback", no count
+    # given; the template's 1 shows every answer once under each condition); 0: none
+    training: int = Field(0, ge=0, le=20)
 
 
 class RatingsParams(_P):
@@ -112,6 +117,7 @@ class ShapeChoiceParams(_P):
 
 class SceneParams(_P):
     anova: Literal["repeated", "between"] = "repeated"  # 002 Table 2: four-way within-subject ANOVA
+    scenes: list[str] | None = Field(None, min_length=1)  # a subset of the built-in scenes (None: all 20, 002)
 
 
 class SlidingParams(_P):
@@ -198,13 +204,17 @@ def _identification(design: DesignSpec, p: IdentificationParams, i: int, pid: st
     conds = list(p.conditions)
     order = balanced_latin_square(len(conds))[i % len(conds)]
     trials: list[Trial] = []
-    for b, ci in enumerate(order):
-        cond = conds[ci]
-        seq = rng.permutation(np.repeat(np.arange(len(p.materials)), p.repetitions))
-        for k in seq:
-            m = p.materials[int(k)]
-            _trial(pid, trials, block=b, block_label=cond, task="identification",
-                   prompt="Which real material does this surface feel like?",
+    training_rng = np.random.default_rng([design.seed, i, 1])  # its own stream: the trials' stay as they were
+    blocks = [(True, [(conds[ci], int(k)) for ci in order
+                      for k in training_rng.permutation(np.repeat(np.arange(len(p.materials)), p.training))])]
+    blocks = (blocks if p.training else []) + [
+        (False, [(conds[ci], int(k)) for k in rng.permutation(np.repeat(np.arange(len(p.materials)), p.repetitions))])
+        for ci in order]
+    for b, (training, items) in enumerate(blocks):
+        for cond, k in items:
+            m = p.materials[k]
+            _trial(pid, trials, block=b, block_label=cond, task="identification", practice=training, training=training,
+                   prompt="Which real material does this surface feel like?" + (" (training)" if training else ""),
                    stimuli=[Stimulus(label="touch", render={"material": m, "method": p.conditions[cond]})],
                    choices=[Choice(id=x, label=x) for x in p.materials], correct=m,
                    condition={"condition": cond, "material": m})
@@ -283,7 +293,10 @@ def _scenes(design: DesignSpec, p: SceneParams, i: int, pid: str) -> tuple[str, 
     rng = participant_rng(design.seed, i)
     group = "G1" if i % 2 == 0 else "G2"
     tasks = ["V+H", "V"] if group == "G1" else ["V", "V+H"]  # 002 Sec. 5.1.3
-    scenes = all_scenes()
+    scenes = [s for s in all_scenes() if p.scenes is None or s.name in p.scenes]
+    unknown = sorted(set(p.scenes or ()) - {s.name for s in scenes})
+    if unknown:
+        raise StudyFormatError(f"unknown scene {unknown[0]!r} (see 'surfhap scenes')", field="params.scenes")
     trials: list[Trial] = []
     for b, task in enumerate(tasks):
         for k in rng.permutation(len(scenes)):
@@ -357,7 +370,7 @@ TEMPLATES: dict[str, dict] = {
     "otake2021-3afc": {"kind": "nafc", "name": "Otake et al. 2021: 3AFC discrimination", "participants": 6},
     "otake2022-realism": {"kind": "realism", "name": "Otake et al. 2022 Task 1: realism", "participants": 14},
     "otake2022-identification": {"kind": "identification", "name": "Otake et al. 2022 Task 2: identification",
-                                 "participants": 14},
+                                 "participants": 14, "params": {"training": 1}},  # 003 Sec. III-B: training first
     "zhao-ratings": {"kind": "ratings", "name": "Zhao et al.: adjective and similarity ratings", "participants": 14},
     "kim-shapes": {"kind": "shape-choice", "name": "Kim et al. 2017: bump / hole / flat closed choice",
                    "participants": 12},

@@ -82,12 +82,17 @@ class Trial(_Strict):
     correct: str | None = None
     condition: dict[str, str | int | float] = {}
     practice: bool = False  # a practice trial: logged with "practice": true, left out of the analysis
+    # a training trial: a practice trial whose answer the page follows with feedback (right or
+    # wrong, and the right answer); logged with "training": true as well (003 Sec. III-B)
+    training: bool = False
     session: int = Field(1, ge=1)
 
     @model_validator(mode="after")
     def _choices(self) -> "Trial":
         if (self.response == "text") == (len(self.choices) >= 2):
             raise ValueError("choices: two or more for a choice or toggles answer, none for text")
+        if self.training and not (self.practice and self.correct):
+            raise ValueError("training: a training trial is a practice trial with a correct answer")
         return self
 
 
@@ -104,13 +109,16 @@ class Session(_Strict):
     2022 Sec. IV-D; lowered per participant with ``--comfort-voltage``).
     ``stimulus_limit_s``: each stimulus plays for this long from the first touch, then stops
     (None: no limit); ``blank_until_release``: when it stops, the page turns black until the
-    finger is lifted (004 Sec. 5.2: 3.5 s, then black until release)."""
+    finger is lifted (004 Sec. 5.2: 3.5 s, then black until release).
+    ``blind_experimenter``: the experimenter's page of ``study run`` hides the condition of
+    the current trial (False: shows it, for designs not blinded to the experimenter)."""
 
     rest_between_blocks: bool = True
     gain: float = Field(1.0, gt=0, le=4.0)
     v_max: float = Field(250.0, gt=0, le=250.0)
     stimulus_limit_s: float | None = Field(None, gt=0, le=600.0)
     blank_until_release: bool = False
+    blind_experimenter: bool = True
 
 
 class InfoField(_Strict):

@@ -164,6 +164,8 @@ class SessionRunner:
         self._info_needed = bool(self._info) and not any(e["event"] == "participant-info"
                                                          for e in self.log.contents.events)
         self._resting = False
+        self.paused = False  # the experimenter paused the session (the page shows a neutral screen)
+        self._started = time.monotonic()
         self.last_record: dict | None = None
         if done and self._pending:
             self._resting = True  # resuming: start on the rest screen
@@ -193,12 +195,12 @@ class SessionRunner:
             t = self.current()
             if t is None:  # next_session: come back another day
                 return {**base, "status": "done", **({"next_session": self.study_session + 1} if self.later else {})}
+            if self.paused:
+                return {**base, "status": "paused"}
             if self._info_needed:
                 return {**base, "status": "info", "info": [f.model_dump() for f in self._info]}
             # block_label (the condition) is for the experimenter; the page shows only numbers (blinding)
-            blocks = sorted({x.block for x in self.plan.trials})
-            base["block_number"] = blocks.index(t.block) + 1
-            base["blocks"] = len(blocks)
+            base.update(self._block_numbers(t))
             if self._resting:
                 return {**base, "status": "rest", "next_block": t.block_label}
             self._shown_at.setdefault(t.id, time.monotonic())
@@ -213,6 +215,10 @@ class SessionRunner:
                                            for s in t.stimuli),
                               "touch": any(s.render.get("haptic", True) and "real" not in s.render
                                            for s in t.stimuli)}}
+
+    def _block_numbers(self, t: Trial) -> dict:
+        blocks = sorted({x.block for x in self.plan.trials})
+        return {"block_number": blocks.index(t.block) + 1, "blocks": len(blocks)}
 
     def resume(self) -> None:
         """Leave the rest screen."""
@@ -237,7 +243,7 @@ class SessionRunner:
         Stimulus (to render), or None if ``trial_id`` is not the current trial."""
         with self._lock:
             t = self.current()
-            if t is None or t.id != trial_id or self._resting or self._info_needed or not 0 <= index < len(t.stimuli):
+            if t is None or t.id != trial_id or self._blocked() or not 0 <= index < len(t.stimuli):
                 return None
             self._stimulus_log.setdefault(trial_id, []).append(
                 [index, round(time.monotonic() - self._shown_at.get(trial_id, time.monotonic()), 4)])
@@ -249,32 +255,93 @@ class SessionRunner:
         click or a page left open from before a restart."""
         with self._lock:
             t = self.current()
-            if t is None or t.id != trial_id or self._resting or self._info_needed:
+            feedback = None
+            if t is None or t.id != trial_id or self._blocked():
                 accepted = False
             else:
                 norm, score = check_answer(t, answer)
                 shown = self._shown_at.pop(t.id, None)
-                rec = {"trial_id": t.id, "index": t.index, "block": t.block, "block_label": t.block_label,
-                       "task": t.task, "answer": norm, "correct": t.correct,
-                       "is_correct": None if score is None else bool(score == 1.0), "score": score,
-                       "rt_s": None if rt_client_s is None else round(float(rt_client_s), 4),
-                       "rt_server_s": None if shown is None else round(time.monotonic() - shown, 4),
-                       "stimuli_touched": self._stimulus_log.pop(t.id, []), "condition": t.condition,
-                       "answered_at": now_iso(), **({"practice": True} if t.practice else {}),
-                       # the page's opaque ids -> choices, stimulus index -> render:
-                       "key": {"choices": choice_key([c.id for c in t.choices]),
-                               "stimuli": [s.render for s in t.stimuli]}}
-                accepted = self.log.append_trial(rec)
-                self.last_record = rec
-                self._pending.pop(0)
-                nxt = self.current()
-                if nxt is None:
-                    self.log.event("end" if not self.later else "session-end", completed=self.n_done,
-                                   study_session=self.study_session)
-                elif nxt.block != t.block and self.study.design.session.rest_between_blocks:
-                    self._resting = True
-                    self.log.event("rest", after_block=t.block_label, next_block=nxt.block_label)
-        return {**self.state(), "accepted": accepted}
+                accepted = self._log_trial(t, answer=norm, is_correct=None if score is None else bool(score == 1.0),
+                                           score=score, rt_s=None if rt_client_s is None else round(float(rt_client_s), 4),
+                                           rt_server_s=None if shown is None else round(time.monotonic() - shown, 4))
+                if t.training:  # the page shows it before the next trial (Trial.training)
+                    label = {c.id: c.label for c in t.choices}
+                    feedback = {"correct": score == 1.0, "answer": ", ".join(
+                        f"{q}: {label[v]}" if q else label[v]
+                        for q, _, v in (x.rpartition("=") for x in t.correct.split(",")))}
+        return {**self.state(), "accepted": accepted, **({"feedback": feedback} if feedback else {})}
+
+    def _blocked(self) -> bool:
+        return self._resting or self._info_needed or self.paused
+
+    def _log_trial(self, t: Trial, **answer) -> bool:
+        """Log the current trial ``t`` with the ``answer`` fields and move on (lock held)."""
+        rec = {"trial_id": t.id, "index": t.index, "block": t.block, "block_label": t.block_label,
+               "task": t.task, "correct": t.correct, **answer,
+               "stimuli_touched": self._stimulus_log.pop(t.id, []), "condition": t.condition,
+               "answered_at": now_iso(), **({"practice": True} if t.practice else {}),
+               **({"training": True} if t.training else {}),
+               # the page's opaque ids -> choices, stimulus index -> render:
+               "key": {"choices": choice_key([c.id for c in t.choices]),
+                       "stimuli": [s.render for s in t.stimuli]}}
+        accepted = self.log.append_trial(rec)
+        self.last_record = rec
+        self._pending.pop(0)
+        nxt = self.current()
+        if nxt is None:
+            self.log.event("end" if not self.later else "session-end", completed=self.n_done,
+                           study_session=self.study_session)
+        elif nxt.block != t.block and self.study.design.session.rest_between_blocks:
+            self._resting = True
+            self.log.event("rest", after_block=t.block_label, next_block=nxt.block_label)
+        return accepted
+
+    # -------------------------------------------------------------- the experimenter's controls
+    def pause(self, on: bool) -> bool:
+        """Pause (``on``) or resume the session; logged as events "pause" / "pause-end" with
+        the current trial. Returns False when nothing changed."""
+        with self._lock:
+            if on == self.paused or (on and self.current() is None):
+                return False
+            self.paused = on
+            t = self.current()
+            self.log.event("pause" if on else "pause-end", trial_id=t.id if t else None)
+            return True
+
+    def skip(self, trial_id: str) -> bool:
+        """Skip the current trial ``trial_id``: logged with ``"skipped": true`` and no answer,
+        never analysed as one. False (nothing written) when it is not the current trial."""
+        with self._lock:
+            t = self.current()
+            if t is None or t.id != trial_id or self._info_needed:
+                return False
+            self._shown_at.pop(t.id, None)
+            return self._log_trial(t, answer=None, is_correct=None, score=None, rt_s=None, rt_server_s=None,
+                                   skipped=True)
+
+    def note(self, text: str) -> None:
+        """The experimenter's free-text note: a timestamped event with the participant and trial."""
+        with self._lock:
+            t = self.current()
+            self.log.event("note", participant=self.plan.id, trial_id=t.id if t else None, text=text)
+
+    def experimenter_state(self) -> dict:
+        """What the experimenter's page shows: participant, block, trial n of N, elapsed time,
+        pause, and the condition unless the design blinds the experimenter to it."""
+        st = self.state()
+        with self._lock:
+            t = self.current()
+            out = {"participant": self.plan.id, "status": st["status"], "paused": self.paused,
+                   "trial_id": t.id if t else None, "trial": min(self.n_done + 1, self.total), "total": self.total,
+                   **(self._block_numbers(t) if t else {}),
+                   "elapsed_s": round(time.monotonic() - self._started, 1), "practice": bool(t and t.practice)}
+            if t is not None and not self.study.design.session.blind_experimenter:
+                out["condition"] = {"block": t.block_label, **t.condition}
+        return out
+
+    def renders(self) -> list[dict]:
+        """The render specs of the stimuli still to run in this session."""
+        return [s.render for t in self._pending for s in t.stimuli]
 
     def close(self) -> None:
         self.log.close()

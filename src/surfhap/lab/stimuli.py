@@ -157,13 +157,29 @@ class StimulusPlayer(_TimedPlayer):
             return make_profile_renderer(*profile, surface, cal, cfg, size)
         return LiveShapeRenderer(surface, cal, cfg, surface_size=size)
 
-    def select(self, render: dict) -> str:
-        """Play ``render`` from now on; returns what is played ("muted" or a description)."""
+    def _get(self, render: dict):
         key = json.dumps(render, sort_keys=True)
-        self._arm()
         if key not in self._cache:
             self._cache[key] = self._build(render)
-        chain, positions = self._cache[key]
+        return key, self._cache[key]
+
+    def prepare(self, renders) -> int:
+        """Build every stimulus of ``renders`` and run each renderer once through the engine
+        (:meth:`~surfhap.live.engine.LiveEngine.warm_up`), BEFORE the session starts: built
+        or first run under the running engine, a scene's renderer held the GIL past the
+        output's stall limit and the engine halted at 0 V for the rest of the session.
+        Afterwards a stimulus switch is one :class:`SwapRenderer`. Returns the renderers built."""
+        eng = self.session.engine
+        chains = {id(c): c for c in (self._get(r)[1][0] for r in renders) if c is not None}
+        for chain in [*chains.values(), eng.renderer]:  # the session's own renderer last
+            eng.send(SwapRenderer(chain))
+            eng.warm_up()
+        return len(chains)
+
+    def select(self, render: dict) -> str:
+        """Play ``render`` from now on; returns what is played ("muted" or a description)."""
+        self._arm()
+        key, (chain, positions) = self._get(render)
         eng = self.session.engine
         if chain is None:
             eng.send(SetGain(0.0))

@@ -11,7 +11,8 @@ Page -> server (JSON text, one per pointer event), one pydantic discriminated un
 Numbers must be JSON numbers within their ranges; NaN, ±inf and numbers too large for a float
 (``1e400``, ``10**400``) are invalid like any out-of-range value (the rule of
 :func:`surfhap.live.sources.finite_in_range`); unknown keys are ignored. The study page's POST
-bodies are :class:`StimulusRequest`, :class:`AnswerRequest` and :class:`InfoRequest`.
+bodies are :class:`StimulusRequest`, :class:`AnswerRequest` and :class:`InfoRequest`, the
+experimenter page's :class:`SkipRequest` and :class:`NoteRequest`.
 
 Server -> page at ``trace_hz`` (:func:`trace_message`): ``{"type": "trace", "ack": seq,
 "ack_t": ms, "received": n, "rejected": n, "t": [...], "v": [...], "f": [...], "target": [...],
@@ -30,7 +31,7 @@ from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 
 __all__ = ["Hello", "Move", "Up", "ClientMessage", "parse_message", "reason", "number", "page_to_surface",
            "trace_message", "encode", "json_default", "CSS_PX_M", "StimulusRequest", "AnswerRequest",
-           "InfoRequest"]
+           "InfoRequest", "SkipRequest", "NoteRequest"]
 
 CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres (CSS reference pixel: 1/96 inch)
 
@@ -122,6 +123,18 @@ class InfoRequest(_Message):
     answers: Annotated[dict[Annotated[str, Field(max_length=32)],
                             Union[Annotated[str, Field(max_length=200, strict=True)], number(-1e9, 1e9)]],
                        Field(max_length=50)]
+
+
+class SkipRequest(_Message):
+    """Experimenter page ``POST /experimenter/api/skip``: skip ``trial_id`` (the current trial)."""
+
+    trial_id: TrialId
+
+
+class NoteRequest(_Message):
+    """Experimenter page ``POST /experimenter/api/note``: a free-text note for the log."""
+
+    text: Annotated[str, Field(min_length=1, max_length=500, strict=True)]  # within the body cap
 
 
 def page_to_surface(msg: Move, width_px: float, height_px: float, space, surface: bool) -> tuple[float, float, float]:

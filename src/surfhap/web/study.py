@@ -10,11 +10,14 @@ page's messages and checks) drive the live engine and a stimulus swaps its rende
 Request bodies are pydantic models (:mod:`surfhap.web.messages`); the app's request guard
 does the rest. Blinding: every reply and marker carries the participant's view only
 (:mod:`surfhap.lab.blinding`: opaque choice ids, no block label, no render spec); an answer's
-opaque id is mapped back to the choice id before the runner logs it.
+opaque id is mapped back to the choice id before the runner logs it. A training trial's answer
+returns ``feedback`` (right or not, the right answer's label), shown before the next trial; a
+paused session (:mod:`surfhap.web.experimenter`) has status "paused".
 """
 
 # no "from __future__ import annotations": FastAPI reads the endpoints' annotations at run time
 import logging
+import secrets
 from dataclasses import dataclass, field
 from importlib import resources
 
@@ -24,10 +27,11 @@ from surfhap.lab.markers import NullMarkers
 from surfhap.lab.stimuli import FFStimulusPlayer, StimulusPlayer, scene_picture
 from surfhap.live.config import ServerConfig
 from surfhap.live.sources import RateLimiter, RejectLog
+from surfhap.web.experimenter import experimenter_router
 from surfhap.web.messages import AnswerRequest, InfoRequest, StimulusRequest
 from surfhap.web.touch import Client, pointer_messages
 
-__all__ = ["StudyPage", "study_router"]
+__all__ = ["StudyPage", "study_router", "start_player"]
 
 log = logging.getLogger("surfhap.lab")
 MAX_BODY = 4096  # an answer is a few dozen bytes; a toggles answer stays under 500 characters
@@ -35,13 +39,40 @@ MAX_BODY = 4096  # an answer is a few dozen bytes; a toggles answer stays under 
 
 @dataclass
 class StudyPage:
-    """What the study page serves: ``runner`` (a SessionRunner), the live ``player`` (or
-    None: nothing rendered) and the ``markers`` (:mod:`surfhap.lab.markers`) that receive
+    """What the study page serves (with the experimenter's page beside it): ``runner`` (a
+    SessionRunner), the live ``player`` (or None: nothing rendered) and the ``markers`` (:mod:`surfhap.lab.markers`) that receive
     stimulus, touch and answer events."""
 
     runner: object
     player: StimulusPlayer | FFStimulusPlayer | None = None
     markers: object = field(default_factory=NullMarkers)
+    #: the experimenter page's secret (:mod:`surfhap.web.experimenter`), printed once by ``study run``
+    experimenter_token: str = field(default_factory=lambda: secrets.token_urlsafe(24), repr=False)
+
+
+def start_player(runner, output=None, amp_gain: float = 250.0, ff: bool = False, ff_backend=None):
+    """The started live player of ``runner``'s session (``study run``), muted: on the
+    force-feedback loop (``ff``; on ``ff_backend``, a force device, default the simulated one), on ``output`` (an Output of
+    :mod:`surfhap.live.backends.output`, every stimulus prepared before the engine starts,
+    :meth:`StimulusPlayer.prepare`), or None (answers only). Stop it with ``player.session.stop()``."""
+    if ff:
+        from surfhap.lab.stimuli import FFStudySession
+
+        player = FFStimulusPlayer(FFStudySession(backend=ff_backend), limit_s=runner.limit_s)
+    elif output is not None:
+        from surfhap.live.session import build_session
+
+        first = next((str(s.render["material"]) for t in runner.plan.trials for s in t.stimuli if "material" in s.render),
+                     "cork")
+        session = build_session(first, output, amp_gain=amp_gain, display=runner.display)
+        player = StimulusPlayer(session, gain=runner.gain, v_max=runner.v_max, display=runner.display,
+                                limit_s=runner.limit_s)
+        player.prepare(runner.renders())
+    else:
+        return None
+    player.mute()
+    player.session.start()
+    return player
 
 
 def study_router(page: StudyPage, cfg: ServerConfig):
@@ -165,4 +196,5 @@ def study_router(page: StudyPage, cfg: ServerConfig):
             if live:
                 player.lift(client.id, 0.0)
 
+    router.include_router(experimenter_router(page, page.experimenter_token))
     return router

@@ -10,7 +10,7 @@
   let T = null, need = new Set(), clock = null;
 
   function show(id) {
-    for (const s of ["loading", "info", "trial", "rest", "done"]) $(s).hidden = s !== id;
+    for (const s of ["loading", "info", "trial", "rest", "done", "paused", "feedback"]) $(s).hidden = s !== id;
     S.status = id;
   }
   function error(msg) { $("error").textContent = msg; $("error").hidden = !msg; }
@@ -37,7 +37,7 @@
   }
 
   function render(st) {
-    if (st.stale) return;
+    if (st.stale || (S.status === "feedback" && st.status !== "paused")) return;  // feedback: until Next
     $("progress").textContent = st.total ? `${st.done} / ${st.total}` : "";
     // never the block's label: it names the condition, which the participant must not know
     $("block").textContent = st.blocks > 1 && st.block_number ? `block ${st.block_number} of ${st.blocks}` : "";
@@ -45,6 +45,10 @@
       $("done-text").textContent = st.next_session ? "Thank you! This session is done; please come back another day."
         : "Thank you! The session is complete.";
       show("done"); S.trialId = null; return;
+    }
+    if (st.status === "paused") {  // the experimenter paused the session: a neutral screen, the output is off
+      clearTimeout(clock); clock = null; blank(false);
+      show("paused"); S.trialId = null; return;
     }
     if (st.status === "info") {  // the participant-information form, before the first trial
       if (S.status !== "info") form(st.info);
@@ -56,7 +60,7 @@
     }
     const t = st.trial;
     if (t.id === S.trialId && S.status === "trial") return;  // already shown
-    S.trialId = t.id; S.selected = null; S.played = []; toggleValues = {}; T = t;
+    S.trialId = t.id; S.selected = null; S.played = []; toggleValues = {}; T = t; error("");
     clearTimeout(clock); clock = null; blank(false);
     need = new Set(t.touch === false ? [] : t.stimuli.map((_, i) => i));  // a look-only trial: nothing to play
     $("prompt").textContent = t.prompt;
@@ -139,9 +143,11 @@
   }
   function blank(on) { S.blank = on; $("blank").hidden = !on; }
 
+  // a poll clears only its own "not reachable" message, never a refused form's or answer's
+  let unreachable = false;
   async function refresh() {
-    try { render(await state("GET", "/api/state")); error(""); }
-    catch (e) { error(`server not reachable (${e.message}); retrying`); }
+    try { render(await state("GET", "/api/state")); if (unreachable) { error(""); unreachable = false; } }
+    catch (e) { error(`server not reachable (${e.message}); retrying`); unreachable = true; }
   }
 
   async function select(tid, i) {
@@ -162,7 +168,11 @@
     try {
       const st = await state("POST", "/api/answer", { trial_id: tid, answer: value, rt_ms: rt });
       if (st.accepted) S.answered += 1;
-      render(st);
+      if (st.feedback) {  // a training trial: right or wrong and the right answer, then Next
+        $("fb-result").textContent = st.feedback.correct ? "Correct!" : "Not quite.";
+        $("fb-answer").textContent = `The right answer: ${st.feedback.answer}`;
+        S.trialId = null; show("feedback");
+      } else render(st);
     } catch (e) { error(e.message); await refresh(); }
     finally {
       busy = false;
@@ -197,6 +207,7 @@
   });
 
   $("text").addEventListener("input", gate);
+  $("fb-next").onclick = () => { show("loading"); refresh(); };
   $("continue").onclick = async () => { render(await state("POST", "/api/resume")); };
 
   // touch pad -> live engine (ignored by the server when no live output is configured)
