@@ -125,9 +125,11 @@ def run_guarded(app: typer.Typer, argv: list[str]) -> int:
     on stderr and exit code 2; a command that needs a missing optional extra says which one
     to install (exit 2). A group called without a command prints its help (exit 2).
     """
+    from surfhap.cli._help import command_tree
+
     try:
         with input_warnings_as_lines():
-            code = app(args=argv, prog_name="surfhap", standalone_mode=False)
+            code = command_tree(app, argv).main(args=argv, prog_name="surfhap", standalone_mode=False)
     except typer.Abort:
         error_line("aborted")
         return 130
