@@ -129,10 +129,12 @@ def render_cmd(
         with writing(Path(out) / "figure.png"):
             fig.savefig(Path(out) / "figure.png", dpi=110)
     s = result.summary()
-    report({**s, "mesh": surf.name, "out": str(paths["npz"].parent)}, f"{surf.name}: {s['samples']} touch samples, {s['on_mesh_fraction']:.0%} on the mesh, "
-                 f"force {s['force_range_n'][0]:+.3g}..{s['force_range_n'][1]:+.3g} N, {s['ticks']} edge ticks, "
-                 f"Fsq range [{result.calibration.fmin:+.3g}, {result.calibration.fmax:+.3g}] "
-                 f"({'from ' + str(calibration) if calibration is not None else 'calibrated now'}) -> {paths['npz'].parent}", as_json)
+    report({**s, "mesh": surf.name, "out": str(paths["npz"].parent)},
+           f"{surf.name}: {s['samples']} touch samples, {s['on_mesh_fraction']:.0%} on the mesh, "
+           f"force {s['force_range_n'][0]:+.3g}..{s['force_range_n'][1]:+.3g} N, {s['ticks']} edge ticks, "
+           f"Fsq range [{result.calibration.fmin:+.3g}, {result.calibration.fmax:+.3g}] "
+           f"({'from ' + str(calibration) if calibration is not None else 'calibrated now'}) -> {paths['npz'].parent}",
+           as_json)
 
 
 @shape_app.command("calibrate")
