@@ -32,6 +32,7 @@ def _plain(text: str | None) -> str:
 
 
 def _metavar(param, ctx) -> str:
+    """What a parameter takes: its metavar, an argument's name, an option's type (nothing for a flag)."""
     if param.metavar is not None:
         return param.metavar
     if isinstance(param, TyperOption) and (param.is_flag or param.count):
@@ -45,6 +46,7 @@ def _metavar(param, ctx) -> str:
 
 
 def _extras(param, ctx) -> str:
+    """``  [range: ..]  [required]`` or ``  [default: ..]`` after a parameter's help."""
     bits = []
     if isinstance(param, (TyperOption, TyperArgument)) and (param.min is not None or param.max is not None):
         bits.append(f"range: {'' if param.min is None else param.min}..{'' if param.max is None else param.max}")
