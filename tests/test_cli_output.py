@@ -38,6 +38,7 @@ REPORTS = {
               ("gaussian-bump", "edge ticks")),
     "compare": (["compare", "cork", "wood", "--duration", "1"], ("cork", "otake")),
     "materials": (["materials"], ("leather", "otake")),
+    "shape profile": (["shape", "profile", "bump", "--out", "{tmp}/p"], ("force", "intensity")),
 }
 
 

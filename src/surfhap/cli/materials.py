@@ -104,6 +104,7 @@ def calibrate_texture(
     beta: float = typer.Option(1.8, "--beta", help="Textural gain of the drive law the ratio is meant for."),
     cutoff: float = typer.Option(3.5, "--cutoff", help="Band split, Hz: sd(x) is taken above it (003 Sec. II: 3.5)."),
     note: Optional[str] = typer.Option(None, "--note", help="Extra text for the provenance (e.g. why this ratio)."),
+    as_json: JsonOption = False,
 ) -> None:
     """Set the strength of MATERIAL_FILE's texture so its voltage ratio is RATIO at every load and speed.
 
@@ -140,7 +141,9 @@ def calibrate_texture(
     spec = mat.spec.model_copy(update={"texture": tex.model_copy(update={"calibration": cal})})
     spec = type(spec).model_validate(spec.model_dump())
     write_material_json(spec, material_file)
-    stdout.print(f"{mat.name}: r = {ratio:g} -> mu_t = {scale:.6g} * mu_low * x -> {material_file}")
+    report({"material": mat.name, "ratio": ratio, "beta": beta, "reference_std": sd, "relative_scale": scale,
+            "out": str(material_file)}, f"{mat.name}: r = {ratio:g} -> mu_t = {scale:.6g} * mu_low * x -> {material_file}",
+           as_json)
 
 
 def register(app: typer.Typer) -> None:

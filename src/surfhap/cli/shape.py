@@ -193,6 +193,7 @@ def profile_cmd(
     mapping: str = typer.Option("IP0.5", "--mapping", help="IP0.5 | IP0.7 (Kim et al. Sec. 3.1.2)."),
     piecewise: bool = typer.Option(False, "--piecewise", help="Piecewise-linear intensity profile (Fig. 6b, d)."),
     overwrite: OverwriteOption = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Write a 1-D profile of the formative study: geometry, force and intensity along the track."""
     import numpy as np
@@ -204,8 +205,8 @@ def profile_cmd(
     out.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(out / "profile.npz", x=prof.x, height=prof.height, force=prof.force, intensity=prof.intensity)
     prof.plot().savefig(out / "figure.png", dpi=110)
-    stdout.print(f"{prof.name}: force {prof.force.min():+.3f}..{prof.force.max():+.3f} N, intensity "
-                 f"{prof.intensity.min():.2f}..{prof.intensity.max():.2f} -> {out}")
+    report({**prof.summary(), "out": str(out)}, f"{prof.name}: force {prof.force.min():+.3f}..{prof.force.max():+.3f} N, "
+           f"intensity {prof.intensity.min():.2f}..{prof.intensity.max():.2f} -> {out}", as_json)
 
 
 def scenes_cmd(
