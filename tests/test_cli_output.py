@@ -144,3 +144,24 @@ def test_help_and_usage_errors_import_nothing_heavy(args):
     env = dict(os.environ, PYTHONPATH=str(REPO / "src"))
     proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
     assert "HEAVY=\n" in proc.stderr, proc.stderr
+
+
+def test_progress_and_status_show_on_a_terminal_only(capsys, monkeypatch):
+    """A bar or spinner on a terminal's stderr; piped, nothing at all (the demo printed blank
+    lines from a bar drawn into a pipe)."""
+    import io
+
+    from rich.console import Console
+
+    from surfhap.cli import _common
+
+    with _common.progress_bar("rendering") as update, _common.status_line("writing figures"):
+        update(0.5)
+    assert capsys.readouterr().err == ""
+    term = io.StringIO()
+    monkeypatch.setattr(_common, "stderr", Console(file=term, force_terminal=True, width=80))
+    with _common.progress_bar("rendering") as update:
+        update(0.5)
+    with _common.status_line("writing figures"):
+        pass
+    assert "rendering" in term.getvalue() and "writing figures" in term.getvalue()

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import re
 import sys
 import warnings
@@ -213,31 +212,13 @@ def check_out(path, option: str, overwrite: bool):
     return path
 
 
-SLOW_S = 2.0  # work longer than this says what it does (issue 21: "anything over 2 s")
-
-
-@contextmanager
-def _plain_line_if_slow(description: str):
-    """stderr is not a terminal: one plain line, printed only once the work has taken
-    :data:`SLOW_S` (bad input found at once stays the one error line)."""
-    import threading
-
-    timer = threading.Timer(SLOW_S, lambda: stderr.print(f"{description} ...", soft_wrap=True, markup=False))
-    timer.daemon = True
-    timer.start()
-    try:
-        yield
-    finally:
-        timer.cancel()
-
-
 @contextmanager
 def status_line(description: str):
     """Work of unknown length (a fit, a first index build, writing figures): a spinner on a
-    terminal's stderr, else one plain line once it has taken 2 s."""
+    terminal's stderr. Nothing when stderr is not a terminal: a log holds results and errors
+    only, and bad input found during the work stays the one error line."""
     if not stderr.is_terminal:
-        with _plain_line_if_slow(description):
-            yield
+        yield
         return
     with stderr.status(f"{description} ...", spinner="dots"):
         yield
@@ -245,11 +226,10 @@ def status_line(description: str):
 
 @contextmanager
 def progress_bar(description: str, enabled: bool = True):
-    """A rich progress bar on a terminal's stderr (one plain line once the work has taken 2 s
-    when stderr is not a terminal); yields ``update(fraction)``. Silent when not enabled."""
+    """A rich progress bar on a terminal's stderr (nothing otherwise, as :func:`status_line`);
+    yields ``update(fraction)``."""
     if not enabled or not stderr.is_terminal:
-        with _plain_line_if_slow(description) if enabled else contextlib.nullcontext():
-            yield lambda fraction: None
+        yield lambda fraction: None
         return
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
