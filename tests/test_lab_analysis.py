@@ -27,10 +27,13 @@ def test_otake2022_overall_identification_from_table_iii(table, overall):
 def test_otake2022_participant_intervals():
     # 27 of 28 (Table II cork, .96 +- .07): 13 participants chose it twice, one once
     res = participant_means([[1.0] * 13 + [0.5], [0.5] + [0.0] * 13, [0.0] * 14], labels=["cork", "x", "zero"])
-    assert round(res.proportion[0], 2) == 0.96 and round(res.proportion[0] - res.ci_low[0], 2) == 0.07
+    assert round(res.proportion[0], 2) == 0.96 and round(res.half_width[0], 2) == 0.07
     # 1 of 28 (Table III(a) wood answered as cork, .04 +- .07)
-    assert round(res.proportion[1], 2) == 0.04 and round(res.ci_high[1] - res.proportion[1], 2) == 0.07
-    assert res.ci_high[2] == res.ci_low[2] == 0.0  # .00 +- .00
+    assert round(res.proportion[1], 2) == 0.04 and round(res.half_width[1], 2) == 0.07
+    assert res.half_width[2] == res.ci_high[2] == res.ci_low[2] == 0.0  # .00 +- .00
+    # the printed form passes 1 and 0; the bootstrap interval over participants stays within [0, 1]
+    assert res.proportion[0] + res.half_width[0] > 1 and res.proportion[1] - res.half_width[1] < 0
+    assert np.all((res.ci_low >= 0) & (res.ci_high <= 1) & (res.ci_low <= res.proportion) & (res.proportion <= res.ci_high))
 
 
 def test_otake2022_bonferroni_of_tables_ii_and_iv():

@@ -184,5 +184,5 @@ def test_questplus_or_staircase_threshold_with_its_ci_in_results_json(study, tmp
 
 
 def test_a_bad_comfort_method_is_one_line_exit_2(study, capsys):
-    assert main(["study", "comfort", str(study), "-p", "P01", "--simulate", "1", "--method", "quest"]) == 2
+    assert main(["study", "comfort", str(study), "-p", "P01", "--simulate", "1", "--method", "qest"]) == 2
     assert "method" in capsys.readouterr().err

@@ -107,7 +107,7 @@ def test_003_tables_3_and_4_from_the_published_counts(tmp_path):
         assert np.round(conf.proportions, 2).tolist() == T3[c]  # Table III (a), (b)
         bars = figs[f"identification_{c}_bars"]
         assert np.round(bars.proportion, 2).tolist() == [T3[c][i][i] for i in range(4)]
-        assert np.round((bars.ci_high - bars.ci_low) / 2, 2).tolist() == T3_CI[c]
+        assert np.round(bars.half_width, 2).tolist() == T3_CI[c]
     z, p = _table4(results)
     # Table IV: leather and cork z = 2.58 / 2.58, Bonferroni p = .04 / .04 (unpooled two-sided z);
     # from pooled counts the unpooled z is 2.56 / 2.59 (the paper's per-participant data are not
@@ -143,7 +143,7 @@ def test_003_table_2_realism_greater_than_chance(tmp_path):
     pm = next(obj for s in res.sections for name, obj, _ in s.figures if name == "realism")
     order = [list(pm.labels).index(m) for m in MATS]
     assert np.round(pm.proportion[order], 2).tolist() == T2
-    assert np.round(((pm.ci_high - pm.ci_low) / 2)[order], 2).tolist() == T2_CI
+    assert np.round(pm.half_width[order], 2).tolist() == T2_CI
     # Table II: leather and wood p = 1.00; cork and denim preferred (the paper's z 6.84 / 3.93
     # and p 4e-16 / 2.5e-7 do not follow from its counts: ours are z 4.91 / 4.16)
     assert [round(tests[m]["p_adjusted"], 2) for m in ("leather", "wood")] == [1.0, 1.0]

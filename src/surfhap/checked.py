@@ -55,6 +55,8 @@ def first_error(exc: ValidationError) -> tuple[str, str]:
     loc = ".".join(str(x) for x in err.get("loc", ())) or "(top)"
     cause = err.get("ctx", {}).get("error")  # a validator calling a check that raises ConfigError: its bare message
     msg = cause.message if isinstance(cause, ConfigError) else str(err.get("msg", "invalid"))
+    if isinstance(cause, ConfigError) and cause.field not in (None, "(top)") and not loc.endswith(cause.field):
+        loc = f"{loc}.{cause.field}" if loc != "(top)" else cause.field  # e.g. a nested Checked model's own field
     return loc, msg.removeprefix("Value error, ").removeprefix("Assertion failed, ")
 
 

@@ -47,7 +47,7 @@ def _root(
 # Command modules, in --help order. Each has ``register(app)``; a module that is not
 # present in this installation is skipped.
 COMMAND_MODULES = ("materials", "render", "demo", "fit", "fit_recordings", "importers", "shape", "live", "ff", "calibrate",
-                   "study", "compare")
+                   "study", "compare", "record")
 
 # The modules of a command whose name is not its module's (the others: the module of that name).
 # Only a hint for a quick start: ``surfhap NAME ...`` imports just these; any other word, all.

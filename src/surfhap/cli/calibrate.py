@@ -6,7 +6,8 @@
                                  [--volts-per-unit G] [--guard 0.1] [--plot FIG.png] [--leakage DC.csv ...]
 
 Writes the display file (``surfhap-display`` version 1) that ``surfhap render/serve
---display CAL.json`` reads: k, mu_panel, the device curve, and the fit details.
+--display CAL.json`` reads: k, mu_panel, the device curve, and the fit details. With ``--live
+--sensor netft://HOST --output OUT`` it records the steps itself (:mod:`surfhap.lab.rig_calibration`).
 """
 
 from __future__ import annotations
@@ -17,8 +18,9 @@ from typing import Optional
 
 import typer
 
-from surfhap.cli._common import check_out, figure_path, report
+from surfhap.cli._common import check_out, error_line, fail, figure_path, report, stdout
 from surfhap.cli._options import JsonOption, OverwriteOption
+from surfhap.cli.record import NORMAL, SHEAR, open_sensor, report_status
 
 __all__ = ["register"]
 
@@ -27,10 +29,55 @@ calibrate_app = typer.Typer(no_args_is_help=True, add_completion=False, pretty_e
                                  "recordings (Kim et al. 2017 Sec. 2.2), written as a display file.")
 
 
+def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear, sensor_timeout):
+    """Play the steps on ``output``, record ``sensor``: one tribometer recording per step (exit 3
+    when the sensor falls silent or the output fails, after the drive has ramped to zero)."""
+    from surfhap.cli._output import parse_output
+    from surfhap.cli._signals import StopSignals
+    from surfhap.lab import rig_calibration as rig
+    from surfhap.live.backends.output import open_backend
+    from surfhap.live.engine import LiveEngine
+    from surfhap.live.netft import SensorSilent
+    from surfhap.render.safety import SafetyLimits
+    from surfhap.runtime.clock import now
+
+    try:
+        lv = [float(v) for v in levels.split(",")] if levels else rig.KIM_LEVELS
+    except ValueError:
+        fail(f"--levels: expected comma-separated intensities, got {levels!r}")
+    schedule = rig.StepSchedule(lv, step_seconds or rig.STEP_SECONDS, revolution or rig.REVOLUTION)
+    out = parse_output(output)
+    limits = SafetyLimits(**({} if v_max is None else {"v_max": v_max}), watchdog_timeout=sensor_timeout)
+    engine = LiveEngine(rig.StepRenderer(schedule, out.default_drive_rate, limits, now))
+    engine.warm_up()  # compiled kernels loaded before the stream starts
+    dev = open_sensor(sensor, "--sensor", normal, shear, timeout=1.0)  # streaming (else exit 2) before any drive
+    dev.timeout = sensor_timeout
+    backend, failure = open_backend(out), None
+    with StopSignals() as guard:
+        try:
+            backend.start(engine)
+            stdout.print(f"playing {schedule.levels.size} intensities x {schedule.step_seconds:g} s on {output}, "
+                         f"recording {dev.name}")
+            t, fn, fs, level = rig.record_steps(dev, engine, schedule, keep_running=lambda: not guard.stopped)
+        except SensorSilent as exc:  # the watchdog has begun the ramp to zero; the stop ramp ends it
+            failure = str(exc)
+        finally:
+            dev.close()
+            backend.stop()
+    guard.finish("the drive ramped to zero; nothing written")
+    if failure or engine.failure:
+        error_line(f"{failure or engine.failure}; the drive ramped to zero")
+        raise typer.Exit(3)
+    report_status(dev)
+    stdout.print(f"recorded {t.size} samples, {dev.gaps} gaps ({dev.lost} records lost)")
+    return rig.step_recordings(t, fn, fs, level, schedule, dev.rate, limits.v_max, dev.name)
+
+
 @calibrate_app.command("tribometer")
 def tribometer(
-    recordings: list[Path] = typer.Argument(..., help="Tribometer recordings (.csv/.npz, one drive level each; "
-                                                      "schema in docs/lab.md). Three levels or more."),
+    recordings: Optional[list[Path]] = typer.Argument(None, help="Tribometer recordings (.csv/.npz, one drive level "
+                                                                "each; schema in docs/lab.md). Three levels or more; "
+                                                                "none with --live."),
     out: Path = typer.Option(..., "--out", help="Display file to write (JSON)."),
     curve: str = typer.Option("static", "--curve", help="Device curve quantity: 'static' (static friction "
                                                         "increase, what the drive laws plan) or 'amplitude' "
@@ -43,6 +90,21 @@ def tribometer(
                                                                          "carrier, voltage input) to measure the "
                                                                          "charge-leakage time constant; repeatable."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Also save a figure of the fits (PNG/PDF/SVG)."),
+    live: bool = typer.Option(False, "--live", help="Record on the rig instead: play Kim et al.'s intensity steps "
+                                                    "on --output, record --sensor (docs/live.md 'Your rig')."),
+    sensor: Optional[str] = typer.Option(None, "--sensor", help="--live: netft://HOST[:PORT][?http=PORT]."),
+    output: str = typer.Option("sim", "--output", help="--live: where the drive goes (sim, sound[:DEVICE], ...)."),
+    levels: Optional[str] = typer.Option(None, "--levels", help="--live: intensities, comma-separated (Kim et al. "
+                                                                "Sec. 2.2: 0.1, 0.2, ..., 1.0)."),
+    step_seconds: Optional[float] = typer.Option(None, "--step-seconds", help="--live: s per intensity (Kim: 20)."),
+    revolution: Optional[float] = typer.Option(None, "--revolution", help="--live: s per on/off cycle, on for 1/8 "
+                                                                          "(Kim: 2 pi 3 cm / 6.5 cm/s = 2.9)."),
+    v_max: Optional[float] = typer.Option(None, "--v-max", help="--live: V at intensity 1, the safety limit (250)."),
+    sensor_timeout: float = typer.Option(0.020, "--sensor-timeout", min=0.001, max=1.0,
+                                         help="--live: s without a sensor record before the drive ramps to zero "
+                                              "and the command ends, exit 3 (issue 19's fail-safe: 20 ms)."),
+    normal: str = NORMAL,
+    shear: str = SHEAR,
     overwrite: OverwriteOption = False,
     as_json: JsonOption = False,
 ) -> None:
@@ -53,14 +115,22 @@ def tribometer(
 
     plot = figure_path(plot, "--plot")
     check_out(out, "--out", overwrite)
-    recs = [read_tribometer(p) for p in recordings]
+    if live == bool(recordings) or live != bool(sensor):
+        fail("give tribometer recordings, or --live with --sensor (and no recordings)")
+    recs = _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear, sensor_timeout) if live else \
+        [read_tribometer(p) for p in recordings]
     leaks = [read_tribometer(p) for p in (leakage or [])]
     cal = calibrate(recs, curve=curve, guard=guard, volts_per_unit=volts_per_unit, leakage_recordings=leaks)
     opts = f" --curve {curve} --guard {guard:g}" + (f" --volts-per-unit {volts_per_unit:g}" if volts_per_unit else "")
     opts += "".join(f" --leakage {shlex.quote(str(p))}" for p in (leakage or []))
-    command = ("surfhap calibrate tribometer " + " ".join(shlex.quote(str(p)) for p in recordings)
+    if live:
+        given = (("levels", levels), ("step-seconds", step_seconds), ("revolution", revolution), ("v-max", v_max),
+                 ("sensor-timeout", sensor_timeout))
+        opts += (f" --live --sensor {shlex.quote(sensor)} --output {shlex.quote(output)}" + "".join(
+            f" --{k} {v}" for k, v in given if v is not None) + f" --normal {normal} --shear {shear}")
+    command = ("surfhap calibrate tribometer " + " ".join(shlex.quote(str(p)) for p in recordings or [])
                + f" --out {shlex.quote(str(out))}" + opts)
-    doc = cal.to_display_json(source=", ".join(p.name for p in recordings), command=command)
+    doc = cal.to_display_json(source=sensor if live else ", ".join(p.name for p in recordings), command=command)
     write_display_json(doc, out)
     c0, c1, c2 = cal.device_fit.coefficients
     lines = [f"{len(recs)} recordings, {cal.input} levels {cal.levels.min():g}..{cal.levels.max():g}",

@@ -145,6 +145,7 @@ def serve_cmd(
     web_process: bool = typer.Option(True, "--web-process/--no-web-process",
                                      help="Run the page server in its own process, so web traffic cannot delay the engine."),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Log connections and rejected messages at INFO."),
+    sensor: Optional[str] = typer.Option(None, "--sensor", help="Close the friction loop over a force sensor: 'sim' (a simulated sensor on the simulated display, whose k drifts); see docs/live.md."),
     display: DisplayOption = None,
     config: ConfigOption = None,
     as_json: JsonOption = False,
@@ -193,7 +194,7 @@ def serve_cmd(
                             engine_config=_engine_config(block_ms, touch_latency_ms, smoothing),
                             osc_in=osc, replay=None if clk.simulated else traj, replay_loop=replay is not None,
                             seed=seed, mesh=mesh, channels=_channels(channels), max_seconds=max_seconds,
-                            display=disp, clock=clk)
+                            display=disp, clock=clk, sensor=sensor)
     if clk.simulated:
         _run_simulated(session, traj, output, clk, as_json)
         return _finish(session.engine, None)
@@ -248,6 +249,7 @@ def play_cmd(
     channels: ChannelsOption = None,
     block_ms: BlockMsOption = 1.0,
     seed: SeedOption = 0,
+    sensor: Optional[str] = typer.Option(None, "--sensor", help="Close the friction loop over a force sensor: 'sim' (a simulated sensor on the simulated display, whose k drifts); see docs/live.md."),
     display: DisplayOption = None,
     config: ConfigOption = None,
     as_json: JsonOption = False,
@@ -266,7 +268,7 @@ def play_cmd(
         raise ConfigError("must be within (0, 600] s on a wall clock", source="--scan/--trajectory", field="duration")
     session = build_session(material, parse_output(output), drive_rate=drive_rate, amp_gain=amp_gain,
                             engine_config=_engine_config(block_ms, 0.0, 1.0), replay=None if clk.simulated else traj,
-                            seed=seed, channels=_channels(channels), display=disp, clock=clk)
+                            seed=seed, channels=_channels(channels), display=disp, clock=clk, sensor=sensor)
     if clk.simulated:
         _run_simulated(session, traj, output, clk, as_json)
         return _finish(session.engine, None)

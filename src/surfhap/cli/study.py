@@ -6,7 +6,7 @@
     surfhap study new DESIGN --out STUDY/ [--seed N] [--participants N]
     surfhap study run STUDY --participant P01 [--gain G] [--comfort-voltage V] [--port 8780]
     surfhap study run STUDY --participant P01 --simulate SEED     (dry run, no page)
-    surfhap study comfort STUDY --participant P01 [--method questplus] [--output sim]  (comfort voltage)
+    surfhap study comfort STUDY --participant P01 [--method quest|questplus] [--output sim]  (comfort voltage)
     surfhap study status STUDY
     surfhap study analyze STUDY --report DIR
     surfhap study export LOG --format csv|bids --out PATH           (LOG: a log or a study folder)
@@ -288,7 +288,8 @@ def comfort(
     study: Path = typer.Argument(..., help="Study folder."),
     participant: str = typer.Option(..., "--participant", "-p", help="Participant id, e.g. P01."),
     start: float = typer.Option(60.0, "--start", help="First amplitude (V)."),
-    method: str = typer.Option("staircase", "--method", help="Adaptive method: staircase | questplus (QUEST+)."),
+    method: Optional[str] = typer.Option(None, "--method", help="Adaptive method: staircase | quest | questplus "
+                                                                "(default: the design's 'adaptive', else staircase)."),
     material: Optional[str] = typer.Option(None, "--material", help="Material of the square wave (default: the "
                                                                     "study's first)."),
     host: str = typer.Option("127.0.0.1", "--host", help="Address the page binds."),
@@ -325,7 +326,8 @@ def comfort(
         if runner.finished:
             v = comfort_ceiling(res.threshold, runner.params)
             thr = ("none (no reversal): 'study run' will not start" if v is None else
-                   f"{v:.1f} V (one {runner.params.steps[-1]:g} dB step below the staircase's {res.threshold:.1f} V)")
+                   f"{v:.1f} V (one {runner.params.steps[-1]:g} dB step below the {runner.adaptive.method} estimate "
+                   f"{res.threshold:.1f} V)")
             stdout.print(f"{runner.plan.id}: comfort voltage {thr} after {res.levels.size} trials "
                          f"({res.stopped_by})")
         else:

@@ -233,13 +233,14 @@ def read_recordings(paths: Sequence[str | Path], columns: Mapping[str, str] | No
 
 
 def write_recording_csv(rec: Recording, path: str | Path) -> Path:
-    """Write a recording as CSV with SI headers and participant/trial metadata."""
+    """Write a recording as CSV with SI headers, participant/trial and the other ``meta`` lines."""
     path = Path(path)
     names = list(rec.channels)
     buf = io.StringIO()
     buf.write(f"# participant: {rec.participant}\n")
     if rec.trial:
         buf.write(f"# trial: {rec.trial}\n")
+    buf.writelines(f"# {k}: {v}\n" for k, v in rec.meta.items() if k not in ("participant", "trial"))
     buf.write(",".join(["time", *names]) + "\n")
     cols = np.column_stack([rec.time, *[rec.channels[k] for k in names]])
     np.savetxt(buf, cols, delimiter=",", fmt="%.9g")

@@ -14,6 +14,7 @@ _MODULES = {
     "surfhap.lab.comfort": ("default_comfort_params",),
     "surfhap.lab.psychometric": ("PsychometricFit", "fit_psychometric", "psychometric"),
     "surfhap.lab.questplus": ("QuestPlus",),
+    "surfhap.lab.quest": ("Quest", "QuestParams"),
 }
 __all__ = sorted(name for names in _MODULES.values() for name in names)
 __getattr__, __dir__ = lazy_names(__name__, _MODULES, globals())

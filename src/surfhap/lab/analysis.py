@@ -20,8 +20,10 @@ __all__ = ["ProportionResult", "proportions", "participant_means", "TestResult",
 
 @dataclass(frozen=True)
 class ProportionResult(Result):
-    """labels (k,), successes (k,) float, n (k,), proportion (k,), ci_low / ci_high (k,);
-    method ("wilson", "beta", "normal", "participants"), confidence, title."""
+    """labels (k,), successes (k,) float, n (k,), proportion (k,), ci_low / ci_high (k,), within
+    [0, 1] by construction; method ("wilson", "beta": trials pooled, n = trials; "participants":
+    the mean of n participants, bootstrap interval), confidence, title; half_width (k,): for
+    "participants" the printed form mean +- z sd / sqrt(n) of Otake et al. 2022 (may pass 0 or 1)."""
 
     labels: tuple[str, ...]
     successes: np.ndarray
@@ -32,6 +34,7 @@ class ProportionResult(Result):
     method: str
     confidence: float
     title: str = ""
+    half_width: np.ndarray | None = None
 
     def rows(self) -> list[list]:
         return [[lab, f"{s:g}/{n:g}", f"{p:.3f}", f"[{lo:.3f}, {hi:.3f}]"]
@@ -56,47 +59,53 @@ def _conf(confidence: float) -> float:
 
 def proportions(successes: Sequence[float], n: Sequence[float], labels: Sequence[str] | None = None,
                 method: str = "wilson", confidence: float = 0.95, title: str = "") -> ProportionResult:
-    """Pooled proportions successes/n with Wilson, Clopper-Pearson ("beta") or normal intervals
-    (statsmodels ``proportion_confint``)."""
+    """Pooled proportions successes/n with Wilson or Clopper-Pearson ("beta") intervals
+    (statsmodels ``proportion_confint``; both lie within [0, 1])."""
     from statsmodels.stats.proportion import proportion_confint
 
     s = np.asarray(successes, dtype=float)
     m = np.asarray(n, dtype=float)
     if s.shape != m.shape or np.any(m <= 0) or np.any(s < 0) or np.any(s > m):
         raise ConfigError("need 0 <= successes <= n and n > 0", field="successes")
-    if method not in ("wilson", "beta", "normal"):
-        raise ConfigError("must be wilson, beta (Clopper-Pearson) or normal", field="method")
+    if method not in ("wilson", "beta"):
+        raise ConfigError("must be wilson or beta (Clopper-Pearson)", field="method")
     lo, hi = proportion_confint(s, m, alpha=1 - _conf(confidence), method=method)
     labs = tuple(labels) if labels is not None else tuple(str(i) for i in range(s.size))
-    return ProportionResult(labs, s, m, s / m, np.clip(np.asarray(lo, float), 0, 1), np.clip(np.asarray(hi, float), 0, 1),
-                            method, confidence, title)
+    return ProportionResult(labs, s, m, s / m, np.asarray(lo, float), np.asarray(hi, float), method, confidence, title)
+
+
+BOOTSTRAP_RESAMPLES = 9999  # scipy.stats.bootstrap's default n_resamples
 
 
 def participant_means(values: Sequence[Sequence[float]], labels: Sequence[str] | None = None,
-                      confidence: float = 0.95, ddof: int = 0, title: str = "") -> ProportionResult:
-    """Mean over participants of per-participant proportions, with a normal interval.
+                      confidence: float = 0.95, ddof: int = 0, title: str = "", seed: int = 0) -> ProportionResult:
+    """Mean over participants of per-participant proportions.
 
     values: one sequence per label, holding each participant's proportion (e.g. 0, 0.5, 1 for
-    two trials). Interval: mean +- z_(1-a/2) sd_ddof / sqrt(n_participants), the form of Otake
-    et al. 2022 Tables II-III, whose printed intervals match the population sd (ddof = 0)."""
+    two trials). ``ci_low``/``ci_high``: percentile bootstrap over participants
+    (:data:`BOOTSTRAP_RESAMPLES` resamples from ``seed``): quantiles of means of values in
+    [0, 1], so within [0, 1]. ``half_width``: z_(1-a/2) sd_ddof / sqrt(n_participants), the
+    printed +- of Otake et al. 2022 Tables II-III (population sd, ddof = 0)."""
     from scipy.stats import norm
 
     z = norm.ppf(0.5 + _conf(confidence) / 2)
-    means, lo, hi, ns = [], [], [], []
+    rng = np.random.default_rng(seed)
+    means, ci, half, ns = [], [], [], []
     for v in values:
         a = np.asarray(v, dtype=float)
         if a.size < 2:
             raise ConfigError("need two participants or more per label", field="values")
-        mu = float(a.mean())
-        half = z * float(a.std(ddof=ddof)) / np.sqrt(a.size)
-        means.append(mu)
-        lo.append(mu - half)
-        hi.append(mu + half)
+        if np.any((a < 0) | (a > 1)):
+            raise ConfigError("each participant's proportion must lie in [0, 1]", field="values")
+        means.append(float(a.mean()))
+        boot = a[rng.integers(0, a.size, (BOOTSTRAP_RESAMPLES, a.size))].mean(axis=1)
+        ci.append(np.quantile(boot, [(1 - confidence) / 2, (1 + confidence) / 2]))
+        half.append(z * float(a.std(ddof=ddof)) / np.sqrt(a.size))
         ns.append(a.size)
     labs = tuple(labels) if labels is not None else tuple(str(i) for i in range(len(means)))
-    mean = np.array(means)
-    return ProportionResult(labs, mean * np.array(ns), np.array(ns, float), mean, np.array(lo), np.array(hi),
-                            "participants", confidence, title)
+    mean, ci = np.array(means), np.array(ci).reshape(-1, 2)
+    return ProportionResult(labs, mean * np.array(ns), np.array(ns, float), mean, ci[:, 0], ci[:, 1],
+                            "participants", confidence, title, np.array(half))
 
 
 @dataclass(frozen=True)

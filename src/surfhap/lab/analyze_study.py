@@ -138,6 +138,10 @@ def _nafc(study, recs):
     return [sec]
 
 
+# the columns of a mean of participants' proportions (analysis.participant_means)
+_PM_CI = ("95 % CI (bootstrap over participants)", "+- (1.96 SD / sqrt n, as Otake et al. 2022)")
+
+
 def _realism(study, recs):
     first = list(study.params["conditions"])[0]
     sec = Section(f"Realism: proportion choosing {first}")
@@ -155,9 +159,10 @@ def _realism(study, recs):
     for m, t, pa in zip(mats, tests, padj):
         sec.add(f"{m}: {first} vs chance 0.5", t, [m], pa, "Bonferroni")
     sec.text.append(", ".join(f"{m} {p:.2f}" for m, p in zip(mats, res.proportion)))
-    sec.tables.append((["material", "proportion", "95 % CI (participants)", "z", "p (Bonferroni)"],
-                       [[m, f"{p:.2f}", f"[{lo:.2f}, {hi:.2f}]", f"{t.statistic:.2f}", f"{pa:.3g}"]
-                        for m, p, lo, hi, t, pa in zip(mats, res.proportion, res.ci_low, res.ci_high, tests, padj)]))
+    sec.tables.append((["material", "proportion", *_PM_CI, "z", "p (Bonferroni)"],
+                       [[m, f"{p:.2f}", f"[{lo:.2f}, {hi:.2f}]", f"{h:.2f}", f"{t.statistic:.2f}", f"{pa:.3g}"]
+                        for m, p, lo, hi, h, t, pa in zip(mats, res.proportion, res.ci_low, res.ci_high,
+                                                          res.half_width, tests, padj)]))
     sec.figures.append(("realism", res, {"chance": 0.5}))
     return [sec]
 
@@ -179,9 +184,9 @@ def _identification(study, recs):
                for m in mats]
         if min(len(v) for v in per) >= 2:
             pm = A.participant_means(per, mats, title=f"correct ({c})")
-            sec.tables.append((["material", "proportion", "95 % CI (participants)"],
-                               [[m, f"{p:.2f}", f"[{lo:.2f}, {hi:.2f}]"]
-                                for m, p, lo, hi in zip(mats, pm.proportion, pm.ci_low, pm.ci_high)]))
+            sec.tables.append((["material", "proportion", *_PM_CI],
+                               [[m, f"{p:.2f}", f"[{lo:.2f}, {hi:.2f}]", f"{h:.2f}"]
+                                for m, p, lo, hi, h in zip(mats, pm.proportion, pm.ci_low, pm.ci_high, pm.half_width)]))
             sec.figures.append((f"identification_{c}_bars", pm, {"chance": 1 / len(mats)}))
         sec.tables.append((["presented \\ answered", *mats],
                            [[m, *[f"{x:.2f}" for x in row]] for m, row in zip(mats, conf.proportions)]))
@@ -349,6 +354,7 @@ def _comfort_section(folder: Path) -> Section | None:
         method = next((s["config"].get("method", "staircase") for s in log.sessions), "staircase")
         rows[-1] += [f"{e['value']:.1f}", "{:.1f}-{:.1f}".format(*e["ci"])]
         sec.estimates.append(jsonable({"name": "50 % discomfort voltage", "participant": d["participant"], **e,
+                                       "adaptive": method, "adaptive_estimate_V": d.get("staircase_threshold_V"),
                                        "method": "posterior mean, 95 % credible interval (logistic, lapse 1 %, "
                                                  f"flat prior; ml_value: ML fit) of the {method} trials"}))
     if not rows:

@@ -18,10 +18,19 @@ No reversal (e.g. "uncomfortable" all the way down to the 5 V floor, or "comfort
 250 V limit) gives no threshold: the result records ``comfort_voltage: null`` and ``study run``
 refuses to start (:func:`required_comfort_voltage`), as it does while a staircase is unfinished.
 
-``method="questplus"`` (:class:`ComfortOptions`) runs QUEST+ instead (Watson 2017,
-:class:`~surfhap.lab.questplus.QuestStair`): 40 trials on 1 dB-spaced levels 5-250 V, a logistic
-P(uncomfortable) with a 1 % lapse; its estimate is the 20.6 % point of the function at the
-posterior-mean parameters, and the comfort voltage is again one 2 dB step below it. ``study analyze`` estimates the
+The method is the design file's ``adaptive`` field (:data:`surfhap.lab.schema.Adaptive`), or
+``study comfort --method``, which overrides it with that method's defaults here
+(:func:`comfort_method`):
+
+* ``questplus`` runs QUEST+ (Watson 2017, :class:`~surfhap.lab.questplus.QuestStair`): 40 trials
+  on 1 dB-spaced levels 5-250 V, a logistic P(uncomfortable) with a 1 % lapse; its estimate is
+  the 20.6 % point of the function at the posterior-mean parameters;
+* ``quest`` runs QUEST (Watson & Pelli 1983, :class:`~surfhap.lab.quest.Quest`) on log10 V:
+  a yes/no task (gamma = 0), T at P(uncomfortable) = 20.6 %, the prior centred on the start
+  level with QuestDemo's generous SD of 2 log units, 40 trials within 5-250 V; the estimate is
+  the posterior mean (King-Smith et al. 1994).
+
+For both the comfort voltage is again one 2 dB step below the estimate. ``study analyze`` estimates the
 50 % point with its credible interval from either method's trials (:func:`comfort_estimate`).
 
 The answers go to their own append-only log ``logs/<P>-comfort.jsonl``; a killed run resumes
@@ -41,13 +50,14 @@ from pydantic import Field
 
 from surfhap.checked import Checked
 from surfhap.errors import StudyFormatError
-from surfhap.lab.schema import load_study
+from surfhap.lab.quest import Quest, QuestParams
+from surfhap.lab.questplus import QuestPlus, QuestPlusParams, QuestStair
+from surfhap.lab.schema import Adaptive, load_study
 from surfhap.lab.session import SAFETY_V_MAX
-from surfhap.lab.questplus import QuestPlus, QuestStair
 from surfhap.lab.staircase import Staircase, StaircaseParams
 from surfhap.lab.triallog import TrialLog, now_iso
 
-__all__ = ["ComfortRunner", "ComfortOptions", "comfort_estimate", "default_comfort_params", "comfort_voltage_of", "read_comfort", "required_comfort_voltage",
+__all__ = ["ComfortRunner", "ComfortOptions", "comfort_method", "comfort_estimate", "default_comfort_params", "comfort_voltage_of", "read_comfort", "required_comfort_voltage",
            "comfort_ceiling", "COMFORT_FREQUENCY", "COMFORT_TARGET"]
 
 COMFORT_FREQUENCY = 100.0  # Hz, inside Zhao et al.'s 30-300 Hz baseline range (design choice)
@@ -58,14 +68,32 @@ COMFORT_FREQUENCY = 100.0  # Hz, inside Zhao et al.'s 30-300 Hz baseline range (
 COMFORT_TARGET = 1.0 - 0.5 ** (1.0 / 3.0)
 QUEST_TRIALS = 40
 COMFORT_LAPSE = 0.01  # P(uncomfortable) tops out at 99 % in QUEST+'s model and in the analysis fit
+_NAMES = {"quest": "QUEST (Watson & Pelli 1983)", "questplus": "QUEST+ (Watson 2017)"}
 
 
 class ComfortOptions(Checked):
-    """method: "staircase" (:func:`default_comfort_params`) or "questplus" (module docstring);
-    start: the staircase's first level (V)."""
+    """method: "staircase" (:func:`default_comfort_params`), "quest" or "questplus" (module
+    docstring), None: the design's ``adaptive`` choice; start: the first level (V)."""
 
-    method: Literal["staircase", "questplus"] = "staircase"
+    method: Literal["staircase", "quest", "questplus"] | None = None
     start: float = Field(default=60.0, ge=5.0, le=SAFETY_V_MAX)
+
+
+def comfort_method(design: Adaptive | None, options: ComfortOptions) -> Adaptive:
+    """The comfort run's method: ``options.method``'s defaults (module docstring) when it is given
+    and differs from the design's choice, else the design's ``adaptive`` (default: the
+    staircase); the levels capped at the 250 V safety limit (a ConfigError naming the field if
+    the start lies above it)."""
+    name = options.method or (design.method if design is not None else "staircase")
+    if design is None or design.method != name:
+        design = (default_comfort_params(options.start) if name == "staircase" else
+                  QuestPlusParams(max_trials=QUEST_TRIALS, lapse=COMFORT_LAPSE) if name == "questplus" else
+                  QuestParams(prior_mean=np.log10(options.start), prior_sd=2.0, gamma=0.0, p_threshold=COMFORT_TARGET,
+                              max_trials=QUEST_TRIALS, min_level=np.log10(5.0), max_level=np.log10(SAFETY_V_MAX)))
+    if isinstance(design, QuestPlusParams):
+        return design
+    cap = np.log10(SAFETY_V_MAX) if isinstance(design, QuestParams) and design.scale == "log10" else SAFETY_V_MAX
+    return type(design)(**{**design.model_dump(), "max_level": float(min(design.max_level, cap))})
 
 
 def default_comfort_params(start: float = 60.0) -> StaircaseParams:
@@ -157,32 +185,34 @@ class ComfortRunner:
 
     limit_s = None  # the square wave plays while touched: no stimulus time limit
 
-    def __init__(self, study_dir: str | Path, participant: str, params: StaircaseParams | None = None,
+    def __init__(self, study_dir: str | Path, participant: str, params: Adaptive | None = None,
                  material: str | None = None, options: ComfortOptions | None = None):
         self.dir = Path(study_dir)
         study = load_study(self.dir)
         self.plan = study.participant(participant)
         self.options = options or ComfortOptions()
-        self.params = params or default_comfort_params(self.options.start)
+        self.adaptive = params or comfort_method(study.design.adaptive, self.options)
+        self.params = self.adaptive if isinstance(self.adaptive, StaircaseParams) else default_comfort_params()
         self.material = material or next((str(s.render["material"]) for t in self.plan.trials for s in t.stimuli
                                           if "material" in s.render), "cork")
         from surfhap import __version__
 
         self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}-comfort.jsonl", participant=self.plan.id,
                             config={"participant": self.plan.id, "procedure": "comfort staircase",
-                                    "method": self.options.method,
-                                    "staircase": self.params.model_dump(mode="json"),
+                                    "method": self.adaptive.method,
+                                    "adaptive": self.adaptive.model_dump(mode="json"),
                                     "material": self.material, "square_frequency": COMFORT_FREQUENCY},
                             software_version=__version__)
-        quest = self.options.method == "questplus"
-        self.stair = (QuestStair(np.geomspace(5.0, SAFETY_V_MAX, 35), np.geomspace(0.01, 1.0, 9), QUEST_TRIALS,
-                                 COMFORT_TARGET, COMFORT_LAPSE) if quest else Staircase(self.params))
+        a = self.adaptive
+        self.stair = (QuestStair(np.geomspace(5.0, SAFETY_V_MAX, 35), np.geomspace(0.01, 1.0, 9), a.max_trials,
+                                 COMFORT_TARGET, a.lapse) if isinstance(a, QuestPlusParams) else
+                      Quest(a) if isinstance(a, QuestParams) else Staircase(a))
         for rec in self.log.contents.trials:  # replay a killed run
             self.stair.update(rec["answer"] == "no")
         self.gain = 1.0
         self.last_record = None
         self._lock = threading.Lock()
-        self.total = QUEST_TRIALS if quest else self.params.max_trials
+        self.total = a.max_trials
 
     @property
     def n_done(self) -> int:
@@ -248,7 +278,9 @@ class ComfortRunner:
         out = {"participant": self.plan.id, "comfort_voltage": comfort_ceiling(res.threshold, p),
                "staircase_threshold_V": res.threshold, "stopped_by": res.stopped_by,
                "reversal_levels_V": res.reversal_levels.tolist(), "levels_V": res.levels.tolist(),
-               "method": f"{'QUEST+' if self.options.method == 'questplus' else f'{p.up}-up/{p.down}-down staircase'} on a constant-amplitude square wave (Zhao et al. "
+               "adaptive": self.adaptive.model_dump(mode="json"),
+               **({"quest_sd_log10": self.stair.sd()} if isinstance(self.stair, Quest) else {}),
+               "method": f"{_NAMES.get(self.adaptive.method, f'{p.up}-up/{p.down}-down staircase')} on a constant-amplitude square wave (Zhao et al. "
                          f"Sec. 2-3); comfort voltage one {p.steps[-1]:g} {'dB' if p.step_type == 'db' else 'V'} "
                          "step below the estimate",
                "finished_at": now_iso()}

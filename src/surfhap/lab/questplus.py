@@ -9,12 +9,16 @@ parameters, so any psychometric model fits (:meth:`QuestPlus.psychometric` build
 
 from __future__ import annotations
 
-import numpy as np
+from typing import Literal
 
+import numpy as np
+from pydantic import Field, PositiveInt
+
+from surfhap.checked import Checked
 from surfhap.errors import ConfigError
 from surfhap.lab.psychometric import Shape, psychometric
 
-__all__ = ["QuestPlus", "QuestStair"]
+__all__ = ["QuestPlus", "QuestPlusParams", "QuestStair"]
 
 
 def _entropy(p: np.ndarray) -> np.ndarray:
@@ -97,6 +101,15 @@ class QuestPlus:
     def mode(self) -> np.ndarray:
         """(p,) the parameter vector of greatest posterior probability."""
         return self.params[int(np.argmax(self.posterior))]
+
+
+class QuestPlusParams(Checked):
+    """The design file's QUEST+ choice (:class:`QuestStair`): ``max_trials`` and a fixed ``lapse``
+    (1 %: the comfort model's, :data:`surfhap.lab.comfort.COMFORT_LAPSE`)."""
+
+    method: Literal["questplus"] = "questplus"
+    max_trials: PositiveInt = 40
+    lapse: float = Field(0.01, ge=0.0, lt=0.5)
 
 
 class QuestStair:

@@ -13,14 +13,21 @@ A malformed file raises :class:`~surfhap.errors.StudyFormatError` naming the fil
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from surfhap.errors import StudyFormatError
 from surfhap.exchange.files import read_model
+from surfhap.lab.quest import QuestParams
+from surfhap.lab.questplus import QuestPlusParams
+from surfhap.lab.staircase import StaircaseParams
 
-__all__ = ["DESIGN_FORMAT", "STUDY_FORMAT", "KINDS", "Choice", "Stimulus", "Trial", "ParticipantPlan", "InfoField",
+#: the adaptive method of a design's threshold procedures (the comfort run): one of the three
+#: parameter types, chosen by ``method`` ("staircase" | "quest" | "questplus")
+Adaptive = Annotated[StaircaseParams | QuestParams | QuestPlusParams, Field(discriminator="method")]
+
+__all__ = ["Adaptive", "DESIGN_FORMAT", "STUDY_FORMAT", "KINDS", "Choice", "Stimulus", "Trial", "ParticipantPlan", "InfoField",
            "DesignSpec",
            "Session", "Study", "load_design", "load_study"]
 
@@ -137,6 +144,7 @@ class DesignSpec(_Strict):
     session: Session = Session()
     participant_info: list[InfoField] = []  # e.g. age, handedness, gender
     note: str = ""
+    adaptive: Adaptive | None = None  # the comfort run's method (None: its 3-up/1-down staircase)
 
 
 class Study(_Strict):

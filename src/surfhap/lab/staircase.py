@@ -21,7 +21,8 @@ until the first reversal; ``up``/``down`` apply from then on.
 The level is clamped to [min_level, max_level]; for a drive voltage, max_level is the safety
 limit (250 V), so a staircase can never ask for more.
 
-QUEST+ is :mod:`surfhap.lab.questplus` (own code: the PyPI ``questplus`` is GPL-3).
+QUEST+ is :mod:`surfhap.lab.questplus` (own code: the PyPI ``questplus`` is GPL-3), QUEST
+:mod:`surfhap.lab.quest`.
 """
 
 from __future__ import annotations
@@ -60,8 +61,10 @@ class StaircaseParams(Checked):
     ``step_type="db"``); up/down: consecutive negatives/positives to step up/down;
     max_trials / max_reversals: stop rules (``stop``: "either" reached, or "both");
     initial_rule: 1-up/1-down until the first reversal; average_last: reversals averaged for the
-    threshold; min_level / max_level: clamp (max_level <= safety limit for voltages)."""
+    threshold; min_level / max_level: clamp (max_level <= safety limit for voltages);
+    method: the tag of the design file's ``adaptive`` choice (:data:`surfhap.lab.schema.Adaptive`)."""
 
+    method: Literal["staircase"] = "staircase"
     start: FiniteFloat
     steps: tuple[PositiveFloat, ...] = Field(default=(1.0,), min_length=1)
     up: int = Field(default=1, ge=1)

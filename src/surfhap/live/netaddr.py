@@ -15,7 +15,7 @@ import re
 
 from surfhap.errors import ConfigError
 
-__all__ = ["check_host", "parse_host_port", "parse_osc_address"]
+__all__ = ["check_host", "parse_host_port", "parse_osc_address", "parse_netft_address"]
 
 _LABEL = re.compile(r"^(?!-)[A-Za-z0-9-]{1,63}(?<!-)$")
 
@@ -83,3 +83,21 @@ def parse_osc_address(text: str, option: str, *, listen: bool = False) -> tuple[
     netloc, path = (rest, "") if cut < 0 else (rest[:cut], rest[cut:])
     host, port = parse_host_port(netloc, option, listen=listen)
     return host, port, path.strip("/")
+
+
+def parse_netft_address(text: str, option: str) -> tuple[str, int, int]:
+    """``netft://HOST[:PORT][?http=PORT]`` -> (host, RDT UDP port, HTTP port); the defaults 49152
+    and 80 are the Net F/T's (ATI manual 9620-05-NET FT, RDT section and web server)."""
+    s = (text or "").strip()
+    if not s.startswith("netft://"):
+        raise ConfigError(f"expected netft://HOST[:PORT], got {text!r}", source=option)
+    netloc, _, query = s[len("netft://"):].rstrip("/").partition("?")
+    http = 80
+    if query:
+        key, _, value = query.partition("=")
+        if key != "http":
+            raise ConfigError(f"unknown parameter {key!r} (only ?http=PORT)", source=option)
+        http = _port(value, option, False)
+    if netloc.endswith("]") or ":" not in netloc or (netloc.count(":") > 1 and not netloc.startswith("[")):
+        return check_host(netloc, option), 49152, http
+    return (*parse_host_port(netloc, option), http)

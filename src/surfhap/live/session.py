@@ -130,17 +130,33 @@ class LiveSession:
         self.started = False
 
 
+def _closed_loop(sensor: str, chain, display):
+    """The display of a session whose texture ``chain`` closes its loop over ``sensor``."""
+    if sensor != "sim":
+        raise ConfigError(f"unknown sensor {sensor!r} (choose: sim)", source="--sensor")
+    if chain is None or display is None:
+        raise ConfigError("needs a material (not --mesh) on the simulated display", source="--sensor")
+    from surfhap.runtime.closed_loop import SensorLoop
+    from surfhap.sim.closed_loop import Drift, SensedDisplay, SimForceSensor
+
+    probe = SimForceSensor()
+    SensorLoop(chain, probe)
+    return SensedDisplay(display, Drift(), probe)
+
+
 def build_session(material: str = "cork", output: Output | None = None, *, drive_rate: int | None = None,
                   engine_config=None, amp_gain: float = 250.0, space: TouchSpace | None = None,
                   osc_in: tuple[str, int] | None = None, replay=None, replay_loop: bool = False,
                   seed: int = 0, channels: tuple[int, ...] | None = None, max_seconds: float | None = None,
-                  mesh=None, display=None, clock=None) -> LiveSession:
+                  mesh=None, display=None, clock=None, sensor: str | None = None) -> LiveSession:
     """Everything ``surfhap serve`` runs: material (or ``mesh`` file) -> renderer -> engine
     -> backend (``output``, a typed output spec; default the simulated display), plus optional
     OSC touch input ``(host, port)`` and a replayed trajectory.
     ``amp_gain``, ``channels``, ``max_seconds``: the output's options
     (:class:`~surfhap.live.backends.output.OutputOptions`). ``clock``: the engine's
-    :class:`~surfhap.runtime.clock.Clock` (default: wall time)."""
+    :class:`~surfhap.runtime.clock.Clock` (default: wall time). ``sensor``: "sim" closes the
+    friction loop (:mod:`surfhap.runtime.closed_loop`) over a simulated sensor measuring the
+    simulated display, whose k drifts (:mod:`surfhap.sim.closed_loop`)."""
     from surfhap.exchange.materials import load_material
     from surfhap.live.backends.output import OutputOptions, SimOutput, open_backend
     from surfhap.live.engine import LiveEngine
@@ -164,6 +180,8 @@ def build_session(material: str = "cork", output: Output | None = None, *, drive
         chain = TextureChain(mat, ChainConfig(drive_rate=rate, seed=seed, **({} if display is None else {"display": display})))
         title, preview, display_model = f"{mat.name} ({chain.method})", material_preview(mat), chain.config.display
     display = SimulatedDisplay(display_model, chain.drive_rate, chain.control_rate) if cfg.simulate_display else None
+    if sensor is not None:
+        display = _closed_loop(sensor, chain if mesh is None else None, display)
     engine = LiveEngine(chain, cfg, display=display, clock=None if clock is None else clock.now)
     backend = open_backend(output, OutputOptions(amp_gain, channels, max_seconds))
     sources = []

@@ -100,10 +100,11 @@ class DisplayModel(BaseModel):
 
 
 @numba.njit(cache=True, nogil=True)
-def _display_kernel(drive, load, state, a, mu, c0, c1, c2, scale, top, force, z, Hr, L, M, t0, out):
+def _display_kernel(drive, load, gain, state, a, mu, c0, c1, c2, scale, top, force, z, Hr, L, M, t0, out):
     # state: [previous drive, previous V_eff]; added friction: the display's curve at
-    # u = min(|V_eff| scale, top) while driven (c0 + c1 u + c2 u^2; default 0, 0, mu k), into
-    # force at the drive rate, then decimated into out by the resampler z .. t0; returns the count
+    # u = min(|V_eff| scale, top) while driven (c0 + c1 u + c2 u^2; default 0, 0, mu k), times
+    # gain[i] (gain[0] when gain holds one value), into force at the drive rate, then decimated
+    # into out by the resampler z .. t0; returns the count
     pv = state[0]
     ve = state[1]
     for i in range(drive.shape[0]):
@@ -113,6 +114,7 @@ def _display_kernel(drive, load, state, a, mu, c0, c1, c2, scale, top, force, z,
         fn = load[i]
         u = min(abs(ve) * scale, top)
         added = (c2 * u + c1) * u + c0 if u > 0.0 else 0.0
+        added *= gain[i] if gain.shape[0] > 1 else gain[0]
         force[i] = mu * fn + added if fn > 0.0 else 0.0
     state[0] = pv
     state[1] = ve
@@ -126,6 +128,8 @@ class SimulatedDisplay:
     and decimated to ``friction_rate`` (one compiled call per block). The added friction is the
     display's :attr:`DisplayModel.curve` at ``|V_eff|`` (``mu_panel k V_eff^2`` without a
     measured curve; an intensity curve at ``|V_eff| / v_max``), 0 without drive.
+    ``gain`` (m,) scales the added friction per drive sample: a drifting k (k(t) / k, the
+    closed-loop simulation :mod:`surfhap.sim.closed_loop`); None = 1.
     """
 
     def __init__(self, model: DisplayModel, drive_rate: int, friction_rate: int, v_max: float = 250.0):
@@ -140,14 +144,18 @@ class SimulatedDisplay:
         self._state = np.zeros(2)
         self._down = RationalResampler(self.drive_rate, self.friction_rate)
         self.delay = self._down.delay
+        self._unit = np.ones(1)
 
     def reset(self) -> None:
         self._state[:] = 0.0
         self._down.reset()
 
-    def process(self, drive: np.ndarray, load: np.ndarray) -> np.ndarray:
+    def process(self, drive: np.ndarray, load: np.ndarray, gain: np.ndarray | None = None) -> np.ndarray:
         drive = np.ascontiguousarray(drive, dtype=np.float64)
         load = np.ascontiguousarray(load, dtype=np.float64)
+        gain = self._unit if gain is None else np.ascontiguousarray(gain, dtype=np.float64)
+        if gain.shape != (1,) and gain.shape != drive.shape:
+            raise ValueError("gain must hold one value or one per drive sample")
         force, out = np.empty_like(drive), np.empty(drive.shape[0] * self._down.L // self._down.M + 2)
-        m = _display_kernel(drive, load, self._state, self._a, self.model.mu_panel, *self._curve, force, *self._down.kernel_args(), out)
+        m = _display_kernel(drive, load, gain, self._state, self._a, self.model.mu_panel, *self._curve, force, *self._down.kernel_args(), out)
         return out[:m]

@@ -208,10 +208,12 @@ class TextureChain:
         self.drive_rate = int(cfg.drive_rate)
         self._max_load = cfg.limits.max_load
         self.latency = self.upsampler.delay
+        # closed loop (surfhap.runtime.closed_loop): (DriveBlock, load (n,) N) -> the corrected DriveBlock, before the tail
+        self.correction = None
         self.reset()
 
     def reset(self) -> None:
-        for proc in (self.synth, self.law, self.upsampler, self.carrier, self.safety):
+        for proc in (self.synth, self.law, self.upsampler, self.carrier, self.safety, self.correction):
             if proc is not None:
                 proc.reset()
         self._state = np.array([0, 0, self.control_rate, self.drive_rate, self.carrier.step, 1e-9 / self.control_rate, 0, -np.inf])
@@ -237,6 +239,8 @@ class TextureChain:
         _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
         texture = self.synth.process(clean[0], clean[1]) if self.synth is not None else np.zeros(n)
         law = self.law.process(clean[0], clean[1], texture)
+        if self.correction is not None:
+            law = self.correction(law, clean[1])
         drive, load_drive = np.empty(size) if drive_out is None else drive_out[:size], np.empty(size)
         if drive.shape[0] < size:
             raise ValueError(f"drive_out holds {drive.shape[0]} samples, the block needs {size}")

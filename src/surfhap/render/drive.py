@@ -204,11 +204,21 @@ class DriveLaw:
             raise ValueError("speed, load and texture must be (n,) arrays of one length")
         block, clipped, touching = self._evaluate(speed, load, texture, self._n)
         if self._display is not None:  # a measured device curve: the display's force -> voltage map
-            block = block._replace(voltage=self._display.voltage_for_force(self._gain * block.target, self._v_max))
+            block = block._replace(voltage=self.voltage_for(block.target))
         self.clipped += clipped
         self.touching += touching
         self._n += n
         return block
+
+    def voltage_for(self, target: np.ndarray) -> np.ndarray:
+        """(n,) V the law outputs for ``target`` (n,) N: the display's device-curve map (scaled by
+        the rendering gain), else ``alpha sqrt(max(F, 0))`` (the closed loop's feed-forward)."""
+        target = np.ascontiguousarray(target, dtype=np.float64)
+        if self._display is not None:
+            return self._display.voltage_for_force(self._gain * target, self._v_max)
+        out = np.empty_like(target)
+        self._kernels.target_to_voltage(target, target, float(self.params.alpha), out)
+        return out
 
     def low_force(self, speed, load) -> np.ndarray:
         """(n,) N: the law's target without texture at speed (m/s) and load (N), arrays or

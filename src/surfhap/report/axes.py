@@ -7,7 +7,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-__all__ = ["plain_log_ticks", "figure_axes"]
+__all__ = ["plain_log_ticks", "figure_axes", "carrier_resolved", "draw_drive"]
 
 
 def figure_axes(ax, n: int, size: tuple[float, float], layout=None, **subplots) -> tuple[Figure, list[Axes]]:
@@ -33,3 +33,25 @@ def plain_log_ticks(axis) -> None:
     axis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
     axis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
     axis.set_minor_formatter(NullFormatter())
+
+
+def carrier_resolved(rate: float, carrier: float) -> bool:
+    """True when a drive sampled at ``rate`` Hz draws its ``carrier`` Hz cycles legibly: at least
+    8 samples per period (fewer, and the lines of a 10 kHz carrier at 20 kHz fill a solid block)."""
+    return carrier <= 0 or rate / carrier >= 8
+
+
+def draw_drive(ax, t: np.ndarray, v: np.ndarray, rate: float, carrier: float, **style) -> str:
+    """Draw the drive ``v`` (V) over ``t`` (ms) on ``ax``: the samples when the carrier is resolved
+    (:func:`carrier_resolved`), else its envelope, the min and max per carrier period filled.
+    ``style``: colour, label ...; returns what was drawn ("drive" or "envelope")."""
+    label = style.pop("label", "")
+    if carrier_resolved(rate, carrier):
+        ax.plot(t, v, lw=0.7, label=f"{label} drive".strip(), **style)
+        return "drive"
+    n = max(2, int(np.ceil(rate / carrier)))
+    k = v.size // n * n
+    lo, hi = v[:k].reshape(-1, n).min(axis=1), v[:k].reshape(-1, n).max(axis=1)
+    ax.fill_between(t[:k:n], lo, hi, lw=0.6, alpha=0.6, step="post",
+                    label=f"{label} envelope (min/max per {carrier:g} Hz period)".strip(), **style)
+    return "envelope"

@@ -5,6 +5,7 @@ Reads results only; the renders are computed in :mod:`surfhap.sim.demo`.
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -12,7 +13,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from surfhap.models.texture import TextureBank
-from surfhap.report.axes import figure_axes, plain_log_ticks
+from surfhap.report.axes import carrier_resolved, draw_drive, figure_axes, plain_log_ticks
 from surfhap.report.figures import render_spectrum
 from surfhap.report.html import Page
 from surfhap.signal.bands import spectral_deviation_db
@@ -20,41 +21,76 @@ from surfhap.signal.bands import spectral_deviation_db
 if TYPE_CHECKING:
     from surfhap.sim.demo import DemoResults
 
-__all__ = ["write_demo_report"]
+__all__ = ["write_demo_report", "plot_material_renders"]
 
 
-def _speed_figure(name: str, runs) -> Figure:
-    fig, (a, b, c) = figure_axes(None, 3, (11, 3.6), ncols=3)
-    for r in runs:
-        v = float(np.median(r.speed[r.load > 0]))
-        lab = f"{v * 1e3:.0f} mm/s"
+_STYLES = ("-", "-.", ":")  # one line style per speed (colour alone fails in grey print; dashed is the model)
+GAIN_NOTE = ("G = (alpha / alpha_calibrated)²: the share of the friction law's force the display adds, the same at "
+             "every load and speed (1 = all of it); the gain plan lowers alpha so the texture's peaks stay under v_max")
+
+
+def _demo_layout(fig):
+    top = fig.add_gridspec(1, 3)
+    drive = top[0, 2].subgridspec(3, 1, hspace=0.08)
+    a, b, c0 = fig.add_subplot(top[0, 0]), fig.add_subplot(top[0, 1]), fig.add_subplot(drive[0])
+    return [a, b, c0, fig.add_subplot(drive[1], sharex=c0), fig.add_subplot(drive[2], sharex=c0)]
+
+
+def plot_material_renders(name: str, runs, load: float) -> Figure:
+    """One material rendered at ``load`` N and several speeds (``runs``, one RenderResult per
+    speed, up to 3): added friction, high-band spectrum vs the texture model, and the drive after
+    safety, one small panel per speed (its envelope when the figure cannot show the carrier)."""
+    fig, axs = figure_axes(None, 5, (11, 4.6), layout=_demo_layout)
+    a, b, drive = axs[0], axs[1], axs[2:]
+    r0 = runs[0]
+    models = []
+    for i, (r, d) in enumerate(zip(runs, drive)):
+        style = dict(color=f"C{i}", ls=_STYLES[i % len(_STYLES)])
+        lab = f"{float(np.median(r.speed[r.load > 0])) * 1e3:.0f} mm/s"
         sel = r.t >= r.t[-1] - 0.5
-        a.plot(r.t[sel], r.added_friction[sel], lw=0.7, label=lab)
-        band = np.zeros(0, dtype=bool)
+        a.plot(r.t[sel], r.added_friction[sel], lw=0.8, alpha=0.85, label=lab, **style)
         if r.texture_model is not None:
             f, p, e = render_spectrum(r)
             band = (f >= 3.5) & (f <= 0.4 * (r.texture_rate or r.control_rate))
-        if band.any():
-            line, = b.loglog(f[band], p[band], lw=0.7, label=lab)
-            if e is not None:
-                b.loglog(f[band], e[band], lw=1.3, ls="--", color=line.get_color())
-        sel2 = (r.t_drive >= 1.0) & (r.t_drive < 1.01)
-        c.plot((r.t_drive[sel2] - 1.0) * 1e3, r.drive[sel2], lw=0.7, label=lab)
-    fig.suptitle(name)
-    a.set(title="added friction, last 0.5 s", xlabel="time (s)", ylabel="N")
-    b.set(title="high band: simulated (solid) vs model (dashed)", xlabel="Hz", ylabel="N²/Hz")
+            if band.any():
+                b.loglog(f[band], p[band], lw=0.9, label=f"{lab} simulated", **style)
+                if e is not None:
+                    models.append((f[band], e[band], style["color"], lab))
+        if carrier_resolved(r.drive_rate, r.carrier):
+            sel2 = (r.t_drive >= 1.0) & (r.t_drive < 1.01)
+        else:
+            sel2 = r.t_drive >= r.t_drive[-1] - 0.5
+        t0 = r.t_drive[sel2][0] if sel2.any() else 0.0
+        draw_drive(d, (r.t_drive[sel2] - t0) * 1e3, r.drive[sel2], r.drive_rate, r.carrier, color=f"C{i}", label=lab)
+        d.set_ylabel("V")
+        top = float(np.max(np.abs(r.drive[sel2]))) if sel2.any() else 1.0
+        d.set_ylim(-1.15 * top, 2.0 * top)  # room above the drive for its legend
+        d.legend(fontsize=6, loc="upper right")
+        if d is not drive[len(runs) - 1]:
+            d.tick_params(labelbottom=False)
+    for d in drive[len(runs):]:
+        d.set_visible(False)
+    if models and all(np.allclose(m[1], models[0][1], rtol=1e-9) for m in models):
+        b.loglog(models[0][0], models[0][1], "k--", lw=1.4, label="AR model (the same at every speed)")
+    else:  # thick and translucent: the models of nearby speeds lie within a few % of each other
+        for f, e, c, lab in models:
+            b.loglog(f, e, lw=3, alpha=0.35, color=c, label=f"{lab} AR model")
+    fig.suptitle(f"{name} — {r0.method}, {load:g} N, G = {r0.rendering_gain:.2f} (of the law's friction)", fontsize=11)
+    a.set(title="added friction, last 0.5 s", xlabel="time (s)", ylabel="added friction (N)")
+    b.set(title="high band (≥ 3.5 Hz) vs texture model", xlabel="frequency (Hz)", ylabel="PSD (N²/Hz)")
     if b.get_xscale() == "log":
         plain_log_ticks(b.xaxis)
-    if runs[0].texture_model is None:
+    if r0.texture_model is None:
         b.text(0.5, 0.5, "friction-only:\nno texture to compare", ha="center", va="center", transform=b.transAxes)
         b.set_xticks([])
         b.set_yticks([])
-    elif isinstance(runs[0].texture_model, TextureBank) and len(runs[0].texture_model.models) == 1:
-        b.set_title("high band (one speed-independent model:\nthe speeds overlap)")
-    c.set(title="drive after safety, 10 ms", xlabel="ms", ylabel="V")
-    for ax in (a, b, c):
+    span = "10 ms" if carrier_resolved(r0.drive_rate, r0.carrier) else "last 0.5 s"
+    drive[0].set_title(f"drive after safety, {span}\n{r0.carrier:g} Hz carrier at {r0.drive_rate:g} Hz", fontsize=10)
+    drive[len(runs) - 1].set_xlabel("time (ms)")
+    for ax in (a, b):
         if ax.lines:
             ax.legend(fontsize=7)
+    fig.supxlabel(textwrap.fill(GAIN_NOTE, 150), fontsize=8, color="0.3")
     return fig
 
 
@@ -65,14 +101,15 @@ def _means(r) -> tuple[float, float, float]:
             float(np.mean(r.added_friction[warm])))
 
 
-def _law_figure(results) -> Figure:
+def _law_figure(results, load: float) -> Figure:
     fig, (ax,) = figure_axes(None, 1, (7, 4.2))
     for i, (name, runs) in enumerate(results.items()):
         v, law, sim = np.array([_means(r) for r in runs]).T
         ax.plot(v * 1e3, law, "-", color=f"C{i}", lw=1)
-        ax.plot(v * 1e3, sim, "o", color=f"C{i}", label=name)
+        ax.plot(v * 1e3, sim, "o", color=f"C{i}", label=f"{name} simulated")
+    ax.plot([], [], "k-", lw=1, label="G·mu_low(fn, v)·fn (line, per material)")
     ax.set(xlabel="scan speed (mm/s)", ylabel="mean added friction (N)",
-           title="simulated display (dots) vs G·mu_low(fn, v)·fn (lines)")
+           title=f"at {load:g} N: simulated display (dots) vs G·mu_low(fn, v)·fn (lines)")
     ax.legend(fontsize=8)
     return fig
 
@@ -125,8 +162,8 @@ def write_demo_report(results: DemoResults, out_dir: str | Path) -> Path:
     head, rows = _fidelity_rows(results.grid)
     page.table(head, rows)
     results = results.renders
-    page.heading("Low band: does the display add the friction the law asks for?")
-    page.figure(_law_figure(results), out, "figures/friction_law.png", "mean added friction vs speed", dpi=100)
+    page.heading(f"Low band at {settings.load:g} N: does the display add the friction the law asks for?")
+    page.figure(_law_figure(results, settings.load), out, "figures/friction_law.png", "mean added friction vs speed", dpi=100)
     rows = []
     for name, runs in results.items():
         for r in runs:
@@ -138,10 +175,10 @@ def write_demo_report(results: DemoResults, out_dir: str | Path) -> Path:
                 top = min(500.0, 0.25 * (r.texture_rate or r.control_rate))
                 _, d = spectral_deviation_db(f, p, e, 3.5, top)
                 dev = f"{np.max(np.abs(d)):.2f} dB (3.5–{top:g} Hz)"
-            rows.append([name, s["method"], f"{v * 1e3:.0f}", f"{r.texture_rate or '-'}",
+            rows.append([name, s["method"], f"{settings.load:g}", f"{v * 1e3:.0f}", f"{r.texture_rate or '-'}",
                          f"{law_mean:.4f}", f"{sim_mean:.4f}", f"{100 * (sim_mean / law_mean - 1):+.2f} %",
                          dev, f"{s['max_abs_voltage']:.1f}", f"{s['clipped_fraction']:.1%}", f"{s['saturated_fraction']:.1%}"])
-    page.table(["material", "method", "speed mm/s", "texture rate Hz", "G·law N", "simulated N", "error",
+    page.table(["material", "method", "load N", "speed mm/s", "texture rate Hz", "G·law N", "simulated N", "error",
                 "spectrum max dev (1/3 oct)", "max |V|", "clipped", "saturated"], rows)
     for name, runs in results.items():
         page.heading(name)
@@ -153,5 +190,6 @@ def write_demo_report(results: DemoResults, out_dir: str | Path) -> Path:
         if note:
             tex += f". {note}"
         page.paragraph(tex, cls="note")
-        page.figure(_speed_figure(name, runs), out, f"figures/{name}.png", f"{name} renders", dpi=100)
+        page.figure(plot_material_renders(name, runs, settings.load), out, f"figures/{name}.png",
+                    f"{name} renders at {settings.load:g} N", dpi=100)
     return page.write(out / "report.html")

@@ -11,7 +11,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from scipy.signal import welch
 
-from surfhap.report.axes import figure_axes, plain_log_ticks
+from surfhap.report.axes import draw_drive, figure_axes, plain_log_ticks
 from surfhap.signal.bands import BandSplit
 
 __all__ = ["plot_render", "plot_order_selection", "plot_imu_fit", "plot_fidelity", "render_spectrum", "spectrum_of", "law_line"]
@@ -68,11 +68,15 @@ def plot_render(pv, ax=None) -> Figure:
     scaled = "" if abs(g - 1) < 1e-9 else f" × {g:.3g}"
     ax.plot(t, pv.mu_panel * pv.win_load + g * pv.win_target, lw=0.8, color="C1", alpha=0.8, label=f"panel + target{scaled}")
     ax.plot(t, law_line(pv), lw=1.2, color="k", ls="--", label=f"panel + low band{scaled}")
-    ax.set(xlabel="time (s)", ylabel="lateral force (N)", title=f"{pv.material} — {pv.method}, {pv.span:g} s window")
+    on = pv.load_max > 0
+    scan = f", {np.median(pv.load_max[on]):.2g} N, {np.median(pv.speed_max[on]) * 1e3:.0f} mm/s" if on.any() else ""  # medians
+    ax.set(xlabel="time (s)", ylabel="lateral force (N)")
+    ax.set_title(f"{pv.material} — {pv.method}{scan}, {pv.span:g} s", fontsize=11)
     ax.legend(loc="upper right", fontsize=8)
     ax = axs[1]
-    ax.plot(pv.drv_t * 1e3, pv.drv, lw=0.6, label="drive (after safety)")
-    ax.plot(pv.env_t * 1e3, pv.env, lw=1.2, color="C3", label="envelope")
+    rate = 1.0 / float(np.median(np.diff(pv.drv_t))) if pv.drv_t.size > 1 else 0.0
+    draw_drive(ax, pv.drv_t * 1e3, pv.drv, rate, pv.carrier, color="C0", label="after safety:")
+    ax.plot(pv.env_t * 1e3, pv.env, lw=1.2, color="C3", label="voltage envelope of the law")
     ax.set(xlabel="time (ms)", ylabel="voltage (V)", title=f"drive, {pv.carrier:g} Hz carrier, {pv.window * 1e3:g} ms")
     ax.legend(loc="upper right", fontsize=8)
     ax = axs[2]
@@ -87,11 +91,14 @@ def plot_render(pv, ax=None) -> Figure:
         plain_log_ticks(ax.xaxis)
     ax.set(xlabel="frequency (Hz)", ylabel="PSD (N²/Hz)", title="added friction above 3.5 Hz")
     ax = axs[3]
-    ax.fill_between(pv.col_t, pv.speed_min * 1e3, pv.speed_max * 1e3, color="C2", lw=1, step="post")
+    sp = ax.fill_between(pv.col_t, pv.speed_min * 1e3, pv.speed_max * 1e3, color="C2", lw=1, step="post",
+                         label="speed (mm/s, left)")
     ax.set(xlabel="time (s)", ylabel="speed (mm/s)", title="finger (min/max per column)")
     ax2 = ax.twinx()
-    ax2.fill_between(pv.col_t, pv.load_min, pv.load_max, color="C4", lw=1, alpha=0.6, step="post")
+    ld = ax2.fill_between(pv.col_t, pv.load_min, pv.load_max, color="C4", lw=1, alpha=0.6, step="post",
+                          label="load (N, right)")
     ax2.set_ylabel("load (N)", color="C4")
+    ax2.legend(handles=[sp, ld], loc="lower right", fontsize=8)
     return fig
 
 
@@ -101,7 +108,8 @@ def plot_order_selection(selection, ax=None) -> Figure:
     ax.plot(selection.orders, selection.aic - selection.aic.min(), label="AIC")
     ax.plot(selection.orders, selection.bic - selection.bic.min(), label="BIC")
     ax.axvline(selection.order, color="k", ls=":", label=f"chosen ({selection.criterion.upper()}): {selection.order}")
-    ax.set(xlabel="AR order p", ylabel="criterion − min", yscale="symlog")
+    ax.set(xlabel="AR order p", ylabel="criterion − min (≥ 0)", yscale="symlog")
+    ax.set_ylim(bottom=0.0)  # symlog's margin would add negative ticks to a non-negative quantity
     ax.legend(fontsize=8)
     return fig
 

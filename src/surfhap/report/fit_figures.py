@@ -164,7 +164,8 @@ def plot_accel_aic(fit, ax=None) -> Figure:
     fig, (ax,) = figure_axes(ax, 1, (6, 4))
     ax.plot(fit.orders[1:], fit.total_criterion[1:] - fit.total_criterion[1:].min())
     ax.axvline(fit.order, color="k", ls=":", label=f"chosen: {fit.order}")
-    ax.set(xlabel="AR order p", ylabel=f"summed {fit.criterion.upper()} − min", yscale="symlog")
+    ax.set(xlabel="AR order p", ylabel=f"summed {fit.criterion.upper()} − min (≥ 0)", yscale="symlog")
+    ax.set_ylim(bottom=0.0)
     ax.legend(fontsize=8)
     return fig
 

@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 from surfhap.report.axes import figure_axes
 
 __all__ = ["plot_calibration", "plot_confusion", "plot_proportions", "plot_rating_scatter", "plot_staircase",
-           "plot_comparison", "plot_anova"]
+           "plot_anova"]
 
 
 def plot_calibration(cal, ax=None) -> Figure:
@@ -50,13 +50,16 @@ def plot_confusion(result, ax=None) -> Figure:
     for i in range(p.shape[0]):
         for j in range(p.shape[1]):
             ax.text(j, i, f"{p[i, j]:.2f}", ha="center", va="center", color="w" if p[i, j] > 0.6 else "k", fontsize=8)
-    ax.set(xlabel="answered", ylabel="presented", title=f"{result.title} (overall {result.accuracy:.2f})")
+    ax.set(xlabel="answered", ylabel="presented",
+           title=f"{result.title}: trials pooled, n = {int(result.counts.sum())} (overall {result.accuracy:.2f})")
     fig.colorbar(im, ax=ax, shrink=0.8, label="proportion")
     return fig
 
 
 def plot_proportions(result, ax=None, chance: float | None = None) -> Figure:
-    """Bar chart of proportions with their confidence intervals."""
+    """Bar chart of proportions with their confidence intervals (within [0, 1]); the title says
+    whether the bars pool trials ("trials pooled, n = ...") or average participants ("mean of N
+    participants")."""
     fig, (ax,) = figure_axes(ax, 1, (6, 3.5))
     p, lo, hi = (np.asarray(a, dtype=float) for a in (result.proportion, result.ci_low, result.ci_high))
     x = np.arange(p.size)
@@ -66,7 +69,15 @@ def plot_proportions(result, ax=None, chance: float | None = None) -> Figure:
         ax.axhline(chance, color="C3", ls="--", lw=1, label=f"chance {chance:.2f}")
         ax.legend(fontsize=8)
     ax.set_xticks(x, list(result.labels), rotation=20, ha="right")
-    ax.set(ylim=(0, 1.05), ylabel="proportion", title=f"{result.title} ({result.method} {result.confidence:.0%} CI)")
+    if result.method == "participants":
+        n = sorted({int(k) for k in result.n})
+        what = (f"mean of {n[0] if len(n) == 1 else f'{n[0]}-{n[-1]}'} participants, "
+                f"{result.confidence:.0%} bootstrap CI over participants")
+    else:
+        what = (f"trials pooled, n = {int(np.sum(result.n))}, "
+                f"{'Wilson' if result.method == 'wilson' else 'Clopper-Pearson'} {result.confidence:.0%} CI")
+    ax.set(ylim=(0, 1.05), ylabel="mean proportion" if result.method == "participants" else "proportion",
+           title=f"{result.title} ({what})")
     return fig
 
 
@@ -100,29 +111,6 @@ def plot_staircase(result, ax=None) -> Figure:
         ax.axhline(result.threshold, color="C2", ls="--", label=f"threshold {result.threshold:.3g}")
     ax.set(xlabel="trial", ylabel="level", title="staircase")
     ax.legend(fontsize=8)
-    return fig
-
-
-def plot_comparison(comp, ax=None) -> Figure:
-    """Friction over speed and load, spectra of the added friction, voltage histograms (4 panels)."""
-    fig, axs = figure_axes(ax, 4, (13, 7.5), nrows=2, ncols=2)
-    a_v, a_l, a_s, a_h = axs
-    for i, p in enumerate(comp.profiles):
-        c = f"C{i}"
-        a_v.plot(p.speeds * 1e3, p.mu_speed, color=c, label=p.name)
-        a_l.plot(p.loads, p.force_load, color=c, label=p.name)
-        ok = p.freqs > 0
-        a_s.semilogy(p.freqs[ok], np.maximum(p.psd[ok], 1e-16), color=c, lw=0.9, label=p.name)
-        centres = 0.5 * (p.v_edges[1:] + p.v_edges[:-1])
-        a_h.step(centres, p.v_hist, where="mid", color=c, label=f"{p.name} (mean {p.v_mean:.0f} V)")
-    a_v.set(xlabel="speed (mm/s)", ylabel="friction coefficient", title=f"friction law at {comp.load:g} N")
-    a_l.set(xlabel="normal force (N)", ylabel="friction force (N)",
-            title=f"friction law at {comp.speed * 1e3:g} mm/s")
-    a_s.set(xlabel="frequency (Hz)", ylabel="PSD (N$^2$/Hz)", title="added friction on the simulated display")
-    a_h.set(xlabel="|drive| (V)", ylabel="fraction of samples", title="drive voltage (after the safety stage)")
-    for ax in axs:
-        ax.legend(fontsize=8)
-    fig.suptitle(f"strokes at {comp.speed * 1e3:g} mm/s, {comp.load:g} N, {comp.duration:g} s")
     return fig
 
 

@@ -37,7 +37,8 @@ def plot_gain_plans(plans, ax=None) -> Figure:
         a.axvspan(0.26, 0.96, color="0.9", zorder=0)
         a.grid(True, lw=0.3)
     ax.text(0.61, ax.get_ylim()[1] * 0.02, "003 participants: 0.26-0.96 N", ha="center", va="bottom", fontsize=7, color="0.4")
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, 0.9))
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, 0.9), title_fontsize=7,
+              title="G = (alpha / alpha_calibrated)²: share of the\nlaw's friction the display adds (1 = all)")
     return fig
 
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from surfhap.render.block import RenderBlock
 
-__all__ = ["Renderer", "Safety", "TouchSink", "Source", "Sink"]
+__all__ = ["Renderer", "Safety", "TouchSink", "Source", "Sink", "ForceSensor"]
 
 
 @runtime_checkable
@@ -98,3 +98,17 @@ class Sink(Protocol):
     def stop(self, timeout: float = 1.0) -> None: ...
 
     def info(self) -> dict: ...
+
+
+class ForceSensor(Protocol):
+    """A force sensor the loop polls: ``read()`` returns the samples that arrived since the last call.
+
+    Returns ``(t, normal, shear)``: three ``(n,) float`` arrays, ``t`` in s on the sensor's clock,
+    ``normal`` and ``shear`` in N (``n`` may be 0).
+    """
+
+    name: str
+
+    def read(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+    def close(self) -> None: ...

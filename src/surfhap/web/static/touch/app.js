@@ -5,9 +5,27 @@
   const surface = document.getElementById("surface");
   const trace = document.getElementById("trace");
   const $ = (id) => document.getElementById(id);
-  const satHist = [];  // [samples, clamped] of the last few status messages
+  const recent = [];  // counters of the last few status messages (about 1 s): shares over them
+  // A share (saturation, missed ticks) is green below its warning level, amber from it, red from
+  // its bad level. Saturation: 0.1 % is the demo's fidelity target (docs/texture.md), and above
+  // 1 % the friction no longer follows the model. Missed ticks (haptic loop) or underruns (drive
+  // blocks): 1 % and 5 %, the page's choice (docs/live.md).
+  const LEVELS = { saturation: [0.001, 0.01], missed: [0.01, 0.05] };
   const stats = { sent: 0, acked: -1, traceFrames: 0, tracePointsDrawn: 0, lastRtt: null, maxV: 0, open: false };
   window.surfhap = stats;
+  const pct = (x) => `${(100 * x).toFixed(x < 0.1 ? 2 : 1)} %`;
+  // the class of a share ``frac`` against LEVELS[kind]: "ok", "warn" or "bad"
+  stats.level = (frac, kind) => (frac >= LEVELS[kind][1] ? "bad" : frac >= LEVELS[kind][0] ? "warn" : "ok");
+  function showShare(id, text, frac, kind) {
+    const el = $(id); el.textContent = text; el.className = stats.level(frac, kind); el.dataset.share = String(frac);
+  }
+  // the share of ``part`` in ``whole`` over the recent status messages (counters read by ``get``)
+  function recentShare(get) {
+    if (recent.length < 2) return null;
+    const [p0, w0] = get(recent[0]), [p1, w1] = get(recent[recent.length - 1]);
+    return w1 > w0 ? (p1 - p0) / (w1 - w0) : null;
+  }
+  function remember(s) { recent.push(s); if (recent.length > 6) recent.shift(); }
   const sentAt = new Map(); // seq -> performance.now() at send (bounded below)
   let seq = 0, ws = null, info = null, preview = null;
   const hist = { t: [], v: [], f: [] };
@@ -91,24 +109,38 @@
   surface.addEventListener("pointermove", onMove);
   for (const ev of ["pointerup", "pointercancel"]) surface.addEventListener(ev, onUp);
 
+  // y scales: each trace its own, labelled beside the canvas (left: drive, right: friction or
+  // Fx). The drive's is fixed (0 to its full scale); the other's is the next 1, 2, 5 x 10^k above
+  // the trace's peak over the last 3 s, from 0 for the friction, symmetric around 0 for the signed Fx.
+  const nice = (x) => { const e = Math.pow(10, Math.floor(Math.log10(x))); return [1, 2, 5, 10].find((m) => m * e >= x * (1 - 1e-9)) * e; };
+  const num = (x) => String(Number(x.toPrecision(3)));
+  function label(axis, lo, hi, unit) {
+    $(`axis-${axis}-top`).textContent = `${num(hi)} ${unit}`; $(`axis-${axis}-bot`).textContent = `${num(lo)} ${unit}`;
+    $(`axis-${axis}-mid`).textContent = `${num((lo + hi) / 2)} ${unit}`;
+    const el = $(`axis-${axis}`); el.dataset.lo = String(lo); el.dataset.hi = String(hi);
+  }
   function drawTrace() {
     fit(trace);
     const g = trace.getContext("2d"), W = trace.width, H = trace.height;
     g.fillStyle = "#0d0e10"; g.fillRect(0, 0, W, H);
-    g.strokeStyle = "#2a2e35"; g.beginPath(); g.moveTo(0, H / 2); g.lineTo(W, H / 2); g.stroke();
+    g.strokeStyle = "#2a2e35"; g.beginPath();
+    for (const y of [4, H / 2, H - 4]) { g.moveTo(0, y); g.lineTo(W, y); }
+    g.stroke();
+    const vmax = info ? info.drive_full_scale : 250, unit = info ? info.drive_unit : "V";
+    let fpeak = 0; for (const f of hist.f) fpeak = Math.max(fpeak, Math.abs(f));
+    const ftop = nice(Math.max(fpeak, ff ? 0.01 : 0.001)), flo = ff ? -ftop : 0;
+    label("v", 0, vmax, unit); label("f", flo, ftop, "N");
     const n = hist.t.length; if (n < 2) return;
     const t1 = hist.t[n - 1], t0 = t1 - HIST_S;
-    const vmax = info ? info.drive_full_scale : 250;
-    let fmax = 0.1; for (const f of hist.f) if (f > fmax) fmax = f;
-    const line = (arr, scale, color) => {
+    const line = (arr, lo, hi, color) => {
       g.strokeStyle = color; g.lineWidth = 1.5 * (window.devicePixelRatio || 1); g.beginPath();
       for (let i = 0; i < n; i++) {
-        const x = ((hist.t[i] - t0) / HIST_S) * W, y = H - 4 - (arr[i] / scale) * (H - 8);
+        const x = ((hist.t[i] - t0) / HIST_S) * W, y = H - 4 - ((arr[i] - lo) / (hi - lo)) * (H - 8);
         if (i === 0) g.moveTo(x, y); else g.lineTo(x, y);
       }
       g.stroke();
     };
-    line(hist.v, vmax, "#f0c040"); line(hist.f, fmax * 1.1, "#60b0f0");
+    line(hist.v, 0, vmax, "#f0c040"); line(hist.f, flo, ftop, "#60b0f0");
     stats.tracePointsDrawn += n;
   }
 
@@ -121,19 +153,36 @@
     ff = desc;
     stats.ff = { frames: 0, p: null, F: null, mask: 0, button: -1, presses: 0 };
     $("ffpanel").hidden = false;
-    $("leg-v").textContent = "■ |F| sent to the device (N)"; $("leg-f").textContent = "■ Fx (N)";
-    $("lat-h").textContent = "haptic tick error (p50 / p99)"; $("blocks-h").textContent = "ticks (missed)";
-    $("runs-h").textContent = "touches dropped"; $("safety-h").textContent = "safety (clamped / slew / device lost / workspace)";
+    $("leg-v").textContent = "■ |F| sent to the device (left scale)";
+    $("leg-f").textContent = "■ Fx sent (right scale, 0 in the middle)";
+    const head = (id, text, title) => { $(id).textContent = text; $(id).title = title; };
+    head("lat-h", "tick error", "haptic tick period error, p50 / p99");
+    head("blocks-h", "ticks", "haptic ticks run");
+    head("runs-h", "missed ticks", "share of the haptic ticks missed over the last ~1 s");
+    head("rej-h", "rejected / dropped", "touch messages rejected / touches dropped");
+    head("safety-h", "clamp / slew / lost / wall", "safety: force clamped / slew limited / device lost / workspace wall");
+    // not v_max: the force the device was asked for beyond its limit, in N
+    const lim = [...new Set(desc.f_max_n)].map(num).join(" / ");
+    head("sat-h", `force clamped at ±${lim} N`, "share of the haptic ticks whose force was clamped to the device's limit (x / y / z) over the last ~1 s");
+    const bt = $("ff-button"); bt.textContent = desc.buttons.length ? "" : "no buttons in this scene";
+    desc.buttons.forEach((name, i) => {
+      const b = document.createElement("span"); b.className = "btn"; b.textContent = name; b.dataset.index = String(i);
+      b.setAttribute("role", "switch"); b.setAttribute("aria-checked", "false"); bt.appendChild(b);
+    });
     ffDraw();
   }
   const mm = (v) => (1e3 * v).toFixed(2);
   function ffStatus(s) {
     const pe = s.period_error_ms || {}, sf = s.safety || {};
     $("lat").textContent = `${(pe.p50 || 0).toFixed(3)} / ${(pe.p99 || 0).toFixed(3)} ms`;
-    $("blocks").textContent = `${s.ticks} (${s.missed})`;
-    $("runs").textContent = String(s.touches_dropped);
+    $("blocks").textContent = String(s.ticks);
+    stats.touchesDropped = s.touches_dropped;
     $("safety").textContent = `${sf.clamped} / ${sf.slew_limited} / ${sf.device_lost} / ${sf.workspace}`;
-    $("sat").textContent = "–";
+    remember(s);
+    const miss = recentShare((r) => [r.missed, r.ticks + r.missed]);
+    if (miss !== null) showShare("runs", `${pct(miss)} of ticks`, miss, "missed");
+    const sat = recentShare((r) => [r.safety.clamped, r.ticks]);
+    if (sat !== null) showShare("sat", `${pct(sat)} of ticks`, sat, "saturation");
     $("output").textContent = s.error ? `FAILED: ${s.error}` : (s.output ? s.output.name : "–");
   }
   function onFF(d) {
@@ -149,8 +198,11 @@
     const names = ff.effects.filter((_, i) => (mask >> i) & 1);
     $("ff-effects").textContent = names.length ? names.join(", ") : "idle"; $("ff-effects").dataset.mask = String(mask);
     const bt = $("ff-button");
-    bt.textContent = b >= 0 ? `${ff.buttons[b] || b} PRESSED` : (ff.buttons.length ? "–" : "no buttons in this scene");
-    bt.className = b >= 0 ? "pressed" : ""; bt.dataset.index = String(b); bt.dataset.presses = String(st.presses);
+    for (const el of bt.children) {
+      const on = Number(el.dataset.index) === b;
+      el.classList.toggle("pressed", on); el.setAttribute("aria-checked", String(on));
+    }
+    bt.dataset.index = String(b); bt.dataset.presses = String(st.presses);
     ffDraw();
   }
   function ffDraw() {
@@ -205,25 +257,20 @@
       if (t !== undefined) stats.lastRtt = (performance.now() - t) / 1e3;
     }
     $("sent").textContent = `${stats.sent} / ${m.received}`;
-    $("rej").textContent = String(m.rejected);
+    $("rej").textContent = ff ? `${m.rejected} / ${stats.touchesDropped || 0}` : String(m.rejected);
     $("rtt").textContent = ms(stats.lastRtt);
     if (m.ff) onFF(m.ff);
     if (m.status && m.status.period_error_ms) ffStatus(m.status);
     else if (m.status) {
       const s = m.status, c = s.counters, sf = s.safety;
-      $("lat").textContent = `p50 ${ms(s.latency.p50)}, p99 ${ms(s.latency.p99)}`;
-      $("blocks").textContent = `${c.blocks} × ${(s.block_period * 1e3).toFixed(2)} ms`;
-      $("runs").textContent = `${c.underruns} / ${c.overruns}`;
+      $("lat").textContent = s.latency.p50 == null ? "–" : `${(1e3 * s.latency.p50).toFixed(2)} / ${ms(s.latency.p99)}`;
+      $("blocks").textContent = `${c.blocks} × ${(s.block_period * 1e3).toFixed(2)} ms`; $("blocks").title = "blocks rendered × block period";
       $("safety").textContent = `${sf.clamped} / ${sf.watchdog} / ${sf.faults}`;
-      // saturation indicator: share of drive samples clamped to v_max since the status before last
-      satHist.push([sf.samples, sf.clamped]);
-      if (satHist.length > 6) satHist.shift();
-      const [s0, c0] = satHist[0], dS = sf.samples - s0, dC = sf.clamped - c0;
-      if (dS > 0) {
-        const frac = dC / dS;
-        $("sat").textContent = frac > 0.01 ? `${(100 * frac).toFixed(1)} % – SATURATED` : `${(100 * frac).toFixed(2)} %`;
-        $("sat").className = frac > 0.01 ? "bad" : "ok";
-      }
+      remember(s);  // the shares over the last ~1 s: blocks underrun, drive samples clamped to v_max
+      const under = recentShare((r) => [r.counters.underruns, r.counters.blocks + r.counters.underruns]);
+      if (under !== null) showShare("runs", `${c.underruns} / ${c.overruns} · ${pct(under)}`, under, "missed");
+      const frac = recentShare((r) => [r.safety.clamped, r.safety.samples]);
+      if (frac !== null) showShare("sat", frac > 0.01 ? `${pct(frac)} SATURATED` : pct(frac), frac, "saturation");
       $("output").textContent = s.failure ? `FAILED (0 V): ${s.failure}` : (s.output ? s.output.name : "–");
     }
     drawTrace();
