@@ -36,7 +36,7 @@ system-deps:
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/surfhap demo --out demo
+	$(VENV)/bin/surfhap demo --out demo --overwrite
 
 # the layer contracts of pyproject.toml ([tool.importlinter], drawn in docs/architecture.md)
 # fail the build before any test runs

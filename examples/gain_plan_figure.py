@@ -1,17 +1,19 @@
 """Plan the gains of every built-in material for the simulated display and draw the renderable
-friction range over load (writes docs/images/gain-plan.png; run from the repository root).
+friction range over load (writes the repository's docs/images/gain-plan.png, or OUT.png; runs
+from any folder).
 
     python examples/gain_plan_figure.py [OUT.png]
 """
 
 import sys
+from pathlib import Path
 
 from surfhap.exchange.materials import builtin_names, load_material
 from surfhap.render.drive import default_method
 from surfhap.render.gain_plan import plan_gains
 from surfhap.report.plan_figures import plot_gain_plans
 
-out = sys.argv[1] if len(sys.argv) > 1 else "docs/images/gain-plan.png"
+out = sys.argv[1] if len(sys.argv) > 1 else Path(__file__).resolve().parents[1] / "docs" / "images" / "gain-plan.png"
 plans = []
 for name in builtin_names():
     mat = load_material(name)

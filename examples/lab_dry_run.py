@@ -2,7 +2,7 @@
 generate the identification study of Otake et al. 2022, let simulated participants answer, and
 write the paper-style report.
 
-Run: .venv/bin/python examples/lab_dry_run.py     (writes lab-dry-run/)
+Run: .venv/bin/python examples/lab_dry_run.py     (from any folder; writes lab-dry-run/ there)
 """
 
 import json
@@ -31,7 +31,7 @@ def surfhap(*args):
                    check=True)
 
 
-surfhap("calibrate", "tribometer", *paths, "--out", str(out / "cal.json"), "--plot", str(out / "cal.png"))
+surfhap("calibrate", "tribometer", *paths, "--out", str(out / "cal.json"), "--plot", str(out / "cal.png"), "--overwrite")
 cal = json.loads((out / "cal.json").read_text())
 print(f"fitted k = {cal['k']:.3g} N/V^2 (true 4e-06), mu_panel = {cal['mu_panel']:.3f} (true 0.5)")
 

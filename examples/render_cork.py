@@ -1,6 +1,6 @@
 """Render cork along back-and-forth strokes on the simulated display and save the figure.
 
-Run: .venv/bin/python examples/render_cork.py
+Run: .venv/bin/python examples/render_cork.py     (from any folder; writes cork.png and cork-render/ there)
 """
 
 import surfhap as sh

@@ -160,7 +160,7 @@ def test_touch_page_keeps_its_address_with_an_osc_device(monkeypatch, capsys):
 
 def test_run_with_sim_device_and_replay(tmp_path, capsys):
     csv = strokes_csv(tmp_path / "t.csv", dur=1.0)
-    code, out, err = run(capsys, "ff", "run", "follow", "--device", "sim", "--trajectory", str(csv))
+    code, out, err = run(capsys, "ff", "run", "follow", "--json", "--device", "sim", "--trajectory", str(csv))
     assert code == 0, err
     st = json.loads(out.strip().splitlines()[-1])
     assert st["ticks"] > 500 and st["error"] is None
@@ -170,7 +170,7 @@ def test_run_with_sim_device_and_replay(tmp_path, capsys):
 def test_run_stops_cleanly_on_sigterm(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(SRC)}
     proc = subprocess.Popen([sys.executable, "-c", "import sys; from surfhap.cli import main; sys.exit(main(sys.argv[1:]))",
-                             "ff", "run", "buttons", "--device", "sim", "--touch", "osc://127.0.0.1:0"],
+                             "ff", "run", "buttons", "--json", "--device", "sim", "--touch", "osc://127.0.0.1:0"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         # wait for the start line, then stop it like a service manager would

@@ -76,7 +76,7 @@ def test_ff_run_exits_3_with_one_line_when_the_loop_fails(tmp_path, capsys, monk
         raise RuntimeError("injected\nfailure")
 
     monkeypatch.setattr(Sliding, "terms", boom)
-    code = main(["ff", "run", "follow", "--device", "sim", "--trajectory", str(csv)])
+    code = main(["ff", "run", "follow", "--json", "--device", "sim", "--trajectory", str(csv)])
     out = capsys.readouterr()
     assert code == 3, out.err
     start = out.err.index("(Ctrl-C stops)") + len("(Ctrl-C stops)")  # the start line (wrapped by the console)

@@ -24,11 +24,11 @@ def test_profiles_follow_the_material_laws():
 
 
 def test_cli_compare_writes_figure_and_json(tmp_path, capsys):
-    fig, js = tmp_path / "cmp.png", tmp_path / "cmp.json"
-    assert main(["compare", "cork", "leather", "--duration", "1", "--out", str(fig), "--json", str(js)]) == 0
+    fig = tmp_path / "cmp.png"
+    assert main(["compare", "cork", "leather", "--duration", "1", "--out", str(fig), "--json"]) == 0
     assert_png_drawn(fig)
-    doc = json.loads(js.read_text())
-    assert [r["material"] for r in doc["table"]] == ["cork", "leather"]
+    doc = json.loads(capsys.readouterr().out)  # --json: the table and render summaries as one JSON object
+    assert [r["material"] for r in doc["table"]] == ["cork", "leather"] and doc["figure"] == str(fig)
     assert main(["compare", "no-such-material"]) == 2
     assert "no-such-material" in capsys.readouterr().err
 

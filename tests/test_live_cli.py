@@ -28,7 +28,7 @@ def free_port() -> int:
 
 def test_play_to_file_writes_the_scan(tmp_path, capsys):
     out = tmp_path / "drive.npz"
-    code = main(["play", "cork", "--output", f"file:{out}", "--scan", "speed=0.1,load=0.5,duration=0.5,length=0.04"])
+    code = main(["play", "cork", "--json", "--output", f"file:{out}", "--scan", "speed=0.1,load=0.5,duration=0.5,length=0.04"])
     res = capsys.readouterr()
     assert code == 0, res.err
     summary = json.loads(res.out.strip().splitlines()[-1])
@@ -70,7 +70,7 @@ def test_devices_lists_or_says_none(capsys):
 def test_serve_runs_the_page_from_the_command_line(tmp_path):
     port = free_port()
     env = dict(os.environ)
-    p = subprocess.Popen([*SURFHAP, "serve", "--material", "cork", "--port", str(port), "--duration", "60"],
+    p = subprocess.Popen([*SURFHAP, "serve", "--json", "--material", "cork", "--port", str(port), "--duration", "60"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         sel = selectors.DefaultSelector()

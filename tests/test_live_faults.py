@@ -43,7 +43,7 @@ def _friction_only_cork(tmp_path: Path) -> Path:
 
 def _play(path: Path, scan: str = FULL) -> subprocess.Popen:
     material = _friction_only_cork(path.parent)
-    return subprocess.Popen([*SURFHAP, "play", str(material), "--output", f"file:{path}", "--scan", scan],
+    return subprocess.Popen([*SURFHAP, "play", "--json", str(material), "--output", f"file:{path}", "--scan", scan],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -100,7 +100,7 @@ def test_sigterm_stops_serve_the_same_way(tmp_path):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     path = tmp_path / "serve.wav"
-    p = subprocess.Popen([*SURFHAP, "serve", "--material", str(_friction_only_cork(tmp_path)), "--port", str(port), "--replay", str(traj),
+    p = subprocess.Popen([*SURFHAP, "serve", "--json", "--material", str(_friction_only_cork(tmp_path)), "--port", str(port), "--replay", str(traj),
                           "--output", f"file:{path}", "--duration", "120"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     _wait_for_bytes(p, path, 44 + 4 * RATE // 2)
@@ -257,7 +257,7 @@ def test_cli_exits_3_when_the_output_fails(tmp_path):
         resource.setrlimit(resource.RLIMIT_FSIZE, (300_000, 300_000))
 
     path = tmp_path / "drive.wav"
-    p = subprocess.run([*SURFHAP, "play", "cork", "--output", f"file:{path}", "--scan", FULL],
+    p = subprocess.run([*SURFHAP, "play", "cork", "--json", "--output", f"file:{path}", "--scan", FULL],
                        capture_output=True, text=True, timeout=300, preexec_fn=limit_file_size)
     assert p.returncode == 3, p.stderr
     status = json.loads(p.stdout.strip().splitlines()[-1])
@@ -304,7 +304,7 @@ def test_serve_max_seconds_ends_the_recording_with_a_ramp_a_warning_and_a_count(
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     path = tmp_path / "capped.wav"
-    p = subprocess.Popen([*SURFHAP, "serve", "--material", str(_friction_only_cork(tmp_path)), "--port", str(port),
+    p = subprocess.Popen([*SURFHAP, "serve", "--json", "--material", str(_friction_only_cork(tmp_path)), "--port", str(port),
                           "--replay", str(traj), "--output", f"file:{path}", "--max-seconds", "1.5",
                           "--duration", "600", "--no-web-process"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

@@ -138,7 +138,7 @@ def test_devices_and_play_through_jack(tmp_path):
     with jack_dummy(rate=48000, period=48) as name:
         env = jack_env(name)
         dev = subprocess.run([*cmd, "devices"], env=env, capture_output=True, text=True, timeout=600)
-        play = subprocess.run([*cmd, "play", "wood", "--output", "sound:system", "--channels", "1", "--scan",
+        play = subprocess.run([*cmd, "play", "wood", "--json", "--output", "sound:system", "--channels", "1", "--scan",
                                "speed=0.1,load=0.5,duration=0.4,length=0.04"],
                               env=env, capture_output=True, text=True, timeout=600)
     assert dev.returncode == 0, dev.stderr

@@ -51,7 +51,7 @@ def free_udp_port() -> int:
 def test_ff_run_osc_touch_gets_nearly_all_real_touches_through_a_one_sender_flood():
     port = free_udp_port()
     env = dict(os.environ, COLUMNS="200")
-    run = subprocess.Popen([sys.executable, "-m", "surfhap", "ff", "run", "buttons", "--device", "sim",
+    run = subprocess.Popen([sys.executable, "-m", "surfhap", "ff", "run", "buttons", "--json", "--device", "sim",
                             "--touch", f"osc://127.0.0.1:{port}"],  # until stopped: no window to outlast
                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     t_start = time.monotonic()

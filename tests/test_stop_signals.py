@@ -176,7 +176,7 @@ def test_the_guard_is_inert_outside_the_main_thread():
 def test_serve_to_a_file_stops_on_sigterm_with_a_ramp(tmp_path):
     rec = tmp_path / "serve.npz"
     port = free_port()
-    proc = Proc(["serve", "--material", "cork", "--port", str(port), "--output", f"file:{rec}",
+    proc = Proc(["serve", "--json", "--material", "cork", "--port", str(port), "--output", f"file:{rec}",
                  "--replay", str(strokes_csv(tmp_path / "t.csv"))])
     try:
         proc.wait_for(lambda: "open http" in proc.stdout, "the start line")
@@ -194,7 +194,7 @@ def test_serve_to_a_file_stops_on_sigterm_with_a_ramp(tmp_path):
 
 def test_play_to_a_file_stops_on_sigterm_with_a_ramp(tmp_path):
     rec = tmp_path / "play.npz"
-    proc = Proc(["play", "cork", "--output", f"file:{rec}", "--scan", "speed=0.1,load=0.5,duration=600,length=0.08"])
+    proc = Proc(["play", "cork", "--json", "--output", f"file:{rec}", "--scan", "speed=0.1,load=0.5,duration=600,length=0.08"])
     try:
         proc.wait_for(lambda: driving(Path(str(rec) + ".partial.npy")), "a driving recording")
         code = proc.stop()
@@ -230,7 +230,7 @@ def test_ff_run_stops_on_sigterm_with_the_force_at_zero(tmp_path):
 
     listener = threading.Thread(target=listen, daemon=True)
     listener.start()
-    proc = Proc(["ff", "run", "follow", "--device", "sim", "--trajectory", str(strokes_csv(tmp_path / "t.csv", x0=0.1, y0=0.07, load=1.0)),
+    proc = Proc(["ff", "run", "follow", "--json", "--device", "sim", "--trajectory", str(strokes_csv(tmp_path / "t.csv", x0=0.1, y0=0.07, load=1.0)),
                  "--duration", "600", "--feedback", f"osc://127.0.0.1:{fb.getsockname()[1]}"])
     try:
         proc.wait_for(lambda: "Ctrl-C" in proc.stderr, "the start line")

@@ -49,17 +49,23 @@ def _root(
 COMMAND_MODULES = ("materials", "render", "demo", "fit", "fit_recordings", "importers", "shape", "live", "ff", "calibrate",
                    "study", "compare", "record")
 
-_registered = False
+# The modules of a command whose name is not its module's (the others: the module of that name).
+# Only a hint for a quick start: ``surfhap NAME ...`` imports just these; any other word, all.
+MODULES_OF = {"calibrate-texture": ("materials",), "scenes": ("shape",), "serve": ("live",), "devices": ("live",),
+              "play": ("live",), "fit": ("fit", "fit_recordings"), "import": ("importers",)}
+
+_registered: set[str] = set()
 
 
-def _register() -> None:
-    global _registered
-    if _registered:
-        return
+def _register(command: str | None = None) -> None:
+    """Register the command modules: all, or only those of ``command`` when it is known."""
     from importlib import import_module
 
-    for name in COMMAND_MODULES:
+    names = MODULES_OF.get(command, (command,))
+    for name in names if set(names) <= set(COMMAND_MODULES) else COMMAND_MODULES:
         full = f"surfhap.cli.{name}"
+        if name in _registered:
+            continue
         try:
             mod = import_module(full)
         except ModuleNotFoundError as exc:
@@ -67,10 +73,11 @@ def _register() -> None:
                 continue
             raise
         mod.register(app)
-    _registered = True
+        _registered.add(name)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``surfhap`` script."""
-    _register()
-    return run_guarded(app, argv if argv is not None else sys.argv[1:])
+    argv = list(argv if argv is not None else sys.argv[1:])
+    _register(next((a for a in argv if not a.startswith("-")), None))
+    return run_guarded(app, argv)

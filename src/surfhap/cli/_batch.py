@@ -67,7 +67,8 @@ def _run(fn, items, root: Path, spec, what: str, preload: tuple[str, ...] = ()) 
 
     where = spec.describe()
     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[failed]}"),
-                  TimeElapsedColumn(), TimeRemainingColumn(), console=stderr, transient=True) as prog:
+                  TimeElapsedColumn(), TimeRemainingColumn(), console=stderr, transient=True,
+                  disable=not stderr.is_terminal) as prog:  # piped: no bar (rich would print its last state)
         task = prog.add_task(f"{what} on {where}", total=len(items), failed="")
         finished: dict[int, JobOutcome] = {}
 

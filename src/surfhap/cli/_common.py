@@ -13,11 +13,14 @@ from rich.text import Text
 
 from surfhap.errors import ConfigError, InputWarning, SurfhapError
 
-__all__ = ["run_guarded", "fail", "error_line", "warning_line", "progress_bar", "parse_key_values", "stderr", "stdout",
-           "OPTIONAL_MODULES", "require_modules", "figure_path"]
+__all__ = ["run_guarded", "fail", "error_line", "warning_line", "progress_bar", "status_line", "parse_key_values",
+           "stderr", "stdout", "OPTIONAL_MODULES", "require_modules", "figure_path", "report", "print_table",
+           "check_out"]
 
 stderr = Console(stderr=True, highlight=False)
-stdout = Console(highlight=False)
+# result lines: never hard-wrapped (a pipe gets one line per result, grep-able) and no markup
+# interpreted in them (a '[...]' in a name or path prints as written)
+stdout = Console(highlight=False, soft_wrap=True, markup=False)
 
 # Third-party modules that only an optional extra installs: import name -> extra.
 OPTIONAL_MODULES = {
@@ -125,9 +128,11 @@ def run_guarded(app: typer.Typer, argv: list[str]) -> int:
     on stderr and exit code 2; a command that needs a missing optional extra says which one
     to install (exit 2). A group called without a command prints its help (exit 2).
     """
+    from surfhap.cli._help import command_tree
+
     try:
         with input_warnings_as_lines():
-            code = app(args=argv, prog_name="surfhap", standalone_mode=False)
+            code = command_tree(app, argv).main(args=argv, prog_name="surfhap", standalone_mode=False)
     except typer.Abort:
         error_line("aborted")
         return 130
@@ -152,10 +157,78 @@ def run_guarded(app: typer.Typer, argv: list[str]) -> int:
     return code if isinstance(code, int) and not isinstance(code, bool) else 0
 
 
+def _json_value(value):
+    """``json.dumps`` default: numpy scalars and arrays, paths."""
+    from pathlib import PurePath
+
+    import numpy as np
+
+    if isinstance(value, (np.generic, np.ndarray)):
+        return value.tolist()
+    if isinstance(value, PurePath):
+        return str(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def report(data: dict, lines, as_json: bool) -> None:
+    """A command's result: its human summary ``lines`` or, with ``--json``, ``data`` as one
+    JSON object on one line of stdout (for scripts)."""
+    import json
+
+    if as_json:
+        typer.echo(json.dumps(data, default=_json_value))
+        return
+    for line in [lines] if isinstance(lines, str) else lines:
+        stdout.print(line)
+
+
+def print_table(header, rows, title: str | None = None) -> None:
+    """A table on stdout: on a terminal a rich table whose cells wrap (a name is never cut to
+    'otake20…'); piped, one tab-separated line per row after the header line."""
+    if not stdout.is_terminal:
+        for row in [header, *rows]:
+            typer.echo("\t".join(" ".join(str(c).split()) if "\n" not in str(c) else "; ".join(str(c).splitlines())
+                                  for c in row))
+        return
+    from rich.table import Table
+
+    table = Table(title=title)
+    for col in header:
+        table.add_column(col, overflow="fold")
+    for row in rows:
+        table.add_row(*(c if isinstance(c, Text) else Text(str(c)) for c in row))
+    stdout.print(table)
+
+
+def check_out(path, option: str, overwrite: bool):
+    """The one guard of every command that writes ``--out`` (a folder or a file): an existing
+    non-empty one is refused (a ConfigError naming the option and the path: exit 2) unless
+    ``--overwrite``. Returns ``path``."""
+    from pathlib import Path
+
+    p = Path(path)
+    if not overwrite and (p.is_file() and p.stat().st_size > 0 or p.is_dir() and any(p.iterdir())):
+        raise ConfigError(f"{p} exists and is not empty; give --overwrite to replace what is in it", source=option)
+    return path
+
+
+@contextmanager
+def status_line(description: str):
+    """Work of unknown length (a fit, a first index build, writing figures): a spinner on a
+    terminal's stderr. Nothing when stderr is not a terminal: a log holds results and errors
+    only, and bad input found during the work stays the one error line."""
+    if not stderr.is_terminal:
+        yield
+        return
+    with stderr.status(f"{description} ...", spinner="dots"):
+        yield
+
+
 @contextmanager
 def progress_bar(description: str, enabled: bool = True):
-    """A rich progress bar; yields ``update(fraction)``. Silent when not enabled."""
-    if not enabled:
+    """A rich progress bar on a terminal's stderr (nothing otherwise, as :func:`status_line`);
+    yields ``update(fraction)``."""
+    if not enabled or not stderr.is_terminal:
         yield lambda fraction: None
         return
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn

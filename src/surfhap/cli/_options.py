@@ -13,7 +13,12 @@ import typer
 from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, LOAD_RANGE_HELP, SPEED_RANGE_HELP
 
 __all__ = ["DisplayOption", "LoadRangeOption", "SpeedRangeOption", "ConfigOption", "SeedOption",
-           "TrajectoryOption", "FigureOption", "LiveAmpGainOption", "JobsOption", "SchedulerOption"]
+           "TrajectoryOption", "FigureOption", "LiveAmpGainOption", "JobsOption", "SchedulerOption", "JsonOption",
+           "OverwriteOption"]
+
+# what a command reports, and whether it may replace files (cli/_common.py report, check_out)
+JsonOption = Annotated[bool, typer.Option("--json", help="Print the result as one JSON object on one line (for scripts) instead of the summary lines.")]
+OverwriteOption = Annotated[bool, typer.Option("--overwrite", help="Replace an existing, non-empty --out (refused by default).")]
 
 # the simulated / user's display (see cli/_display_options.py)
 DisplayOption = Annotated[Optional[str], typer.Option("--display", help=DISPLAY_HELP)]

@@ -18,7 +18,8 @@ from typing import Optional
 
 import typer
 
-from surfhap.cli._common import error_line, fail, figure_path, stdout
+from surfhap.cli._common import check_out, error_line, fail, figure_path, report, stdout
+from surfhap.cli._options import JsonOption, OverwriteOption
 from surfhap.cli.record import NORMAL, SHEAR, open_sensor, report_status
 
 __all__ = ["register"]
@@ -104,6 +105,8 @@ def tribometer(
                                               "and the command ends, exit 3 (issue 19's fail-safe: 20 ms)."),
     normal: str = NORMAL,
     shear: str = SHEAR,
+    overwrite: OverwriteOption = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Fit the device curve and k, mu_panel from tribometer recordings; write CAL.json."""
     from surfhap.exchange.display_file import write_display_json
@@ -111,6 +114,7 @@ def tribometer(
     from surfhap.lab.calibration import calibrate
 
     plot = figure_path(plot, "--plot")
+    check_out(out, "--out", overwrite)
     if live == bool(recordings) or live != bool(sensor):
         fail("give tribometer recordings, or --live with --sensor (and no recordings)")
     recs = _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear, sensor_timeout) if live else \
@@ -129,19 +133,19 @@ def tribometer(
     doc = cal.to_display_json(source=sensor if live else ", ".join(p.name for p in recordings), command=command)
     write_display_json(doc, out)
     c0, c1, c2 = cal.device_fit.coefficients
-    stdout.print(f"{len(recs)} recordings, {cal.input} levels {cal.levels.min():g}..{cal.levels.max():g}")
-    stdout.print(f"device curve ({cal.curve}): F = {c0:.4g} + {c1:.4g} L + {c2:.4g} L^2  "
-                 f"(rmse {cal.device_fit.rmse * 1e3:.3g} mN)")
-    stdout.print(f"mu_panel = {cal.mu_panel:.4g}" + (f", k = {cal.k:.4g} N/V^2" if cal.k is not None else
-                                                     ", k unknown (intensity input, no --volts-per-unit)"))
+    lines = [f"{len(recs)} recordings, {cal.input} levels {cal.levels.min():g}..{cal.levels.max():g}",
+             f"device curve ({cal.curve}): F = {c0:.4g} + {c1:.4g} L + {c2:.4g} L^2  "
+             f"(rmse {cal.device_fit.rmse * 1e3:.3g} mN)",
+             f"mu_panel = {cal.mu_panel:.4g}" + (f", k = {cal.k:.4g} N/V^2" if cal.k is not None else
+                                                ", k unknown (intensity input, no --volts-per-unit)")]
     if cal.leakage is not None:
-        stdout.print(f"leakage time constant {cal.leakage.time_constant * 1e3:.1f} ms "
+        lines.append(f"leakage time constant {cal.leakage.time_constant * 1e3:.1f} ms "
                      f"({len(cal.leakage.per_recording)} DC recordings)")
     if plot is not None:
         plot.parent.mkdir(parents=True, exist_ok=True)
         cal.plot().savefig(plot, dpi=120)
-        stdout.print(f"wrote {plot}")
-    stdout.print(f"wrote {out}")
+        lines.append(f"wrote {plot}")
+    report({**cal.summary(), "out": str(out), "plot": plot and str(plot)}, [*lines, f"wrote {out}"], as_json)
 
 
 def register(app: typer.Typer) -> None:

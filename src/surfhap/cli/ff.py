@@ -10,7 +10,8 @@ from typing import Optional
 
 import typer
 
-from surfhap.cli._common import require_modules, stderr, stdout
+from surfhap.cli._common import check_out, report, require_modules, stderr, stdout
+from surfhap.cli._options import JsonOption, OverwriteOption
 from surfhap.cli._signals import StopSignals
 from surfhap.errors import ConfigError
 
@@ -108,6 +109,8 @@ def simulate_cmd(
     smoothing: float = _SMOOTH, velocity_alpha: float = _VALPHA, gain: Optional[float] = _GAIN,
     slew: Optional[float] = _SLEW, f_max: Optional[float] = _FMAX, old_alpha: Optional[float] = _OLD_ALPHA,
     figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
+    overwrite: OverwriteOption = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Simulate SCENE on a simulated device with a simulated finger: forces, screen motion,
     finger-screen relative sliding and effect switches."""
@@ -118,6 +121,7 @@ def simulate_cmd(
     from surfhap.sim.ff_device import SimDevice, SimFinger
     from surfhap.live.ff_loop import simulate_ff
 
+    check_out(out, "--out", overwrite)
     if touch_latency_ms is None:
         touch_latency_ms = PAPER_LATENCY_MS
     if not 10.0 <= touch_rate <= 1000.0:
@@ -153,10 +157,12 @@ def simulate_cmd(
 
         res.plot().savefig(out / "ff_simulation.png", dpi=110)
         plot_ff_top_view(res, picture=sc.picture_array(), size=sc.size).savefig(out / "ff_top_view.png", dpi=110)
-    stdout.print(f"{sc.name}: {summary['ticks']} ticks, max |F| {summary['force_abs_max_N']} N, "
-                 f"sliding rms {summary['sliding_speed_rms_m_s'] * 1e3:.1f} mm/s "
-                 f"(finger {summary['finger_speed_rms_m_s'] * 1e3:.1f} mm/s)"
-                 + (f", {len(summary['button_presses'])} button presses" if res.buttons else "") + f" -> {out}")
+    fx, fy, fz = summary["force_abs_max_N"]
+    report({**summary, "out": str(out)},
+           f"{sc.name}: {summary['duration_s']:.1f} s, {summary['ticks']} ticks at {eng.rate:.0f} Hz; largest force "
+           f"|Fx| {fx:.2f}, |Fy| {fy:.2f}, |Fz| {fz:.2f} N; sliding {summary['sliding_speed_rms_m_s'] * 1e3:.1f} mm/s "
+           f"rms (finger {summary['finger_speed_rms_m_s'] * 1e3:.1f} mm/s); {summary['switches']} effect switches"
+           + (f", {len(summary['button_presses'])} button presses" if res.buttons else "") + f" -> {out}", as_json)
     _exit_if_failed(eng.error)
 
 
@@ -175,6 +181,7 @@ def run_cmd(
     smoothing: float = _SMOOTH, velocity_alpha: float = _VALPHA, gain: Optional[float] = _GAIN,
     slew: Optional[float] = _SLEW, f_max: Optional[float] = _FMAX, old_alpha: Optional[float] = _OLD_ALPHA,
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Log at INFO."),
+    as_json: JsonOption = False,
 ) -> None:
     """Run SCENE live: a 1 kHz haptic thread driving the device and a 60 Hz position-feedback
     thread; Ctrl-C or SIGTERM ramps the force to zero, prints the stats and exits 130."""
@@ -266,7 +273,12 @@ def run_cmd(
             loop.stop()
     st = loop.stats()
     st["scene"] = sc.name
-    typer.echo(json.dumps(st, default=float))
+    pe = st["period_error_ms"]
+    report(st, [f"{sc.name} on {backend.name}: {st['ticks']} ticks at {st['rate_hz']:.0f} Hz, {st['missed']} missed "
+                f"({st['missed'] / max(st['ticks'], 1):.1%}); period error p99 {pe['p99']:.2f} ms, max {pe['max']:.2f} ms",
+                f"touches: {st['touches_received']} received, {st['touches_dropped']} dropped, {st['touches_stale']} "
+                f"stale, {st['touches_rejected']} rejected" + (f"; failed: {st['error']}" if st["error"] else "")],
+           as_json)
     _exit_if_failed(loop.error)
     guard.finish("the force ramped to zero, status above")
 

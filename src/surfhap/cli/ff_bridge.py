@@ -8,7 +8,7 @@ from typing import Optional
 
 import typer
 
-from surfhap.cli._common import stdout
+from surfhap.cli._common import print_table, stdout
 from surfhap.errors import ConfigError
 
 __all__ = ["bridge_check_cmd"]
@@ -46,14 +46,10 @@ def bridge_check_cmd(
     except OSError as exc:
         raise ConfigError(f"cannot listen ({exc.strerror or exc})", source="--listen") from None
     if stdout.is_terminal:
-        from rich.table import Table
+        from rich.text import Text
 
-        table = Table(title=f"bridge {host}:{port}")
-        for col in ("check", "result", "detail"):
-            table.add_column(col)
-        for r in rows:
-            table.add_row(r.name, "[green]PASS[/]" if r.passed else "[red]FAIL[/]", r.detail)
-        stdout.print(table)
+        print_table(("check", "result", "detail"), [(r.name, Text("PASS", "green") if r.passed else Text("FAIL", "red"),
+                                                      r.detail) for r in rows], title=f"bridge {host}:{port}")
     else:
         for r in rows:
             typer.echo(f"{'PASS' if r.passed else 'FAIL'} {r.name:<9} {r.detail}")

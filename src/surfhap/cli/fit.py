@@ -12,8 +12,8 @@ from typing import List, Optional
 import typer
 
 from surfhap.cli._batch import fit_imu_batch, fit_imu_command
-from surfhap.cli._common import stdout
-from surfhap.cli._options import JobsOption, SchedulerOption
+from surfhap.cli._common import check_out, report, status_line
+from surfhap.cli._options import JobsOption, JsonOption, OverwriteOption, SchedulerOption
 from surfhap.errors import ConfigError
 
 __all__ = ["fit_app", "register"]
@@ -24,7 +24,7 @@ fit_app = typer.Typer(help="Fit material models from real recordings.", no_args_
 @fit_app.command("imu")
 def fit_imu(
     recording: List[Path] = typer.Argument(..., help="IMU CSV (time, accel_x, accel_y, accel_z), e.g. HapMat's leather_1.csv; several, or a folder of them, make a batch."),
-    into: Optional[Path] = typer.Option(None, "--into", help="Material JSON whose 'texture' section is replaced (written back unless --out is given)."),
+    into: Optional[Path] = typer.Option(None, "--into", help="Material JSON (or built-in material name) whose 'texture' section is replaced (a file is written back unless --out is given)."),
     out: Optional[Path] = typer.Option(None, "--out", help="Where to write the material (default: the --into file); a batch: a folder, with OUT/<recording>/material.json per recording and index.csv/index.json."),
     order: Optional[int] = typer.Option(None, "--order", min=1, max=400, help="Fixed AR order (e.g. from a paper's table); default: chosen by AIC."),
     max_order: int = typer.Option(60, "--max-order", min=1, max=400, help="Largest order AIC considers."),
@@ -33,21 +33,32 @@ def fit_imu(
     note: Optional[str] = typer.Option(None, "--note", help="Text stored in the texture provenance (e.g. how the recording matches the material)."),
     jobs: JobsOption = 1,
     scheduler: SchedulerOption = None,
+    overwrite: OverwriteOption = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Fit an acceleration texture (DFT321, high band, AR by AIC) from an IMU recording (or many)."""
     from surfhap.batch.jobs import FitImuJob, fit_imu_to_file
+    from surfhap.exchange.materials import material_path
 
     if into is None:
         raise ConfigError("give the material file to update", source="--into")
+    if material_path(into) != into:  # a built-in name: its file is read, never written back
+        if out is None:
+            raise ConfigError(f"{into} is a built-in material: give --out FILE for the fitted one", source="--into")
+        into = material_path(into)
+    if out is not None:
+        check_out(out, "--out", overwrite)
     fit = dict(order=order, max_order=max_order, cutoff=cutoff, unit_scale=unit_scale, note=note)
     if len(recording) > 1 or recording[0].is_dir() or jobs != 1 or scheduler is not None:
         if out is None:
             raise ConfigError("give the folder to write the fitted materials into", source="--out")
         return fit_imu_batch(recording, into, out, jobs, scheduler, **fit)
     target = out or into
-    row = fit_imu_to_file(FitImuJob(recording[0].stem, recording[0], into, target,
-                                    command=fit_imu_command(recording[0], into, out, **fit), **fit))
-    stdout.print(f"{target}: texture AR({row['order']}) at {row['sample_rate']:g} Hz from {row['name']} ({row['aic_note']})")
+    with status_line(f"fitting {recording[0].name}"):
+        row = fit_imu_to_file(FitImuJob(recording[0].stem, recording[0], into, target,
+                                        command=fit_imu_command(recording[0], into, out, **fit), **fit))
+    report({**row, "out": str(target)},
+           f"{target}: texture AR({row['order']}) at {row['sample_rate']:g} Hz from {row['name']} ({row['aic_note']})", as_json)
 
 
 def register(app: typer.Typer) -> None:

@@ -12,9 +12,10 @@ from typing import List, Optional
 
 import typer
 
-from surfhap.cli._common import stdout
+from surfhap.cli._common import check_out, status_line
+from surfhap.cli._common import report as _report  # 'report' is the --report option
 from surfhap.cli._signals import StopSignals
-from surfhap.cli._options import JobsOption, SchedulerOption
+from surfhap.cli._options import JobsOption, JsonOption, OverwriteOption, SchedulerOption
 from surfhap.cli.fit import fit_app
 from surfhap.errors import ConfigError
 
@@ -53,7 +54,7 @@ def _fit_and_write(fit_fn, recordings: list[Path], columns: str | None, material
     n_jobs = _check_jobs(jobs, scheduler)
     recs = read_recordings(recordings, parse_column_map(columns))
     command = _command()
-    with StopSignals() as guard, joblib_backend(scheduler):
+    with StopSignals() as guard, joblib_backend(scheduler), status_line(f"fitting {material} from {len(recs)} recordings"):
         fit = guard.call(fit_fn, recs, material, jobs=n_jobs, **params)
     guard.finish(f"the fit did not finish; {out} not written")
     write_material_json(fit.to_material(command=command), out)
@@ -80,6 +81,8 @@ def fit_friction_cmd(
     report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
     jobs: JobsOption = 1,
     scheduler: SchedulerOption = None,
+    overwrite: OverwriteOption = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Fit Coulomb mu0, the quasi-static law and AR textures per reference velocity (Otake et al.)."""
     from surfhap.fit.material_fit import fit_friction
@@ -90,20 +93,24 @@ def fit_friction_cmd(
     if criterion.lower() not in ("aic", "bic"):
         raise ConfigError("must be aic or bic", source="--criterion")
     speeds = tuple(v / 1000.0 if v > 5 else v for v in _speeds_mm(reference_velocities))
+    check_out(out, "--out", overwrite)
     fit, command = _fit_and_write(fit_friction, recordings, columns, material, out, jobs, scheduler, cutoff=cutoff,
                                   reference_speeds=speeds, tolerance=tolerance / 1000.0, min_span=min_span / 1000.0,
                                   max_order=max_order, criterion=criterion.lower(), estimator=estimator,
                                   edge_trim=None if edge_trim is None else edge_trim / 1000.0)
     qs = fit.quasi_static
-    stdout.print(f"{out}: mu0 {fit.coulomb.mu0:.3f}; quasi-static a={qs.params['a']:.3f} b={qs.params['b']:.3f} "
+    lines = [f"{out}: mu0 {fit.coulomb.mu0:.3f}; quasi-static a={qs.params['a']:.3f} b={qs.params['b']:.3f} "
                  f"c={qs.params['c']:.3f} d={qs.params['d']:.3f} q={qs.params['q']:.3f} (R² {qs.r2:.2f}); "
-                 f"AR orders {', '.join(f'{t.reference_speed * 1e3:g} mm/s: {t.model.order} (AIC {t.selection.aic_order}, BIC {t.selection.bic_order})' for t in fit.textures) or 'none'}")
-    for note in fit.notes:
-        stdout.print(f"note: {note}")
+                 f"AR orders {', '.join(f'{t.reference_speed * 1e3:g} mm/s: {t.model.order} (AIC {t.selection.aic_order}, BIC {t.selection.bic_order})' for t in fit.textures) or 'none'}"]
+    lines += [f"note: {note}" for note in fit.notes]
+    data = {**fit.summary(), "out": str(out)}
     if report is not None:
         from surfhap.report.fit_report import write_friction_report
 
-        stdout.print(f"report: {write_friction_report(fit, report, command)}")
+        with status_line("writing the report"):
+            data["report"] = str(write_friction_report(fit, report, command))
+        lines.append(f"report: {data['report']}")
+    _report(data, lines, as_json)
 
 
 @fit_app.command("accel")
@@ -122,19 +129,26 @@ def fit_accel_cmd(
     report: Optional[Path] = typer.Option(None, "--report", help="Folder for an HTML report with figures."),
     jobs: JobsOption = 1,
     scheduler: SchedulerOption = None,
+    overwrite: OverwriteOption = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Segment, fit AR per segment and interpolate over (speed, force) (HaTT / Zhao et al.)."""
     from surfhap.fit.accel import fit_accel
 
+    check_out(out, "--out", overwrite)
     fit, command = _fit_and_write(fit_accel, recordings, columns, material, out, jobs, scheduler,
                                   texture_rate=texture_rate, highpass=highpass, max_order=max_order, criterion=criterion,
                                   min_segment=min_segment / 1000.0, mu0=mu0, max_segment=max_segment or None)
-    stdout.print(f"{out}: {len(fit.segments)} segments, AR({fit.order}) models (AIC {fit.aic_order}, BIC {fit.bic_order}) over (speed, force), "
-                 f"{fit.bank.triangles.shape[0]} triangles; mu0 {fit.mu0:.3f}")
+    lines = [f"{out}: {len(fit.segments)} segments, AR({fit.order}) models (AIC {fit.aic_order}, BIC {fit.bic_order}) "
+             f"over (speed, force), {fit.bank.triangles.shape[0]} triangles; mu0 {fit.mu0:.3f}"]
+    data = {**fit.summary(), "out": str(out)}
     if report is not None:
         from surfhap.report.fit_report import write_accel_report
 
-        stdout.print(f"report: {write_accel_report(fit, report, command)}")
+        with status_line("writing the report"):
+            data["report"] = str(write_accel_report(fit, report, command))
+        lines.append(f"report: {data['report']}")
+    _report(data, lines, as_json)
 
 
 def register(app: typer.Typer) -> None:

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import typer
 
-from surfhap.cli._common import stdout
+from surfhap.cli._common import check_out, stdout
+from surfhap.cli._options import OverwriteOption
 
 __all__ = ["import_app", "register"]
 
@@ -22,10 +23,12 @@ import_app = typer.Typer(help="Import material models from other toolkits.", no_
 def import_hatt_cmd(
     folder: Path = typer.Argument(..., help="HaTT folder holding Models_*.xml (searched recursively), or one such file."),
     out: Path = typer.Option(..., "--out", help="Folder for the material JSON files."),
+    overwrite: OverwriteOption = False,
 ) -> None:
     """Convert HaTT model sets (interpolated ARMA acceleration textures + Coulomb mu)."""
     from surfhap.exchange.hatt import import_hatt_folder
 
+    check_out(out, "--out", overwrite)
     written = import_hatt_folder(folder, out)
     for path in written:
         stdout.print(str(path))

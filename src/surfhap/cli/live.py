@@ -3,14 +3,13 @@ the simulated display, with a touch page in the browser.
 
 Ctrl-C and SIGTERM stop the same way (:class:`~surfhap.cli._signals.StopSignals`): the
 output ramps to zero (``stop_ramp``, 10 ms), the recording is flushed, the status is printed
-as JSON, one ``interrupted`` line, exit code 130 (0 when ``play`` or ``serve --duration``
+(a summary; one JSON line with ``--json``), one ``interrupted`` line, exit code 130 (0 when ``play`` or ``serve --duration``
 ended by itself). Exit code 3: the output backend failed (raised or stalled); the engine
 drove 0 V from then on and the status's ``failure`` says why.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from pathlib import Path
@@ -19,9 +18,10 @@ from typing import Annotated, List, Optional
 import typer
 
 from surfhap.cli._output import parse_output
-from surfhap.cli._common import require_modules, stderr, stdout
+from surfhap.cli._common import report, require_modules, stderr, stdout
 from surfhap.cli._display_options import resolve_display
-from surfhap.cli._options import ConfigOption, DisplayOption, LiveAmpGainOption, SeedOption, TrajectoryOption
+from surfhap.cli._options import (ConfigOption, DisplayOption, JsonOption, LiveAmpGainOption, SeedOption,
+                                  TrajectoryOption)
 from surfhap.cli._signals import StopSignals
 from surfhap.errors import ConfigError
 
@@ -45,19 +45,29 @@ def _clock(name: str):
     return SimClock() if name == "sim" else WallClock()
 
 
-def _print_status(session, output: str, touches: int, **extra) -> None:
-    """The status of a ``play`` or a simulated run as one JSON line."""
+def _status_lines(title: str, output: str, st: dict) -> list[str]:
+    """The human summary of an engine status (``play``, ``serve``)."""
+    c, sf = st["counters"], st["safety"]
+    return [f"{title} -> {output}: {c['frames']} samples in {c['blocks']} blocks from {c['touches']} touches; "
+            f"{c['underruns']} underruns, {c['overruns']} overruns, {c['errors']} errors",
+            f"safety: {sf['clamped']} samples clamped, {sf['rise_limited']} rise-limited, {sf['faults']} faults, "
+            f"{sf['watchdog']} watchdog stops; output {'stopped (0 V)' if st['stopped'] else 'running'}"
+            + (f"; failed: {st['failure']}" if st["failure"] else "")]
+
+
+def _print_status(session, output: str, touches: int, as_json: bool, **extra) -> None:
+    """The status of a ``play`` or a simulated run: a summary, or one JSON line (``--json``)."""
     st = session.engine.status()
-    typer.echo(json.dumps({"material": session.title, "output": output, **extra, "touches": touches,
-                           **{k: st[k] for k in ("counters", "safety", "output_safety", "stopped", "failure")}},
-                          default=float))
+    report({"material": session.title, "output": output, **extra, "touches": touches,
+            **{k: st[k] for k in ("counters", "safety", "output_safety", "stopped", "failure")}},
+           _status_lines(session.title, output, st), as_json)
 
 
-def _run_simulated(session, traj, output: str, clock) -> None:
+def _run_simulated(session, traj, output: str, clock, as_json: bool) -> None:
     """``--clock sim``: the trajectory through the engine into the output, as fast as possible;
-    prints the status as JSON."""
+    prints the status."""
     n = session.run_simulated(traj, clock)
-    _print_status(session, output, session.replay_sent, clock="sim", frames=n)
+    _print_status(session, output, session.replay_sent, as_json, clock="sim", frames=n)
 
 
 def _finish(engine, guard: StopSignals | None) -> None:
@@ -113,7 +123,7 @@ def _allowed_hosts(host: str, values: list[str]) -> tuple[str, ...]:
 
 def serve_cmd(
     material: Optional[str] = typer.Option(None, "--material", help="Built-in material name or material file (default: cork)."),
-    mesh: Optional[Path] = typer.Option(None, "--mesh", help="Render a 3-D mesh (OBJ, STL, PLY, ...) instead of a material; it is scaled to fit the touch surface."),
+    mesh: Optional[str] = typer.Option(None, "--mesh", help="Render a 3-D mesh instead of a material: a mesh file (OBJ, STL, PLY, ...) or a built-in shape name as 'surfhap shape' takes (suzanne, gaussian-bump, ...); it is scaled to fit the touch surface."),
     output: str = typer.Option("sim", "--output", help="sim | sound[:DEVICE] | file:PATH.wav|.npz | osc://HOST:PORT\\[/intensity|/drive] | daq:DEV/aoN."),
     host: str = typer.Option("127.0.0.1", "--host", help="Address to bind. Anything but loopback exposes the page to your network."),
     port: int = typer.Option(8765, "--port", help="TCP port of the page."),
@@ -138,6 +148,7 @@ def serve_cmd(
     sensor: Optional[str] = typer.Option(None, "--sensor", help="Close the friction loop over a force sensor: 'sim' (a simulated sensor on the simulated display, whose k drifts); see docs/live.md."),
     display: DisplayOption = None,
     config: ConfigOption = None,
+    as_json: JsonOption = False,
 ) -> None:
     """Serve the touch page: drag on it and the drive is rendered live to the chosen output.
 
@@ -157,8 +168,6 @@ def serve_cmd(
     if mesh is not None:
         if material is not None:
             raise ConfigError("give --material or --mesh, not both", source="--mesh")
-        if not mesh.is_file():
-            raise ConfigError("no such file", source=str(mesh))
     if not 1 <= port <= 65535:
         raise ConfigError("must be within 1-65535", source="--port")
     allowed_hosts = _allowed_hosts(host, allow_host)
@@ -187,7 +196,7 @@ def serve_cmd(
                             seed=seed, mesh=mesh, channels=_channels(channels), max_seconds=max_seconds,
                             display=disp, clock=clk, sensor=sensor)
     if clk.simulated:
-        _run_simulated(session, traj, output, clk)
+        _run_simulated(session, traj, output, clk, as_json)
         return _finish(session.engine, None)
     cfg = ServerConfig(host=host, port=port, allowed_origins=tuple(allow_origin), allowed_hosts=allowed_hosts)
     server = None
@@ -211,7 +220,8 @@ def serve_cmd(
             session.stop()
             if server is not None:
                 server.stop()
-    typer.echo(json.dumps(dict(session.engine.status(), output=backend_info(session.backend)), default=float))
+    st = session.engine.status()
+    report(dict(st, output=backend_info(session.backend)), _status_lines(session.title, output, st), as_json)
     _finish(session.engine, guard)
 
 
@@ -242,6 +252,7 @@ def play_cmd(
     sensor: Optional[str] = typer.Option(None, "--sensor", help="Close the friction loop over a force sensor: 'sim' (a simulated sensor on the simulated display, whose k drifts); see docs/live.md."),
     display: DisplayOption = None,
     config: ConfigOption = None,
+    as_json: JsonOption = False,
 ) -> None:
     """Play a scripted scan of MATERIAL live, to check the sound card and amplifier chain.
 
@@ -259,7 +270,7 @@ def play_cmd(
                             engine_config=_engine_config(block_ms, 0.0, 1.0), replay=None if clk.simulated else traj,
                             seed=seed, channels=_channels(channels), display=disp, clock=clk, sensor=sensor)
     if clk.simulated:
-        _run_simulated(session, traj, output, clk)
+        _run_simulated(session, traj, output, clk, as_json)
         return _finish(session.engine, None)
     replay = session.sources[0]
     with StopSignals() as guard:
@@ -272,7 +283,7 @@ def play_cmd(
             guard.wait(0.05)
         finally:
             session.stop()
-    _print_status(session, output, replay.sent, latency=session.engine.status()["latency"])
+    _print_status(session, output, replay.sent, as_json, latency=session.engine.status()["latency"])
     _finish(session.engine, guard)
 
 

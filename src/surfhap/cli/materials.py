@@ -8,11 +8,11 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
+from rich.text import Text
 
-from surfhap.cli._common import stdout
+from surfhap.cli._common import print_table, report, stdout
 from surfhap.cli._display_options import resolve_display_and_range
-from surfhap.cli._options import ConfigOption, DisplayOption, LoadRangeOption, SpeedRangeOption
+from surfhap.cli._options import ConfigOption, DisplayOption, JsonOption, LoadRangeOption, SpeedRangeOption
 from surfhap.errors import ConfigError
 
 __all__ = ["register"]
@@ -25,7 +25,7 @@ def _show(name: str, display, rng) -> None:
 
     m = load_material(name)
     spec = m.spec
-    stdout.print(f"[bold]{m.name}[/]: {spec.description}", markup=True)
+    stdout.print(Text.assemble((m.name, "bold"), f": {spec.description}"))
     fr = spec.friction
     if fr.quasi_static:
         q = fr.quasi_static
@@ -53,12 +53,9 @@ def _show(name: str, display, rng) -> None:
     stdout.print(f"    alpha = {plan.alpha:.1f} V/sqrt(N) (calibrated {plan.alpha_calibrated:.1f}; bound by {plan.binding}), "
                  f"rendering gain {plan.rendering_gain:.3f}, headroom {plan.headroom:.3f} ({plan.headroom_db:.2f} dB) "
                  f"at the texture's {plan.percentile:g}th percentile")
-    table = Table(title=None)
-    for col in ("load N", "added friction N (over speeds)", f"peak V ({plan.percentile:g} %)"):
-        table.add_column(col)
-    for i in range(0, plan.loads.size, max(1, plan.loads.size // 6)):
-        table.add_row(f"{plan.loads[i]:.2f}", f"{plan.friction_low_n[i]:.4f} - {plan.friction_high_n[i]:.4f}", f"{plan.peak_voltage[i]:.1f}")
-    stdout.print(table)
+    print_table(("load N", "added friction N (over speeds)", f"peak V ({plan.percentile:g} %)"),
+                [(f"{plan.loads[i]:.2f}", f"{plan.friction_low_n[i]:.4f} - {plan.friction_high_n[i]:.4f}",
+                  f"{plan.peak_voltage[i]:.1f}") for i in range(0, plan.loads.size, max(1, plan.loads.size // 6))])
 
 
 def materials(
@@ -67,6 +64,7 @@ def materials(
     load_range: LoadRangeOption = None,
     speed_range: SpeedRangeOption = None,
     config: ConfigOption = None,
+    as_json: JsonOption = False,
 ) -> None:
     """List the built-in materials, their friction laws, texture models and sources."""
     from surfhap.exchange.materials import builtin_names, load_material
@@ -76,9 +74,7 @@ def materials(
         disp, rng = resolve_display_and_range(display, load_range, speed_range, config)
         _show(show, disp, rng)
         return
-    table = Table(title="built-in materials", show_lines=False)
-    for col in ("name", "friction", "texture", "default method", "sources"):
-        table.add_column(col)
+    header, rows = ("name", "friction", "texture", "default method", "sources"), []
     for name in builtin_names():
         m = load_material(name)
         fr = []
@@ -93,9 +89,12 @@ def materials(
             if part is not None:
                 p = part.provenance
                 srcs.append(p.reference.split(",")[0].split(" (")[0] if p.source == "paper" else f"fit of {p.recording}")
-        table.add_row(name, "\n".join(fr), m.texture_text(), default_method(m), "\n".join(dict.fromkeys(srcs)))
-    stdout.print(table)
-    stdout.print("Show one with its provenance and gain plan: surfhap materials --show NAME")
+        rows.append((name, "\n".join(fr), m.texture_text(), default_method(m), "\n".join(dict.fromkeys(srcs))))
+    if as_json:
+        return report({"materials": [dict(zip(header, r)) for r in rows]}, [], True)
+    print_table(header, rows, title="built-in materials")
+    if stdout.is_terminal:
+        stdout.print("Show one with its provenance and gain plan: surfhap materials --show NAME")
 
 
 def calibrate_texture(
@@ -105,6 +104,7 @@ def calibrate_texture(
     beta: float = typer.Option(1.8, "--beta", help="Textural gain of the drive law the ratio is meant for."),
     cutoff: float = typer.Option(3.5, "--cutoff", help="Band split, Hz: sd(x) is taken above it (003 Sec. II: 3.5)."),
     note: Optional[str] = typer.Option(None, "--note", help="Extra text for the provenance (e.g. why this ratio)."),
+    as_json: JsonOption = False,
 ) -> None:
     """Set the strength of MATERIAL_FILE's texture so its voltage ratio is RATIO at every load and speed.
 
@@ -141,7 +141,9 @@ def calibrate_texture(
     spec = mat.spec.model_copy(update={"texture": tex.model_copy(update={"calibration": cal})})
     spec = type(spec).model_validate(spec.model_dump())
     write_material_json(spec, material_file)
-    stdout.print(f"{mat.name}: r = {ratio:g} -> mu_t = {scale:.6g} * mu_low * x -> {material_file}")
+    report({"material": mat.name, "ratio": ratio, "beta": beta, "reference_std": sd, "relative_scale": scale,
+            "out": str(material_file)}, f"{mat.name}: r = {ratio:g} -> mu_t = {scale:.6g} * mu_low * x -> {material_file}",
+           as_json)
 
 
 def register(app: typer.Typer) -> None:

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import typer
 
-from surfhap.cli._common import fail, stdout, warning_line
+from surfhap.cli._common import check_out, fail, stdout, warning_line
+from surfhap.cli._options import OverwriteOption
 
 __all__ = ["register", "open_sensor", "report_status", "NORMAL", "SHEAR"]
 
@@ -56,7 +57,7 @@ def force(
     timeout: float = typer.Option(1.0, "--timeout", min=0.001, max=60.0,
                                   help="Seconds without a record before the box counts as silent (exit 2): the box "
                                        "answers within one RDT period; 1 s also covers address resolution."),
-    overwrite: bool = typer.Option(False, "--overwrite", help="Replace an existing --out file."),
+    overwrite: OverwriteOption = False,
 ) -> None:
     """Record normal and shear force from a Net F/T box for --duration seconds."""
     import numpy as np
@@ -64,8 +65,7 @@ def force(
     from surfhap.cli._signals import StopSignals
     from surfhap.exchange.recordings import Recording, write_recording_csv
 
-    if out.exists() and not overwrite:
-        fail(f"--out: {out} exists (pass --overwrite to replace it)")
+    check_out(out, "--out", overwrite)
     dev = open_sensor(sensor, "SENSOR", normal, shear, timeout)
     parts: list[tuple] = []
     with StopSignals() as guard:

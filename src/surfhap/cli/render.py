@@ -9,12 +9,12 @@ import typer
 
 from surfhap.batch.jobs import NPZ_MAX_SECONDS, choose_format
 from surfhap.cli._batch import GRID_HELP, render_batch, split_inputs
-from surfhap.cli._common import error_line, progress_bar, stderr, stdout
+from surfhap.cli._common import check_out, error_line, progress_bar, report, stderr
 from surfhap.cli._display_options import resolve_display_and_range
 from surfhap.cli._scan import trajectory_from_options
 from surfhap.cli._signals import StopSignals
-from surfhap.cli._options import (ConfigOption, DisplayOption, FigureOption, JobsOption, LoadRangeOption, SchedulerOption,
-                                  SeedOption, SpeedRangeOption, TrajectoryOption)
+from surfhap.cli._options import (ConfigOption, DisplayOption, FigureOption, JobsOption, JsonOption, LoadRangeOption,
+                                  OverwriteOption, SchedulerOption, SeedOption, SpeedRangeOption, TrajectoryOption)
 from surfhap.errors import ConfigError
 
 __all__ = ["register"]
@@ -44,9 +44,12 @@ def render_cmd(
     grid: List[str] = typer.Option([], "--grid", metavar="KEY=V1,V2,...", help=GRID_HELP),
     jobs: JobsOption = 1,
     scheduler: SchedulerOption = None,
+    overwrite: OverwriteOption = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Render MATERIAL along a virtual or recorded finger trajectory on the simulated display."""
     materials = split_inputs(material)
+    check_out(out, "--out", overwrite)
     batch = len(materials) > 1 or bool(grid) or jobs != 1 or scheduler is not None
     if batch:  # local workers start importing now, while this process sets up the jobs
         from surfhap.batch.jobs import RENDER_JOB_MODULES
@@ -75,9 +78,9 @@ def render_cmd(
     with StopSignals() as guard, progress_bar(f"rendering {mat.name}", enabled=traj.duration > 2.0) as update:
         result, paths = render_to_folder(mat, traj, cfg, out, fmt=fmt, amp_gain=amp_gain, figure=figure, progress=update, stop=guard)
     s = result.summary()
-    stdout.print(f"{mat.name} ({s['method']}): alpha {s['alpha_v_per_sqrt_n']:.1f} V/sqrt(N) ({s['alpha_source']}, "
+    report({**s, "material": mat.name, "files": {k: str(v) for k, v in paths.items()}}, f"{mat.name} ({s['method']}): alpha {s['alpha_v_per_sqrt_n']:.1f} V/sqrt(N) ({s['alpha_source']}, "
                  f"rendering gain {s['rendering_gain']:.3f}), max |V| {s['max_abs_voltage']:.1f} V, clipped {s['clipped_fraction']:.1%}, "
-                 f"saturated {s['saturated_fraction']:.1%} -> {paths['render']}")
+                 f"saturated {s['saturated_fraction']:.1%} -> {paths['render']}", as_json)
     for warning in (result.saturation_warning(), result.texture_warning()):
         if warning is not None:
             stderr.print(f"[bold yellow]warning:[/] {warning}", markup=True, soft_wrap=True)

@@ -19,14 +19,13 @@ from typing import Annotated, Optional
 import typer
 from typer.core import TyperGroup
 
-from surfhap.cli._common import figure_path, progress_bar, stdout
+from surfhap.cli._common import check_out, figure_path, progress_bar, report, status_line, stdout
 from surfhap.cli._display_options import resolve_display
-from surfhap.cli._options import ConfigOption, DisplayOption, FigureOption, TrajectoryOption
-from surfhap.errors import ConfigError, MeshFormatError, writing
+from surfhap.cli._options import (ConfigOption, DisplayOption, FigureOption, JsonOption, OverwriteOption,
+                                  TrajectoryOption)
+from surfhap.errors import ConfigError, writing
 
-__all__ = ["register", "load_surface"]
-
-_IMAGE_EXT = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp"}
+__all__ = ["register"]
 
 
 class _ShapeGroup(TyperGroup):
@@ -43,38 +42,6 @@ shape_app = typer.Typer(cls=_ShapeGroup, no_args_is_help=True, add_completion=Fa
                         help="Feel 3-D meshes on the (simulated) electrovibration display: gradient rendering with edge "
                              "emphasis (Kim et al. 2017). 'surfhap shape MESH --scan ... --out DIR' renders a scan; "
                              "'surfhap shape calibrate MESH' measures the force range.")
-
-
-def load_surface(mesh: str, *, up: str = "z", scale: float = 1.0, size: float | None = None,
-                 resolution: float | None = None, pixel_size: float | None = None, height: float | None = None):
-    """Resolve MESH (file, image, or built-in name) to a TopSurface."""
-    from surfhap.shape.heightmap import heightmap_surface
-    from surfhap.shape.scenes import builtin_shape, builtin_shape_names
-    from surfhap.shape.topsurface import TopSurface
-
-    p = Path(mesh)
-    if p.exists() and p.suffix.lower() in _IMAGE_EXT:
-        if pixel_size is None or height is None:
-            raise ConfigError("an image is a height map: give --pixel-size (m) and --height (m for white)", source=mesh)
-        return heightmap_surface(p, pixel_size, height)
-    if p.exists() or mesh.lower() == "suzanne":
-        return TopSurface.from_file(mesh, up=up, scale=scale, size=size)
-    surf = builtin_shape(mesh, resolution=resolution)
-    if surf is None:
-        raise MeshFormatError("no such file, and not a built-in shape (" + ", ".join(
-            [n for n in builtin_shape_names() if n.count("-") < 2]) + ", or a scene from 'surfhap scenes')", source=mesh)
-    if scale != 1.0 or size is not None or up != "z":
-        import numpy as np
-
-        from surfhap.exchange.mesh import orient_up, warn_mesh_extent
-
-        v = orient_up(surf.vertices, up) * scale
-        if size is not None:
-            lo, hi = v.min(axis=0), v.max(axis=0)
-            v = (v - np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.0])) * (size / max(hi[0] - lo[0], hi[1] - lo[1]))
-        warn_mesh_extent(v, mesh)
-        surf = TopSurface(v, surf.faces, name=surf.name, source=surf.source)
-    return surf
 
 
 def _plan(directions: int, speeds: int, v_min: float, v_max: float, rate: float, lines: int):
@@ -130,6 +97,8 @@ def render_cmd(
     display: DisplayOption = None,
     config: ConfigOption = None,
     figure: FigureOption = True,
+    overwrite: OverwriteOption = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Render a scan over MESH on the simulated display (also: surfhap shape MESH ...)."""
     from surfhap.exchange.shape_files import default_calibration_path, read_calibration, write_shape
@@ -137,17 +106,22 @@ def render_cmd(
     from surfhap.render.shape_chain import render_shape
     from surfhap.render.shape_renderer import ShapeConfig
     from surfhap.shape.scan import parse_scan
+    from surfhap.shape.surfaces import load_surface
 
+    check_out(out, "--out", overwrite)
     if (scan is None) == (trajectory is None):
         raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")
     cfg = ShapeConfig(fz=fz, grain=grain, edges=edges, edge_threshold_deg=edge_threshold, edge_walk=edge_walk, drive_rate=drive_rate,
                       carrier=carrier, seed=seed, display=resolve_display(display, config))
     traj = parse_scan(scan, rate=rate, load=load) if scan is not None else read_trajectory_csv(trajectory)
-    surf = load_surface(mesh, up=up, scale=scale, size=size, resolution=resolution, pixel_size=pixel_size, height=height)
+    with status_line(f"loading {mesh}"):  # a first run compiles the mesh kernels: seconds
+        surf = load_surface(mesh, up=up, scale=scale, size=size, resolution=resolution, pixel_size=pixel_size,
+                            height=height)
     if calibration is None and Path(mesh).is_file() and default_calibration_path(mesh).is_file():
         calibration = default_calibration_path(mesh)  # saved by 'surfhap shape calibrate MESH'
     cal = read_calibration(calibration) if calibration is not None else None
-    with progress_bar(f"rendering {surf.name}", enabled=traj.duration > 5.0) as update:
+    what = f"rendering {surf.name}" + ("" if cal is not None else " (calibrating it first)")
+    with progress_bar(what) if traj.duration > 5.0 else status_line(what) as update:
         result = render_shape(surf, traj, cal, cfg, progress=update)
     paths = write_shape(result, out)
     if figure:
@@ -155,10 +129,12 @@ def render_cmd(
         with writing(Path(out) / "figure.png"):
             fig.savefig(Path(out) / "figure.png", dpi=110)
     s = result.summary()
-    stdout.print(f"{surf.name}: {s['samples']} touch samples, {s['on_mesh_fraction']:.0%} on the mesh, "
-                 f"force {s['force_range_n'][0]:+.3g}..{s['force_range_n'][1]:+.3g} N, {s['ticks']} edge ticks, "
-                 f"Fsq range [{result.calibration.fmin:+.3g}, {result.calibration.fmax:+.3g}] "
-                 f"({'from ' + str(calibration) if calibration is not None else 'calibrated now'}) -> {paths['npz'].parent}")
+    report({**s, "mesh": surf.name, "out": str(paths["npz"].parent)},
+           f"{surf.name}: {s['samples']} touch samples, {s['on_mesh_fraction']:.0%} on the mesh, "
+           f"force {s['force_range_n'][0]:+.3g}..{s['force_range_n'][1]:+.3g} N, {s['ticks']} edge ticks, "
+           f"Fsq range [{result.calibration.fmin:+.3g}, {result.calibration.fmax:+.3g}] "
+           f"({'from ' + str(calibration) if calibration is not None else 'calibrated now'}) -> {paths['npz'].parent}",
+           as_json)
 
 
 @shape_app.command("calibrate")
@@ -182,10 +158,13 @@ def calibrate_cmd(
     pixel_size: PixelSizeOption = None,
     height: HeightOption = None,
     figure: Optional[Path] = typer.Option(None, "--figure", help="Also write the Fsq histogram (PNG/PDF/SVG)."),
+    overwrite: OverwriteOption = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Measure the Fsq range of MESH by simulated scans (Kim et al. Sec. 4.2) and save it as JSON."""
     from surfhap.exchange.shape_files import default_calibration_path, write_calibration
     from surfhap.shape.calibration import calibrate
+    from surfhap.shape.surfaces import load_surface
 
     figure = figure_path(figure, "--figure")
     plan = _plan(directions, speeds, v_min, v_max, rate, lines)
@@ -194,14 +173,17 @@ def calibrate_cmd(
         if not Path(mesh).exists():
             raise ConfigError("give --out FILE for a built-in shape", source="--out")
         out = default_calibration_path(mesh)
-    cal = calibrate(surf, plan, method=method, k=k, percentiles=_percentiles(percentiles), fz=fz)
+    check_out(out, "--out", overwrite)
+    with status_line(f"calibrating {surf.name} by {directions * speeds * lines} simulated scans"):
+        cal = calibrate(surf, plan, method=method, k=k, percentiles=_percentiles(percentiles), fz=fz)
     path = write_calibration(cal, out)
     if figure is not None:
         figure.parent.mkdir(parents=True, exist_ok=True)
         with writing(figure):
             cal.plot().savefig(figure, dpi=110)
-    stdout.print(f"{surf.name}: Fsq range [{cal.fmin:+.4g}, {cal.fmax:+.4g}] sqrt(N) ({cal.method}, "
-                 f"{cal.n_samples} samples, theta_min {cal.theta_min_deg:.1f} deg) -> {path}")
+    report({**cal.to_dict(), "mesh": surf.name, "out": str(path)},
+           f"{surf.name}: Fsq range [{cal.fmin:+.4g}, {cal.fmax:+.4g}] sqrt(N) ({cal.method}, "
+           f"{cal.n_samples} samples, theta_min {cal.theta_min_deg:.1f} deg) -> {path}", as_json)
 
 
 @shape_app.command("profile")
@@ -210,29 +192,34 @@ def profile_cmd(
     out: Path = typer.Option(..., "--out", help="Output folder: profile.npz, figure.png."),
     mapping: str = typer.Option("IP0.5", "--mapping", help="IP0.5 | IP0.7 (Kim et al. Sec. 3.1.2)."),
     piecewise: bool = typer.Option(False, "--piecewise", help="Piecewise-linear intensity profile (Fig. 6b, d)."),
+    overwrite: OverwriteOption = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Write a 1-D profile of the formative study: geometry, force and intensity along the track."""
     import numpy as np
 
     from surfhap.shape.profiles import formative_profile
 
+    check_out(out, "--out", overwrite)
     prof = formative_profile(shape, mapping, piecewise=piecewise)
     out.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(out / "profile.npz", x=prof.x, height=prof.height, force=prof.force, intensity=prof.intensity)
     prof.plot().savefig(out / "figure.png", dpi=110)
-    stdout.print(f"{prof.name}: force {prof.force.min():+.3f}..{prof.force.max():+.3f} N, intensity "
-                 f"{prof.intensity.min():.2f}..{prof.intensity.max():.2f} -> {out}")
+    report({**prof.summary(), "out": str(out)}, f"{prof.name}: force {prof.force.min():+.3f}..{prof.force.max():+.3f} N, "
+           f"intensity {prof.intensity.min():.2f}..{prof.intensity.max():.2f} -> {out}", as_json)
 
 
 def scenes_cmd(
     out: Optional[Path] = typer.Option(None, "--out", help="Write each scene as OBJ plus a top-view PNG into this folder."),
     resolution: float = typer.Option(0.001, "--resolution", help="Grid step (m) of the Gaussian scenes."),
+    overwrite: OverwriteOption = False,
 ) -> None:
     """List the 20 scenes of Kim et al.'s summative study (2 profiles x 2 lights x 5 configurations)."""
     from surfhap.shape.scenes import all_scenes
 
     scenes = all_scenes()
     if out is not None:
+        check_out(out, "--out", overwrite)
         import trimesh
 
         from surfhap.report.shape_figures import plot_scene

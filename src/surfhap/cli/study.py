@@ -23,7 +23,8 @@ from typing import Optional
 import typer
 
 from surfhap.cli._output import parse_output
-from surfhap.cli._common import stderr, stdout
+from surfhap.cli._common import check_out, print_table, status_line, stderr, stdout
+from surfhap.cli._options import JsonOption, OverwriteOption
 from surfhap.cli._display_options import resolve_display
 from surfhap.cli._options import ConfigOption, DisplayOption
 from surfhap.cli._signals import StopSignals
@@ -338,39 +339,38 @@ def comfort(
 @study_app.command("status")
 def status(study: Path = typer.Argument(..., help="Study folder.")) -> None:
     """Progress of every participant: trials logged, sessions, comfort voltage."""
-    from rich.table import Table
-
     from surfhap.lab.comfort import comfort_voltage_of
     from surfhap.lab.schema import load_study
     from surfhap.lab.triallog import read_log
 
     st = load_study(study)
     folder = study if study.is_dir() else study.parent
-    table = Table("participant", "group", "trials", "sessions", "comfort V", title=st.design.name)
+    rows = []
     for plan in st.participants:
         log = read_log(folder / "logs" / f"{plan.id}.jsonl")
         v = comfort_voltage_of(folder, plan.id)
-        table.add_row(plan.id, plan.group, f"{len(log.trials)}/{len(plan.trials)}", str(len(log.sessions)),
-                      "-" if v is None else f"{v:.1f}")
-    stdout.print(table)
+        rows.append((plan.id, plan.group or "", f"{len(log.trials)}/{len(plan.trials)}", str(len(log.sessions)),
+                     "-" if v is None else f"{v:.1f}"))
+    print_table(("participant", "group", "trials", "sessions", "comfort V"), rows, title=st.design.name)
 
 
 @study_app.command("analyze")
 def analyze(
     study: Path = typer.Argument(..., help="Study folder."),
     report: Path = typer.Option(..., "--report", help="Folder for the HTML report and its figures."),
+    as_json: JsonOption = False,
 ) -> None:
     """Analyse every participant's log as in the paper of the design; write an HTML report and
     results.json (every test) beside it."""
+    from surfhap.cli._common import report as print_result
     from surfhap.lab.analyze_study import analyze_study
     from surfhap.report.lab_report import write_study_report
 
     result = analyze_study(study)
-    path = write_study_report(result, report)
+    with status_line("writing the report and its figures"):
+        path = write_study_report(result, report)
     (Path(path).parent / "results.json").write_text(json.dumps(result.results(), indent=1, allow_nan=False))
-    for line in result.summary_lines():
-        stdout.print(line)
-    stdout.print(f"wrote {path}")
+    print_result({**result.results(), "report": str(path)}, [*result.summary_lines(), f"wrote {path}"], as_json)
 
 
 @study_app.command("export")
@@ -380,10 +380,12 @@ def export(
     fmt: str = typer.Option("csv", "--format", help="csv (one tidy table, one row per trial) | bids (a BIDS 'beh' "
                                                     "dataset: *_beh.tsv + JSON sidecar per participant and task)."),
     out: Path = typer.Option(..., "--out", help="The CSV file, or the folder of the BIDS dataset."),
+    overwrite: OverwriteOption = False,
 ) -> None:
     """Export the trials for analysis elsewhere (pandas, R, BIDS tools)."""
     from surfhap.lab.export import export_logs
 
+    check_out(out, "--out", overwrite)
     written = export_logs(log, fmt, out)
     stdout.print(f"wrote {written[0]}" if fmt == "csv" else f"wrote {len(written)} files into {out}")
 

@@ -46,6 +46,13 @@ def builtin_path(name: str) -> Path:
     return Path(str(_builtin_dir() / f"{name}.json"))
 
 
+def material_path(ref: str | Path) -> Path:
+    """The file of a material reference: an existing file itself, else a built-in name's file
+    (so a built-in name works wherever a material file is read)."""
+    path = Path(ref)
+    return builtin_path(str(ref)) if not path.exists() and str(ref) in builtin_names() else path
+
+
 def load_material(ref: str | Path) -> Material:
     """A built-in material by name, or a material file by path (any registered suffix)."""
     ref_str = str(ref)

@@ -15,7 +15,7 @@ __all__ = ["LiveShapeRenderer", "load_live_shape", "shape_preview"]
 
 
 def load_live_shape(path, drive_rate: int, surface_size: tuple[float, float], seed: int = 0, display=None):
-    """Mesh file -> (LiveShapeRenderer, title). The mesh is scaled so its larger xy side
+    """Mesh file or built-in shape name -> (LiveShapeRenderer, title). The mesh is scaled so its larger xy side
     spans 90 % of the smaller side of the touch surface; a ``MESH.calibration.json`` next
     to it (``surfhap shape calibrate``) is used when present, else it is calibrated now.
     ``display``: the DisplayModel rendered for (None: the documented assumptions)."""
@@ -24,13 +24,13 @@ def load_live_shape(path, drive_rate: int, surface_size: tuple[float, float], se
     from surfhap.exchange.shape_files import default_calibration_path, read_calibration
     from surfhap.render.shape_renderer import ShapeConfig
     from surfhap.shape.calibration import calibrate
-    from surfhap.shape.topsurface import TopSurface
+    from surfhap.shape.surfaces import load_surface
 
     size = 0.9 * min(surface_size)
-    surface = TopSurface.from_file(path, size=size)
+    surface = load_surface(str(path), size=size)  # a file, an image or a built-in name, as `surfhap shape`
     cfg = ShapeConfig(drive_rate=int(drive_rate), seed=seed, **({} if display is None else {"display": display}))
-    cal_path = default_calibration_path(path)
-    cal = read_calibration(cal_path) if Path(cal_path).is_file() else calibrate(surface, fz=cfg.fz)
+    cal_path = default_calibration_path(path) if Path(path).is_file() else None
+    cal = read_calibration(cal_path) if cal_path is not None and cal_path.is_file() else calibrate(surface, fz=cfg.fz)
     return LiveShapeRenderer(surface, cal, cfg, surface_size=surface_size), f"{surface.name} (mesh, {size * 100:.1f} cm)"
 
 
