@@ -144,8 +144,35 @@ def test_bad_sensor_option_is_one_line_exit_2(capsys):
     from surfhap.live.engine_config import EngineConfig
     from surfhap.live.session import build_session
 
-    code = main(["play", "cork", "--clock", "sim", "--scan", "speed=0.1,load=0.5,duration=1", "--sensor", "netft://192.0.2.1"])
+    code = main(["play", "cork", "--clock", "sim", "--scan", "speed=0.1,load=0.5,duration=1", "--sensor", "ftp://192.0.2.1"])
     err = capsys.readouterr().err
     assert code == 2 and "unknown sensor" in err and len(err.strip().splitlines()) == 1, err
     with pytest.raises(ConfigError, match="simulated display"):
         build_session("cork", engine_config=EngineConfig(simulate_display=False), sensor="sim")
+
+
+def test_play_closes_the_loop_over_a_net_ft_box(tmp_path, capsys):
+    """``play --sensor netft://``: the loopback box (tests/live_support/netft_box.py, the RDT
+    protocol) measures the panel's own friction and nothing added, less than the law asks for,
+    so the loop raises the drive above the open loop's, never beyond the safety limit; the
+    stream is stopped when the session ends."""
+    from surfhap.cli import main
+    from surfhap.models.panel import DisplayModel
+
+    from live_support.netft_box import NetFTBox
+
+    mu_panel, load = DisplayModel().mu_panel, 0.5
+    drives = {}
+    for closed in (False, True):
+        out = tmp_path / f"drive-{closed}.npz"
+        args = ["play", "cork", "--output", f"file:{out}", "--scan", f"speed=0.1,load={load},duration=1.5", "--seed", "1"]
+        with NetFTBox(1000, forces=lambda t: (mu_panel * load, 0.0, load, 0, 0, 0)) as box:
+            code = main(args + (["--sensor", box.address] if closed else []))
+            assert code == 0, capsys.readouterr().err
+            if closed:
+                assert box.requests[0][:4] == bytes.fromhex("12340002") and box.requests[-1][:4] == bytes.fromhex("12340000")
+        drives[closed] = np.load(out)["drive"]
+    late = slice(drives[False].size // 2, None)  # after the integrator had time to act
+    rms = {k: float(np.sqrt(np.mean(d[late] ** 2))) for k, d in drives.items()}
+    assert rms[True] > 1.05 * rms[False], rms
+    assert np.abs(drives[True]).max() <= 250.0 + 1e-9  # V: the safety limit

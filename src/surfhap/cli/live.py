@@ -121,6 +121,18 @@ def _allowed_hosts(host: str, values: list[str]) -> tuple[str, ...]:
     return tuple(names)
 
 
+SENSOR = typer.Option(None, "--sensor", help="Close the friction loop over a force sensor: netft://HOST[:PORT] (an ATI Net F/T under the panel, +Fz normal, +Fx shear, as 'record force') or 'sim' (a simulated sensor on the simulated display, whose k drifts); see docs/live.md.")
+
+
+def _sensor(text: str | None):
+    """The --sensor option: None, "sim", or a started Net F/T sensor (silent box: exit 2)."""
+    if text is None or not text.startswith("netft://"):
+        return text
+    from surfhap.cli.record import open_sensor
+
+    return open_sensor(text, "--sensor", "z", "x", 1.0)
+
+
 def serve_cmd(
     material: Optional[str] = typer.Option(None, "--material", help="Built-in material name or material file (default: cork)."),
     mesh: Optional[str] = typer.Option(None, "--mesh", help="Render a 3-D mesh instead of a material: a mesh file (OBJ, STL, PLY, ...) or a built-in shape name as 'surfhap shape' takes (suzanne, gaussian-bump, ...); it is scaled to fit the touch surface."),
@@ -145,7 +157,7 @@ def serve_cmd(
     web_process: bool = typer.Option(True, "--web-process/--no-web-process",
                                      help="Run the page server in its own process, so web traffic cannot delay the engine."),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Log connections and rejected messages at INFO."),
-    sensor: Optional[str] = typer.Option(None, "--sensor", help="Close the friction loop over a force sensor: 'sim' (a simulated sensor on the simulated display, whose k drifts); see docs/live.md."),
+    sensor: Optional[str] = SENSOR,
     display: DisplayOption = None,
     config: ConfigOption = None,
     as_json: JsonOption = False,
@@ -194,7 +206,7 @@ def serve_cmd(
                             engine_config=_engine_config(block_ms, touch_latency_ms, smoothing),
                             osc_in=osc, replay=None if clk.simulated else traj, replay_loop=replay is not None,
                             seed=seed, mesh=mesh, channels=_channels(channels), max_seconds=max_seconds,
-                            display=disp, clock=clk, sensor=sensor)
+                            display=disp, clock=clk, sensor=_sensor(sensor))
     if clk.simulated:
         _run_simulated(session, traj, output, clk, as_json)
         return _finish(session.engine, None)
@@ -249,7 +261,7 @@ def play_cmd(
     channels: ChannelsOption = None,
     block_ms: BlockMsOption = 1.0,
     seed: SeedOption = 0,
-    sensor: Optional[str] = typer.Option(None, "--sensor", help="Close the friction loop over a force sensor: 'sim' (a simulated sensor on the simulated display, whose k drifts); see docs/live.md."),
+    sensor: Optional[str] = SENSOR,
     display: DisplayOption = None,
     config: ConfigOption = None,
     as_json: JsonOption = False,
@@ -268,7 +280,7 @@ def play_cmd(
         raise ConfigError("must be within (0, 600] s on a wall clock", source="--scan/--trajectory", field="duration")
     session = build_session(material, parse_output(output), drive_rate=drive_rate, amp_gain=amp_gain,
                             engine_config=_engine_config(block_ms, 0.0, 1.0), replay=None if clk.simulated else traj,
-                            seed=seed, channels=_channels(channels), display=disp, clock=clk, sensor=sensor)
+                            seed=seed, channels=_channels(channels), display=disp, clock=clk, sensor=_sensor(sensor))
     if clk.simulated:
         _run_simulated(session, traj, output, clk, as_json)
         return _finish(session.engine, None)

@@ -13,6 +13,7 @@ from surfhap.errors import ConfigError
 from surfhap.live.sources import TouchSpace
 
 if TYPE_CHECKING:
+    from surfhap.runtime.protocols import ForceSensor
     from surfhap.live.backends.output import Output
 
 __all__ = ["LiveSession", "build_session", "material_preview", "backend_info", "page_info"]
@@ -65,8 +66,8 @@ class LiveSession:
 
     def __init__(self, engine, backend, *, title: str = "", preview: dict | None = None,
                  space: TouchSpace | None = None, sources: list | None = None, positions: str = "physical",
-                 ff: dict | None = None):
-        """``positions``: "physical" maps page positions to metres through CSS pixels (a
+                 ff: dict | None = None, sensors: list | None = None):
+        """``sensors``: force sensors the session closes when it stops. ``positions``: "physical" maps page positions to metres through CSS pixels (a
         material: the finger speed is real); "surface" maps the page onto the whole touch
         surface (a mesh: the shaded preview and the felt shape line up). ``ff``: the
         force-feedback panel's description (:func:`surfhap.web.ff.ff_page_info`),
@@ -79,6 +80,7 @@ class LiveSession:
         self.preview = preview or {"w": 1, "h": 1, "data": [128]}
         self.space = space or TouchSpace()
         self.sources = list(sources or [])
+        self.sensors = list(sensors or [])
         self.started = False
 
     def start(self) -> None:
@@ -127,16 +129,26 @@ class LiveSession:
             sys.setswitchinterval(self._switch)
         for s in self.sources:
             s.stop()
+        for sensor in self.sensors:
+            sensor.close()
         self.started = False
 
 
-def _closed_loop(sensor: str, chain, display):
-    """The display of a session whose texture ``chain`` closes its loop over ``sensor``."""
-    if sensor != "sim":
-        raise ConfigError(f"unknown sensor {sensor!r} (choose: sim)", source="--sensor")
-    if chain is None or display is None:
-        raise ConfigError("needs a material (not --mesh) on the simulated display", source="--sensor")
+def _closed_loop(sensor: str | ForceSensor, chain, display):
+    """The display of a session whose texture ``chain`` closes its loop over ``sensor``: a
+    :class:`~surfhap.runtime.protocols.ForceSensor` on the rig (the display is the rig's), or
+    "sim", a simulated sensor on the simulated display, whose k drifts."""
+    if chain is None:
+        raise ConfigError("closes a material's friction loop, not a mesh's (--mesh)", source="--sensor")
     from surfhap.runtime.closed_loop import SensorLoop
+
+    if not isinstance(sensor, str):
+        SensorLoop(chain, sensor)
+        return display
+    if sensor != "sim":
+        raise ConfigError(f"unknown sensor {sensor!r} (choose: sim, netft://HOST[:PORT])", source="--sensor")
+    if display is None:
+        raise ConfigError("'sim' needs the simulated display", source="--sensor")
     from surfhap.sim.closed_loop import Drift, SensedDisplay, SimForceSensor
 
     probe = SimForceSensor()
@@ -148,15 +160,16 @@ def build_session(material: str = "cork", output: Output | None = None, *, drive
                   engine_config=None, amp_gain: float = 250.0, space: TouchSpace | None = None,
                   osc_in: tuple[str, int] | None = None, replay=None, replay_loop: bool = False,
                   seed: int = 0, channels: tuple[int, ...] | None = None, max_seconds: float | None = None,
-                  mesh=None, display=None, clock=None, sensor: str | None = None) -> LiveSession:
+                  mesh=None, display=None, clock=None, sensor: str | ForceSensor | None = None) -> LiveSession:
     """Everything ``surfhap serve`` runs: material (or ``mesh`` file) -> renderer -> engine
     -> backend (``output``, a typed output spec; default the simulated display), plus optional
     OSC touch input ``(host, port)`` and a replayed trajectory.
     ``amp_gain``, ``channels``, ``max_seconds``: the output's options
     (:class:`~surfhap.live.backends.output.OutputOptions`). ``clock``: the engine's
-    :class:`~surfhap.runtime.clock.Clock` (default: wall time). ``sensor``: "sim" closes the
-    friction loop (:mod:`surfhap.runtime.closed_loop`) over a simulated sensor measuring the
-    simulated display, whose k drifts (:mod:`surfhap.sim.closed_loop`)."""
+    :class:`~surfhap.runtime.clock.Clock` (default: wall time). ``sensor``: a force sensor on
+    the rig closes the friction loop (:mod:`surfhap.runtime.closed_loop`) and is closed with the
+    session; "sim" closes it over a simulated sensor measuring the simulated display, whose k
+    drifts (:mod:`surfhap.sim.closed_loop`)."""
     from surfhap.exchange.materials import load_material
     from surfhap.live.backends.output import OutputOptions, SimOutput, open_backend
     from surfhap.live.engine import LiveEngine
@@ -192,4 +205,5 @@ def build_session(material: str = "cork", output: Output | None = None, *, drive
 
         sources.append(TrajectorySource(engine, replay, loop=replay_loop, wall_clock=True))
     return LiveSession(engine, backend, title=title, preview=preview, space=space, sources=sources,
-                       positions="surface" if mesh is not None else "physical")
+                       positions="surface" if mesh is not None else "physical",
+                       sensors=[] if sensor is None or isinstance(sensor, str) else [sensor])
