@@ -130,8 +130,10 @@ def npz_number(x: np.ndarray, source: str, field: str, error: type[InputError] =
 
 
 def write_text(path: str | Path, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path``; a failing write (no space left...) names the path."""
+    """Write ``text`` (UTF-8) to ``path``, its folder created if missing; a failing write (no
+    space left...) names the path."""
     path = Path(path)
     with writing(path):
+        path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text, encoding="utf-8")
     return path

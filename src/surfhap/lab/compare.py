@@ -18,6 +18,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from pathlib import Path
+
 import numpy as np
 
 from surfhap.errors import ConfigError
@@ -124,7 +126,8 @@ def compare_materials(refs: Sequence[str], *, speed: float = 0.1, load: float = 
         v_on = v[v > 0] if np.any(v > 0) else v
         hist, _ = np.histogram(v_on, bins=edges)
         hist = hist / max(1, v_on.size)
-        out.append(MaterialProfile(mat.name, res.method, _law_text(mat), mat.texture_text(), speeds, mu_v, loads, f_l,
+        name = mat.name if ref == mat.name else f"{mat.name} ({Path(ref).name})"  # a file: said, beside built-ins
+        out.append(MaterialProfile(name, res.method, _law_text(mat), mat.texture_text(), speeds, mu_v, loads, f_l,
                                    freqs, psd, edges, hist, float(np.mean(v_on)), float(np.percentile(v_on, 95)),
                                    float(np.max(v)), res.summary()))
     return MaterialComparison(tuple(out), speed, load, duration)

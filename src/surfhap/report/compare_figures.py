@@ -26,17 +26,17 @@ def plot_comparison(comp, ax=None) -> Figure:
     a_v, a_l, a_s, a_h = axs
     lo, hi, p_lo, p_hi = np.inf, 0.0, np.inf, 0.0
     for i, p in enumerate(comp.profiles):
-        c = f"C{i}"
-        a_v.plot(p.speeds * 1e3, p.mu_speed, color=c, label=p.name)
-        a_l.plot(p.loads, p.force_load, color=c, label=p.name)
+        c, ls = f"C{i}", ("-", "--", ":", "-.")[i % 4]  # a style too: materials with one law overlap
+        a_v.plot(p.speeds * 1e3, p.mu_speed, color=c, ls=ls, label=p.name)
+        a_l.plot(p.loads, p.force_load, color=c, ls=ls, label=p.name)
         f0, f1 = _spectrum_band(p)
         ok = (p.freqs >= f0) & (p.freqs <= f1) & (p.psd > 0)
         if ok.any():
-            a_s.loglog(p.freqs[ok], p.psd[ok], color=c, lw=0.9, label=f"{p.name} (to {f1:g} Hz)")
+            a_s.loglog(p.freqs[ok], p.psd[ok], color=c, ls=ls, lw=0.9, label=f"{p.name} (to {f1:g} Hz)")
             lo, hi = min(lo, f0), max(hi, f1)
             p_lo, p_hi = min(p_lo, float(p.psd[ok].min())), max(p_hi, float(p.psd[ok].max()))
         centres = 0.5 * (p.v_edges[1:] + p.v_edges[:-1])
-        a_h.step(centres, p.v_hist, where="mid", color=c, label=f"{p.name} (mean {p.v_mean:.0f} V)")
+        a_h.step(centres, p.v_hist, where="mid", color=c, ls=ls, label=f"{p.name} (mean {p.v_mean:.0f} V)")
     if hi > 0:
         a_s.axvline(BandSplit().cutoff, color="0.5", ls=":", lw=1, label="3.5 Hz band split")
         a_s.set(xlim=(lo, hi), ylim=(p_lo / 2, p_hi * 2))

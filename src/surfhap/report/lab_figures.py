@@ -77,7 +77,7 @@ def plot_proportions(result, ax=None, chance: float | None = None) -> Figure:
         what = (f"trials pooled, n = {int(np.sum(result.n))}, "
                 f"{'Wilson' if result.method == 'wilson' else 'Clopper-Pearson'} {result.confidence:.0%} CI")
     ax.set(ylim=(0, 1.05), ylabel="mean proportion" if result.method == "participants" else "proportion",
-           title=f"{result.title} ({what})")
+           title=f"{result.title}\n{what}")
     return fig
 
 
