@@ -4,7 +4,6 @@ import asyncio
 import json
 import time
 
-import pytest
 import websockets
 
 from surfhap.ff import FALCON, FFEngine

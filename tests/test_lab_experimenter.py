@@ -12,7 +12,6 @@ import threading
 from urllib.parse import quote
 
 import numpy as np
-import pytest
 
 from live_support.studies import identification_study
 from surfhap.cli import main

@@ -14,7 +14,7 @@ import pytest
 import playwright.sync_api  # noqa: F401  (the dev extra: a broken install fails, it does not skip)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "live_support"))
-from browser_support import CHROMIUM, chromium_page, poll  # noqa: E402
+from browser_support import CHROMIUM, chromium_page, poll, start_ff_buttons_page  # noqa: E402
 
 IN_CI = os.environ.get("CI", "").lower() == "true"
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
@@ -137,24 +137,9 @@ def test_ff_page_panel_shows_device_position_force_and_button_press():
     _need(f"Chromium at {CHROMIUM} (Debian package chromium)", Path(CHROMIUM).exists() or shutil.which("chromium"))
     import json
 
-    from surfhap.ff import FALCON, FFEngine
-    from surfhap.ff.scene import load_scene
-    from surfhap.live.ff_devices import SimDeviceBackend
-    from surfhap.live.ff_loop import FFLoop
-    from surfhap.web.ff import build_ff_session
-    from surfhap.render.kinematics import TouchPredictor
-    from surfhap.web import create_app
-    from surfhap.live.config import ServerConfig
-    from surfhap.web.server import ServerThread
-    from surfhap.sim.ff_device import SimDevice
+    from surfhap.ff import FALCON
 
-    sc = load_scene("buttons")
-    eng = FFEngine(sc.effects, FALCON, TouchPredictor(), touch_latency=0.0, buttons=sc.buttons)
-    loop = FFLoop(eng, SimDeviceBackend(SimDevice(gain=FALCON.gain), FALCON.gain))
-    session = build_ff_session(sc, loop, max(FALCON.f_max))
-    loop.feedback = lambda t, px, py, pz, dx, dy, fx, fy, fz: session.engine.record(t, px, py, pz, fx, fy, fz)
-    srv = ServerThread(create_app(ServerConfig(port=0), touch=session), port=0).start()
-    loop.start()
+    sc, loop, srv = start_ff_buttons_page()
     w, h = sc.size
     easy = sc.buttons[0]
     weight = FALCON.moving_mass * 9.81  # N

@@ -5,7 +5,6 @@ the output is driven to 0 V."""
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys

@@ -17,7 +17,7 @@ import pytest
 import playwright.sync_api  # noqa: F401  (the dev extra: a broken install fails, it does not skip)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "live_support"))
-from browser_support import CHROMIUM, chromium_page, poll  # noqa: E402
+from browser_support import CHROMIUM, chromium_page, poll, start_ff_buttons_page  # noqa: E402
 
 PATIENCE_MS = 120_000  # bound of every wait on the page (a loaded 2-core machine)
 VIEWPORTS = [(1024, 600), (1920, 1080)]
@@ -119,24 +119,9 @@ def test_drive_page_layout_scales_and_indicators(w, h, tmp_path):
 @pytest.mark.parametrize("w,h", VIEWPORTS)
 def test_ff_page_layout_scales_indicators_and_pressed_button(w, h, tmp_path):
     _need_chromium()
-    from surfhap.ff import FALCON, FFEngine
-    from surfhap.ff.scene import load_scene
-    from surfhap.live.config import ServerConfig
-    from surfhap.live.ff_devices import SimDeviceBackend
-    from surfhap.live.ff_loop import FFLoop
-    from surfhap.render.kinematics import TouchPredictor
-    from surfhap.sim.ff_device import SimDevice
-    from surfhap.web import create_app
-    from surfhap.web.ff import build_ff_session
-    from surfhap.web.server import ServerThread
+    from surfhap.ff import FALCON
 
-    sc = load_scene("buttons")
-    eng = FFEngine(sc.effects, FALCON, TouchPredictor(), touch_latency=0.0, buttons=sc.buttons)
-    loop = FFLoop(eng, SimDeviceBackend(SimDevice(gain=FALCON.gain), FALCON.gain))
-    session = build_ff_session(sc, loop, max(FALCON.f_max))
-    loop.feedback = lambda t, px, py, pz, dx, dy, fx, fy, fz: session.engine.record(t, px, py, pz, fx, fy, fz)
-    srv = ServerThread(create_app(ServerConfig(port=0), touch=session), port=0).start()
-    loop.start()
+    sc, loop, srv = start_ff_buttons_page()
     easy = sc.buttons[0]
     sw, sh = sc.size
     try:

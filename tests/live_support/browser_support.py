@@ -40,3 +40,28 @@ def poll(page, expr: str, timeout_ms: int, every_ms: int = 50) -> None:
             return
         page.wait_for_timeout(every_ms)
     raise AssertionError(f"timed out after {timeout_ms} ms waiting for {expr}")
+
+
+
+def start_ff_buttons_page():
+    """The force-feedback page of the "buttons" scene on the simulated Falcon (as ``ff run buttons
+    --touch web``), started: ``(scene, loop, server)``; stop the server, then the loop."""
+    from surfhap.ff import FALCON, FFEngine
+    from surfhap.ff.scene import load_scene
+    from surfhap.live.config import ServerConfig
+    from surfhap.live.ff_devices import SimDeviceBackend
+    from surfhap.live.ff_loop import FFLoop
+    from surfhap.render.kinematics import TouchPredictor
+    from surfhap.sim.ff_device import SimDevice
+    from surfhap.web import create_app
+    from surfhap.web.ff import build_ff_session
+    from surfhap.web.server import ServerThread
+
+    sc = load_scene("buttons")
+    eng = FFEngine(sc.effects, FALCON, TouchPredictor(), touch_latency=0.0, buttons=sc.buttons)
+    loop = FFLoop(eng, SimDeviceBackend(SimDevice(gain=FALCON.gain), FALCON.gain))
+    session = build_ff_session(sc, loop, max(FALCON.f_max))
+    loop.feedback = lambda t, px, py, pz, dx, dy, fx, fy, fz: session.engine.record(t, px, py, pz, fx, fy, fz)
+    srv = ServerThread(create_app(ServerConfig(port=0), touch=session), port=0).start()
+    loop.start()
+    return sc, loop, srv

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import typer
 
-from surfhap.cli._common import check_out, fail, stdout, warning_line
+from surfhap.cli._common import check_out, stdout, warning_line
 from surfhap.cli._options import OverwriteOption
 
 __all__ = ["register", "open_sensor", "report_status", "NORMAL", "SHEAR"]

@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 from matplotlib.figure import Figure
 
-from surfhap.models.texture import TextureBank
 from surfhap.report.axes import carrier_resolved, draw_drive, figure_axes, plain_log_ticks
 from surfhap.report.figures import render_spectrum
 from surfhap.report.html import Page
