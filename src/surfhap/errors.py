@@ -8,7 +8,6 @@ the field it is about, so the CLI can print one clear line and exit with code 2.
 from __future__ import annotations
 
 import errno
-import zipfile
 import zlib
 from contextlib import contextmanager
 from pathlib import Path
@@ -110,7 +109,10 @@ class MeshUnitsWarning(InputWarning):
 
 # The one place where what the OS or a format library raises while a user's file is read or
 # written becomes an InputError naming the file (every reader and writer in exchange/ uses it).
-_FORMAT_ERRORS = (zipfile.BadZipFile, zlib.error, EOFError)
+def _format_errors() -> tuple[type[BaseException], ...]:
+    import zipfile  # when an error is matched, not at import: the CLI starts faster without it
+
+    return (zipfile.BadZipFile, zlib.error, EOFError)
 
 
 def _os_reason(exc: OSError) -> str:
@@ -135,7 +137,7 @@ def reading(source: str | Path, error: type[InputError] = InputError, what: str 
         raise error(f"not a UTF-8 text file ({exc.reason}; save the {what} as UTF-8)", source=str(source)) from None
     except OSError as exc:
         raise error(f"cannot read file ({_os_reason(exc)})", source=str(source)) from None
-    except _FORMAT_ERRORS as exc:
+    except _format_errors() as exc:
         detail = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(exc).__name__
         raise error(f"truncated or corrupt {what} ({detail})", source=str(source)) from None
 
