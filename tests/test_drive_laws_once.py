@@ -116,7 +116,8 @@ CALIBRATION = {"models/texture_calibration.py", "models/material.py"}
 PATTERNS = {
     "rendering gain (alpha / alpha_calibrated)^2": (r"alpha_cal\w*\s*\)\s*\*\*\s*2", set()),
     "eq. 3 numerator a fn^b": (r"\*\*\s*(\w+\.)?b\b|power\s*\(\s*[\w.]+\s*,\s*(\w+\.)?b\s*\)", set()),
-    "beta times the textural CoF": (r"\bbeta\s*\*|\*\s*(\w+\.)?beta\b", CALIBRATION),
+    # lab/quest.py: Watson & Pelli's Weibull slope, also named beta, no textural CoF
+    "beta times the textural CoF": (r"\bbeta\s*\*|\*\s*(\w+\.)?beta\b", CALIBRATION | {"lab/quest.py"}),
     "Zhao's m_eff acc": (r"\b(effective_mass|m_eff)\s*\*|\*\s*(\w+\.)?(effective_mass|m_eff)\b", set()),
     "Coulomb's mu0 fn": (r"\bmu0\s*\*|\*\s*(\w+\.)?mu0\b", set()),
 }
