@@ -284,7 +284,7 @@ def test_silent_service_ramps_to_zero_and_ends_the_run_exit_3(service):
     reset(service)
     service.silent_after = 200
     code, out, err = cli("ff", "run", "follow", "--device", f"haply://127.0.0.1:{service.port}",
-                         "--touch", "osc://127.0.0.1:0", "--duration", "60")
+                         "--touch", "osc://127.0.0.1:0", "--duration", "60", "--json")
     assert service.wait_closed()
     assert code == 3, err
     errors = [ln for ln in err.strip().splitlines() if ln.startswith("error:")]
@@ -307,7 +307,7 @@ def test_sigterm_ramps_the_force_to_zero_and_exits_130(service):
     reset(service)
     env = {**os.environ, "PYTHONPATH": str(SRC)}
     proc = subprocess.Popen([*CLI, "ff", "run", "follow", "--device", f"haply://127.0.0.1:{service.port}",
-                             "--touch", "osc://127.0.0.1:0", "--device-silence-ms", "1000"],
+                             "--touch", "osc://127.0.0.1:0", "--device-silence-ms", "1000", "--json"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         assert service.wait(lambda: len(service.forces) >= 200, timeout=120), proc.stderr.read() if proc.poll() else ""
