@@ -190,7 +190,8 @@ def test_toml_config_display_section(tmp_path, capsys):
     assert s["k_n_per_v2"] == 2e-5 and s["mu_panel"] == 0.6
     assert s["gain_plan"]["load_range_n"] == [0.2, 0.6]
     cfg.write_text("[display]\nkk = 1\n")
-    code, _, err = run(capsys, "render", "wood", "--scan", "speed=0.1,load=0.3,duration=0.5", "--out", str(out), "--config", str(cfg))
+    code, _, err = run(capsys, "render", "wood", "--scan", "speed=0.1,load=0.3,duration=0.5", "--out", str(out), "--config", str(cfg),
+                       "--overwrite")
     assert code == 2 and "lab.toml: display.kk" in err
 
 
@@ -257,7 +258,7 @@ def test_render_reports_the_plan_and_warns_once(tmp_path, capsys):
     assert plan["load_range_n"] == [0.1, 1.0] and plan["speed_range_m_per_s"] == [0.02, 0.3]
     assert plan["headroom"] > 1 and len(plan["renderable_friction_n"]["low"]) == len(plan["renderable_friction_n"]["load_n"])
     code, stdout, err = run(capsys, "render", "leather", "--scan", "speed=0.1,load=0.5,duration=1", "--out", str(out),
-                            "--no-figure", "--alpha", "616")
+                            "--no-figure", "--alpha", "616", "--overwrite")
     assert code == 0
     lines = [x for x in err.splitlines() if x.strip()]
     assert len(lines) == 1 and lines[0].startswith("warning:") and "0.50 N" in lines[0] and "--alpha" in lines[0]
