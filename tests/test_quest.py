@@ -90,17 +90,6 @@ def test_the_posterior_sd_stop_and_the_level_clamp():
         q.update(True)
 
 
-def test_psychopy_questhandler_as_a_reference():
-    data = pytest.importorskip("psychopy.data")
-    qh = data.QuestHandler(0.0, 1.0, pThreshold=0.82, nTrials=8, beta=3.5, delta=0.01, gamma=0.5, grain=0.01,
-                           range=5, method="mean")
-    q = Quest(QuestParams(prior_mean=0.0, prior_sd=1.0, scale="linear"))
-    for x, r in zip([0.0, -0.3, 0.2, -0.5, 0.1, -0.2, 0.3, -0.1], [1, 0, 1, 0, 1, 1, 1, 0]):
-        qh.addResponse(r, intensity=x)
-        q.update(bool(r), x)
-    assert q.mean() == pytest.approx(qh.mean(), abs=0.02) and q.sd() == pytest.approx(qh.sd(), abs=0.02)
-
-
 def _design(tmp_path, adaptive, participants=1):
     spec = template("kim-shapes", participants=participants).model_dump(mode="json")
     spec["adaptive"] = adaptive
