@@ -93,7 +93,7 @@ def test_mesh_in_millimetres_warns_in_the_cli(tmp_path, ext):
 
     def run(mesh, speed):  # a quick calibration: few, fast scans (the mm sphere is 40 m wide)
         cmd = [sys.executable, "-m", "surfhap", "shape", "calibrate", str(mesh), "--directions", "2", "--speeds", "1",
-               "--lines", "2", "--v-min", speed, "--v-max", speed, "--out", str(tmp_path / "cal.json")]
+               "--lines", "2", "--v-min", speed, "--v-max", speed, "--out", str(tmp_path / "cal.json"), "--overwrite"]
         return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
 
     mm = _sphere(tmp_path, 20.0, ext)
