@@ -3,7 +3,10 @@ delayed, noisy simulated force sensor: the low band follows the law, the texture
 as the open loop renders it, no added saturation, and the loop falls back to open loop when the
 sensor goes silent."""
 
+import json
 import math
+
+import time
 
 import numpy as np
 import pytest
@@ -170,9 +173,32 @@ def test_play_closes_the_loop_over_a_net_ft_box(tmp_path, capsys):
             code = main(args + (["--sensor", box.address] if closed else []))
             assert code == 0, capsys.readouterr().err
             if closed:
+                end = time.monotonic() + 5.0  # a failure guard: the box's thread takes the stop request
+                while box.requests[-1][:4] != bytes.fromhex("12340000") and time.monotonic() < end:
+                    time.sleep(0.01)
                 assert box.requests[0][:4] == bytes.fromhex("12340002") and box.requests[-1][:4] == bytes.fromhex("12340000")
         drives[closed] = np.load(out)["drive"]
     late = slice(drives[False].size // 2, None)  # after the integrator had time to act
     rms = {k: float(np.sqrt(np.mean(d[late] ** 2))) for k, d in drives.items()}
     assert rms[True] > 1.05 * rms[False], rms
     assert np.abs(drives[True]).max() <= 250.0 + 1e-9  # V: the safety limit
+
+
+def test_a_net_ft_box_falling_silent_leaves_the_open_loop_running(tmp_path, capsys):
+    """Issue 19, item 3: on sensor loss the loop falls back to open loop and the session goes on
+    rendering (a box silent after 0.2 s of a 1.5 s play): no block fails (a sensor raising
+    'silent' inside the loop would make every later block an error, hence 0 V), the drive of
+    the last half second is there, never beyond 250 V."""
+    from surfhap.cli import main
+
+    from live_support.netft_box import NetFTBox
+
+    out = tmp_path / "drive.npz"
+    with NetFTBox(1000, silent_after=200, forces=lambda t: (0.05, 0.0, 0.5, 0, 0, 0)) as box:
+        code = main(["play", "cork", "--output", f"file:{out}", "--scan", "speed=0.1,load=0.5,duration=1.5",
+                     "--sensor", box.address, "--json"])
+    stdout, err = capsys.readouterr()
+    assert code == 0, err
+    assert json.loads(stdout.strip().splitlines()[-1])["counters"]["errors"] == 0
+    drive = np.load(out)["drive"]
+    assert np.abs(drive).max() <= 250.0 + 1e-9 and np.abs(drive[-drive.size // 3:]).max() > 10.0

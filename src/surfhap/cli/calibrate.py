@@ -50,8 +50,7 @@ def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear
     limits = SafetyLimits(**({} if v_max is None else {"v_max": v_max}), watchdog_timeout=sensor_timeout)
     engine = LiveEngine(rig.StepRenderer(schedule, out.default_drive_rate, limits, now))
     engine.warm_up()  # compiled kernels loaded before the stream starts
-    dev = open_sensor(sensor, "--sensor", normal, shear, timeout=1.0)  # streaming (else exit 2) before any drive
-    dev.timeout = sensor_timeout
+    dev = open_sensor(sensor, "--sensor", normal, shear, timeout=1.0, silence=sensor_timeout)  # streaming (else exit 2) before any drive
     backend, failure = open_backend(out), None
     with StopSignals() as guard:
         try:

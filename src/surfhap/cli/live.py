@@ -11,6 +11,7 @@ drove 0 V from then on and the status's ``failure`` says why.
 from __future__ import annotations
 
 import logging
+import math
 import time
 from pathlib import Path
 from typing import Annotated, List, Optional
@@ -125,12 +126,14 @@ SENSOR = typer.Option(None, "--sensor", help="Close the friction loop over a for
 
 
 def _sensor(text: str | None):
-    """The --sensor option: None, "sim", or a started Net F/T sensor (silent box: exit 2)."""
+    """The --sensor option: None, "sim", or a started Net F/T sensor (a box silent at the start:
+    exit 2). Silence later is the loop's to handle: it falls back to open loop
+    (runtime/closed_loop.py) and closes again when records return; it does not end the session."""
     if text is None or not text.startswith("netft://"):
         return text
     from surfhap.cli.record import open_sensor
 
-    return open_sensor(text, "--sensor", "z", "x", 1.0)
+    return open_sensor(text, "--sensor", "z", "x", 1.0, silence=math.inf)
 
 
 def serve_cmd(

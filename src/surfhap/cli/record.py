@@ -30,13 +30,14 @@ NORMAL = typer.Option("z", "--normal", help="Sensor axis of the normal force, op
 SHEAR = typer.Option("x", "--shear", help="Sensor axis of the shear (friction) force, optionally signed.")
 
 
-def open_sensor(text: str, option: str, normal: str, shear: str, timeout: float):
-    """The ForceSensor of ``netft://HOST[:PORT][?http=PORT]`` (stream started)."""
+def open_sensor(text: str, option: str, normal: str, shear: str, timeout: float, silence: float | None = None):
+    """The ForceSensor of ``netft://HOST[:PORT][?http=PORT]`` (stream started; ``timeout``,
+    ``silence``: :class:`~surfhap.live.netft.NetFT`'s)."""
     from surfhap.live.netaddr import parse_netft_address
     from surfhap.live.netft import NetFT
 
     host, port, http = parse_netft_address(text, option)
-    return NetFT(host, port, http_port=http, normal=normal, shear=shear, timeout=timeout)
+    return NetFT(host, port, http_port=http, normal=normal, shear=shear, timeout=timeout, silence=silence)
 
 
 def report_status(sensor) -> None:

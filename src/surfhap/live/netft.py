@@ -55,13 +55,17 @@ def _axis(spec: str, field: str) -> tuple[int, float]:
 
 class NetFT:
     """A :class:`~surfhap.runtime.protocols.ForceSensor`: reads ``netftapi2.xml``, starts the
-    stream; :meth:`read` drains the socket. Counts: ``gaps``, ``lost``, ``status_count``."""
+    stream; :meth:`read` drains the socket. Counts: ``gaps``, ``lost``, ``status_count``.
+    ``timeout`` s: for the configuration page and the first record; ``silence`` s (default
+    ``timeout``): no record for that long later makes :meth:`read` raise :class:`SensorSilent`
+    (``math.inf``: never, the caller handles silence)."""
 
     def __init__(self, host: str, port: int = RDT_PORT, *, http_port: int = 80, normal: str = "z", shear: str = "x",
-                 timeout: float = 1.0):
+                 timeout: float = 1.0, silence: float | None = None):
         self.name = f"netft://{host}:{port}"
         self._normal, self._shear = _axis(normal, "normal"), _axis(shear, "shear")
         self.timeout = float(timeout)
+        self.silence = self.timeout if silence is None else float(silence)
         self.rate, self.scale = self._config(host, http_port)
         self.gaps = self.lost = self.status_count = 0
         self.first_status: int | None = None
@@ -115,9 +119,9 @@ class NetFT:
         now = time.monotonic()
         rec = self._drain()
         if rec.size == 0:
-            if now - self._heard > self.timeout:
+            if now - self._heard > self.silence:
                 raise SensorSilent(f"no record for {1e3 * (now - self._heard):.0f} ms (timeout "
-                                   f"{1e3 * self.timeout:.0f} ms): box silent or unreachable", source=self.name)
+                                   f"{1e3 * self.silence:.0f} ms): box silent or unreachable", source=self.name)
             return np.zeros(0), np.zeros(0), np.zeros(0)
         self._heard = now
         seq = rec["rdt"].astype(np.int64)
