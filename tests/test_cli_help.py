@@ -5,21 +5,10 @@ columns names every option with its whole help text (wrapped, never cut with 'â€
 import re
 
 import pytest
-import typer
 from rich.text import Text
 
-from surfhap.cli import _register, app, main
-
-
-def _walk(command, path=()):
-    yield path, command
-    for name, sub in sorted(getattr(command, "commands", {}).items()):
-        yield from _walk(sub, (*path, name))
-
-
-def _commands():
-    _register()
-    return list(_walk(typer.main.get_command(app)))
+from live_support.cli_commands import all_commands
+from surfhap.cli import main
 
 
 def _squash(text: str) -> str:
@@ -28,7 +17,7 @@ def _squash(text: str) -> str:
 
 
 @pytest.mark.parametrize("columns,flag", [(60, "-h"), (200, "--help")])
-@pytest.mark.parametrize("path,command", _commands(), ids=lambda v: " ".join(v) if isinstance(v, tuple) else "")
+@pytest.mark.parametrize("path,command", all_commands(), ids=lambda v: " ".join(v) if isinstance(v, tuple) else "")
 def test_help_names_every_option_whole_at_any_width(capsys, monkeypatch, columns, flag, path, command):
     monkeypatch.setenv("COLUMNS", str(columns))
     code = main([*path, flag])

@@ -12,8 +12,8 @@ import typer
 from rich.text import Text
 
 import surfhap
-from surfhap.cli import app, main
-from surfhap.cli import _register as register_commands
+from live_support.cli_commands import all_commands
+from surfhap.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
 HEAVY = ("numba", "scipy", "matplotlib", "trimesh", "statsmodels", "fastapi", "uvicorn", "PIL", "joblib")
@@ -88,25 +88,14 @@ def test_typer_exit_code_is_returned(capsys, monkeypatch):
     assert line == "error: a [bracketed] message over two lines"
 
 
-def _walk(command, path=()):
-    yield path, command
-    for name, sub in sorted(getattr(command, "commands", {}).items()):
-        yield from _walk(sub, (*path, name))
-
-
-def _all_commands():
-    register_commands()
-    return list(_walk(typer.main.get_command(app)))
-
-
 def test_the_walk_finds_every_command_group():
-    paths = {" ".join(p) for p, _ in _all_commands()}
+    paths = {" ".join(p) for p, _ in all_commands()}
     for expected in ("", "render", "materials", "demo", "fit friction", "fit accel", "fit imu", "import hatt",
                      "shape", "scenes", "serve", "devices", "play"):
         assert expected in paths, sorted(paths)
 
 
-@pytest.mark.parametrize("path", [" ".join(p) for p, _ in _all_commands()])
+@pytest.mark.parametrize("path", [" ".join(p) for p, _ in all_commands()])
 def test_help_of_every_command(capsys, path):
     code, out, err = run(capsys, *path.split(), "--help")
     assert code == 0, err
@@ -118,7 +107,7 @@ def test_help_texts_survive_rich_markup():
     """Help strings are rendered as rich markup: a '[/...]' or '[word]' would crash or vanish.
     Every text must come out as written (``\\[`` is the escape for a literal bracket)."""
     garbled = []
-    for path, command in _all_commands():
+    for path, command in all_commands():
         texts = [command.help or ""] + [getattr(p, "help", None) or "" for p in command.params]
         garbled += [(" ".join(path), text) for text in texts
                     if Text.from_markup(text).plain != text.replace("\\[", "[")]
