@@ -57,6 +57,17 @@ def _conf(confidence: float) -> float:
     return confidence
 
 
+def frame(records: Sequence[dict], columns: Sequence[str]):
+    """``records`` as a pandas DataFrame; ConfigError naming a missing column."""
+    import pandas as pd
+
+    df = pd.DataFrame.from_records(list(records))
+    for col in columns:
+        if col not in df.columns:
+            raise ConfigError(f"no column {col!r}", field="records")
+    return df
+
+
 def proportions(successes: Sequence[float], n: Sequence[float], labels: Sequence[str] | None = None,
                 method: str = "wilson", confidence: float = 0.95, title: str = "") -> ProportionResult:
     """Pooled proportions successes/n with Wilson or Clopper-Pearson ("beta") intervals
@@ -321,10 +332,7 @@ def factorial_anova(records: Sequence[dict], depvar: str, factors: Sequence[str]
     import statsmodels.formula.api as smf
     from statsmodels.stats.anova import anova_lm
 
-    df = pd.DataFrame.from_records(list(records))
-    for col in (depvar, *factors):
-        if col not in df.columns:
-            raise ConfigError(f"no column {col!r}", field="records")
+    df = frame(records, (depvar, *factors))
     data = pd.DataFrame({f"f{i}": df[f].astype(str) for i, f in enumerate(factors)})
     data["y"] = df[depvar].astype(float)
     terms = "*".join(f"C(f{i}, Sum)" for i in range(len(factors)))
@@ -343,14 +351,10 @@ def rm_anova(records: Sequence[dict], depvar: str, subject: str, within: Sequenc
     import pandas as pd
     from statsmodels.stats.anova import AnovaRM
 
-    df = pd.DataFrame.from_records(list(records))
-    for col in (depvar, subject, *within):
-        if col not in df.columns:
-            raise ConfigError(f"no column {col!r}", field="records")
+    df = frame(records, (depvar, subject, *within))
     # integer codes for the factors: AnovaRM silently drops some string-typed factors (pandas 3)
     for col in (subject, *within):
-        levels = sorted({str(v) for v in df[col]})
-        df[col] = df[col].map(lambda v, lv={lab: i for i, lab in enumerate(levels)}: lv[str(v)]).astype(int)
+        df[col] = pd.factorize(df[col].astype(str), sort=True)[0]
     df[depvar] = df[depvar].astype(float)
     # AnovaRM (statsmodels 0.15) loses factors depending on their names (e.g. a factor sorting
     # after the subject column): run it on neutral names f0, f1, ... and map them back

@@ -80,16 +80,44 @@ def load_trials(study_dir: str | Path) -> tuple[Study, list[dict], list[str], li
 def _by(records, *keys):
     out = defaultdict(list)
     for r in records:
-        out[tuple(r["condition"][k] if k in r["condition"] else r[k] for k in keys)].append(r)
+        c = r.get("condition", {})
+        out[tuple(c[k] if k in c else r[k] for k in keys)].append(r)
     return out
 
 
-def _pp(records, value=lambda r: float(r["score"]), key="participant"):
+def _pp(records, value=lambda r: float(r["score"])):
     """Per-participant mean of ``value``: {participant: mean}."""
-    acc = defaultdict(list)
-    for r in records:
-        acc[r[key]].append(value(r))
-    return {k: float(np.mean(v)) for k, v in acc.items()}
+    return {p: float(np.mean([value(r) for r in rs])) for (p,), rs in _by(records, "participant").items()}
+
+
+def _correct_rows(groups, join: bool = False) -> list[list]:
+    """[*key, correct/n, proportion] per group of records (``join``: the key joined with "-")."""
+    return [[*(["-".join(key)] if join else key), f"{sum(r['is_correct'] for r in rs)}/{len(rs)}",
+             f"{np.mean([r['is_correct'] for r in rs]):.2f}"] for key, rs in sorted(groups.items())]
+
+
+def _mean_rows(recs, factors, value, sd: bool = True) -> list[list]:
+    """[factor, level, mean (, SD), n] of ``value`` per level of each of ``factors``."""
+    rows = []
+    for factor in factors:
+        for (lev,), rs in sorted(_by(recs, factor).items()):
+            v = [value(r) for r in rs]
+            rows.append([factor, lev, f"{np.mean(v):.2f}", *([_sd(v)] if sd else []), len(v)])
+    return rows
+
+
+def _sd(v) -> str:
+    return f"{np.std(v, ddof=1) if len(v) > 1 else 0:.2f}"
+
+
+def _r_test(pr) -> A.TestResult:
+    return A.TestResult("r (Pearson)", pr.r, pr.p, pr.n - 2, estimate=pr.r)
+
+
+def _mean_ci_rows(labels, pm: A.ProportionResult) -> list[list]:
+    """[label, proportion, CI, half width] of a mean of participants' proportions (:data:`_PM_CI`)."""
+    return [[m, f"{p:.2f}", f"[{lo:.2f}, {hi:.2f}]", f"{h:.2f}"]
+            for m, p, lo, hi, h in zip(labels, pm.proportion, pm.ci_low, pm.ci_high, pm.half_width)]
 
 
 _ANOVA = {"repeated": "F (repeated-measures ANOVA)", "between": "F (between-subjects ANOVA)",
@@ -115,23 +143,19 @@ def _anova(sec: Section, records, depvar: str, subject: str, factors: list[str],
 def _nafc(study, recs):
     n_alt = len(study.participants[0].trials[0].choices)
     sec = Section("Discrimination (n-AFC)")
-    conds = sorted({r["condition"]["condition"] for r in recs})
-    k = [sum(r["is_correct"] for r in recs if r["condition"]["condition"] == c) for c in conds]
-    n = [sum(1 for r in recs if r["condition"]["condition"] == c) for c in conds]
+    by_cond = {c: rs for (c,), rs in _by(recs, "condition").items()}
+    conds = sorted(by_cond)
+    k = [sum(r["is_correct"] for r in by_cond[c]) for c in conds]
+    n = [len(by_cond[c]) for c in conds]
     res = A.proportions(k, n, conds, title="proportion correct")
     sec.text.append(", ".join(f"{c} {p:.2f}" for c, p in zip(conds, res.proportion)) + f" correct (chance {1 / n_alt:.2f})")
     sec.tables.append((["condition", "correct/n", "proportion", "95 % CI (Wilson)"], res.rows()))
     for c, kk, nn in zip(conds, k, n):
         sec.text.append(sec.add(f"{c} vs chance", A.binomial_test(kk, nn, 1 / n_alt), [c]))
     sec.figures.append(("nafc_conditions", res, {"chance": 1 / n_alt}))
-    rows = []
-    for (c, pair), rs in sorted(_by(recs, "condition", "pair").items()):
-        rows.append([c, pair, f"{sum(r['is_correct'] for r in rs)}/{len(rs)}",
-                     f"{np.mean([r['is_correct'] for r in rs]):.2f}"])
-    sec.tables.append((["condition", "pair", "correct/n", "proportion"], rows))
+    sec.tables.append((["condition", "pair", "correct/n", "proportion"], _correct_rows(_by(recs, "condition", "pair"))))
     if len(conds) == 2:
-        a = _pp([r for r in recs if r["condition"]["condition"] == conds[0]])
-        b = _pp([r for r in recs if r["condition"]["condition"] == conds[1]])
+        a, b = _pp(by_cond[conds[0]]), _pp(by_cond[conds[1]])
         both = sorted(set(a) & set(b))
         if len(both) >= 2:
             prm = analysis_params(study)
@@ -148,24 +172,23 @@ _PM_CI = ("95 % CI (bootstrap over participants)", "+- (1.96 SD / sqrt n, as Ota
 def _realism(study, recs):
     first = list(study.params["conditions"])[0]
     sec = Section(f"Realism: proportion choosing {first}")
-    mats = sorted({r["condition"]["material"] for r in recs})
-    per = [list(_pp([r for r in recs if r["condition"]["material"] == m],
-                    value=lambda r: float(r["answer"] == first)).values()) for m in mats]
+    by_mat = {m: rs for (m,), rs in sorted(_by(recs, "material").items())}
+    mats = list(by_mat)
+    per = [list(_pp(rs, value=lambda r: float(r["answer"] == first)).values()) for rs in by_mat.values()]
     if min(len(v) for v in per) < 2:
         sec.text.append("needs two participants or more")
         return [sec]
     res = A.participant_means(per, mats, title=f"chose {first}")
     alt = analysis_params(study).alternative
-    tests = [A.z_test_one(sum(1 for r in recs if r["condition"]["material"] == m and r["answer"] == first),
-                          sum(1 for r in recs if r["condition"]["material"] == m), 0.5, alternative=alt) for m in mats]
+    tests = [A.z_test_one(sum(r["answer"] == first for r in rs), len(rs), 0.5, alternative=alt)
+             for rs in by_mat.values()]
     padj = A.bonferroni([t.p for t in tests])
     for m, t, pa in zip(mats, tests, padj):
         sec.add(f"{m}: {first} vs chance 0.5", t, [m], pa, "Bonferroni")
     sec.text.append(", ".join(f"{m} {p:.2f}" for m, p in zip(mats, res.proportion)))
     sec.tables.append((["material", "proportion", *_PM_CI, "z", "p (Bonferroni)"],
-                       [[m, f"{p:.2f}", f"[{lo:.2f}, {hi:.2f}]", f"{h:.2f}", f"{t.statistic:.2f}", f"{pa:.3g}"]
-                        for m, p, lo, hi, h, t, pa in zip(mats, res.proportion, res.ci_low, res.ci_high,
-                                                          res.half_width, tests, padj)]))
+                       [[*row, f"{t.statistic:.2f}", f"{pa:.3g}"]
+                        for row, t, pa in zip(_mean_ci_rows(mats, res), tests, padj)]))
     sec.figures.append(("realism", res, {"chance": 0.5}))
     return [sec]
 
@@ -173,10 +196,10 @@ def _realism(study, recs):
 def _identification(study, recs):
     mats = list(study.params["materials"])
     out = []
-    conds = sorted({r["condition"]["condition"] for r in recs})
+    by_cond = {c: rs for (c,), rs in sorted(_by(recs, "condition").items())}
+    conds = list(by_cond)
     counts = {}
-    for c in conds:
-        rs = [r for r in recs if r["condition"]["condition"] == c]
+    for c, rs in by_cond.items():
         conf = A.confusion([r["correct"] for r in rs], [r["answer"] for r in rs], mats, title=c)
         sec = Section(f"Identification: {c}")
         k = int(np.trace(conf.counts))
@@ -187,9 +210,7 @@ def _identification(study, recs):
                for m in mats]
         if min(len(v) for v in per) >= 2:
             pm = A.participant_means(per, mats, title=f"correct ({c})")
-            sec.tables.append((["material", "proportion", *_PM_CI],
-                               [[m, f"{p:.2f}", f"[{lo:.2f}, {hi:.2f}]", f"{h:.2f}"]
-                                for m, p, lo, hi, h in zip(mats, pm.proportion, pm.ci_low, pm.ci_high, pm.half_width)]))
+            sec.tables.append((["material", "proportion", *_PM_CI], _mean_ci_rows(mats, pm)))
             sec.figures.append((f"identification_{c}_bars", pm, {"chance": 1 / len(mats)}))
         sec.tables.append((["presented \\ answered", *mats],
                            [[m, *[f"{x:.2f}" for x in row]] for m, row in zip(mats, conf.proportions)]))
@@ -219,20 +240,17 @@ def _identification(study, recs):
 def _ratings(study, recs):
     out = []
     mats = list(study.params["materials"])
-    by_cell = _by([r for r in recs if r["task"] == "rating"], "material", "adjective", "source")
+    # mean rating per (material, adjective, source)
+    cell = {k: np.mean([float(r["answer"]) for r in rs])
+            for k, rs in _by([r for r in recs if r["task"] == "rating"], "material", "adjective", "source").items()}
     for a in study.params["adjectives"]:
-        real, virt, labs = [], [], []
-        for m in mats:
-            rr, rv = ([float(r["answer"]) for r in by_cell.get((m, a, src), ())] for src in ("real", "virtual"))
-            if rr and rv:
-                real.append(np.mean(rr))
-                virt.append(np.mean(rv))
-                labs.append(m)
+        labs = [m for m in mats if (m, a, "real") in cell and (m, a, "virtual") in cell]
         sec = Section(f"Adjective ratings: {a}")
         if len(labs) >= 3:
-            pr = A.pearson(real, virt, labs, x_name=f"{a} (real)", y_name=f"{a} (virtual)")
+            pr = A.pearson([cell[m, a, "real"] for m in labs], [cell[m, a, "virtual"] for m in labs], labs,
+                           x_name=f"{a} (real)", y_name=f"{a} (virtual)")
             sec.text.append(f"real vs virtual: r = {pr.r:.3f}, p = {pr.p:.3g} (n = {pr.n} materials)")
-            sec.add(f"{a}: real vs virtual", A.TestResult("r (Pearson)", pr.r, pr.p, pr.n - 2, estimate=pr.r), labs)
+            sec.add(f"{a}: real vs virtual", _r_test(pr), labs)
             sec.figures.append((f"ratings_{a}", pr, {}))
         else:
             sec.text.append("needs three materials or more rated real and virtual")
@@ -240,10 +258,8 @@ def _ratings(study, recs):
     sim = [r for r in recs if r["task"] == "similarity"]
     if sim:
         sec = Section("Similarity ratings")
-        rows = []
-        for meth, rs in sorted(_by(sim, "method").items()):
-            v = [float(r["answer"]) for r in rs]
-            rows.append([meth[0], len(v), f"{np.mean(v):.2f}", f"{np.std(v, ddof=1) if len(v) > 1 else 0:.2f}"])
+        rows = [[meth, n, mean, sd]
+                for _, meth, mean, sd, n in _mean_rows(sim, ["method"], lambda r: float(r["answer"]))]
         sec.tables.append((["method", "n", "mean", "SD"], rows))
         sec.text.append("; ".join(f"{r[0]} {r[2]} (SD {r[3]})" for r in rows))
         _anova(sec, [{"p": r["participant"], "method": r["condition"]["method"], "material": r["condition"]["material"],
@@ -251,14 +267,10 @@ def _ratings(study, recs):
         dd = {m[0]: np.mean([float(r["answer"]) for r in rs]) for m, rs in _by(sim, "material", "method").items()
               if m[1] == "data-driven"}
         for a in study.params["adjectives"]:  # 000 Sec. 4: data-driven similarity vs the real rating
-            real = {m[0]: np.mean([float(r["answer"]) for r in rs]) for m, rs in
-                    _by([r for r in recs if r["task"] == "rating"], "material", "adjective", "source").items()
-                    if m[1:] == (a, "real")}
-            labs = [m for m in mats if m in dd and m in real]
+            labs = [m for m in mats if m in dd and (m, a, "real") in cell]
             if len(labs) >= 3:
-                pr = A.pearson([dd[m] for m in labs], [real[m] for m in labs], labs)
-                sec.text.append(sec.add(f"similarity (data-driven) vs {a} (real)",
-                                        A.TestResult("r (Pearson)", pr.r, pr.p, pr.n - 2, estimate=pr.r), labs))
+                pr = A.pearson([dd[m] for m in labs], [cell[m, a, "real"] for m in labs], labs)
+                sec.text.append(sec.add(f"similarity (data-driven) vs {a} (real)", _r_test(pr), labs))
         out.append(sec)
     return out
 
@@ -273,29 +285,23 @@ def _shape_choice(study, recs):
     if len(pp) >= 2:
         sec.text.append(sec.add("participants vs chance", A.t_test(list(pp.values()), 0.25, alternative="greater"),
                                 ["participants"]))
-    rows = []
-    for key, rs in sorted(_by(recs, "shape", "profile", "grain").items()):
-        rows.append(["-".join(key), f"{sum(r['is_correct'] for r in rs)}/{len(rs)}",
-                     f"{np.mean([r['is_correct'] for r in rs]):.2f}"])
-    sec.tables.append((["condition", "correct/n", "proportion"], rows))
+    sec.tables.append((["condition", "correct/n", "proportion"],
+                       _correct_rows(_by(recs, "shape", "profile", "grain"), join=True)))
     sec.figures.append(("shape_confusion", conf, {}))
     return [sec]
 
 
 def _scenes(study, recs):
     sec = Section("Scene recognition: V vs V+H")
-    rows = []
-    for factor in ("task", "light", "profile", "configuration"):
-        for key, rs in sorted(_by(recs, factor).items()):
-            rows.append([factor, key[0], f"{np.mean([r['score'] for r in rs]):.2f}", len(rs)])
-    sec.tables.append((["factor", "level", "proportion of objects right", "trials"], rows))
-    tasks = sorted({r["condition"]["task"] for r in recs})
-    k = [sum(r["score"] * 4 for r in recs if r["condition"]["task"] == t) for t in tasks]
-    n = [4 * sum(1 for r in recs if r["condition"]["task"] == t) for t in tasks]
-    res = A.proportions(k, n, tasks, title="objects right")
+    factors = ["task", "light", "profile", "configuration"]
+    sec.tables.append((["factor", "level", "proportion of objects right", "trials"],
+                       _mean_rows(recs, factors, lambda r: r["score"], sd=False)))
+    by_task = sorted(_by(recs, "task").items())
+    tasks = [t for (t,), _ in by_task]
+    res = A.proportions([sum(r["score"] * 4 for r in rs) for _, rs in by_task], [4 * len(rs) for _, rs in by_task],
+                        tasks, title="objects right")
     sec.text.append(", ".join(f"{t} {p:.2f}" for t, p in zip(tasks, res.proportion)))
     sec.figures.append(("scenes_task", res, {"chance": 0.5}))
-    factors = ["task", "light", "profile", "configuration"]
     _anova(sec, [{"p": r["participant"], **{f: r["condition"][f] for f in factors}, "y": r["score"]} for r in recs],
            "y", "p", factors, analysis_params(study).anova)
     return [sec]
@@ -318,14 +324,8 @@ def sliding_scores(recs) -> list[dict]:
 def _sliding(study, recs):
     scores = sliding_scores(recs)
     sec = Section("Sliding: discrimination scores")
-    rows = []
-    for factor in ("visual", "tactile", "comparison"):
-        groups = defaultdict(list)
-        for s in scores:
-            groups[s[factor]].append(s["score"])
-        for lev, v in sorted(groups.items()):
-            rows.append([factor, lev, f"{np.mean(v):.2f}", f"{np.std(v, ddof=1) if len(v) > 1 else 0:.2f}", len(v)])
-    sec.tables.append((["factor", "level", "mean score", "SD", "n"], rows))
+    sec.tables.append((["factor", "level", "mean score", "SD", "n"],
+                       _mean_rows(scores, ["visual", "tactile", "comparison"], lambda s: s["score"])))
     sec.text.append("mean discrimination score " + f"{np.mean([s['score'] for s in scores]):.2f}")
     _anova(sec, scores, "score", "participant", ["visual", "tactile", "comparison"], analysis_params(study).anova)
     return [sec]

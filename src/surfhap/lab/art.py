@@ -19,8 +19,7 @@ from itertools import combinations
 
 import numpy as np
 
-from surfhap.errors import ConfigError
-from surfhap.lab.analysis import AnovaResult, factorial_anova, rm_anova
+from surfhap.lab.analysis import AnovaResult, factorial_anova, frame, rm_anova
 
 __all__ = ["ArtResult", "align", "art_anova"]
 
@@ -39,12 +38,7 @@ def _effects(factors: Sequence[str]) -> list[tuple[str, ...]]:
 
 def align(records: Sequence[dict], depvar: str, factors: Sequence[str]) -> dict[str, np.ndarray]:
     """Aligned responses for every effect of the full factorial model over ``factors``."""
-    import pandas as pd
-
-    df = pd.DataFrame.from_records(list(records))
-    for col in (depvar, *factors):
-        if col not in df.columns:
-            raise ConfigError(f"no column {col!r}", field="records")
+    df = frame(records, (depvar, *factors))
     y = df[depvar].astype(float)
     df[depvar] = y
     mean = {(): float(y.mean())}

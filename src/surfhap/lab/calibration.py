@@ -82,10 +82,8 @@ def measure_recording(rec: TribometerRecording, guard: float = GUARD) -> LevelMe
     if on.sum() < 16 or off.sum() < 16:
         raise ConfigError("too few samples with the drive on and off after the switching guard "
                           f"({guard:g} s); record longer on/off stretches", source=rec.source, field="level")
-    f_off = float(rec.lateral_force[off].mean())
-    f_on = float(rec.lateral_force[on].mean())
-    n_off = float(rec.normal_force[off].mean())
-    n_on = float(rec.normal_force[on].mean())
+    f_off, f_on = (float(rec.lateral_force[m].mean()) for m in (off, on))
+    n_off, n_on = (float(rec.normal_force[m].mean()) for m in (off, on))
     if n_off <= 0:
         raise ConfigError("mean normal force with the drive off must be > 0 N", source=rec.source, field="normal_force")
     mu = f_off / n_off

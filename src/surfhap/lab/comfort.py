@@ -184,6 +184,7 @@ class ComfortRunner:
     comfort staircase of one participant."""
 
     limit_s = None  # the square wave plays while touched: no stimulus time limit
+    v_max = SAFETY_V_MAX
 
     def __init__(self, study_dir: str | Path, participant: str, params: Adaptive | None = None,
                  material: str | None = None, options: ComfortOptions | None = None):
@@ -222,16 +223,8 @@ class ComfortRunner:
     def finished(self) -> bool:
         return self.stair.finished
 
-    @property
-    def v_max(self) -> float:
-        return SAFETY_V_MAX
-
     def _tid(self) -> str:
         return f"{self.plan.id}-comfort-{self.n_done:03d}"
-
-    def render_spec(self) -> dict:
-        return {"material": self.material, "method": "square", "square_frequency": COMFORT_FREQUENCY,
-                "square_amplitude": round(self.stair.level, 3)}
 
     def state(self) -> dict:
         with self._lock:
@@ -253,7 +246,9 @@ class ComfortRunner:
         with self._lock:
             if self.finished or trial_id != self._tid() or index != 0:
                 return None
-            return Stimulus(label="touch", render=self.render_spec())
+            return Stimulus(label="touch", render={"material": self.material, "method": "square",
+                                                   "square_frequency": COMFORT_FREQUENCY,
+                                                   "square_amplitude": round(self.stair.level, 3)})
 
     def answer(self, trial_id: str, answer: str, rt_client_s: float | None = None) -> dict:
         with self._lock:

@@ -33,15 +33,15 @@ so an unknown or out-of-range parameter is a :class:`~surfhap.errors.StudyFormat
 
 from __future__ import annotations
 
-from itertools import combinations, permutations
+from itertools import combinations, permutations, product
 from typing import Callable, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import Field, ValidationError
 
 from surfhap.errors import StudyFormatError
 from surfhap.lab.counterbalance import balanced_assignment, balanced_latin_square, participant_rng
-from surfhap.checked import first_error
+from surfhap.checked import Checked, first_error, within
 from surfhap.lab.schema import Choice, DesignSpec, ParticipantPlan, Stimulus, Study, Trial
 
 __all__ = ["build_study", "TEMPLATES", "template", "study_template", "ZHAO_MATERIALS", "square_frequencies",
@@ -54,20 +54,20 @@ ZHAO_MATERIALS = ["masking-tape", "playing-card", "sandpaper-220", "frosted-acry
                   "scouring-pad", "aluminum", "whiteboard", "cork"]
 SLIDING_EFFECTS = ["reverse", "follow", "static"]  # 004 Sec. 5.2
 SLIDING_BLOCKS = ["V0F0", "V0F1", "V1F0", "V1F1"]  # 004 Sec. 5.2
-SCALE = [str(i) for i in range(1, 8)]  # 7-point scales of 000
-
-
-class _P(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+SCALE = [Choice(id=str(i), label=str(i)) for i in range(1, 8)]  # 7-point scales of 000
 
 
 Alternative = Literal["two-sided", "greater", "less"]
 
 
-class NafcParams(_P):
+def _conditions(method: str, **bounds):
+    """The conditions field: the drive law ``method`` against friction only (condition -> law)."""
+    return Field(default_factory=lambda: {"friction+texture": method, "friction-only": "friction-only"}, **bounds)
+
+
+class NafcParams(Checked):
     materials: list[str] = Field(default_factory=lambda: list(OTAKE2021_MATERIALS), min_length=2)
-    conditions: dict[str, str] = Field(default_factory=lambda: {"friction+texture": "otake2021",
-                                                                "friction-only": "friction-only"}, min_length=1)
+    conditions: dict[str, str] = _conditions("otake2021", min_length=1)
     repetitions: int = Field(4, ge=1, le=100)
     alternatives: int = Field(3, ge=3, le=6)
     # 001 Sec. V: t = 0.63, p = 0.27 is a one-sided Student t test between the conditions'
@@ -76,19 +76,16 @@ class NafcParams(_P):
     paired: bool = False
 
 
-class RealismParams(_P):
+class RealismParams(Checked):
     materials: list[str] = Field(default_factory=lambda: list(OTAKE2022_MATERIALS), min_length=1)
-    conditions: dict[str, str] = Field(default_factory=lambda: {"friction+texture": "otake2022",
-                                                                "friction-only": "friction-only"},
-                                       min_length=2, max_length=2)  # a realism comparison of two
+    conditions: dict[str, str] = _conditions("otake2022", min_length=2, max_length=2)  # a comparison of two
     rounds: int = Field(2, ge=1, le=20)
     alternative: Alternative = "greater"  # 003 Table II: "greater than the chance level"
 
 
-class IdentificationParams(_P):
+class IdentificationParams(Checked):
     materials: list[str] = Field(default_factory=lambda: list(OTAKE2022_MATERIALS), min_length=2)
-    conditions: dict[str, str] = Field(default_factory=lambda: {"friction+texture": "otake2022",
-                                                                "friction-only": "friction-only"}, min_length=1)
+    conditions: dict[str, str] = _conditions("otake2022", min_length=1)
     repetitions: int = Field(2, ge=1, le=100)
     # 003 Table IV: two-sided unpooled (Wald) z per material, Bonferroni (p = .04 / .04)
     alternative: Alternative = "two-sided"
@@ -99,35 +96,35 @@ class IdentificationParams(_P):
     training: int = Field(0, ge=0, le=20)
 
 
-class RatingsParams(_P):
+class RatingsParams(Checked):
     materials: list[str] = Field(default_factory=lambda: list(ZHAO_MATERIALS), min_length=2)
     method: str = "zhao"
     adjectives: dict[str, tuple[str, str]] = Field(default_factory=lambda: {"roughness": ("smooth", "rough"),
                                                                             "stickiness": ("slippery", "sticky")})
-    square_frequencies: dict[str, float] | None = None
+    square_frequencies: dict[str, within(30.0, 300.0, "outside 30-300 Hz")] | None = None
     # 000 Sec. 4: F(1, 260) is a between-subjects method x material ANOVA over all 280 ratings
     anova: Literal["between", "repeated"] = "between"
 
 
-class ShapeChoiceParams(_P):
+class ShapeChoiceParams(Checked):
     repetitions: int = Field(1, ge=1, le=20)
     descriptions: bool = False  # 002 Sec. 4 Part 1: first a free-text description of each stimulus
     grains: dict[str, str] = Field(default_factory=lambda: {"HG1": "edge-soft", "HG2": "area-grainy"})  # 002 Sec. 3.1.2
 
 
-class SceneParams(_P):
+class SceneParams(Checked):
     anova: Literal["repeated", "between"] = "repeated"  # 002 Table 2: four-way within-subject ANOVA
     scenes: list[str] | None = Field(None, min_length=1)  # a subset of the built-in scenes (None: all 20, 002)
 
 
-class SlidingParams(_P):
+class SlidingParams(Checked):
     repetitions: int = Field(10, ge=1, le=100)
     blocks_per_session: int = Field(2, ge=1, le=4)
     practice_trials: int = Field(2, ge=0, le=20)  # at the start of each session (004 Sec. 5.2), not analysed
     anova: Literal["art", "repeated"] = "art"  # 004 Sec. 5.3: aligned rank transform, then the ANOVA
 
 
-def _params(model: type[_P], design: DesignSpec) -> _P:
+def _params(model: type[Checked], design: DesignSpec) -> Checked:
     try:
         return model.model_validate(design.params)
     except ValidationError as exc:
@@ -135,7 +132,7 @@ def _params(model: type[_P], design: DesignSpec) -> _P:
         raise StudyFormatError(msg, field=f"params.{field}") from None
 
 
-def analysis_params(study: Study) -> _P:
+def analysis_params(study: Study) -> Checked:
     """The validated parameters of a study's design (a bad one: StudyFormatError naming ``params.<field>``)."""
     return _params(_GENERATORS[study.design.kind][0], study.design)
 
@@ -224,11 +221,9 @@ def _identification(design: DesignSpec, p: IdentificationParams, i: int, pid: st
 def _ratings(design: DesignSpec, p: RatingsParams, i: int, pid: str) -> tuple[str, list[Trial]]:
     rng = participant_rng(design.seed, i)
     freqs = p.square_frequencies or square_frequencies(p.materials)
-    for m in p.materials:
-        if m not in freqs:
-            raise StudyFormatError(f"no baseline frequency for {m!r}", field="params.square_frequencies")
-        if not 30.0 <= freqs[m] <= 300.0:
-            raise StudyFormatError(f"{m}: {freqs[m]} Hz is outside 30-300 Hz", field="params.square_frequencies")
+    missing = [m for m in p.materials if m not in freqs]
+    if missing:
+        raise StudyFormatError(f"no baseline frequency for {missing[0]!r}", field="params.square_frequencies")
     trials: list[Trial] = []
     items = [(m, src, adj) for m in p.materials for src in ("real", "virtual") for adj in p.adjectives]
     for k in rng.permutation(len(items)):
@@ -237,8 +232,7 @@ def _ratings(design: DesignSpec, p: RatingsParams, i: int, pid: str) -> tuple[st
         render = {"real": m} if src == "real" else {"material": m, "method": p.method}
         _trial(pid, trials, block=0, block_label="adjective ratings", task="rating",
                prompt=f"How {hi} is this surface? (1 = {lo}, 7 = {hi})",
-               stimuli=[Stimulus(label="touch", render=render)],
-               choices=[Choice(id=s, label=s) for s in SCALE],
+               stimuli=[Stimulus(label="touch", render=render)], choices=SCALE,
                condition={"material": m, "source": src, "adjective": adj})
     methods = {"data-driven": {"method": p.method}, "square-wave": {"method": "square"}}
     items2 = [(m, meth) for m in p.materials for meth in methods]
@@ -250,20 +244,19 @@ def _ratings(design: DesignSpec, p: RatingsParams, i: int, pid: str) -> tuple[st
         _trial(pid, trials, block=1, block_label="similarity ratings", task="similarity",
                prompt="How similar are the two surfaces? (1 = not at all, 7 = identical)",
                stimuli=[Stimulus(label="real", render={"real": m}), Stimulus(label="virtual", render=render)],
-               choices=[Choice(id=s, label=s) for s in SCALE],
+               choices=SCALE,
                condition={"material": m, "method": meth})
     return "", trials
 
 
 def _shape_choice(design: DesignSpec, p: ShapeChoiceParams, i: int, pid: str) -> tuple[str, list[Trial]]:
     rng = participant_rng(design.seed, i)
-    conds = []  # Kim et al. Table 1, electrovibration conditions 1-10
-    for shape in ("bump", "hole"):
-        for grain in p.grains:
-            for prof in ("IP0.5", "IP0.7"):
-                conds.append((shape, prof, grain))
-    conds.sort(key=lambda c: (c[0] != "bump", c[2], c[1]))
+    # Kim et al. Table 1, electrovibration conditions 1-10
+    conds = sorted(product(("bump", "hole"), ("IP0.5", "IP0.7"), p.grains), key=lambda c: (c[0] != "bump", c[2], c[1]))
     conds += [("flat", "", g) for g in p.grains]
+    # the formative 1-D profiles (Sec. 3.1); the flat surface has no intensity profile in
+    # Table 1: it is played with IP0.5's offset (zero force -> intensity 0.5)
+    renders = {c: {"profile1d": c[0], "mapping": c[1] or "IP0.5", "grain": p.grains[c[2]]} for c in conds}
     items = [c for c in conds for _ in range(p.repetitions)]
     trials: list[Trial] = []
     if p.descriptions:  # Part 1 before Part 2 (after a short break: the rest screen); own stream
@@ -271,16 +264,12 @@ def _shape_choice(design: DesignSpec, p: ShapeChoiceParams, i: int, pid: str) ->
             shape, prof, grain = conds[int(k)]
             _trial(pid, trials, block=0, block_label="open description", task="description", response="text",
                    prompt="Describe what you felt, in your own words.",
-                   stimuli=[Stimulus(label="touch", render={"profile1d": shape, "mapping": prof or "IP0.5",
-                                                            "grain": p.grains[grain]})],
+                   stimuli=[Stimulus(label="touch", render=renders[shape, prof, grain])],
                    condition={"shape": shape, "profile": prof or "-", "grain": grain})
     for k in rng.permutation(len(items)):
         shape, prof, grain = items[k]
-        # the formative 1-D profiles (Sec. 3.1); the flat surface has no intensity profile in
-        # Table 1: it is played with IP0.5's offset (zero force -> intensity 0.5)
-        render = {"profile1d": shape, "mapping": prof or "IP0.5", "grain": p.grains[grain]}
         _trial(pid, trials, block=int(p.descriptions), block_label="closed choice", task="shape",
-               prompt="Which shape did you feel?", stimuli=[Stimulus(label="touch", render=render)],
+               prompt="Which shape did you feel?", stimuli=[Stimulus(label="touch", render=renders[items[k]])],
                choices=[Choice(id=x, label=lab) for x, lab in (("bump", "bump"), ("hole", "hole"),
                                                                 ("flat", "flat surface"), ("none", "none of these"))],
                correct=shape, condition={"shape": shape, "profile": prof or "-", "grain": grain})
@@ -338,7 +327,7 @@ def _sliding(design: DesignSpec, p: SlidingParams, i: int, pid: str) -> tuple[st
     return "latin-row-" + "".join(str(int(x)) for x in order), trials
 
 
-_GENERATORS: dict[str, tuple[type[_P], Callable]] = {
+_GENERATORS: dict[str, tuple[type[Checked], Callable]] = {
     "nafc": (NafcParams, _nafc),
     "realism": (RealismParams, _realism),
     "identification": (IdentificationParams, _identification),

@@ -71,18 +71,13 @@ def log_files(source: str | Path) -> list[Path]:
     return found
 
 
-def _stimulus(rec: dict) -> str | None:
-    renders = (rec.get("key") or {}).get("stimuli")
-    if renders is None:  # a log written before the render specs were logged
-        return None
-    return " | ".join(",".join(f"{k}={v}" for k, v in r.items()) for r in renders)
-
-
 def _row(rec: dict) -> dict:
     row = {col: rec.get(field) for col, field in _FIELDS.items()}
     row["practice"] = bool(rec.get("practice", False))
     row.update({f"cond_{k}": v for k, v in (rec.get("condition") or {}).items()})
-    row["stimulus"] = _stimulus(rec)
+    renders = (rec.get("key") or {}).get("stimuli")  # None: a log written before the render specs were logged
+    row["stimulus"] = None if renders is None else " | ".join(",".join(f"{k}={v}" for k, v in r.items())
+                                                              for r in renders)
     row.update({col: rec.get(field) for col, field in _ANSWER.items()})
     used = set(_FIELDS.values()) | set(_ANSWER.values()) | _NOT_SCALAR | {"practice"}
     row.update({k: v for k, v in rec.items() if k not in used and (v is None or isinstance(v, (str, int, float)))})

@@ -44,10 +44,6 @@ class LeakageFit:
     model: np.ndarray
 
 
-def _onsets(on: np.ndarray) -> np.ndarray:
-    return np.nonzero(on[1:] & ~on[:-1])[0] + 1
-
-
 def _step_decay(t: np.ndarray, a: float, tau: float, c: float) -> np.ndarray:
     """The friction increase after a DC step at t = 0: a exp(-2 t / tau) + c, 0 before it."""
     return np.where(t >= 0, a * np.exp(-2.0 * np.maximum(t, 0.0) / tau) + c, 0.0)
@@ -69,7 +65,7 @@ def fit_leakage(recordings: Sequence[TribometerRecording]) -> LeakageFit:
         d = sosfiltfilt(sos, rec.lateral_force - mu * rec.normal_force)
         pre = int(round(PRE_S * rec.sample_rate))
         edge = int(round(EDGE_S * rec.sample_rate))
-        starts = [s for s in _onsets(on) if s >= pre and np.all(~on[s - pre:s])]
+        starts = [s for s in np.flatnonzero(on[1:] & ~on[:-1]) + 1 if s >= pre and np.all(~on[s - pre:s])]
         lengths = [int(np.argmin(on[s:])) if not np.all(on[s:]) else on.size - s for s in starts]
         if not starts or min(lengths) < int(0.05 * rec.sample_rate) + edge:
             raise ConfigError("needs switch-on stretches of 70 ms or more after 50 ms off", source=rec.source,

@@ -35,15 +35,9 @@ _PARAMS = ("threshold", "slope", "lapse")
 
 def _core(shape: str, z: np.ndarray) -> np.ndarray:
     """F as a function of ``z = slope (u - location)``, ``u`` being ``ln x`` for weibull."""
-    if shape == "logistic":
-        from scipy.special import expit
+    from scipy.special import expit, ndtr
 
-        return expit(z)
-    if shape == "normal":
-        from scipy.special import ndtr
-
-        return ndtr(z)
-    return -np.expm1(-np.exp(z))
+    return expit(z) if shape == "logistic" else ndtr(z) if shape == "normal" else -np.expm1(-np.exp(z))
 
 
 def psychometric(x, threshold: float, slope: float, guess: float = 0.0, lapse: float = 0.0,

@@ -69,17 +69,13 @@ class StepRenderer:
             raise ConfigError(f"must be a multiple of {CONTROL_RATE} Hz", field="drive_rate")
         self.schedule, self.drive_rate, self.ratio = schedule, int(drive_rate), int(drive_rate) // CONTROL_RATE
         self.v_max, self.clock = limits.v_max, clock
-        self._safety = SafetyStage(drive_rate, limits)
+        self.safety = SafetyStage(drive_rate, limits)
         self._carrier = PolarityCarrier(DEFAULT_CARRIER, drive_rate)
         self.reset()
 
-    @property
-    def safety(self) -> SafetyStage:
-        return self._safety
-
     def reset(self) -> None:
         self._n, self.t0 = 0, self.clock()
-        self._safety.reset()
+        self.safety.reset()
         self._carrier.reset()
 
     def process(self, speed, load, touch_time, x=None, y=None) -> RenderBlock:
@@ -89,7 +85,7 @@ class StepRenderer:
         drive = self._carrier.process(self.schedule.level(self.clock() - self.t0 + td - td[:1]) * self.v_max)
         load_d = np.repeat(np.asarray(load, float), self.ratio)
         age = td - np.repeat(np.asarray(touch_time, float), self.ratio)
-        return RenderBlock(self._safety.process(drive, load_d, age), load_d, np.zeros(n))
+        return RenderBlock(self.safety.process(drive, load_d, age), load_d, np.zeros(n))
 
 
 def record_steps(sensor, engine, schedule: StepSchedule, *, keep_running=lambda: True):

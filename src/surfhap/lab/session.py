@@ -137,11 +137,10 @@ class SessionRunner:
         self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}.jsonl", participant=self.plan.id, config=config,
                             software_version=__version__)
         self._lock = threading.Lock()
-        self._by_id = {t.id: t for t in self.plan.trials}
         self._shown_at: dict[str, float] = {}
         self._stimulus_log: dict[str, list] = {}
         done = self.log.completed
-        unknown = done - set(self._by_id)
+        unknown = done - {t.id for t in self.plan.trials}
         if unknown:
             self.log.close()
             raise StudyFormatError(f"log holds trials that are not in the study ({sorted(unknown)[:3]})",
@@ -151,8 +150,8 @@ class SessionRunner:
         self._pending = [t for t in todo if t.session == self.study_session]
         self.later = len(todo) - len(self._pending)  # trials of the sessions still to come (other days)
         day = (today or local_today()).isoformat()
-        prev_days = sorted({s["config"].get("date") for s in self.log.contents.sessions
-                            if s["config"].get("study_session") == self.study_session - 1} - {None})
+        prev_days = {s["config"].get("date") for s in self.log.contents.sessions
+                     if s["config"].get("study_session") == self.study_session - 1}
         if self._pending and day in prev_days and not allow_same_day:
             self.log.close()
             raise ConfigError(f"session {self.study_session} of {self.plan.id} on the day of session "

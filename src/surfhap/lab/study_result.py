@@ -10,12 +10,6 @@ from surfhap.results import Result, jsonable
 __all__ = ["Section", "StudyAnalysis"]
 
 
-def _fmt_test(t: A.TestResult, p_adj: float | None = None) -> str:
-    s = f"{t.name}: statistic {t.statistic:.3g}" + (f", df {t.df:g}" if isinstance(t.df, float) else "")
-    s += f", p = {t.p:.3g}"
-    return s + (f" (Bonferroni {p_adj:.3g})" if p_adj is not None else "") + f" [{t.alternative}]"
-
-
 @dataclass
 class Section:
     """One part of the report: paragraphs, tables (header, rows) and figures (name, result
@@ -35,7 +29,9 @@ class Section:
         self.tests.append(jsonable({"name": label, "groups": groups, "statistic": t.statistic, "df": t.df, "p": t.p,
                                     "p_adjusted": p_adj, "alternative": t.alternative, "effect_size": eff,
                                     "method": t.name + (f", {correction}" if correction else "")}))
-        return f"{label}: " + _fmt_test(t, p_adj)
+        df = f", df {t.df:g}" if isinstance(t.df, float) else ""
+        return (f"{label}: {t.name}: statistic {t.statistic:.3g}{df}, p = {t.p:.3g}"
+                + (f" (Bonferroni {p_adj:.3g})" if p_adj is not None else "") + f" [{t.alternative}]")
 
 
 _EFFECT = {"binomial": "proportion", "z": "difference of proportions", "t": "difference of means", "r": "r"}

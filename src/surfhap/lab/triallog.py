@@ -45,10 +45,6 @@ class LogContents:
     events: list[dict]
     dropped_tail: int
 
-    @property
-    def completed_ids(self) -> set[str]:
-        return {t["trial_id"] for t in self.trials}
-
 
 def _parse(path: Path, data: bytes) -> tuple[LogContents, int]:
     """Parse the complete lines of ``data``; returns the contents and the length of the
@@ -117,7 +113,7 @@ class TrialLog:
             os.ftruncate(self._fd, good)
             os.fsync(self._fd)
         self.contents = contents
-        self._ids = contents.completed_ids
+        self._ids = {t["trial_id"] for t in contents.trials}
         self.session = len(contents.sessions) + 1
         self.participant = participant
         # written before the session's first record: a start that fails before leaves no session
