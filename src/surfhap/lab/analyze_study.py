@@ -102,16 +102,9 @@ def _mean_rows(recs, factors, value, sd: bool = True) -> list[list]:
     for factor in factors:
         for (lev,), rs in sorted(_by(recs, factor).items()):
             v = [value(r) for r in rs]
-            rows.append([factor, lev, f"{np.mean(v):.2f}", *([_sd(v)] if sd else []), len(v)])
+            sd_col = [f"{np.std(v, ddof=1) if len(v) > 1 else 0:.2f}"] if sd else []
+            rows.append([factor, lev, f"{np.mean(v):.2f}", *sd_col, len(v)])
     return rows
-
-
-def _sd(v) -> str:
-    return f"{np.std(v, ddof=1) if len(v) > 1 else 0:.2f}"
-
-
-def _r_test(pr) -> A.TestResult:
-    return A.TestResult("r (Pearson)", pr.r, pr.p, pr.n - 2, estimate=pr.r)
 
 
 def _mean_ci_rows(labels, pm: A.ProportionResult) -> list[list]:
@@ -250,7 +243,7 @@ def _ratings(study, recs):
             pr = A.pearson([cell[m, a, "real"] for m in labs], [cell[m, a, "virtual"] for m in labs], labs,
                            x_name=f"{a} (real)", y_name=f"{a} (virtual)")
             sec.text.append(f"real vs virtual: r = {pr.r:.3f}, p = {pr.p:.3g} (n = {pr.n} materials)")
-            sec.add(f"{a}: real vs virtual", _r_test(pr), labs)
+            sec.add(f"{a}: real vs virtual", A.TestResult("r (Pearson)", pr.r, pr.p, pr.n - 2, estimate=pr.r), labs)
             sec.figures.append((f"ratings_{a}", pr, {}))
         else:
             sec.text.append("needs three materials or more rated real and virtual")
@@ -270,7 +263,8 @@ def _ratings(study, recs):
             labs = [m for m in mats if m in dd and (m, a, "real") in cell]
             if len(labs) >= 3:
                 pr = A.pearson([dd[m] for m in labs], [cell[m, a, "real"] for m in labs], labs)
-                sec.text.append(sec.add(f"similarity (data-driven) vs {a} (real)", _r_test(pr), labs))
+                sec.text.append(sec.add(f"similarity (data-driven) vs {a} (real)",
+                                        A.TestResult("r (Pearson)", pr.r, pr.p, pr.n - 2, estimate=pr.r), labs))
         out.append(sec)
     return out
 
