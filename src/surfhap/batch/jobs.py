@@ -174,7 +174,4 @@ def fit_imu_to_file(job: FitImuJob) -> dict:
             "sample_rate": float(rec.sample_rate), "aic_note": aic_note}
 
 
-def run_fit_imu_job(job: FitImuJob) -> dict:
-    """:func:`fit_imu_to_file`, creating the target's folder first (one folder per recording)."""
-    Path(job.target).parent.mkdir(parents=True, exist_ok=True)
-    return fit_imu_to_file(job)
+run_fit_imu_job = fit_imu_to_file  # the batch's one-job function: write_material_json creates the job's folder

@@ -54,7 +54,6 @@ def write_display_json(doc: dict, path: str | Path) -> Path:
     """Write a display file (``doc`` as :meth:`surfhap.lab.calibration.Calibration.to_display_json`
     makes it) after validating it as the reader will: a file the renderers refuse is never written."""
     validated(DisplayFile, doc, str(path), ConfigError)
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
     return write_text(path, json.dumps(doc, indent=2) + "\n")
 
 

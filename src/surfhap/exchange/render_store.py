@@ -84,9 +84,6 @@ class RenderData:
     def __contains__(self, name: str) -> bool:
         return name in self.channels or name in self._derived()
 
-    def keys(self) -> list[str]:
-        return list(self.channels) + [k for k in self._derived() if k not in self.channels]
-
 
 class H5Writer:
     """``render.h5``: chunked datasets grown one whole chunk at a time from a fixed buffer per

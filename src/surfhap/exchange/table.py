@@ -93,9 +93,10 @@ def unit_factor(channel: str, unit: str | None, units: Mapping[str, float], sour
 
 
 def resolve_columns(headers: list[str], channels: Mapping[str, Mapping[str, float]], rename: Mapping[str, str],
-             source: str, error: type[InputError]) -> dict[str, tuple[int, float]]:
+                    source: str, error: type[InputError], required: Sequence[str] = ()) -> dict[str, tuple[int, float]]:
     """canonical channel -> (column index, factor to SI); ``rename`` maps a channel to a column
-    spec ``"v_x[mm/s]"`` (name, and optionally the unit when the header has none)."""
+    spec ``"v_x[mm/s]"`` (name, and optionally the unit when the header has none); a channel of
+    ``required`` not found is ``error`` ("missing column (need ...)")."""
     parsed = [split_header(h) for h in headers]
     by_full = {h.strip(): i for i, h in enumerate(headers)}
     by_name: dict[str, int] = {}
@@ -114,6 +115,9 @@ def resolve_columns(headers: list[str], channels: Mapping[str, Mapping[str, floa
     for i, (name, unit) in enumerate(parsed):
         if name in channels and name not in out and i not in taken:
             out[name] = (i, unit_factor(name, unit, channels[name], source, headers[i], error))
+    missing = [c for c in required if c not in out]
+    if missing:
+        raise error(f"missing column (need {', '.join(required)})", source=source, field=missing[0])
     return out
 
 
@@ -217,10 +221,7 @@ def read_csv_table(path: str | Path, channels: Mapping[str, Mapping[str, float]]
         if header is None:
             raise error("empty file (no header line)", source=source)
         headers = [h.strip() for h in next(csv.reader([header]))]
-        mapping = resolve_columns(headers, channels, dict(rename or {}), source, error)
-        missing = [c for c in required if c not in mapping]
-        if missing:
-            raise error(f"missing column (need {', '.join(required)})", source=source, field=missing[0])
+        mapping = resolve_columns(headers, channels, dict(rename or {}), source, error, required)
         order = list(mapping)
         table = _fast_columns(fh, [mapping[c][0] for c in order])
         if table is not None:
