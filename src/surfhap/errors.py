@@ -143,7 +143,7 @@ def reading(source: str | Path, error: type[InputError] = InputError, what: str 
 
 
 @contextmanager
-def writing(path: str | Path, what: str = "file"):
+def writing(path: str | Path):
     """Write ``path`` inside this block: an OSError (no space left, no permission...) becomes
     an :class:`OutputError` naming ``path``."""
     try:
@@ -151,4 +151,4 @@ def writing(path: str | Path, what: str = "file"):
     except InputError:
         raise
     except OSError as exc:
-        raise OutputError(f"cannot write {what} ({_os_reason(exc)})", source=str(path)) from None
+        raise OutputError(f"cannot write file ({_os_reason(exc)})", source=str(path)) from None

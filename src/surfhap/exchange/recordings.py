@@ -24,7 +24,6 @@ column: missing columns, unknown units, non-monotonic time, NaN runs, too few sa
 
 from __future__ import annotations
 
-import io
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,8 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import RecordingFormatError, writing
-from surfhap.exchange.files import file_sha256, load_npz, npz_number, numeric, parse_pairs, write_text
-from surfhap.exchange.table import UNITS, read_csv_table, resolve_columns, time_step
+from surfhap.exchange.files import file_sha256, load_npz, npz_number, numeric, parse_pairs
+from surfhap.exchange.table import UNITS, read_csv_table, resolve_columns, time_step, write_csv_table
 
 __all__ = [
     "CHANNELS",
@@ -237,17 +236,9 @@ def read_recordings(paths: Sequence[str | Path], columns: Mapping[str, str] | No
 
 def write_recording_csv(rec: Recording, path: str | Path) -> Path:
     """Write a recording as CSV with SI headers, participant/trial and the other ``meta`` lines."""
-    path = Path(path)
-    names = list(rec.channels)
-    buf = io.StringIO()
-    buf.write(f"# participant: {rec.participant}\n")
-    if rec.trial:
-        buf.write(f"# trial: {rec.trial}\n")
-    buf.writelines(f"# {k}: {v}\n" for k, v in rec.meta.items() if k not in ("participant", "trial"))
-    buf.write(",".join(["time", *names]) + "\n")
-    cols = np.column_stack([rec.time, *[rec.channels[k] for k in names]])
-    np.savetxt(buf, cols, delimiter=",", fmt="%.9g")
-    return write_text(path, buf.getvalue())
+    meta = {"participant": rec.participant, **({"trial": rec.trial} if rec.trial else {})}
+    meta |= {k: v for k, v in rec.meta.items() if k not in ("participant", "trial")}
+    return write_csv_table(path, {"time": rec.time, **rec.channels}, meta)
 
 
 def write_recording_npz(rec: Recording, path: str | Path) -> Path:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 from surfhap.exchange.files import write_text
 from surfhap.exchange.render_store import RENDER_CHANNELS as CHANNELS
-from surfhap.exchange.render_store import SUFFIXES, DriveWavWriter, open_render_writer
+from surfhap.exchange.render_store import DriveWavWriter, open_render_writer
 
 if TYPE_CHECKING:  # exchange/ sits below render/: it writes the result's arrays, it does not compute
     from surfhap.render.offline import RenderResult
@@ -64,5 +64,5 @@ def write_render(result: RenderResult, out_dir: str | Path, amp_gain: float | No
     for name in CHANNELS:
         writer(name, getattr(result, name))
     writer.close(render_file_attrs(result))
-    return {"wav": wav.path, "render": out / f"render{SUFFIXES[format]}",
+    return {"wav": wav.path, "render": writer.path,
             "summary": write_summary(out / "summary.json", result.summary(), gain)}

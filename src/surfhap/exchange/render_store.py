@@ -102,14 +102,14 @@ class H5Writer:
         self._f.attrs["format"] = FORMAT
         self._f.attrs["version"] = VERSION
         self._f.attrs["complete"] = False
-        self._sets, self._buf, self._fill, self._size = {}, {}, {}, {}
+        self._sets, self._buf, self._fill = {}, {}, {}
         for name, (rate, unit) in spec.items():
             ds = self._f.create_dataset(name, shape=(0,), maxshape=(None,), chunks=(self.CHUNK,), dtype=store_dtype(name))
             ds.attrs["rate_hz"] = float(rate)
             ds.attrs["unit"] = unit
             self._sets[name] = ds
             self._buf[name] = np.empty(self.CHUNK, dtype=store_dtype(name))
-            self._fill[name] = self._size[name] = 0
+            self._fill[name] = 0
 
     def __call__(self, channel, block):
         buf = self._buf[channel]
@@ -124,19 +124,14 @@ class H5Writer:
                 self._flush(channel)
 
     def _flush(self, channel):
-        k = self._fill[channel]
+        ds, n0, k = self._sets[channel], self._sets[channel].shape[0], self._fill[channel]
         if k:
             with writing(self.path):
-                self._write_chunk(channel, k)
-
-    def _write_chunk(self, channel, k):
-        ds, n0 = self._sets[channel], self._size[channel]
-        ds.resize((n0 + k,))
-        ds[n0:n0 + k] = self._buf[channel][:k]
-        self._size[channel] = n0 + k
-        self._fill[channel] = 0
-        if channel == "drive":  # every ~3 s at 20 kHz: metadata on disk, so even a hard kill
-            self._f.flush()     # leaves a file readable up to here ("complete" stays false)
+                ds.resize((n0 + k,))
+                ds[n0:n0 + k] = self._buf[channel][:k]
+                self._fill[channel] = 0
+                if channel == "drive":  # every ~3 s at 20 kHz: metadata on disk, so even a hard kill
+                    self._f.flush()     # leaves a file readable up to here ("complete" stays false)
 
     def close(self, attrs):
         for name in self._sets:
@@ -182,28 +177,22 @@ class NpzWriter:
         self._blocks = {}
 
 
-WRITERS: dict[str, type[H5Writer | NpzWriter]] = {"h5": H5Writer, "npz": NpzWriter}
-SUFFIXES = {"h5": ".h5", "npz": ".npz"}
+WRITERS: dict[str, type[H5Writer | NpzWriter]] = {"h5": H5Writer, "npz": NpzWriter}  # format -> writer of render.<format>
 
 
 def open_render_writer(out_dir: str | Path, fmt: str, spec: dict[str, tuple[float, str]]) -> H5Writer | NpzWriter:
     """A writer of ``render.<suffix>`` in ``out_dir`` for format ``fmt`` ("h5" or "npz")."""
     if fmt not in WRITERS:
         raise ConfigError(f"unknown format {fmt!r} (known: {', '.join(WRITERS)})", source="--format")
-    return WRITERS[fmt](Path(out_dir) / f"render{SUFFIXES[fmt]}", spec)
+    return WRITERS[fmt](Path(out_dir) / f"render.{fmt}", spec)
 
 
-def _attrs(items) -> dict:
-    """HDF5 attributes as Python values; ``NAME_json`` attributes decoded into ``NAME``."""
+def _attrs(attrs) -> dict:
+    """HDF5 attributes (h5py's ``.attrs``) as Python values; ``NAME_json`` attributes decoded into ``NAME``."""
     out = {}
-    for key, value in items:
-        if isinstance(value, bytes):
-            value = value.decode()
-        if isinstance(value, np.generic):
-            value = value.item()
-        if key.endswith("_json"):
-            key, value = key[:-5], json.loads(value)
-        out[key] = value
+    for key, value in attrs.items():
+        value = value.decode() if isinstance(value, bytes) else value.item() if isinstance(value, np.generic) else value
+        out[key.removesuffix("_json")] = json.loads(value) if key.endswith("_json") else value
     return out
 
 
@@ -221,8 +210,8 @@ def _read_h5(path: Path) -> RenderData:
         for name, ds in f.items():
             channels[name] = ds[()]
             rates[name] = float(ds.attrs["rate_hz"])
-            units[name] = str(_attrs([("unit", ds.attrs["unit"])])["unit"])
-        attrs = _attrs(f.attrs.items())
+            units[name] = str(_attrs(ds.attrs)["unit"])
+        attrs = _attrs(f.attrs)
     return RenderData(channels, rates, units, attrs)
 
 
@@ -249,7 +238,7 @@ def read_render(path: str | Path) -> RenderData:
     a render folder."""
     p = Path(path)
     if p.is_dir():
-        found = [p / f"render{s}" for s in SUFFIXES.values() if (p / f"render{s}").is_file()]
+        found = [p / f"render.{fmt}" for fmt in WRITERS if (p / f"render.{fmt}").is_file()]
         if not found:
             raise ConfigError("no render.h5 or render.npz in this folder", source=str(p))
         p = found[0]

@@ -17,6 +17,7 @@ UTF-8, no header, missing column, unknown unit, a cell that is not a number (wit
 from __future__ import annotations
 
 import csv
+import io
 import re
 import warnings
 from array import array
@@ -27,9 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import InputError, reading
-from surfhap.exchange.files import file_sha256
+from surfhap.exchange.files import file_sha256, write_text
 
-__all__ = ["Table", "UNITS", "read_csv_table", "split_header", "unit_factor", "resolve_columns", "time_step"]
+__all__ = ["Table", "UNITS", "read_csv_table", "write_csv_table", "split_header", "unit_factor", "resolve_columns", "time_step"]
 
 #: SI unit -> {accepted unit: factor to SI}; matched without spaces and case
 UNITS: dict[str, dict[str, float]] = {
@@ -177,7 +178,8 @@ def _fast_columns(fh, cols: list[int]) -> np.ndarray | None:
 
 def _slow_columns(fh, mapping, headers, allow_nan: bool, source: str, error: type[InputError]) -> tuple[dict, int]:
     """Cell by cell (empty / "nan" cells, quoted or ragged rows), naming the first bad cell;
-    one float per cell is kept (stdlib arrays), never the rows."""
+    one float per cell is kept (stdlib arrays), never the rows. Returns the columns and the
+    number of data rows (counted even without any column to read)."""
     vals = {channel: array("d") for channel in mapping}
     r = -1
     for r, row in enumerate(csv.reader(_body_lines(fh))):
@@ -194,8 +196,14 @@ def _slow_columns(fh, mapping, headers, allow_nan: bool, source: str, error: typ
     return {channel: np.frombuffer(v, dtype=float) if len(v) else np.empty(0) for channel, v in vals.items()}, r + 1
 
 
-def _count_rows(fh) -> int:
-    return sum(1 for _ in _body_lines(fh))
+def write_csv_table(path: str | Path, columns: Mapping[str, np.ndarray], meta: Mapping[str, str] | None = None) -> Path:
+    """Write ``columns`` (header cell -> (n,) array, 9 significant digits) as a CSV that
+    :func:`read_csv_table` reads, after one ``# key: value`` line per ``meta`` entry."""
+    buf = io.StringIO()
+    buf.writelines(f"# {k}: {v}\n" for k, v in (meta or {}).items())
+    np.savetxt(buf, np.column_stack(list(columns.values())), delimiter=",", fmt="%.9g", header=",".join(columns),
+               comments="")
+    return write_text(path, buf.getvalue())
 
 
 def read_csv_table(path: str | Path, channels: Mapping[str, Mapping[str, float]], *,
@@ -229,10 +237,7 @@ def read_csv_table(path: str | Path, channels: Mapping[str, Mapping[str, float]]
             n = table.shape[0]
         else:
             fh.seek(body_at)
-            if mapping:
-                raw, n = _slow_columns(fh, mapping, headers, allow_nan, source, error)
-            else:
-                raw, n = {}, _count_rows(fh)
+            raw, n = _slow_columns(fh, mapping, headers, allow_nan, source, error)
     if n < min_rows:
         raise error(f"needs at least {min_rows} data row{'s' if min_rows > 1 else ''}", source=source)
     columns: dict[str, np.ndarray] = {}

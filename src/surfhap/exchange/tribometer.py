@@ -29,9 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import RecordingFormatError, writing
-from surfhap.exchange.files import write_text
 from surfhap.exchange.recordings import checked_time, read_channels
-from surfhap.exchange.table import UNITS
+from surfhap.exchange.table import UNITS, write_csv_table
 
 __all__ = ["TRIBOMETER_CHANNELS", "INPUT_KINDS", "TribometerRecording", "read_tribometer", "write_tribometer_csv",
            "write_tribometer_npz"]
@@ -113,12 +112,10 @@ def read_tribometer(path: str | Path) -> TribometerRecording:
 
 def write_tribometer_csv(rec: TribometerRecording, path: str | Path) -> Path:
     """Write ``rec`` as CSV in the schema above."""
-    p = Path(path)
-    unit = "1" if rec.input == "intensity" else "V"
-    lines = [f"# input: {rec.input}", f"time[s],lateral_force[N],normal_force[N],level[{unit}]"]
-    lines += [f"{t:.9g},{f:.9g},{n:.9g},{v:.9g}" for t, f, n, v in
-              zip(rec.time, rec.lateral_force, rec.normal_force, rec.level)]
-    return write_text(p, "\n".join(lines) + "\n")
+    level = f"level[{'1' if rec.input == 'intensity' else 'V'}]"
+    columns = {"time[s]": rec.time, "lateral_force[N]": rec.lateral_force, "normal_force[N]": rec.normal_force,
+               level: rec.level}
+    return write_csv_table(path, columns, {"input": rec.input})
 
 
 def write_tribometer_npz(rec: TribometerRecording, path: str | Path) -> Path:
