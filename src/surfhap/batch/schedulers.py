@@ -111,19 +111,16 @@ def _pool_context(preload: Sequence[str] = ()):
     return ctx
 
 
-def _start_fork_server(preload: Sequence[str]) -> bool:
-    """Start the fork server (it imports ``preload`` in the background); False where the
-    platform has none. The server lives until this process ends; a second call reuses it."""
-    if _pool_context(preload).get_start_method() != "forkserver":
+def _start_fork_server(spec: SchedulerSpec, preload: Sequence[str]) -> bool:
+    """Start the fork server (it imports ``preload``, and ``distributed`` for a Dask cluster, in the
+    background); False where the platform has none. The server lives until this process ends; a
+    second call reuses it."""
+    if _pool_context(("distributed", *preload) if spec.kind == "dask" else preload).get_start_method() != "forkserver":
         return False
     from multiprocessing import forkserver
 
     forkserver.ensure_running()
     return True
-
-
-def _server_modules(spec: SchedulerSpec, preload: Sequence[str]) -> tuple[str, ...]:
-    return ("distributed", *preload) if spec.kind == "dask" else tuple(preload)
 
 
 def prestart(spec: SchedulerSpec, preload: Sequence[str] = ()) -> None:
@@ -132,7 +129,7 @@ def prestart(spec: SchedulerSpec, preload: Sequence[str] = ()) -> None:
     local processes and a Dask ``local:N`` cluster; does nothing for the serial scheduler, a
     remote cluster, or where there is no fork server."""
     if spec.kind == "processes" or (spec.kind == "dask" and spec.address is None):
-        _start_fork_server(_server_modules(spec, preload))
+        _start_fork_server(spec, preload)
 
 
 class _Pool:
@@ -148,7 +145,7 @@ class _Pool:
         futures = {self._executor.submit(_call, fn, i, item): i for i, item in enumerate(items)}
         for fut in as_completed(futures):
             index, exc = futures.pop(fut), fut.exception()  # popped: a finished job's value is not kept
-            if exc is not None:  # the worker died or was lost, or an unpicklable result (a job's exception is caught in _call)
+            if exc is not None:  # a worker died or was lost, or the result did not pickle (_call catches a job's own)
                 yield JobOutcome(index, False, None, f"{type(exc).__name__}: {exc}", 0.0)
             else:
                 yield fut.result()
@@ -191,7 +188,7 @@ def _dask_client(spec: SchedulerSpec, preload: Sequence[str] = ()):
 
     if spec.address is None:
         config = dict(_LOCAL_CLUSTER_CONFIG)
-        if _start_fork_server(_server_modules(spec, preload)):  # before the nannies: they would set their own preload
+        if _start_fork_server(spec, preload):  # before the nannies: they would set their own preload
             config["distributed.worker.multiprocessing-method"] = "forkserver"
         with dask.config.set(config):  # the nannies pass it on to their workers
             cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True, dashboard_address=":0")

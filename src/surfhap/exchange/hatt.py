@@ -261,15 +261,16 @@ def hatt_to_material(ms: HattModelSet, source: str, sha256: str | None = None, c
     return Material.from_spec(spec)
 
 
-def read_hatt_material(path: str | Path):
-    """Reader for :func:`surfhap.exchange.materials.load_material` (``.xml``)."""
+def read_hatt_material(path: str | Path, command: str | None = None):
+    """Reader for :func:`surfhap.exchange.materials.load_material` (``.xml``); ``command`` as in
+    :func:`hatt_to_material`. A model set the material refuses is a MaterialFormatError too."""
     path = Path(path)
     ms = read_hatt_xml(path)
     try:
-        return hatt_to_material(ms, str(path), file_sha256(path, MaterialFormatError))
+        return hatt_to_material(ms, str(path), file_sha256(path, MaterialFormatError), command)
+    except MaterialFormatError:
+        raise
     except ValueError as exc:
-        if isinstance(exc, MaterialFormatError):
-            raise
         raise _err(path, str(exc).splitlines()[0]) from None
 
 
@@ -286,13 +287,7 @@ def import_hatt_folder(folder: str | Path, out_dir: str | Path) -> list[Path]:
         files = sorted(folder.rglob("Models_*.xml"))
     if not files:
         raise MaterialFormatError("no Models_*.xml file found (point at the HaTT folder that holds them)", source=str(folder))
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    written = []
-    for f in files:
-        ms = read_hatt_xml(f)
-        mat = hatt_to_material(ms, str(f), file_sha256(f, MaterialFormatError),
-                               command=f"surfhap import hatt {folder} --out {out_dir}")
-        written.append(write_material_json(mat, out_dir / f"{mat.name}.json"))
-    return written
+    out_dir, command = Path(out_dir), f"surfhap import hatt {folder} --out {out_dir}"
+    materials = [read_hatt_material(f, command) for f in files]  # every file checked before one is written
+    return [write_material_json(mat, out_dir / f"{mat.name}.json") for mat in materials]
 
