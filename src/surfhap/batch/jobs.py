@@ -44,7 +44,8 @@ def render_to_folder(material, trajectory, config, out: Path, *, fmt: str = "aut
     the summary. Returns (RenderResult, paths dict with keys wav, render, summary[, figure]).
     """
     from surfhap.exchange.render_files import render_file_attrs, render_file_spec, write_summary
-    from surfhap.exchange.render_store import DriveWavWriter, open_render_writer
+    from surfhap.exchange.render_store import open_render_writer
+    from surfhap.exchange.wav import DriveWavWriter
     from surfhap.render.chain import TextureChain
     from surfhap.runtime.offline import stream_render
 

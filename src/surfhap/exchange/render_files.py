@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING
 
 from surfhap.exchange.files import write_text
 from surfhap.exchange.render_store import RENDER_CHANNELS as CHANNELS
-from surfhap.exchange.render_store import DriveWavWriter, open_render_writer
+from surfhap.exchange.render_store import open_render_writer
+from surfhap.exchange.wav import DriveWavWriter
 
 if TYPE_CHECKING:  # exchange/ sits below render/: it writes the result's arrays, it does not compute
     from surfhap.render.offline import RenderResult

@@ -37,7 +37,7 @@ RENDER_CHANNELS = {  # channel -> (rate: "model" or "drive", unit)
 }
 
 
-__all__ = ["RENDER_CHANNELS", "RenderData", "read_render", "open_render_writer", "READERS", "WRITERS", "store_dtype", "DriveWavWriter"]
+__all__ = ["RENDER_CHANNELS", "RenderData", "read_render", "open_render_writer", "READERS", "WRITERS", "store_dtype"]
 
 FORMAT = "surfhap-render"
 VERSION = 1
@@ -249,34 +249,3 @@ def read_render(path: str | Path) -> RenderData:
         raise ConfigError("no such file", source=str(p))
     return reader(p)
 
-
-class DriveWavWriter:
-    """``drive.wav`` written block by block: float32 DAC units (volts / ``amp_gain``, V per full
-    scale) at ``rate`` Hz. A block beyond +-1 full scale raises ConfigError (field amp_gain)."""
-
-    def __init__(self, path: str | Path, rate: int, amp_gain: float):
-        from surfhap.exchange.wav import FloatWavStream
-
-        if not (np.isfinite(amp_gain) and amp_gain > 0):
-            raise ConfigError("must be > 0 V per DAC unit", field="amp_gain")
-        self.path, self.amp_gain = Path(path), float(amp_gain)
-        self._f = FloatWavStream(self.path, int(rate))
-        self._flush_every = 3 * int(rate)  # samples: the header is brought up to date every 3 s of drive
-        self._next_flush = self._flush_every
-
-    def __call__(self, drive: np.ndarray) -> None:
-        units = (np.asarray(drive, dtype=float) / self.amp_gain).astype(np.float32)
-        peak = float(np.max(np.abs(units))) if units.size else 0.0
-        if peak > 1.0:
-            raise ConfigError(f"the drive reaches {peak:.3g} DAC full scales; raise the amplifier gain", field="amp_gain")
-        self._f.write(units)
-        if self._f.n >= self._next_flush:  # a crash leaves a file readable up to the last flush
-            self._f.flush()
-            self._next_flush = self._f.n + self._flush_every
-
-    def close(self) -> None:
-        self._f.close()
-
-    def abort(self) -> None:
-        self._f.close()
-        self.path.unlink(missing_ok=True)
