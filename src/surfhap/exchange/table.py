@@ -122,22 +122,21 @@ def resolve_columns(headers: list[str], channels: Mapping[str, Mapping[str, floa
     return out
 
 
-def time_step(t: np.ndarray, source: str, error: type[InputError], tolerance: float | None = 0.05,
-              row: int = 2) -> float:
+def time_step(t: np.ndarray, source: str, error: type[InputError], tolerance: float | None = 0.05) -> float:
     """The median step (s) of a time column that increases strictly and (unless ``tolerance``
     is None) is uniformly sampled within ``tolerance``; otherwise ``error`` naming the field
-    ``time`` and the 1-based data row (``row`` = the row of the second sample)."""
+    ``time`` and the 1-based data row (the second sample is row 2)."""
     dt = np.diff(t)
     bad = np.nonzero(~(dt > 0))[0]
     if bad.size:
         i = int(bad[0])
-        raise error(f"not strictly increasing at row {i + row} ({t[i]:.6g} s then {t[i + 1]:.6g} s)", source=source,
+        raise error(f"not strictly increasing at row {i + 2} ({t[i]:.6g} s then {t[i + 1]:.6g} s)", source=source,
                     field="time")
     step = float(np.median(dt)) if dt.size else 0.0
     dev = np.abs(dt - step)
     if tolerance is not None and dt.size and dev.max() > tolerance * step:
         i = int(np.argmax(dev))
-        raise error(f"not uniformly sampled within {tolerance:.0%}: step of {dt[i]:.6g} s at row {i + row}, median step "
+        raise error(f"not uniformly sampled within {tolerance:.0%}: step of {dt[i]:.6g} s at row {i + 2}, median step "
                     f"{step:.6g} s; resample first", source=source, field="time")
     return step
 
