@@ -20,9 +20,6 @@ from surfhap.shape.calibration import ShapeCalibration
 
 __all__ = ["write_shape", "write_calibration", "read_calibration", "default_calibration_path"]
 
-CALIBRATION_SUFFIX = ".calibration.json"
-
-
 def write_shape(result, out_dir: str | Path) -> dict[str, Path]:
     """Write ``shape.npz`` and ``summary.json`` into ``out_dir`` (created); returns the paths."""
     out = Path(out_dir)
@@ -46,7 +43,7 @@ def write_shape(result, out_dir: str | Path) -> dict[str, Path]:
 def default_calibration_path(mesh_path: str | Path) -> Path:
     """``<mesh>.calibration.json`` next to the mesh (e.g. bunny.ply.calibration.json)."""
     p = Path(mesh_path)
-    return p.with_name(p.name + CALIBRATION_SUFFIX)
+    return p.with_name(p.name + ".calibration.json")
 
 
 def write_calibration(cal: ShapeCalibration, path: str | Path) -> Path:
