@@ -92,15 +92,13 @@ class OutputError(InputError):
 
 class InputWarning(UserWarning):
     """Input that is accepted but probably not what the user meant (issued with
-    :func:`warnings.warn`; the CLI prints it as one ``warning:`` line). ``source`` and ``hint``
-    locate it like an :class:`InputError`."""
+    :func:`warnings.warn`; the CLI prints it as one ``warning:`` line). ``source`` locates it
+    like an :class:`InputError`."""
 
-    def __init__(self, message: str, *, source: str | None = None, hint: str | None = None):
+    def __init__(self, message: str, *, source: str | None = None):
         self.message = message
         self.source = None if source is None else str(source)
-        self.hint = hint
-        text = ": ".join(p for p in (self.source, message) if p)
-        super().__init__(" ".join((text + (f" ({hint})" if hint else "")).splitlines()))
+        super().__init__(" ".join(": ".join(p for p in (self.source, message) if p).splitlines()))
 
 
 class MeshUnitsWarning(InputWarning):
@@ -143,7 +141,7 @@ def reading(source: str | Path, error: type[InputError] = InputError, what: str 
 
 
 @contextmanager
-def writing(path: str | Path, what: str = "file"):
+def writing(path: str | Path):
     """Write ``path`` inside this block: an OSError (no space left, no permission...) becomes
     an :class:`OutputError` naming ``path``."""
     try:
@@ -151,4 +149,4 @@ def writing(path: str | Path, what: str = "file"):
     except InputError:
         raise
     except OSError as exc:
-        raise OutputError(f"cannot write {what} ({_os_reason(exc)})", source=str(path)) from None
+        raise OutputError(f"cannot write file ({_os_reason(exc)})", source=str(path)) from None

@@ -33,9 +33,7 @@ def write_index(rows: list[dict], root: str | Path, scheduler: str) -> dict[str,
     ``index.json`` ({"scheduler", "jobs", "failed", "rows"}) into ``root``; returns the paths."""
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
-    columns: list[str] = []
-    for row in rows:
-        columns += [k for k in row if k not in columns]
+    columns = list(dict.fromkeys(k for row in rows for k in row))
     paths = {"csv": root / "index.csv", "json": root / "index.json"}
     with paths["csv"].open("w", newline="", encoding="utf-8") as fh:
         writer = csv.DictWriter(fh, fieldnames=columns, restval="")

@@ -44,7 +44,8 @@ def render_to_folder(material, trajectory, config, out: Path, *, fmt: str = "aut
     the summary. Returns (RenderResult, paths dict with keys wav, render, summary[, figure]).
     """
     from surfhap.exchange.render_files import render_file_attrs, render_file_spec, write_summary
-    from surfhap.exchange.render_store import DriveWavWriter, open_render_writer
+    from surfhap.exchange.render_store import open_render_writer
+    from surfhap.exchange.wav import DriveWavWriter
     from surfhap.render.chain import TextureChain
     from surfhap.runtime.offline import stream_render
 
@@ -174,7 +175,4 @@ def fit_imu_to_file(job: FitImuJob) -> dict:
             "sample_rate": float(rec.sample_rate), "aic_note": aic_note}
 
 
-def run_fit_imu_job(job: FitImuJob) -> dict:
-    """:func:`fit_imu_to_file`, creating the target's folder first (one folder per recording)."""
-    Path(job.target).parent.mkdir(parents=True, exist_ok=True)
-    return fit_imu_to_file(job)
+run_fit_imu_job = fit_imu_to_file  # the batch's one-job function: write_material_json creates the job's folder

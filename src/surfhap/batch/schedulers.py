@@ -111,19 +111,16 @@ def _pool_context(preload: Sequence[str] = ()):
     return ctx
 
 
-def _start_fork_server(preload: Sequence[str]) -> bool:
-    """Start the fork server (it imports ``preload`` in the background); False where the
-    platform has none. The server lives until this process ends; a second call reuses it."""
-    if _pool_context(preload).get_start_method() != "forkserver":
+def _start_fork_server(spec: SchedulerSpec, preload: Sequence[str]) -> bool:
+    """Start the fork server (it imports ``preload``, and ``distributed`` for a Dask cluster, in the
+    background); False where the platform has none. The server lives until this process ends; a
+    second call reuses it."""
+    if _pool_context(("distributed", *preload) if spec.kind == "dask" else preload).get_start_method() != "forkserver":
         return False
     from multiprocessing import forkserver
 
     forkserver.ensure_running()
     return True
-
-
-def _server_modules(spec: SchedulerSpec, preload: Sequence[str]) -> tuple[str, ...]:
-    return ("distributed", *preload) if spec.kind == "dask" else tuple(preload)
 
 
 def prestart(spec: SchedulerSpec, preload: Sequence[str] = ()) -> None:
@@ -132,38 +129,26 @@ def prestart(spec: SchedulerSpec, preload: Sequence[str] = ()) -> None:
     local processes and a Dask ``local:N`` cluster; does nothing for the serial scheduler, a
     remote cluster, or where there is no fork server."""
     if spec.kind == "processes" or (spec.kind == "dask" and spec.address is None):
-        _start_fork_server(_server_modules(spec, preload))
+        _start_fork_server(spec, preload)
 
 
-class _Processes:
-    """A pool of local worker processes started by :func:`_pool_context` (a fork server that
-    preloaded the job's modules, or spawned interpreters); workers ignore SIGINT."""
+class _Pool:
+    """Jobs on a :class:`concurrent.futures.Executor`: a pool of local worker processes or a
+    Dask client's executor (see :func:`open_scheduler`)."""
 
-    def __init__(self, workers: int, preload: Sequence[str] = ()):
-        from concurrent.futures import ProcessPoolExecutor
-
-        self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=_pool_context(preload), initializer=_ignore_sigint)
+    def __init__(self, executor):
+        self._executor = executor
 
     def map(self, fn, items):
         from concurrent.futures import as_completed
 
-        futures = {self._pool.submit(_call, fn, i, item): i for i, item in enumerate(items)}
+        futures = {self._executor.submit(_call, fn, i, item): i for i, item in enumerate(items)}
         for fut in as_completed(futures):
-            exc = fut.exception()
-            if exc is not None:  # the worker process itself died (a job's exception is caught in _call)
-                yield JobOutcome(futures[fut], False, None, f"{type(exc).__name__}: {exc}", 0.0)
+            index, exc = futures.pop(fut), fut.exception()  # popped: a finished job's value is not kept
+            if exc is not None:  # a worker died or was lost, or the result did not pickle (_call catches a job's own)
+                yield JobOutcome(index, False, None, f"{type(exc).__name__}: {exc}", 0.0)
             else:
                 yield fut.result()
-
-    def close(self):
-        self._pool.shutdown(wait=True, cancel_futures=True)
-
-    def abort(self):
-        """Stop now (Ctrl-C): drop the queued jobs and end the running ones."""
-        procs = list((getattr(self._pool, "_processes", None) or {}).values())  # CPython's executor keeps its workers here
-        self._pool.shutdown(wait=False, cancel_futures=True)
-        for proc in procs:
-            proc.terminate()
 
 
 def _ignore_sigint() -> None:
@@ -203,7 +188,7 @@ def _dask_client(spec: SchedulerSpec, preload: Sequence[str] = ()):
 
     if spec.address is None:
         config = dict(_LOCAL_CLUSTER_CONFIG)
-        if _start_fork_server(_server_modules(spec, preload)):  # before the nannies: they would set their own preload
+        if _start_fork_server(spec, preload):  # before the nannies: they would set their own preload
             config["distributed.worker.multiprocessing-method"] = "forkserver"
         with dask.config.set(config):  # the nannies pass it on to their workers
             cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True, dashboard_address=":0")
@@ -214,29 +199,16 @@ def _dask_client(spec: SchedulerSpec, preload: Sequence[str] = ()):
         raise ConfigError(f"cannot reach the Dask scheduler at {spec.address}: {exc}", source="--scheduler") from None
 
 
-class _Dask:
-    def __init__(self, spec: SchedulerSpec, preload: Sequence[str] = ()):
-        self._client, self._cluster = _dask_client(spec, preload)
-
-    def map(self, fn, items):
-        from dask.distributed import as_completed
-
-        futures = [self._client.submit(_call, fn, i, item, pure=False) for i, item in enumerate(items)]
-        index = {f.key: i for i, f in enumerate(futures)}
-        for fut in as_completed(futures):
-            if fut.status == "error":  # lost worker or unpicklable result
-                exc = fut.exception()
-                yield JobOutcome(index[fut.key], False, None, f"{type(exc).__name__}: {exc}", 0.0)
-            else:
-                yield fut.result()
-            fut.release()
-
-    def close(self):
-        self._client.close()
-        if self._cluster is not None:
-            self._cluster.close()
-
-    abort = close  # closing the client (and a local cluster) drops its jobs
+@contextlib.contextmanager
+def _dask(spec: SchedulerSpec, preload: Sequence[str] = ()):
+    """A client of :func:`_dask_client`, closed (with its local cluster) on exit."""
+    client, cluster = _dask_client(spec, preload)
+    try:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
 
 
 @contextlib.contextmanager
@@ -247,13 +219,24 @@ def open_scheduler(spec: SchedulerSpec, preload: Sequence[str] = ()):
     if spec.kind == "serial":
         yield _Serial()
         return
-    sched = _Processes(spec.workers, preload) if spec.kind == "processes" else _Dask(spec, preload)
+    if spec.kind == "dask":
+        with _dask(spec, preload) as client:  # closing the client (and a local cluster) drops its jobs
+            yield _Pool(client.get_executor(pure=False))
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    # local worker processes started by _pool_context (a fork server that preloaded the job's
+    # modules, or spawned interpreters); workers ignore SIGINT
+    pool = ProcessPoolExecutor(max_workers=spec.workers, mp_context=_pool_context(preload), initializer=_ignore_sigint)
     try:
-        yield sched
-    except BaseException:  # Ctrl-C or an error in the caller: do not wait for the running jobs
-        sched.abort()
+        yield _Pool(pool)
+    except BaseException:  # Ctrl-C or an error in the caller: drop the queued jobs and end the running ones
+        procs = list((getattr(pool, "_processes", None) or {}).values())  # CPython's executor keeps its workers here
+        pool.shutdown(wait=False, cancel_futures=True)
+        for proc in procs:
+            proc.terminate()
         raise
-    sched.close()
+    pool.shutdown(wait=True, cancel_futures=True)
 
 
 @contextlib.contextmanager
@@ -266,14 +249,8 @@ def joblib_backend(scheduler: str | None):
     spec = parse_scheduler(scheduler)
     import joblib
 
-    client, cluster = _dask_client(spec)
-    try:
-        with joblib.parallel_backend("dask"):
-            yield client
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+    with _dask(spec) as client, joblib.parallel_backend("dask"):
+        yield client
 
 
 def run_jobs(fn: Callable[[Any], Any], items: Sequence[Any], spec: SchedulerSpec,

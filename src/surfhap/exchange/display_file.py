@@ -22,8 +22,7 @@ from surfhap.models.device_curve import DeviceCurve
 from surfhap.models.display import DisplayFile
 from surfhap.models.panel import DisplayModel
 
-__all__ = ["DisplayValues", "read_display_json", "write_display_json", "parse_display_option", "load_display",
-           "display_from_values"]
+__all__ = ["DisplayValues", "read_display_json", "write_display_json", "load_display", "display_from_values"]
 
 
 class DisplayValues(BaseModel):
@@ -54,7 +53,6 @@ def write_display_json(doc: dict, path: str | Path) -> Path:
     """Write a display file (``doc`` as :meth:`surfhap.lab.calibration.Calibration.to_display_json`
     makes it) after validating it as the reader will: a file the renderers refuse is never written."""
     validated(DisplayFile, doc, str(path), ConfigError)
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
     return write_text(path, json.dumps(doc, indent=2) + "\n")
 
 
@@ -68,21 +66,16 @@ def read_display_json(path: str | Path) -> DisplayModel:
                                source=source)
 
 
-def parse_display_option(text: str, option: str = "--display") -> DisplayModel:
-    """Parse ``k=5e-6,mu_panel=0.4,area=1e-4[,leakage=0.05]``."""
-    values = parse_pairs(text, option, DisplayValues.model_fields, ConfigError, what="key=value or a display JSON file",
+def load_display(text: str | Path | None, option: str = "--display") -> DisplayModel:
+    """None -> the documented assumptions; a path ending in .json (or an existing file without
+    "=") -> the file; else the pairs ``k=5e-6,mu_panel=0.4,area=1e-4[,leakage=0.05]``."""
+    if text is None:
+        return DisplayModel()
+    if str(text).lower().endswith(".json") or ("=" not in str(text) and Path(text).exists()):
+        return read_display_json(text)
+    values = parse_pairs(str(text), option, DisplayValues.model_fields, ConfigError, what="key=value or a display JSON file",
                          numbers=True)
     if not values:
         raise ConfigError("give k=..., mu_panel=..., area=... or a display JSON file", source=option)
     spec = validated(DisplayValues, values, option, ConfigError)
     return display_from_values(**spec.model_dump(exclude_none=True), source=f"{option} {text}")
-
-
-def load_display(text: str | Path | None, option: str = "--display") -> DisplayModel:
-    """None -> the documented assumptions; a path ending in .json -> the file; else key=value pairs."""
-    if text is None:
-        return DisplayModel()
-    s = str(text)
-    if s.lower().endswith(".json") or ("=" not in s and Path(s).exists()):
-        return read_display_json(s)
-    return parse_display_option(s, option)

@@ -21,9 +21,6 @@ from surfhap.errors import InputError, reading, writing
 __all__ = ["read_text", "read_json_object", "validated", "read_model", "parse_pairs", "file_sha256",
            "load_npz", "npz_number", "numeric", "write_text"]
 
-_CHUNK = 1 << 20
-
-
 def read_text(path: str | Path, error: type[InputError] = InputError) -> str:
     """The file's text (UTF-8, a BOM is dropped); ``error`` naming it when unreadable or not UTF-8."""
     with reading(path, error):
@@ -83,11 +80,8 @@ def parse_pairs(text: str, source: str, known, error: type[InputError] = InputEr
 
 def file_sha256(path: str | Path, error: type[InputError] = InputError) -> str:
     """Hex SHA-256 of the file's bytes, read in chunks (memory stays bounded)."""
-    h = hashlib.sha256()
     with reading(path, error), open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(_CHUNK), b""):
-            h.update(chunk)
-    return h.hexdigest()
+        return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 def load_npz(path: str | Path, error: type[InputError] = InputError) -> dict[str, np.ndarray]:

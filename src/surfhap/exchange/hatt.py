@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import re
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
+from dataclasses import astuple, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -77,9 +77,6 @@ class HattModelSet:
     forces: np.ndarray
     triangles: np.ndarray
     models: tuple
-    accel_units: str = "m/s^2"
-    speed_units: str = "mm/s"
-    force_units: str = "N"
     pictures: dict = field(default_factory=dict)
 
     @property
@@ -105,8 +102,10 @@ def _text(root, tag, path, conv=str):
         raise _err(path, f"{el.text.strip()!r} is not a valid value", tag) from None
 
 
-def _values(el, path, tag, conv=float) -> np.ndarray:
+def _values(el, path, tag, conv=float, default=None) -> np.ndarray:
     if el is None:
+        if default is not None:
+            return default
         raise _err(path, "missing tag", tag)
     vals = []
     for v in el.findall("value"):
@@ -115,6 +114,30 @@ def _values(el, path, tag, conv=float) -> np.ndarray:
         except ValueError:
             raise _err(path, f"{(v.text or '').strip()!r} is not a number", tag) from None
     return np.array(vals, dtype=float if conv is float else np.int64)
+
+
+#: the unit tags of every HaTT file (the only units the reader accepts, and what the writer writes)
+UNITS = (("AccelUnits", "m/s^2"), ("SpeedUnits", "mm/s"), ("ForceUnits", "N"))
+#: the tags of a ``<model>``, in the order of :class:`HattModel`'s fields
+MODEL_TAGS = ("modNum", "ARcoeff", "ARlsf", "MAcoeff", "MAlsf", "var", "gain", "speedMod", "forceMod")
+
+
+def _model(m, i: int, path, num_ar: int, num_ma: int) -> HattModel:
+    """The ``i``-th (0-based) ``<model>`` element, its sizes checked against numARCoeff / numMACoeff."""
+    where = f"model[{i + 1}]"
+    ar, ar_lsf, ma, ma_lsf = (_values(m.find(tag), path, f"{where}.{tag}", default=d) for tag, d in
+                              (("ARcoeff", None), ("ARlsf", None), ("MAcoeff", np.ones(1)), ("MAlsf", np.zeros(0))))
+    for kind, coeff, lsf, num in (("AR", ar, ar_lsf, num_ar), ("MA", ma, ma_lsf, num_ma)):
+        if lsf.size != num or coeff.size != num + 1:
+            raise _err(path, f"{lsf.size} {kind} LSFs and {coeff.size} {kind} coefficients; num{kind}Coeff is {num}",
+                       f"{where}.{kind}lsf")
+        if (kind == "AR" or num) and not lsf_is_valid(lsf):
+            raise _err(path, "LSFs must increase strictly within (0, pi)", f"{where}.{kind}lsf")
+    var, gain, speed, force = (_text(m, tag, path, float) for tag in MODEL_TAGS[5:])
+    if not (np.isfinite(var) and var >= 0):
+        raise _err(path, "must be >= 0", f"{where}.var")
+    mod_num = _text(m, "modNum", path, int) if m.find("modNum") is not None else i + 1
+    return HattModel(mod_num, ar, ar_lsf, ma, ma_lsf, var, gain, speed, force)
 
 
 def read_hatt_xml(path: str | Path) -> HattModelSet:
@@ -128,16 +151,13 @@ def read_hatt_xml(path: str | Path) -> HattModelSet:
         raise _err(path, f"malformed XML ({exc})") from None
     if root.tag != "modelSet":
         raise _err(path, f"root element is <{root.tag}>, a HaTT model set has <modelSet>")
-    for tag, want in (("AccelUnits", "m/s^2"), ("SpeedUnits", "mm/s"), ("ForceUnits", "N")):
+    for tag, want in UNITS:
         el = root.find(tag)
         if el is not None and (el.text or "").strip() != want:
             raise _err(path, f"unit {(el.text or '').strip()!r} is not supported (HaTT files use {want})", tag)
-    num_mod = _text(root, "numMod", path, int)
-    num_tri = _text(root, "numTri", path, int)
-    num_ar = _text(root, "numARCoeff", path, int)
-    num_ma = _text(root, "numMACoeff", path, int)
-    speeds = _values(root.find("speedList"), path, "speedList")
-    forces = _values(root.find("forceList"), path, "forceList")
+    counts = ("numMod", "numTri", "numARCoeff", "numMACoeff")
+    num_mod, num_tri, num_ar, num_ma = (_text(root, t, path, int) for t in counts)
+    speeds, forces = (_values(root.find(t), path, t) for t in ("speedList", "forceList"))
     if speeds.size != num_mod or forces.size != num_mod:
         raise _err(path, f"speedList/forceList have {speeds.size}/{forces.size} values, numMod is {num_mod}", "speedList")
     tris = [_values(t, path, "tri", int) for t in root.findall("tri")]
@@ -146,40 +166,18 @@ def read_hatt_xml(path: str | Path) -> HattModelSet:
     triangles = np.array(tris, dtype=np.int64).reshape(-1, 3)
     if triangles.size and (triangles.min() < 1 or triangles.max() > num_mod):
         raise _err(path, f"triangle vertex indices must be within 1..{num_mod} (1-based)", "tri")
-    models = []
-    for i, m in enumerate(root.findall("model")):
-        where = f"model[{i + 1}]"
-        ar = _values(m.find("ARcoeff"), path, f"{where}.ARcoeff")
-        ar_lsf = _values(m.find("ARlsf"), path, f"{where}.ARlsf")
-        ma = _values(m.find("MAcoeff"), path, f"{where}.MAcoeff") if m.find("MAcoeff") is not None else np.ones(1)
-        ma_lsf = _values(m.find("MAlsf"), path, f"{where}.MAlsf") if m.find("MAlsf") is not None else np.zeros(0)
-        if ar_lsf.size != num_ar or ar.size != num_ar + 1:
-            raise _err(path, f"{ar_lsf.size} AR LSFs and {ar.size} AR coefficients; numARCoeff is {num_ar}", f"{where}.ARlsf")
-        if ma_lsf.size != num_ma or ma.size != num_ma + 1:
-            raise _err(path, f"{ma_lsf.size} MA LSFs and {ma.size} MA coefficients; numMACoeff is {num_ma}", f"{where}.MAlsf")
-        if not lsf_is_valid(ar_lsf):
-            raise _err(path, "LSFs must increase strictly within (0, pi)", f"{where}.ARlsf")
-        if num_ma and not lsf_is_valid(ma_lsf):
-            raise _err(path, "LSFs must increase strictly within (0, pi)", f"{where}.MAlsf")
-        var = _text(m, "var", path, float)
-        if not (np.isfinite(var) and var >= 0):
-            raise _err(path, "must be >= 0", f"{where}.var")
-        mod_num = _text(m, "modNum", path, int) if m.find("modNum") is not None else i + 1
-        models.append(HattModel(mod_num, ar, ar_lsf, ma, ma_lsf, var, _text(m, "gain", path, float),
-                                _text(m, "speedMod", path, float), _text(m, "forceMod", path, float)))
+    models = [_model(m, i, path, num_ar, num_ma) for i, m in enumerate(root.findall("model"))]
     if len(models) != num_mod:
         raise _err(path, f"{len(models)} <model> elements, numMod is {num_mod}", "model")
     pictures = {t: (root.find(t).text or "") for t in ("htmlPicture", "picture", "DTpicture", "LinuxDTpicture") if root.find(t) is not None}
-    return HattModelSet(
-        texture=root.get("texture", ""), material=_text(root, "material", path), mu=_text(root, "mu", path, float),
-        sample_rate=_text(root, "SampleRate", path, float), max_speed=_text(root, "maxSpeed", path, float),
-        max_force=_text(root, "maxForce", path, float), speeds=speeds, forces=forces, triangles=triangles,
-        models=tuple(models), pictures=pictures,
-    )
+    mu, rate, max_speed, max_force = (_text(root, t, path, float) for t in ("mu", "SampleRate", "maxSpeed", "maxForce"))
+    return HattModelSet(root.get("texture", ""), _text(root, "material", path), mu, rate, max_speed, max_force, speeds,
+                        forces, triangles, tuple(models), pictures)
 
 
-def _fmt(x: float) -> str:
-    return repr(float(x))
+def _fmt(x) -> str:
+    """An element's text: integers and strings as they are, other numbers at full float precision."""
+    return x if isinstance(x, str) else str(int(x)) if isinstance(x, (int, np.integer)) else repr(float(x))
 
 
 def write_hatt_xml(ms: HattModelSet, path: str | Path) -> Path:
@@ -188,48 +186,26 @@ def write_hatt_xml(ms: HattModelSet, path: str | Path) -> Path:
     path = Path(path)
     root = ET.Element("modelSet", texture=str(ms.texture))
 
-    def add(parent, tag, text):
+    def add(parent, tag, value):
         el = ET.SubElement(parent, tag)
-        el.text = str(text)
-        return el
+        if isinstance(value, np.ndarray):
+            el.set("type", "array")
+            for v in value:
+                ET.SubElement(el, "value").text = _fmt(v)
+        else:
+            el.text = _fmt(value)
 
-    def arr(parent, tag, values, conv=_fmt):
-        el = ET.SubElement(parent, tag, type="array")
-        for v in values:
-            add(el, "value", conv(v))
-        return el
-
-    add(root, "material", ms.material)
-    add(root, "AccelUnits", ms.accel_units)
-    add(root, "SpeedUnits", ms.speed_units)
-    add(root, "ForceUnits", ms.force_units)
-    add(root, "SampleRate", f"{ms.sample_rate:g}")
-    add(root, "mu", _fmt(ms.mu))
-    for tag in ("htmlPicture", "picture"):
-        add(root, tag, ms.pictures.get(tag, ""))
-    add(root, "numMod", len(ms.models))
-    add(root, "numTri", ms.triangles.shape[0])
-    add(root, "maxSpeed", _fmt(ms.max_speed))
-    add(root, "maxForce", _fmt(ms.max_force))
-    arr(root, "speedList", ms.speeds)
-    arr(root, "forceList", ms.forces)
-    for tri in ms.triangles:
-        arr(root, "tri", tri, lambda v: str(int(v)))
-    for tag in ("DTpicture", "LinuxDTpicture"):
-        add(root, tag, ms.pictures.get(tag, ""))
-    add(root, "numARCoeff", ms.num_ar)
-    add(root, "numMACoeff", ms.num_ma)
+    pictures = [(tag, ms.pictures.get(tag, "")) for tag in ("htmlPicture", "picture", "DTpicture", "LinuxDTpicture")]
+    for tag, value in [("material", ms.material), *UNITS, ("SampleRate", f"{ms.sample_rate:g}"), ("mu", ms.mu),
+                       *pictures[:2], ("numMod", len(ms.models)), ("numTri", ms.triangles.shape[0]),
+                       ("maxSpeed", ms.max_speed), ("maxForce", ms.max_force), ("speedList", ms.speeds),
+                       ("forceList", ms.forces), *(("tri", tri) for tri in ms.triangles), *pictures[2:],
+                       ("numARCoeff", ms.num_ar), ("numMACoeff", ms.num_ma)]:
+        add(root, tag, value)
     for m in ms.models:
         el = ET.SubElement(root, "model")
-        add(el, "modNum", m.mod_num)
-        arr(el, "ARcoeff", m.ar_coeff)
-        arr(el, "ARlsf", m.ar_lsf)
-        arr(el, "MAcoeff", m.ma_coeff)
-        arr(el, "MAlsf", m.ma_lsf)
-        add(el, "var", _fmt(m.var))
-        add(el, "gain", _fmt(m.gain))
-        add(el, "speedMod", _fmt(m.speed))
-        add(el, "forceMod", _fmt(m.force))
+        for tag, value in zip(MODEL_TAGS, astuple(m)):
+            add(el, tag, value)
     ET.indent(root, space="   ")
     ET.ElementTree(root).write(path, encoding="utf-8", xml_declaration=True)
     return path
@@ -285,15 +261,16 @@ def hatt_to_material(ms: HattModelSet, source: str, sha256: str | None = None, c
     return Material.from_spec(spec)
 
 
-def read_hatt_material(path: str | Path):
-    """Reader for :func:`surfhap.exchange.materials.load_material` (``.xml``)."""
+def read_hatt_material(path: str | Path, command: str | None = None):
+    """Reader for :func:`surfhap.exchange.materials.load_material` (``.xml``); ``command`` as in
+    :func:`hatt_to_material`. A model set the material refuses is a MaterialFormatError too."""
     path = Path(path)
     ms = read_hatt_xml(path)
     try:
-        return hatt_to_material(ms, str(path), file_sha256(path, MaterialFormatError))
+        return hatt_to_material(ms, str(path), file_sha256(path, MaterialFormatError), command)
+    except MaterialFormatError:
+        raise
     except ValueError as exc:
-        if isinstance(exc, MaterialFormatError):
-            raise
         raise _err(path, str(exc).splitlines()[0]) from None
 
 
@@ -310,13 +287,7 @@ def import_hatt_folder(folder: str | Path, out_dir: str | Path) -> list[Path]:
         files = sorted(folder.rglob("Models_*.xml"))
     if not files:
         raise MaterialFormatError("no Models_*.xml file found (point at the HaTT folder that holds them)", source=str(folder))
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    written = []
-    for f in files:
-        ms = read_hatt_xml(f)
-        mat = hatt_to_material(ms, str(f), file_sha256(f, MaterialFormatError),
-                               command=f"surfhap import hatt {folder} --out {out_dir}")
-        written.append(write_material_json(mat, out_dir / f"{mat.name}.json"))
-    return written
+    out_dir, command = Path(out_dir), f"surfhap import hatt {folder} --out {out_dir}"
+    materials = [read_hatt_material(f, command) for f in files]  # every file checked before one is written
+    return [write_material_json(mat, out_dir / f"{mat.name}.json") for mat in materials]
 

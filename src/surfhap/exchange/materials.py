@@ -3,8 +3,7 @@
 ``load_material(ref)`` accepts a built-in name (``surfhap materials`` lists them) or a path
 to a material file. This module is the registry: it imports its readers (the JSON format of
 :mod:`surfhap.exchange.material_json`, HaTT ``Models_*.xml`` of :mod:`surfhap.exchange.hatt`,
-loaded on first use) and the readers never import it; other formats plug in with
-:func:`register_reader`.
+loaded on first use) and the readers never import it.
 """
 
 from __future__ import annotations
@@ -21,15 +20,16 @@ __all__ = [
     "builtin_names",
     "builtin_path",
     "load_material",
-    "register_reader",
 ]
 
-_READERS: dict[str, Callable[[Path], Material]] = {".json": read_material_json}
+
+def _read_hatt(path: Path) -> Material:
+    from surfhap.exchange.hatt import read_hatt_material  # numpy and XML: loaded on first use
+
+    return read_hatt_material(path)
 
 
-def register_reader(suffix: str, reader: Callable[[Path], Material]) -> None:
-    """Register ``reader(path) -> Material`` for files ending in ``suffix`` (e.g. ".xml")."""
-    _READERS[suffix.lower()] = reader
+_READERS: dict[str, Callable[[Path], Material]] = {".json": read_material_json, ".xml": _read_hatt}
 
 
 def _builtin_dir():
@@ -57,17 +57,14 @@ def load_material(ref: str | Path) -> Material:
     """A built-in material by name, or a material file by path (any registered suffix)."""
     ref_str = str(ref)
     path = Path(ref_str)
-    if path.suffix.lower() == ".xml" and ".xml" not in _READERS:
-        from surfhap.exchange.hatt import read_hatt_material  # numpy and XML: loaded on first use
-
-        _READERS[".xml"] = read_hatt_material
-    if path.suffix.lower() in _READERS and (path.exists() or path.parent != Path(".")):
+    reader = _READERS.get(path.suffix.lower())
+    if reader is not None and (path.exists() or path.parent != Path(".")):
         if not path.exists():
             raise UnknownMaterialError("no such file", source=ref_str)
-        return _READERS[path.suffix.lower()](path)
+        return reader(path)
     names = builtin_names()
     if ref_str in names:
         return read_material_json(builtin_path(ref_str))
     if path.exists():
-        raise MaterialFormatError(f"unknown material file type {path.suffix!r} (known: {', '.join(sorted(set(_READERS) | {'.xml'}))})", source=ref_str)
+        raise MaterialFormatError(f"unknown material file type {path.suffix!r} (known: {', '.join(_READERS)})", source=ref_str)
     raise UnknownMaterialError(f"unknown material (built-in: {', '.join(names)}; or give a path to a material file)", source=ref_str)

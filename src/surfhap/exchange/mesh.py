@@ -22,7 +22,7 @@ import numpy as np
 from surfhap.errors import MeshFormatError, MeshUnitsWarning
 
 __all__ = ["MeshData", "read_mesh", "arrays_from_trimesh", "orient_up", "builtin_mesh_path", "BUILTIN_MESHES",
-           "PLAUSIBLE_EXTENT_M", "check_mesh_extent", "warn_mesh_extent"]
+           "PLAUSIBLE_EXTENT_M", "warn_mesh_extent"]
 
 #: (smallest, largest) plausible top-view extent of a mesh in metres: a touch surface is
 #: millimetres to decimetres across; outside this a mesh was most likely modelled in other units
@@ -92,25 +92,17 @@ def arrays_from_trimesh(mesh, source: str = "mesh") -> tuple[np.ndarray, np.ndar
     return v, f
 
 
-def check_mesh_extent(vertices: np.ndarray, source: str) -> MeshUnitsWarning | None:
-    """A :class:`MeshUnitsWarning` when the larger side of the top-view (x-y) extent of
-    ``vertices`` (metres) is outside :data:`PLAUSIBLE_EXTENT_M`, else None."""
+def warn_mesh_extent(vertices: np.ndarray, source: str) -> None:
+    """Warn (:class:`MeshUnitsWarning`, with :func:`warnings.warn`) when the larger side of the
+    top-view (x-y) extent of ``vertices`` (metres) is outside :data:`PLAUSIBLE_EXTENT_M`."""
     v = np.asarray(vertices, dtype=float)
     extent = float(np.max(np.ptp(v[:, :2], axis=0))) if v.size else 0.0
     lo, hi = PLAUSIBLE_EXTENT_M
-    if lo <= extent <= hi:
-        return None
-    guess = "millimetres" if extent > hi else "kilometres"
-    return MeshUnitsWarning(f"the mesh spans {extent:.4g} m across, read as metres; if it is in {guess}, rescale it "
-                            f"with --size METRES (the width it should span, e.g. --size 0.05) or --scale",
-                            source=source)
-
-
-def warn_mesh_extent(vertices: np.ndarray, source: str) -> None:
-    """Issue :func:`check_mesh_extent`'s warning (if any) with :func:`warnings.warn`."""
-    warning = check_mesh_extent(vertices, source)
-    if warning is not None:
-        warnings.warn(warning, stacklevel=3)
+    if not lo <= extent <= hi:
+        guess = "millimetres" if extent > hi else "kilometres"
+        warnings.warn(MeshUnitsWarning(f"the mesh spans {extent:.4g} m across, read as metres; if it is in {guess}, "
+                                       f"rescale it with --size METRES (the width it should span, e.g. --size 0.05) "
+                                       "or --scale", source=source), stacklevel=3)
 
 
 def read_mesh(path: str | Path, *, up: str = "z", scale: float = 1.0, size: float | None = None) -> MeshData:

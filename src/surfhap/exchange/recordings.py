@@ -24,7 +24,6 @@ column: missing columns, unknown units, non-monotonic time, NaN runs, too few sa
 
 from __future__ import annotations
 
-import io
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,8 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import RecordingFormatError, writing
-from surfhap.exchange.files import file_sha256, load_npz, npz_number, numeric, parse_pairs, write_text
-from surfhap.exchange.table import UNITS, read_csv_table, resolve_columns, time_step
+from surfhap.exchange.files import file_sha256, load_npz, npz_number, numeric, parse_pairs
+from surfhap.exchange.table import UNITS, read_csv_table, resolve_columns, time_step, write_csv_table
 
 __all__ = [
     "CHANNELS",
@@ -134,7 +133,11 @@ def _check_finite(source: str, name: str, x: np.ndarray, t: np.ndarray | None) -
                                    "cut the recording or fill the gap before fitting", source=source, field=name)
 
 
-def _finish(source, time, sample_rate, data, participant, trial, digest, meta) -> Recording:
+def checked_time(source: str, time, sample_rate: float | None, data: dict[str, np.ndarray], *, min_samples: int = 16,
+                 tolerance: float = 0.05) -> tuple[np.ndarray, float]:
+    """(time (n,) s, step s) of a recording's channels (``data``, one-dimensional, of one
+    length, finite): ``time`` itself or, when None, n samples at ``sample_rate`` Hz; strictly
+    increasing and uniformly sampled within ``tolerance``. RecordingFormatError otherwise."""
     n = None
     for name, x in data.items():
         if x.ndim != 1:
@@ -154,12 +157,18 @@ def _finish(source, time, sample_rate, data, participant, trial, digest, meta) -
     time = np.asarray(time, dtype=float)
     if n is not None and time.size != n:
         raise RecordingFormatError(f"has {time.size} samples, other channels have {n}", source=source, field="time")
-    if time.size < 16:
-        raise RecordingFormatError(f"only {time.size} samples; a recording needs at least 16", source=source, field="time")
+    if time.size < min_samples:
+        raise RecordingFormatError(f"only {time.size} samples; a recording needs at least {min_samples}", source=source,
+                                   field="time")
     _check_finite(source, "time", time, None)
-    time_step(time, source, RecordingFormatError)
+    step = time_step(time, source, RecordingFormatError, tolerance)
     for name, x in data.items():
         _check_finite(source, name, x, time)
+    return time, step
+
+
+def _finish(source, time, sample_rate, data, participant, trial, digest, meta) -> Recording:
+    time, _ = checked_time(source, time, sample_rate, data)
     if "speed" not in data and "position" in data:
         data["speed"] = np.gradient(data["position"], time)
     if "shear_force" not in data and "cof" in data and "normal_force" in data:
@@ -167,37 +176,40 @@ def _finish(source, time, sample_rate, data, participant, trial, digest, meta) -
     return Recording(source, time, data, str(participant), str(trial), digest, dict(meta))
 
 
-def _read_csv(path: Path, columns: Mapping[str, str]):
-    table = read_csv_table(path, _CHANNEL_UNITS, rename=columns, allow_nan=True, error=RecordingFormatError)
-    if table.n == 0:
-        raise RecordingFormatError("no data rows", source=str(path))
-    data = dict(table.columns)
-    time = data.pop("time", None)
-    sample_rate = None
-    if "sample_rate" in table.meta:
-        try:
-            sample_rate = float(table.meta["sample_rate"])
-        except ValueError:
-            raise RecordingFormatError(f"{table.meta['sample_rate']!r} is not a number of Hz", source=str(path),
-                                       field="sample_rate") from None
-    return time, sample_rate, data, table.meta
-
-
-def _read_npz(path: Path, columns: Mapping[str, str]):
-    source = str(path)
-    arrays = load_npz(path, RecordingFormatError)
-    meta = {}
-    for key in ("participant", "trial"):
-        if key in arrays:
-            meta[key] = str(arrays.pop(key))
-    sample_rate = npz_number(arrays.pop("sample_rate"), source, "sample_rate", RecordingFormatError) \
-        if "sample_rate" in arrays else None
-    headers = list(arrays)
-    mapping = resolve_columns(headers, _CHANNEL_UNITS, columns, source, RecordingFormatError)
-    data = {ch: _scaled(numeric(arrays[headers[i]], source, headers[i], RecordingFormatError), f)
-            for ch, (i, f) in mapping.items()}
-    time = data.pop("time", None)
-    return time, sample_rate, data, meta
+def read_channels(path: str | Path, units: Mapping[str, Mapping[str, float]], columns: Mapping[str, str] | None = None,
+                  *, required: Sequence[str] = (), meta_keys: Sequence[str] = ("participant", "trial")):
+    """(time or None, sample_rate or None, the other channels in SI, metadata, sha256) of a
+    ``.csv`` (:func:`~surfhap.exchange.table.read_csv_table`, NaN kept for :func:`checked_time`
+    to locate; a ``# sample_rate:`` line) or ``.npz`` file (1-D arrays named like CSV columns, a
+    scalar ``sample_rate``, strings ``meta_keys``). ``units``: channel -> {unit: factor to SI};
+    ``columns``: channel -> column spec (``--columns``); ``required``: channels that must be there."""
+    path, columns = Path(path), dict(columns or {})
+    source, suffix = str(path), path.suffix.lower()
+    if suffix == ".npz":
+        arrays = load_npz(path, RecordingFormatError)
+        meta = {key: str(arrays.pop(key)) for key in meta_keys if key in arrays}
+        rate = npz_number(arrays.pop("sample_rate"), source, "sample_rate", RecordingFormatError) \
+            if "sample_rate" in arrays else None
+        headers = list(arrays)
+        mapping = resolve_columns(headers, units, columns, source, RecordingFormatError, required)
+        data = {ch: _scaled(numeric(arrays[headers[i]], source, headers[i], RecordingFormatError), f)
+                for ch, (i, f) in mapping.items()}
+        digest = file_sha256(path, RecordingFormatError)
+    elif suffix in (".csv", ".txt", ".tsv"):
+        table = read_csv_table(path, units, required=required, rename=columns, allow_nan=True,
+                               error=RecordingFormatError)
+        if table.n == 0:
+            raise RecordingFormatError("no data rows", source=source)
+        data, meta, digest, rate = dict(table.columns), table.meta, table.sha256, None
+        if "sample_rate" in meta:
+            try:
+                rate = float(meta["sample_rate"])
+            except ValueError:
+                raise RecordingFormatError(f"{meta['sample_rate']!r} is not a number of Hz", source=source,
+                                           field="sample_rate") from None
+    else:
+        raise RecordingFormatError(f"unknown recording type {path.suffix!r} (use .csv or .npz)", source=source)
+    return data.pop("time", None), rate, data, meta, digest
 
 
 def _scaled(x: np.ndarray, factor: float) -> np.ndarray:
@@ -209,19 +221,9 @@ def _scaled(x: np.ndarray, factor: float) -> np.ndarray:
 
 def read_recording(path: str | Path, columns: Mapping[str, str] | None = None, participant: str | None = None) -> Recording:
     """Read one CSV or NPZ recording into SI channels (see the module docstring)."""
-    path = Path(path)
-    source = str(path)
-    digest = file_sha256(path, RecordingFormatError)
-    columns = dict(columns or {})
-    suffix = path.suffix.lower()
-    if suffix == ".npz":
-        time, sr, data, meta = _read_npz(path, columns)
-    elif suffix in (".csv", ".txt", ".tsv"):
-        time, sr, data, meta = _read_csv(path, columns)
-    else:
-        raise RecordingFormatError(f"unknown recording type {path.suffix!r} (use .csv or .npz)", source=source)
-    label = participant or meta.get("participant") or path.stem
-    return _finish(source, time, sr, data, label, meta.get("trial", ""), digest, meta)
+    time, rate, data, meta, digest = read_channels(path, _CHANNEL_UNITS, columns)
+    label = participant or meta.get("participant") or Path(path).stem
+    return _finish(str(path), time, rate, data, label, meta.get("trial", ""), digest, meta)
 
 
 def read_recordings(paths: Sequence[str | Path], columns: Mapping[str, str] | None = None) -> list[Recording]:
@@ -234,17 +236,9 @@ def read_recordings(paths: Sequence[str | Path], columns: Mapping[str, str] | No
 
 def write_recording_csv(rec: Recording, path: str | Path) -> Path:
     """Write a recording as CSV with SI headers, participant/trial and the other ``meta`` lines."""
-    path = Path(path)
-    names = list(rec.channels)
-    buf = io.StringIO()
-    buf.write(f"# participant: {rec.participant}\n")
-    if rec.trial:
-        buf.write(f"# trial: {rec.trial}\n")
-    buf.writelines(f"# {k}: {v}\n" for k, v in rec.meta.items() if k not in ("participant", "trial"))
-    buf.write(",".join(["time", *names]) + "\n")
-    cols = np.column_stack([rec.time, *[rec.channels[k] for k in names]])
-    np.savetxt(buf, cols, delimiter=",", fmt="%.9g")
-    return write_text(path, buf.getvalue())
+    meta = {"participant": rec.participant, **({"trial": rec.trial} if rec.trial else {})}
+    meta |= {k: v for k, v in rec.meta.items() if k not in ("participant", "trial")}
+    return write_csv_table(path, {"time": rec.time, **rec.channels}, meta)
 
 
 def write_recording_npz(rec: Recording, path: str | Path) -> Path:

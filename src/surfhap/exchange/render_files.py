@@ -13,21 +13,15 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from surfhap.exchange.files import write_text
 from surfhap.exchange.render_store import RENDER_CHANNELS as CHANNELS
-from surfhap.exchange.render_store import SUFFIXES, DriveWavWriter, open_render_writer
+from surfhap.exchange.render_store import open_render_writer
+from surfhap.exchange.wav import DriveWavWriter
 
 if TYPE_CHECKING:  # exchange/ sits below render/: it writes the result's arrays, it does not compute
     from surfhap.render.offline import RenderResult
 
-__all__ = ["write_render", "render_arrays", "render_file_spec", "render_file_attrs", "write_summary"]
-
-
-def render_arrays(result: RenderResult) -> dict[str, np.ndarray]:
-    """The named channel arrays of a render file (float64 here; see render_store for dtypes)."""
-    return {name: getattr(result, name) for name in CHANNELS}
+__all__ = ["write_render", "render_file_spec", "render_file_attrs", "write_summary"]
 
 
 def render_file_spec(control_rate: float, drive_rate: float, texture_quantity: str | None) -> dict[str, tuple[float, str]]:
@@ -68,8 +62,8 @@ def write_render(result: RenderResult, out_dir: str | Path, amp_gain: float | No
         raise
     wav.close()
     writer = open_render_writer(out, format, render_file_spec(result.control_rate, result.drive_rate, result.texture_quantity))
-    for name, arr in render_arrays(result).items():
-        writer(name, arr)
+    for name in CHANNELS:
+        writer(name, getattr(result, name))
     writer.close(render_file_attrs(result))
-    return {"wav": wav.path, "render": out / f"render{SUFFIXES[format]}",
+    return {"wav": wav.path, "render": writer.path,
             "summary": write_summary(out / "summary.json", result.summary(), gain)}

@@ -37,7 +37,7 @@ RENDER_CHANNELS = {  # channel -> (rate: "model" or "drive", unit)
 }
 
 
-__all__ = ["RENDER_CHANNELS", "RenderData", "read_render", "open_render_writer", "READERS", "WRITERS", "store_dtype", "DriveWavWriter"]
+__all__ = ["RENDER_CHANNELS", "RenderData", "read_render", "open_render_writer", "READERS", "WRITERS", "store_dtype"]
 
 FORMAT = "surfhap-render"
 VERSION = 1
@@ -84,9 +84,6 @@ class RenderData:
     def __contains__(self, name: str) -> bool:
         return name in self.channels or name in self._derived()
 
-    def keys(self) -> list[str]:
-        return list(self.channels) + [k for k in self._derived() if k not in self.channels]
-
 
 class H5Writer:
     """``render.h5``: chunked datasets grown one whole chunk at a time from a fixed buffer per
@@ -105,14 +102,14 @@ class H5Writer:
         self._f.attrs["format"] = FORMAT
         self._f.attrs["version"] = VERSION
         self._f.attrs["complete"] = False
-        self._sets, self._buf, self._fill, self._size = {}, {}, {}, {}
+        self._sets, self._buf, self._fill = {}, {}, {}
         for name, (rate, unit) in spec.items():
             ds = self._f.create_dataset(name, shape=(0,), maxshape=(None,), chunks=(self.CHUNK,), dtype=store_dtype(name))
             ds.attrs["rate_hz"] = float(rate)
             ds.attrs["unit"] = unit
             self._sets[name] = ds
             self._buf[name] = np.empty(self.CHUNK, dtype=store_dtype(name))
-            self._fill[name] = self._size[name] = 0
+            self._fill[name] = 0
 
     def __call__(self, channel, block):
         buf = self._buf[channel]
@@ -127,19 +124,14 @@ class H5Writer:
                 self._flush(channel)
 
     def _flush(self, channel):
-        k = self._fill[channel]
+        ds, n0, k = self._sets[channel], self._sets[channel].shape[0], self._fill[channel]
         if k:
             with writing(self.path):
-                self._write_chunk(channel, k)
-
-    def _write_chunk(self, channel, k):
-        ds, n0 = self._sets[channel], self._size[channel]
-        ds.resize((n0 + k,))
-        ds[n0:n0 + k] = self._buf[channel][:k]
-        self._size[channel] = n0 + k
-        self._fill[channel] = 0
-        if channel == "drive":  # every ~3 s at 20 kHz: metadata on disk, so even a hard kill
-            self._f.flush()     # leaves a file readable up to here ("complete" stays false)
+                ds.resize((n0 + k,))
+                ds[n0:n0 + k] = self._buf[channel][:k]
+                self._fill[channel] = 0
+                if channel == "drive":  # every ~3 s at 20 kHz: metadata on disk, so even a hard kill
+                    self._f.flush()     # leaves a file readable up to here ("complete" stays false)
 
     def close(self, attrs):
         for name in self._sets:
@@ -185,28 +177,22 @@ class NpzWriter:
         self._blocks = {}
 
 
-WRITERS: dict[str, type[H5Writer | NpzWriter]] = {"h5": H5Writer, "npz": NpzWriter}
-SUFFIXES = {"h5": ".h5", "npz": ".npz"}
+WRITERS: dict[str, type[H5Writer | NpzWriter]] = {"h5": H5Writer, "npz": NpzWriter}  # format -> writer of render.<format>
 
 
 def open_render_writer(out_dir: str | Path, fmt: str, spec: dict[str, tuple[float, str]]) -> H5Writer | NpzWriter:
     """A writer of ``render.<suffix>`` in ``out_dir`` for format ``fmt`` ("h5" or "npz")."""
     if fmt not in WRITERS:
         raise ConfigError(f"unknown format {fmt!r} (known: {', '.join(WRITERS)})", source="--format")
-    return WRITERS[fmt](Path(out_dir) / f"render{SUFFIXES[fmt]}", spec)
+    return WRITERS[fmt](Path(out_dir) / f"render.{fmt}", spec)
 
 
-def _attrs(items) -> dict:
-    """HDF5 attributes as Python values; ``NAME_json`` attributes decoded into ``NAME``."""
+def _attrs(attrs) -> dict:
+    """HDF5 attributes (h5py's ``.attrs``) as Python values; ``NAME_json`` attributes decoded into ``NAME``."""
     out = {}
-    for key, value in items:
-        if isinstance(value, bytes):
-            value = value.decode()
-        if isinstance(value, np.generic):
-            value = value.item()
-        if key.endswith("_json"):
-            key, value = key[:-5], json.loads(value)
-        out[key] = value
+    for key, value in attrs.items():
+        value = value.decode() if isinstance(value, bytes) else value.item() if isinstance(value, np.generic) else value
+        out[key.removesuffix("_json")] = json.loads(value) if key.endswith("_json") else value
     return out
 
 
@@ -224,8 +210,8 @@ def _read_h5(path: Path) -> RenderData:
         for name, ds in f.items():
             channels[name] = ds[()]
             rates[name] = float(ds.attrs["rate_hz"])
-            units[name] = str(_attrs([("unit", ds.attrs["unit"])])["unit"])
-        attrs = _attrs(f.attrs.items())
+            units[name] = str(_attrs(ds.attrs)["unit"])
+        attrs = _attrs(f.attrs)
     return RenderData(channels, rates, units, attrs)
 
 
@@ -252,7 +238,7 @@ def read_render(path: str | Path) -> RenderData:
     a render folder."""
     p = Path(path)
     if p.is_dir():
-        found = [p / f"render{s}" for s in SUFFIXES.values() if (p / f"render{s}").is_file()]
+        found = [p / f"render.{fmt}" for fmt in WRITERS if (p / f"render.{fmt}").is_file()]
         if not found:
             raise ConfigError("no render.h5 or render.npz in this folder", source=str(p))
         p = found[0]
@@ -263,34 +249,3 @@ def read_render(path: str | Path) -> RenderData:
         raise ConfigError("no such file", source=str(p))
     return reader(p)
 
-
-class DriveWavWriter:
-    """``drive.wav`` written block by block: float32 DAC units (volts / ``amp_gain``, V per full
-    scale) at ``rate`` Hz. A block beyond +-1 full scale raises ConfigError (field amp_gain)."""
-
-    def __init__(self, path: str | Path, rate: int, amp_gain: float):
-        from surfhap.exchange.wav import FloatWavStream
-
-        if not (np.isfinite(amp_gain) and amp_gain > 0):
-            raise ConfigError("must be > 0 V per DAC unit", field="amp_gain")
-        self.path, self.amp_gain = Path(path), float(amp_gain)
-        self._f = FloatWavStream(self.path, int(rate))
-        self._flush_every = 3 * int(rate)  # samples: the header is brought up to date every 3 s of drive
-        self._next_flush = self._flush_every
-
-    def __call__(self, drive: np.ndarray) -> None:
-        units = (np.asarray(drive, dtype=float) / self.amp_gain).astype(np.float32)
-        peak = float(np.max(np.abs(units))) if units.size else 0.0
-        if peak > 1.0:
-            raise ConfigError(f"the drive reaches {peak:.3g} DAC full scales; raise the amplifier gain", field="amp_gain")
-        self._f.write(units)
-        if self._f.n >= self._next_flush:  # a crash leaves a file readable up to the last flush
-            self._f.flush()
-            self._next_flush = self._f.n + self._flush_every
-
-    def close(self) -> None:
-        self._f.close()
-
-    def abort(self) -> None:
-        self._f.close()
-        self.path.unlink(missing_ok=True)

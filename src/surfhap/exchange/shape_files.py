@@ -18,29 +18,22 @@ from surfhap.errors import ConfigError, writing
 from surfhap.exchange.files import read_json_object, write_text
 from surfhap.shape.calibration import ShapeCalibration
 
-__all__ = ["shape_arrays", "write_shape", "write_calibration", "read_calibration", "default_calibration_path"]
-
-CALIBRATION_SUFFIX = ".calibration.json"
-
-
-def shape_arrays(result) -> dict[str, np.ndarray]:
-    """The named arrays stored in shape.npz."""
-    return {
-        "t": result.t, "x": result.x, "y": result.y, "z": result.z, "face": result.face, "force": result.force,
-        "fsq": result.fsq, "intensity": result.intensity, "edge": result.edge, "theta": result.theta,
-        "load": result.load, "t_drive": result.t_drive, "drive": result.drive, "target": result.target,
-        "friction_sim": result.friction_sim, "friction_rate": np.array(result.friction_rate),
-        "drive_rate": np.array(result.drive_rate), "fsq_range": np.array([result.calibration.fmin, result.calibration.fmax]),
-    }
-
+__all__ = ["write_shape", "write_calibration", "read_calibration", "default_calibration_path"]
 
 def write_shape(result, out_dir: str | Path) -> dict[str, Path]:
     """Write ``shape.npz`` and ``summary.json`` into ``out_dir`` (created); returns the paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"npz": out / "shape.npz", "summary": out / "summary.json"}
+    arrays = {
+        "t": result.t, "x": result.x, "y": result.y, "z": result.z, "face": result.face, "force": result.force,
+        "fsq": result.fsq, "intensity": result.intensity, "edge": result.edge, "theta": result.theta,
+        "load": result.load, "t_drive": result.t_drive, "drive": result.drive, "target": result.target,
+        "friction_sim": result.friction_sim, "friction_rate": np.array(result.friction_rate),
+        "drive_rate": np.array(result.drive_rate), "fsq_range": np.array([result.calibration.fmin, result.calibration.fmax]),
+    }
     with writing(paths["npz"]):
-        np.savez_compressed(paths["npz"], **shape_arrays(result))
+        np.savez_compressed(paths["npz"], **arrays)
     summary = result.summary()
     summary["calibration"] = result.calibration.to_dict()
     write_text(paths["summary"], json.dumps(summary, indent=2, default=float) + "\n")
@@ -50,13 +43,11 @@ def write_shape(result, out_dir: str | Path) -> dict[str, Path]:
 def default_calibration_path(mesh_path: str | Path) -> Path:
     """``<mesh>.calibration.json`` next to the mesh (e.g. bunny.ply.calibration.json)."""
     p = Path(mesh_path)
-    return p.with_name(p.name + CALIBRATION_SUFFIX)
+    return p.with_name(p.name + ".calibration.json")
 
 
 def write_calibration(cal: ShapeCalibration, path: str | Path) -> Path:
-    path = Path(path)
-    if path.parent and not path.parent.exists():
-        path.parent.mkdir(parents=True, exist_ok=True)
+    """Write a calibration JSON (its folder created if missing)."""
     return write_text(path, json.dumps(cal.to_dict(), indent=2) + "\n")
 
 

@@ -17,6 +17,7 @@ UTF-8, no header, missing column, unknown unit, a cell that is not a number (wit
 from __future__ import annotations
 
 import csv
+import io
 import re
 import warnings
 from array import array
@@ -27,9 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import InputError, reading
-from surfhap.exchange.files import file_sha256
+from surfhap.exchange.files import file_sha256, write_text
 
-__all__ = ["Table", "UNITS", "read_csv_table", "split_header", "unit_factor", "resolve_columns", "time_step"]
+__all__ = ["Table", "UNITS", "read_csv_table", "write_csv_table", "split_header", "unit_factor", "resolve_columns", "time_step"]
 
 #: SI unit -> {accepted unit: factor to SI}; matched without spaces and case
 UNITS: dict[str, dict[str, float]] = {
@@ -93,9 +94,10 @@ def unit_factor(channel: str, unit: str | None, units: Mapping[str, float], sour
 
 
 def resolve_columns(headers: list[str], channels: Mapping[str, Mapping[str, float]], rename: Mapping[str, str],
-             source: str, error: type[InputError]) -> dict[str, tuple[int, float]]:
+                    source: str, error: type[InputError], required: Sequence[str] = ()) -> dict[str, tuple[int, float]]:
     """canonical channel -> (column index, factor to SI); ``rename`` maps a channel to a column
-    spec ``"v_x[mm/s]"`` (name, and optionally the unit when the header has none)."""
+    spec ``"v_x[mm/s]"`` (name, and optionally the unit when the header has none); a channel of
+    ``required`` not found is ``error`` ("missing column (need ...)")."""
     parsed = [split_header(h) for h in headers]
     by_full = {h.strip(): i for i, h in enumerate(headers)}
     by_name: dict[str, int] = {}
@@ -114,25 +116,27 @@ def resolve_columns(headers: list[str], channels: Mapping[str, Mapping[str, floa
     for i, (name, unit) in enumerate(parsed):
         if name in channels and name not in out and i not in taken:
             out[name] = (i, unit_factor(name, unit, channels[name], source, headers[i], error))
+    missing = [c for c in required if c not in out]
+    if missing:
+        raise error(f"missing column (need {', '.join(required)})", source=source, field=missing[0])
     return out
 
 
-def time_step(t: np.ndarray, source: str, error: type[InputError], tolerance: float | None = 0.05,
-              row: int = 2) -> float:
+def time_step(t: np.ndarray, source: str, error: type[InputError], tolerance: float | None = 0.05) -> float:
     """The median step (s) of a time column that increases strictly and (unless ``tolerance``
     is None) is uniformly sampled within ``tolerance``; otherwise ``error`` naming the field
-    ``time`` and the 1-based data row (``row`` = the row of the second sample)."""
+    ``time`` and the 1-based data row (the second sample is row 2)."""
     dt = np.diff(t)
     bad = np.nonzero(~(dt > 0))[0]
     if bad.size:
         i = int(bad[0])
-        raise error(f"not strictly increasing at row {i + row} ({t[i]:.6g} s then {t[i + 1]:.6g} s)", source=source,
+        raise error(f"not strictly increasing at row {i + 2} ({t[i]:.6g} s then {t[i + 1]:.6g} s)", source=source,
                     field="time")
     step = float(np.median(dt)) if dt.size else 0.0
     dev = np.abs(dt - step)
     if tolerance is not None and dt.size and dev.max() > tolerance * step:
         i = int(np.argmax(dev))
-        raise error(f"not uniformly sampled within {tolerance:.0%}: step of {dt[i]:.6g} s at row {i + row}, median step "
+        raise error(f"not uniformly sampled within {tolerance:.0%}: step of {dt[i]:.6g} s at row {i + 2}, median step "
                     f"{step:.6g} s; resample first", source=source, field="time")
     return step
 
@@ -173,7 +177,8 @@ def _fast_columns(fh, cols: list[int]) -> np.ndarray | None:
 
 def _slow_columns(fh, mapping, headers, allow_nan: bool, source: str, error: type[InputError]) -> tuple[dict, int]:
     """Cell by cell (empty / "nan" cells, quoted or ragged rows), naming the first bad cell;
-    one float per cell is kept (stdlib arrays), never the rows."""
+    one float per cell is kept (stdlib arrays), never the rows. Returns the columns and the
+    number of data rows (counted even without any column to read)."""
     vals = {channel: array("d") for channel in mapping}
     r = -1
     for r, row in enumerate(csv.reader(_body_lines(fh))):
@@ -190,8 +195,14 @@ def _slow_columns(fh, mapping, headers, allow_nan: bool, source: str, error: typ
     return {channel: np.frombuffer(v, dtype=float) if len(v) else np.empty(0) for channel, v in vals.items()}, r + 1
 
 
-def _count_rows(fh) -> int:
-    return sum(1 for _ in _body_lines(fh))
+def write_csv_table(path: str | Path, columns: Mapping[str, np.ndarray], meta: Mapping[str, str] | None = None) -> Path:
+    """Write ``columns`` (header cell -> (n,) array, 9 significant digits) as a CSV that
+    :func:`read_csv_table` reads, after one ``# key: value`` line per ``meta`` entry."""
+    buf = io.StringIO()
+    buf.writelines(f"# {k}: {v}\n" for k, v in (meta or {}).items())
+    np.savetxt(buf, np.column_stack(list(columns.values())), delimiter=",", fmt="%.9g", header=",".join(columns),
+               comments="")
+    return write_text(path, buf.getvalue())
 
 
 def read_csv_table(path: str | Path, channels: Mapping[str, Mapping[str, float]], *,
@@ -217,10 +228,7 @@ def read_csv_table(path: str | Path, channels: Mapping[str, Mapping[str, float]]
         if header is None:
             raise error("empty file (no header line)", source=source)
         headers = [h.strip() for h in next(csv.reader([header]))]
-        mapping = resolve_columns(headers, channels, dict(rename or {}), source, error)
-        missing = [c for c in required if c not in mapping]
-        if missing:
-            raise error(f"missing column (need {', '.join(required)})", source=source, field=missing[0])
+        mapping = resolve_columns(headers, channels, dict(rename or {}), source, error, required)
         order = list(mapping)
         table = _fast_columns(fh, [mapping[c][0] for c in order])
         if table is not None:
@@ -228,10 +236,7 @@ def read_csv_table(path: str | Path, channels: Mapping[str, Mapping[str, float]]
             n = table.shape[0]
         else:
             fh.seek(body_at)
-            if mapping:
-                raw, n = _slow_columns(fh, mapping, headers, allow_nan, source, error)
-            else:
-                raw, n = {}, _count_rows(fh)
+            raw, n = _slow_columns(fh, mapping, headers, allow_nan, source, error)
     if n < min_rows:
         raise error(f"needs at least {min_rows} data row{'s' if min_rows > 1 else ''}", source=source)
     columns: dict[str, np.ndarray] = {}

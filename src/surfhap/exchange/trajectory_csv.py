@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import TrajectoryFormatError
-from surfhap.exchange.table import UNITS, read_csv_table, time_step
+from surfhap.exchange.table import UNITS, read_csv_table, time_step, write_csv_table
 from surfhap.models.trajectory import Trajectory, implausible
 
 __all__ = ["read_trajectory_csv", "write_trajectory_csv", "TRAJECTORY_COLUMNS"]
@@ -52,7 +52,5 @@ def _column(bad, cols: dict[str, np.ndarray]) -> str:
 
 def write_trajectory_csv(trajectory: Trajectory, path: str | Path) -> Path:
     """Write a trajectory as CSV (SI columns time, x, y, load)."""
-    path = Path(path)
-    data = np.column_stack([trajectory.t, trajectory.x, trajectory.y, trajectory.load])
-    np.savetxt(path, data, delimiter=",", header=",".join(TRAJECTORY_COLUMNS), comments="", fmt="%.9g")
-    return path
+    arrays = (trajectory.t, trajectory.x, trajectory.y, trajectory.load)
+    return write_csv_table(path, dict(zip(TRAJECTORY_COLUMNS, arrays)))

@@ -17,7 +17,7 @@ The kind of level is given once per file: a CSV metadata line ``# input: intensi
 intensity in (0, 1], e.g. a Senseg Feelscreen grain) or ``# input: voltage`` (the drive
 envelope in volts with a polarity carrier, so that V^2 is constant while on; the level may be
 written ``level[kV]``). An NPZ file holds the arrays under the same keys and a string
-``input``. CSV files are parsed by :func:`surfhap.exchange.table.read_csv_table`. Every
+``input``. Both are read by :func:`surfhap.exchange.recordings.read_channels`. Every
 problem raises :class:`~surfhap.errors.RecordingFormatError` naming the file and the field.
 """
 
@@ -29,8 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from surfhap.errors import RecordingFormatError, writing
-from surfhap.exchange.files import load_npz, npz_number, numeric, write_text
-from surfhap.exchange.table import UNITS, read_csv_table, time_step
+from surfhap.exchange.recordings import checked_time, read_channels
+from surfhap.exchange.table import UNITS, write_csv_table
 
 __all__ = ["TRIBOMETER_CHANNELS", "INPUT_KINDS", "TribometerRecording", "read_tribometer", "write_tribometer_csv",
            "write_tribometer_npz"]
@@ -72,35 +72,20 @@ class TribometerRecording:
     @classmethod
     def from_arrays(cls, *, input: str, lateral_force, normal_force, level, sample_rate: float,
                     source: str = "<memory>") -> "TribometerRecording":
-        n = np.asarray(lateral_force).size
-        time = np.arange(n) / float(sample_rate)
-        return _finish(source, input, time, {"lateral_force": lateral_force, "normal_force": normal_force,
-                                             "level": level})
+        data = {"lateral_force": lateral_force, "normal_force": normal_force, "level": level}
+        return _finish(source, input, None, sample_rate, {k: np.asarray(v, dtype=float) for k, v in data.items()})
 
 
 def _err(source: str, field: str, message: str) -> RecordingFormatError:
     return RecordingFormatError(message, source=source, field=field)
 
 
-def _finish(source: str, kind: str, time, data: dict) -> TribometerRecording:
+def _finish(source: str, kind: str, time, sample_rate: float | None, data: dict) -> TribometerRecording:
     kind = str(kind).strip().lower()
     if kind not in INPUT_KINDS:
         raise _err(source, "input", f"must be one of {', '.join(INPUT_KINDS)}, got {kind!r}")
-    t = np.asarray(time, dtype=float)
-    arrays = {}
-    for name in ("lateral_force", "normal_force", "level"):
-        x = np.asarray(data[name], dtype=float).ravel()
-        if x.shape != t.shape:
-            raise _err(source, name, f"has {x.size} samples, time has {t.size}")
-        if not np.all(np.isfinite(x)):
-            raise _err(source, name, f"not finite at sample {int(np.argmin(np.isfinite(x)))}")
-        arrays[name] = x
-    if t.size < MIN_SAMPLES:
-        raise _err(source, "time", f"need at least {MIN_SAMPLES} samples, got {t.size}")
-    if not np.all(np.isfinite(t)):
-        raise _err(source, "time", f"not finite at sample {int(np.argmin(np.isfinite(t)))}")
-    step = time_step(t, source, RecordingFormatError, tolerance=0.01)
-    lev = arrays["level"]
+    t, step = checked_time(source, time, sample_rate, data, min_samples=MIN_SAMPLES, tolerance=0.01)
+    lev = data["level"]
     if np.any(lev < 0):
         raise _err(source, "level", "must be >= 0 (0 = drive off)")
     on = lev > 0
@@ -111,61 +96,26 @@ def _finish(source: str, kind: str, time, data: dict) -> TribometerRecording:
         raise _err(source, "level", "one drive level per recording: the non-zero values differ")
     if kind == "intensity" and vals[0] > 1.0:
         raise _err(source, "level", f"an intensity must be in (0, 1], got {vals[0]:g}")
-    if np.any(arrays["normal_force"] < 0):
+    if np.any(data["normal_force"] < 0):
         raise _err(source, "normal_force", "must be >= 0 N")
-    return TribometerRecording(source, kind, 1.0 / step, t, arrays["lateral_force"], arrays["normal_force"], lev)
-
-
-def _read_csv(path: Path) -> TribometerRecording:
-    src = str(path)
-    table = read_csv_table(path, _UNITS, required=TRIBOMETER_CHANNELS, error=RecordingFormatError)
-    if "input" not in table.meta:
-        raise _err(src, "input", "missing metadata line '# input: intensity' or '# input: voltage'")
-    cols = dict(table.columns)
-    return _finish(src, table.meta["input"], cols.pop("time"), cols)
-
-
-def _read_npz(path: Path) -> TribometerRecording:
-    src = str(path)
-    z = load_npz(path, RecordingFormatError)
-    if "input" not in z:
-        raise _err(src, "input", "missing string array 'input' (intensity or voltage)")
-    for name in ("lateral_force", "normal_force", "level"):
-        if name not in z:
-            raise _err(src, name, "missing array")
-    data = {name: numeric(z[name], src, name, RecordingFormatError) for name in ("lateral_force", "normal_force", "level")}
-    if "time" in z:
-        t = numeric(z["time"], src, "time", RecordingFormatError)
-    elif "sample_rate" in z:
-        fs = npz_number(z["sample_rate"], src, "sample_rate", RecordingFormatError)
-        if not (np.isfinite(fs) and fs > 0):
-            raise _err(src, "sample_rate", "must be > 0 Hz")
-        t = np.arange(np.asarray(data["level"]).size) / fs
-    else:
-        raise _err(src, "time", "missing array 'time' (or scalar 'sample_rate')")
-    return _finish(src, str(z["input"]), t, data)
+    return TribometerRecording(source, kind, 1.0 / step, t, data["lateral_force"], data["normal_force"], lev)
 
 
 def read_tribometer(path: str | Path) -> TribometerRecording:
     """Read one tribometer recording (``.csv`` or ``.npz``)."""
-    p = Path(path)
-    if not p.is_file():
-        raise _err(str(p), "file", "not found")
-    if p.suffix.lower() == ".npz":
-        return _read_npz(p)
-    if p.suffix.lower() in (".csv", ".txt"):
-        return _read_csv(p)
-    raise _err(str(p), "file", "unknown extension (use .csv or .npz)")
+    time, rate, data, meta, _ = read_channels(path, _UNITS, required=TRIBOMETER_CHANNELS[1:], meta_keys=("input",))
+    if "input" not in meta:
+        raise _err(str(path), "input", "missing: a line '# input: intensity' or '# input: voltage' (CSV), "
+                                       "a string array 'input' (NPZ)")
+    return _finish(str(path), meta["input"], time, rate, data)
 
 
 def write_tribometer_csv(rec: TribometerRecording, path: str | Path) -> Path:
     """Write ``rec`` as CSV in the schema above."""
-    p = Path(path)
-    unit = "1" if rec.input == "intensity" else "V"
-    lines = [f"# input: {rec.input}", f"time[s],lateral_force[N],normal_force[N],level[{unit}]"]
-    lines += [f"{t:.9g},{f:.9g},{n:.9g},{v:.9g}" for t, f, n, v in
-              zip(rec.time, rec.lateral_force, rec.normal_force, rec.level)]
-    return write_text(p, "\n".join(lines) + "\n")
+    level = f"level[{'1' if rec.input == 'intensity' else 'V'}]"
+    columns = {"time[s]": rec.time, "lateral_force[N]": rec.lateral_force, "normal_force[N]": rec.normal_force,
+               level: rec.level}
+    return write_csv_table(path, columns, {"input": rec.input})
 
 
 def write_tribometer_npz(rec: TribometerRecording, path: str | Path) -> Path:

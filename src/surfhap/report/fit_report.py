@@ -12,7 +12,6 @@ from surfhap.report.html import start_page
 __all__ = ["write_friction_report", "write_accel_report"]
 
 
-
 def write_friction_report(fit, out_dir: str | Path, command: str = "") -> Path:
     """Write ``out_dir/index.html`` and its figures for a FrictionFit; returns the page path."""
     out, page = start_page(out_dir, f"Friction fit — {fit.name}", command)
@@ -23,10 +22,9 @@ def write_friction_report(fit, out_dir: str | Path, command: str = "") -> Path:
     page.heading("Low band: friction laws")
     page.table(["fit", "mu0", "a", "b", "c", "d", "q", "R²", "n"],
                [[c.label, f"{c.mu0:.4f}", *[""] * 6, c.n] for c in [fit.coulomb, *fit.coulomb_by_participant]])
-    rows = []
-    for q in [fit.quasi_static, fit.quasi_static_pooled, *fit.quasi_static_by_participant]:
-        rows.append([q.label, *[f"{q.params[k]:.3f} ± {q.standard_errors[k]:.3f}" for k in "abcdq"], f"{q.r2:.3f}", q.n])
-    page.table(["quasi-static fit", "a", "b", "c", "d", "q", "R²", "n"], rows)
+    page.table(["quasi-static fit", "a", "b", "c", "d", "q", "R²", "n"],
+               [[q.label, *[f"{q.params[k]:.3f} ± {q.standard_errors[k]:.3f}" for k in "abcdq"], f"{q.r2:.3f}", q.n]
+                for q in [fit.quasi_static, fit.quasi_static_pooled, *fit.quasi_static_by_participant]])
     page.paragraph("First row: written to the material (mean ± standard error across participants, as Otake et al. 2022 "
                    "Table I; the pooled fit with asymptotic errors when there is one participant).", cls="note")
     page.figure(fit.plot(kind="friction-law"), out, "friction_law.png", "friction law vs data")

@@ -18,22 +18,19 @@ th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}img{max-widt
 
 
 class Page:
-    """Collects sections, tables and images; ``html()`` returns the page text."""
+    """Collects sections, tables and images under ``title`` (and the ``command`` that made the
+    page, if given); ``html()`` returns the page text."""
 
-    def __init__(self, title: str):
+    def __init__(self, title: str, command: str = ""):
         self.title = title
-        self._parts: list[str] = []
+        self._parts = [f"<p class=note>command: <code>{html.escape(command)}</code></p>"] if command else []
 
-    def heading(self, text: str, level: int = 2) -> None:
-        self._parts.append(f"<h{level}>{html.escape(text)}</h{level}>")
+    def heading(self, text: str) -> None:
+        self._parts.append(f"<h2>{html.escape(text)}</h2>")
 
     def paragraph(self, text: str, cls: str | None = None) -> None:
         attr = f' class="{cls}"' if cls else ""
         self._parts.append(f"<p{attr}>{html.escape(text)}</p>")
-
-    def raw(self, fragment: str) -> None:
-        """Trusted HTML written by surfhap itself (never user input)."""
-        self._parts.append(fragment)
 
     def table(self, header: list[str], rows: list[list[object]]) -> None:
         head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
@@ -62,7 +59,4 @@ def start_page(out_dir: str | Path, title: str, command: str = "") -> tuple[Path
     """The output folder ``out_dir`` (created) and a page titled ``title`` noting ``command``."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    page = Page(title)
-    if command:
-        page.raw(f"<p class=note>command: <code>{html.escape(command)}</code></p>")
-    return out, page
+    return out, Page(title, command)
