@@ -62,4 +62,6 @@ def fit_imu(
 
 
 def register(app: typer.Typer) -> None:
+    from surfhap.cli import fit_recordings  # noqa: F401 - its commands (friction, accel) join fit_app on import
+
     app.add_typer(fit_app, name="fit")

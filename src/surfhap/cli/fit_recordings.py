@@ -19,7 +19,7 @@ from surfhap.cli._options import JobsOption, JsonOption, OverwriteOption, Schedu
 from surfhap.cli.fit import fit_app
 from surfhap.errors import ConfigError
 
-__all__ = ["register", "fit_friction_cmd", "fit_accel_cmd"]
+__all__ = ["fit_friction_cmd", "fit_accel_cmd"]
 
 
 def _speeds_mm(text: str) -> tuple[float, ...]:
@@ -150,6 +150,3 @@ def fit_accel_cmd(
         lines.append(f"report: {data['report']}")
     _report(data, lines, as_json)
 
-
-def register(app: typer.Typer) -> None:
-    """The commands live on ``fit_app`` (registered by :mod:`surfhap.cli.fit`); nothing else to do."""

@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.text import Text
 
 from surfhap.cli._common import print_table, report, stdout
 from surfhap.cli._display_options import resolve_display_and_range
@@ -19,38 +18,40 @@ __all__ = ["register"]
 
 
 def _show(name: str, display, rng) -> None:
+    from rich.text import Text
+
     from surfhap.exchange.materials import load_material
     from surfhap.render.drive import default_method
     from surfhap.render.gain_plan import plan_gains
 
     m = load_material(name)
     spec = m.spec
-    stdout.print(Text.assemble((m.name, "bold"), f": {spec.description}"))
+    stdout().print(Text.assemble((m.name, "bold"), f": {spec.description}"))
     fr = spec.friction
     if fr.quasi_static:
         q = fr.quasi_static
-        stdout.print(f"  quasi-static mu_p = a fn^b (1 + d v^q)/(1 + c v): a={q.a:g} b={q.b:g} c={q.c:g} d={q.d:g} q={q.q:g}")
-        stdout.print(f"    from: {q.provenance.reference}")
+        stdout().print(f"  quasi-static mu_p = a fn^b (1 + d v^q)/(1 + c v): a={q.a:g} b={q.b:g} c={q.c:g} d={q.d:g} q={q.q:g}")
+        stdout().print(f"    from: {q.provenance.reference}")
     if fr.coulomb:
-        stdout.print(f"  Coulomb mu0 = {fr.coulomb.mu0:g}\n    from: {fr.coulomb.provenance.reference}")
-    stdout.print(f"  texture: {m.texture_text()}")
+        stdout().print(f"  Coulomb mu0 = {fr.coulomb.mu0:g}\n    from: {fr.coulomb.provenance.reference}")
+    stdout().print(f"  texture: {m.texture_text()}")
     if spec.texture is not None:
         p = spec.texture.provenance
-        stdout.print(f"    from: {p.reference or p.recording}" + (f" ({p.note})" if p.note else ""))
+        stdout().print(f"    from: {p.reference or p.recording}" + (f" ({p.note})" if p.note else ""))
         cal = spec.texture_calibration
         if cal is not None:
-            stdout.print(f"    strength: r = {cal.target_voltage_ratio:g}, beta = {cal.beta:g}, sd(x) = {cal.reference_std:.4g}, "
+            stdout().print(f"    strength: r = {cal.target_voltage_ratio:g}, beta = {cal.beta:g}, sd(x) = {cal.reference_std:.4g}, "
                          f"mu_t = {cal.relative_scale:.4g} * mu_low * x")
-            stdout.print(f"    from: {cal.provenance.reference}")
+            stdout().print(f"    from: {cal.provenance.reference}")
             if cal.provenance.note:
-                stdout.print(f"    how: {cal.provenance.note}")
+                stdout().print(f"    how: {cal.provenance.note}")
     for note in spec.notes:
-        stdout.print(f"  note: {note}")
+        stdout().print(f"  note: {note}")
     method = default_method(m)
     plan = plan_gains(m, method, display, rng)
-    stdout.print(f"  gain plan ({method}, display: {display.source}; loads {rng.loads[0]:g}-{rng.loads[1]:g} N, "
+    stdout().print(f"  gain plan ({method}, display: {display.source}; loads {rng.loads[0]:g}-{rng.loads[1]:g} N, "
                  f"speeds {rng.speeds[0]:g}-{rng.speeds[1]:g} m/s):")
-    stdout.print(f"    alpha = {plan.alpha:.1f} V/sqrt(N) (calibrated {plan.alpha_calibrated:.1f}; bound by {plan.binding}), "
+    stdout().print(f"    alpha = {plan.alpha:.1f} V/sqrt(N) (calibrated {plan.alpha_calibrated:.1f}; bound by {plan.binding}), "
                  f"rendering gain {plan.rendering_gain:.3f}, headroom {plan.headroom:.3f} ({plan.headroom_db:.2f} dB) "
                  f"at the texture's {plan.percentile:g}th percentile")
     print_table(("load N", "added friction N (over speeds)", f"peak V ({plan.percentile:g} %)"),
@@ -93,8 +94,8 @@ def materials(
     if as_json:
         return report({"materials": [dict(zip(header, r)) for r in rows]}, [], True)
     print_table(header, rows, title="built-in materials")
-    if stdout.is_terminal:
-        stdout.print("Show one with its provenance and gain plan: surfhap materials --show NAME")
+    if stdout().is_terminal:
+        stdout().print("Show one with its provenance and gain plan: surfhap materials --show NAME")
 
 
 def calibrate_texture(

@@ -89,7 +89,7 @@ def force(
                     meta=meta)
     write_recording_csv(rec, out)
     report_status(dev)
-    stdout.print(f"wrote {out}: {int(keep.sum())} samples at {dev.rate:g} Hz, {dev.gaps} gaps "
+    stdout().print(f"wrote {out}: {int(keep.sum())} samples at {dev.rate:g} Hz, {dev.gaps} gaps "
                  f"({dev.lost} records lost), from {dev.name}")
 
 
