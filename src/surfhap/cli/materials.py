@@ -59,6 +59,45 @@ def _show(name: str, display, rng) -> None:
                   f"{plan.peak_voltage[i]:.1f}") for i in range(0, plan.loads.size, max(1, plan.loads.size // 6))])
 
 
+def _builtin_specs():
+    """(name, file contents as JSON) of every built-in material, sorted: the list reads the files
+    as written (they are package data, validated by the tests), without the pydantic models and
+    numpy that loading a material costs (a quarter of a second of start-up)."""
+    import json
+    from importlib import resources
+
+    folder = resources.files("surfhap.models") / "builtin"
+    return [(p.name[:-5], json.loads(p.read_text(encoding="utf-8")))
+            for p in sorted(folder.iterdir(), key=lambda p: p.name[:-5]) if p.name.endswith(".json")]
+
+
+def _row(name: str, spec: dict) -> tuple[str, str, str, str, str]:
+    """One row of the list from a material file's contents; tests/test_cli_startup.py checks each
+    built-in's row against the loaded Material (texture_text, default_method, its laws)."""
+    friction, texture = spec["friction"], spec.get("texture")
+    laws = []
+    if (q := friction.get("quasi_static")) is not None:
+        laws.append(f"mu_p: a={q['a']:g} b={q['b']:g} c={q['c']:g} d={q['d']:g} q={q['q']:g}")
+    if (c := friction.get("coulomb")) is not None:
+        laws.append(f"mu0={c['mu0']:g}")
+    if texture is None:
+        text = "none (friction-only)"
+    else:
+        models = texture["models"]
+        order = max(max(len(m["ar_lsf"]), len(m["ma_lsf"])) if "ar_lsf" in m else len(m["coefficients"]) for m in models)
+        text = f"{texture['quantity']}, {len(models)} model(s) of order <= {order} @ {texture['sample_rate']:g} Hz"
+        if (cal := texture.get("calibration")) is not None:
+            text += f", voltage ratio 10:{10 * cal['target_voltage_ratio']:g} (calibrated)"
+    sources = []
+    for part in (friction.get("quasi_static"), friction.get("coulomb"), texture):
+        if part is not None:
+            p = part["provenance"]
+            sources.append(p["reference"].split(",")[0].split(" (")[0] if p["source"] == "paper"
+                           else f"fit of {p['recording']}")
+    method = "otake2022" if friction.get("quasi_static") is not None else "otake2021"
+    return name, "\n".join(laws), text, method, "\n".join(dict.fromkeys(sources))
+
+
 def materials(
     show: Optional[str] = typer.Option(None, "--show", help="Show one material: parameters, provenance and its gain plan."),
     display: DisplayOption = None,
@@ -68,29 +107,12 @@ def materials(
     as_json: JsonOption = False,
 ) -> None:
     """List the built-in materials, their friction laws, texture models and sources."""
-    from surfhap.exchange.materials import builtin_names, load_material
-    from surfhap.render.drive import default_method
-
     if show is not None:
         disp, rng = resolve_display_and_range(display, load_range, speed_range, config)
         _show(show, disp, rng)
         return
-    header, rows = ("name", "friction", "texture", "default method", "sources"), []
-    for name in builtin_names():
-        m = load_material(name)
-        fr = []
-        if m.quasi_static:
-            q = m.quasi_static
-            fr.append(f"mu_p: a={q.a:g} b={q.b:g} c={q.c:g} d={q.d:g} q={q.q:g}")
-        if m.coulomb:
-            fr.append(f"mu0={m.coulomb.mu0:g}")
-        srcs = []
-        spec = m.spec
-        for part in (spec.friction.quasi_static, spec.friction.coulomb, spec.texture):
-            if part is not None:
-                p = part.provenance
-                srcs.append(p.reference.split(",")[0].split(" (")[0] if p.source == "paper" else f"fit of {p.recording}")
-        rows.append((name, "\n".join(fr), m.texture_text(), default_method(m), "\n".join(dict.fromkeys(srcs))))
+    header = ("name", "friction", "texture", "default method", "sources")
+    rows = [_row(name, spec) for name, spec in _builtin_specs()]
     if as_json:
         return report({"materials": [dict(zip(header, r)) for r in rows]}, [], True)
     print_table(header, rows, title="built-in materials")
