@@ -1,7 +1,7 @@
 """``surfhap fit``: build material models from real recordings.
 
-This module defines the ``fit`` group (``fit_app``) and its ``imu`` command; other command
-modules add their fitting commands to ``fit_app``.
+This module defines the ``fit`` group (``fit_app``) and its ``imu`` command; ``friction`` and
+``accel`` come from :mod:`surfhap.cli.fit_recordings`.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ import typer
 from surfhap.cli._batch import fit_imu_batch, fit_imu_command
 from surfhap.cli._common import check_out, report, status_line
 from surfhap.cli._options import JobsOption, JsonOption, OverwriteOption, SchedulerOption
+from surfhap.cli.fit_recordings import fit_accel_cmd, fit_friction_cmd
 from surfhap.errors import ConfigError
 
 __all__ = ["fit_app", "register"]
@@ -61,7 +62,9 @@ def fit_imu(
            f"{target}: texture AR({row['order']}) at {row['sample_rate']:g} Hz from {row['name']} ({row['aic_note']})", as_json)
 
 
-def register(app: typer.Typer) -> None:
-    from surfhap.cli import fit_recordings  # noqa: F401 - its commands (friction, accel) join fit_app on import
+fit_app.command("friction")(fit_friction_cmd)
+fit_app.command("accel")(fit_accel_cmd)
 
+
+def register(app: typer.Typer) -> None:
     app.add_typer(fit_app, name="fit")
