@@ -6,7 +6,6 @@ import re
 import sys
 import warnings
 from contextlib import contextmanager
-
 from functools import cache
 from typing import TYPE_CHECKING
 

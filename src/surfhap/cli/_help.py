@@ -133,7 +133,7 @@ def _format_help(self, ctx, formatter) -> None:
         lines += [""] + textwrap.wrap(paragraph, width - 2, initial_indent="  ", subsequent_indent="  ")
     lines += _section("Arguments", _rows([p for p in params if isinstance(p, TyperArgument)], ctx), width)
     lines += _section("Options", _rows([p for p in params if not isinstance(p, TyperArgument)], ctx), width)
-    if isinstance(self.commands if isinstance(self, TyperGroup) else None, LazyCommands):
+    if isinstance(self, TyperGroup) and isinstance(self.commands, LazyCommands):  # no command is built
         lines += _section("Commands", list(self.commands.summaries.items()), width)
     elif isinstance(self, TyperGroup):
         cmds = [(n, c) for n in self.list_commands(ctx) if (c := self.get_command(ctx, n)) and not c.hidden]
