@@ -92,7 +92,7 @@ def _run(fn, items, root: Path, spec, what: str, preload: tuple[str, ...] = ()) 
     for r in bad:
         error_line(f"{r['job']}: {r['error']}")
     stdout().print(f"{len(rows) - len(bad)} of {len(rows)} jobs done on {where}"
-                 f"{f', {len(bad)} failed' if bad else ''} -> {paths['csv']}")
+                   f"{f', {len(bad)} failed' if bad else ''} -> {paths['csv']}")
     return 1 if bad else 0
 
 

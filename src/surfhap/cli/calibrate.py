@@ -56,7 +56,7 @@ def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear
         try:
             backend.start(engine)
             stdout().print(f"playing {schedule.levels.size} intensities x {schedule.step_seconds:g} s on {output}, "
-                         f"recording {dev.name}")
+                           f"recording {dev.name}")
             t, fn, fs, level = rig.record_steps(dev, engine, schedule, keep_running=lambda: not guard.stopped)
         except SensorSilent as exc:  # the watchdog has begun the ramp to zero; the stop ramp ends it
             failure = str(exc)

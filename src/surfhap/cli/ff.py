@@ -257,8 +257,8 @@ def run_cmd(
                 source.stop()
                 raise ConfigError(f"cannot open the device link ({exc.strerror or exc})", source="--device") from None
             stderr().print(f"surfhap ff: {sc.name} on {backend.name} at {loop.rate:.0f} Hz; touch {touch}"
-                         f"{'' if backend.name != 'osc' else f'; positions on udp port {backend.listen_port}'}"
-                         " (Ctrl-C stops)")
+                           f"{'' if backend.name != 'osc' else f'; positions on udp port {backend.listen_port}'}"
+                           " (Ctrl-C stops)")
             end = time.monotonic() + duration if duration > 0 else None
             while not loop.done.is_set():
                 if end is not None and time.monotonic() >= end:
@@ -293,7 +293,7 @@ def _exit_if_failed(error: BaseException | None) -> None:
     (as ``play`` does for a failed backend). ``ff run`` and ``ff simulate`` end the same way."""
     if error is not None:
         stderr().print(f"error: force-feedback loop failed ({_one_line(error)}); the force was ramped to zero", markup=False,
-                     soft_wrap=True)
+                       soft_wrap=True)
         raise typer.Exit(3)
 
 

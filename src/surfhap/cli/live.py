@@ -76,7 +76,7 @@ def _finish(engine, guard: StopSignals | None) -> None:
     signal stopped the command (``guard``; None for a simulated run)."""
     if engine.failure is not None:
         stderr().print(f"[bold red]error:[/] {engine.failure}; the output was halted at 0 V", markup=True,
-                     soft_wrap=True)
+                       soft_wrap=True)
         raise typer.Exit(EXIT_BACKEND_FAILED)
     if guard is not None:
         guard.finish("the output ramped to 0 V, status above")
@@ -193,10 +193,10 @@ def serve_cmd(
         osc = parse_host_port(osc_in, "--osc-in", listen=True)
     if host not in LOOPBACK:
         stderr().print(f"[yellow]warning:[/] binding {host}: the page is reachable from your network; "
-                     "anyone who can reach it can drive the display", markup=True, soft_wrap=True)
+                       "anyone who can reach it can drive the display", markup=True, soft_wrap=True)
     if osc is not None and osc[0] not in LOOPBACK:
         stderr().print(f"[yellow]warning:[/] --osc-in binds {osc[0]}: OSC touch input is reachable from your "
-                     "network; anyone who can send it a datagram can drive the display", markup=True, soft_wrap=True)
+                       "network; anyone who can send it a datagram can drive the display", markup=True, soft_wrap=True)
     from surfhap.exchange.trajectory_csv import read_trajectory_csv
 
     clk = _clock(clock)

@@ -41,7 +41,7 @@ def _show(name: str, display, rng) -> None:
         cal = spec.texture_calibration
         if cal is not None:
             stdout().print(f"    strength: r = {cal.target_voltage_ratio:g}, beta = {cal.beta:g}, sd(x) = {cal.reference_std:.4g}, "
-                         f"mu_t = {cal.relative_scale:.4g} * mu_low * x")
+                           f"mu_t = {cal.relative_scale:.4g} * mu_low * x")
             stdout().print(f"    from: {cal.provenance.reference}")
             if cal.provenance.note:
                 stdout().print(f"    how: {cal.provenance.note}")
@@ -50,10 +50,10 @@ def _show(name: str, display, rng) -> None:
     method = default_method(m)
     plan = plan_gains(m, method, display, rng)
     stdout().print(f"  gain plan ({method}, display: {display.source}; loads {rng.loads[0]:g}-{rng.loads[1]:g} N, "
-                 f"speeds {rng.speeds[0]:g}-{rng.speeds[1]:g} m/s):")
+                   f"speeds {rng.speeds[0]:g}-{rng.speeds[1]:g} m/s):")
     stdout().print(f"    alpha = {plan.alpha:.1f} V/sqrt(N) (calibrated {plan.alpha_calibrated:.1f}; bound by {plan.binding}), "
-                 f"rendering gain {plan.rendering_gain:.3f}, headroom {plan.headroom:.3f} ({plan.headroom_db:.2f} dB) "
-                 f"at the texture's {plan.percentile:g}th percentile")
+                   f"rendering gain {plan.rendering_gain:.3f}, headroom {plan.headroom:.3f} ({plan.headroom_db:.2f} dB) "
+                   f"at the texture's {plan.percentile:g}th percentile")
     print_table(("load N", "added friction N (over speeds)", f"peak V ({plan.percentile:g} %)"),
                 [(f"{plan.loads[i]:.2f}", f"{plan.friction_low_n[i]:.4f} - {plan.friction_high_n[i]:.4f}",
                   f"{plan.peak_voltage[i]:.1f}") for i in range(0, plan.loads.size, max(1, plan.loads.size // 6))])

@@ -90,7 +90,7 @@ def force(
     write_recording_csv(rec, out)
     report_status(dev)
     stdout().print(f"wrote {out}: {int(keep.sum())} samples at {dev.rate:g} Hz, {dev.gaps} gaps "
-                 f"({dev.lost} records lost), from {dev.name}")
+                   f"({dev.lost} records lost), from {dev.name}")
 
 
 def register(app: typer.Typer) -> None:

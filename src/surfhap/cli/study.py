@@ -180,7 +180,7 @@ def run(
                                   "(a session on a real display never starts at the 250 V safety limit by default)",
                                   source="--output")
             stderr().print(f"no comfort voltage measured for {pid} ('study comfort'): session limit is the safety "
-                         "limit")
+                           "limit")
     runner = SessionRunner(study, participant, gain=gain, comfort_voltage=comfort_voltage,
                            mode="simulated" if simulate is not None else "page", display=disp,
                            allow_same_day=allow_same_day,
@@ -208,7 +208,7 @@ def run(
         stderr().print(f"{runner.plan.id}: {runner.n_done}/{runner.total} trials logged in {runner.log.path}")
         if runner.finished and runner.later:
             stdout().print(f"{runner.plan.id}: session {runner.study_session} done; session {runner.study_session + 1} "
-                         "on another day ('study run' again)")
+                           "on another day ('study run' again)")
     finally:
         runner.close()
     guard.finish("paused; every answered trial is in the log (run again to resume)")
@@ -248,7 +248,7 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
         raise
     stderr().print(f"participant page: [bold]{server.url}[/]  (Ctrl-C pauses; run again to resume)")
     stderr().print(f"experimenter page (keep this address to yourself): {server.url}/experimenter?token="
-                 f"{page.experimenter_token}", soft_wrap=True)
+                   f"{page.experimenter_token}", soft_wrap=True)
 
     def table() -> Table:
         tb = Table(show_header=False, box=None)
@@ -329,7 +329,7 @@ def comfort(
                    f"{v:.1f} V (one {runner.params.steps[-1]:g} dB step below the {runner.adaptive.method} estimate "
                    f"{res.threshold:.1f} V)")
             stdout().print(f"{runner.plan.id}: comfort voltage {thr} after {res.levels.size} trials "
-                         f"({res.stopped_by})")
+                           f"({res.stopped_by})")
         else:
             stdout().print(f"{runner.plan.id}: {res.levels.size} staircase trials logged; run again to continue")
     finally:
