@@ -53,8 +53,10 @@ def median_wall(cmd: list[str], runs: int, env: dict) -> float:
 
 def main() -> None:
     runs = int(sys.argv[sys.argv.index("--runs") + 1]) if "--runs" in sys.argv else 15
-    # the children run this tree's code, as this script does
+    # the children run this tree's code, as this script does; the untimed first run writes the
+    # byte-code an installed copy has (pip compiles it), also when the caller's environment says not to
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(SRC), os.environ.get("PYTHONPATH")])))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     cli = surfhap_command()
     log(f"cli start-up: {' '.join(cli)}, {runs} runs each")
     python = median_wall([sys.executable, "-c", "pass"], runs, env)

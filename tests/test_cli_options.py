@@ -3,9 +3,7 @@
 import re
 from pathlib import Path
 
-import typer
-
-from surfhap.cli import _register, app
+from surfhap.cli import root_command
 
 CLI = Path(__file__).resolve().parents[1] / "src" / "surfhap" / "cli"
 SHARED = ("--display", "--load-range", "--speed-range", "--config", "--jobs", "--scheduler")
@@ -20,16 +18,15 @@ def _commands(group, path=()):
 
 
 def test_shared_options_have_one_help_text():
-    _register()
     helps: dict[str, dict[str, tuple]] = {}
-    for path, cmd in _commands(typer.main.get_command(app)):
+    for path, cmd in _commands(root_command()):
         for p in cmd.params:
             for opt in p.opts:
                 if opt in SHARED:
                     helps.setdefault(opt, {}).setdefault(p.help, path)
     assert set(helps) >= {"--display", "--load-range", "--speed-range", "--config"}
     assert {opt: list(by_help.values()) for opt, by_help in helps.items() if len(by_help) > 1} == {}
-    assert len([1 for _, cmd in _commands(typer.main.get_command(app))
+    assert len([1 for _, cmd in _commands(root_command())
                 if any("--display" in p.opts for p in cmd.params)]) >= 4
 
 

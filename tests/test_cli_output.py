@@ -12,9 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import typer
 
-from surfhap.cli import _register, app, main
+from surfhap.cli import main, root_command
 from surfhap.exchange.trajectory_csv import write_trajectory_csv
 from surfhap.models.trajectory import Trajectory
 
@@ -72,14 +71,12 @@ def test_compare_table_keeps_whole_names(capsys, monkeypatch):
 
 
 def _commands_with_out():
-    _register()
-
     def walk(cmd, path=()):
         yield path, cmd
         for n, sub in getattr(cmd, "commands", {}).items():
             yield from walk(sub, (*path, n))
 
-    return [(" ".join(p), c) for p, c in walk(typer.main.get_command(app))
+    return [(" ".join(p), c) for p, c in walk(root_command())
             if any("--out" in prm.opts for prm in c.params)]
 
 
@@ -159,7 +156,7 @@ def test_progress_and_status_show_on_a_terminal_only(capsys, monkeypatch):
         update(0.5)
     assert capsys.readouterr().err == ""
     term = io.StringIO()
-    monkeypatch.setattr(_common, "stderr", Console(file=term, force_terminal=True, width=80))
+    monkeypatch.setattr(_common, "stderr", lambda: Console(file=term, force_terminal=True, width=80))
     with _common.progress_bar("rendering") as update:
         update(0.5)
     with _common.status_line("writing figures"):

@@ -81,9 +81,10 @@ def test_typer_exit_code_is_returned(capsys, monkeypatch):
         pass
 
     from surfhap.cli._common import run_guarded
+    from surfhap.cli._help import command_tree
 
-    assert run_guarded(probe, ["good"]) == 0
-    assert run_guarded(probe, ["bad"]) == 2
+    assert run_guarded(command_tree(probe), ["good"]) == 0
+    assert run_guarded(command_tree(probe), ["bad"]) == 2
     line = one_error_line(capsys.readouterr().err)
     assert line == "error: a [bracketed] message over two lines"
 

@@ -11,9 +11,6 @@ def _walk(command, path=()):
 
 def all_commands() -> list:
     """``[(path, click command), ...]``: the root as ``()``, then every (sub-)command by name."""
-    import typer
+    from surfhap.cli import root_command
 
-    from surfhap.cli import _register, app
-
-    _register()
-    return list(_walk(typer.main.get_command(app)))
+    return list(_walk(root_command()))

@@ -67,8 +67,8 @@ def _run(fn, items, root: Path, spec, what: str, preload: tuple[str, ...] = ()) 
 
     where = spec.describe()
     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[failed]}"),
-                  TimeElapsedColumn(), TimeRemainingColumn(), console=stderr, transient=True,
-                  disable=not stderr.is_terminal) as prog:  # piped: no bar (rich would print its last state)
+                  TimeElapsedColumn(), TimeRemainingColumn(), console=stderr(), transient=True,
+                  disable=not stderr().is_terminal) as prog:  # piped: no bar (rich would print its last state)
         task = prog.add_task(f"{what} on {where}", total=len(items), failed="")
         finished: dict[int, JobOutcome] = {}
 
@@ -91,8 +91,8 @@ def _run(fn, items, root: Path, spec, what: str, preload: tuple[str, ...] = ()) 
     bad = [r for r in rows if r["status"] != "ok"]
     for r in bad:
         error_line(f"{r['job']}: {r['error']}")
-    stdout.print(f"{len(rows) - len(bad)} of {len(rows)} jobs done on {where}"
-                 f"{f', {len(bad)} failed' if bad else ''} -> {paths['csv']}")
+    stdout().print(f"{len(rows) - len(bad)} of {len(rows)} jobs done on {where}"
+                   f"{f', {len(bad)} failed' if bad else ''} -> {paths['csv']}")
     return 1 if bad else 0
 
 

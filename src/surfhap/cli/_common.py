@@ -6,10 +6,10 @@ import re
 import sys
 import warnings
 from contextlib import contextmanager
+from functools import cache
+from typing import TYPE_CHECKING
 
 import typer
-from rich.console import Console
-from rich.text import Text
 
 from surfhap.errors import ConfigError, InputWarning, SurfhapError
 
@@ -17,10 +17,27 @@ __all__ = ["run_guarded", "fail", "error_line", "warning_line", "progress_bar", 
            "stderr", "stdout", "OPTIONAL_MODULES", "require_modules", "figure_path", "report", "print_table",
            "check_out"]
 
-stderr = Console(stderr=True, highlight=False)
-# result lines: never hard-wrapped (a pipe gets one line per result, grep-able) and no markup
-# interpreted in them (a '[...]' in a name or path prints as written)
-stdout = Console(highlight=False, soft_wrap=True, markup=False)
+if TYPE_CHECKING:
+    from rich.console import Console
+    from typer.core import TyperCommand, TyperGroup
+
+
+# The two rich consoles, made on first use: rich costs a tenth of a second of start-up that
+# --help and a usage error never need (their lines are written by typer.echo).
+@cache
+def stderr() -> Console:
+    from rich.console import Console
+
+    return Console(stderr=True, highlight=False)
+
+
+@cache
+def stdout() -> Console:
+    """Result lines: never hard-wrapped (a pipe gets one line per result, grep-able) and no markup
+    interpreted in them (a '[...]' in a name or path prints as written)."""
+    from rich.console import Console
+
+    return Console(highlight=False, soft_wrap=True, markup=False)
 
 # Third-party modules that only an optional extra installs: import name -> extra.
 OPTIONAL_MODULES = {
@@ -65,16 +82,20 @@ def figure_path(path, option: str):
     return path
 
 
+def _line(label: str, colour: str, message: str) -> None:
+    """``label: message`` as exactly one line on stderr, the label bold and coloured on a terminal."""
+    flat = re.sub(r"\s+", " ", str(message)).strip()
+    typer.echo(f"{typer.style(label, fg=colour, bold=True)} {flat}", err=True)
+
+
 def error_line(message: str) -> None:
     """Print ``error: message`` as exactly one line on stderr (no markup is interpreted)."""
-    flat = re.sub(r"\s+", " ", str(message)).strip()
-    stderr.print(Text.assemble(("error:", "bold red"), " ", flat), soft_wrap=True)
+    _line("error:", "red", message)
 
 
 def warning_line(message: str) -> None:
     """Print ``warning: message`` as exactly one line on stderr (no markup is interpreted)."""
-    flat = re.sub(r"\s+", " ", str(message)).strip()
-    stderr.print(Text.assemble(("warning:", "bold yellow"), " ", flat), soft_wrap=True)
+    _line("warning:", "yellow", message)
 
 
 @contextmanager
@@ -120,19 +141,17 @@ def _error_text(exc: BaseException) -> str:
     return str(exc)
 
 
-def run_guarded(app: typer.Typer, argv: list[str]) -> int:
-    """Run the typer app and return its exit code.
+def run_guarded(command: TyperCommand | TyperGroup, argv: list[str]) -> int:
+    """Run a click command built by typer (:func:`surfhap.cli._help.command_tree`) and return its exit code.
 
     Usage errors (missing or unknown argument, option or command, bad option value) and bad
     input (:class:`~surfhap.errors.SurfhapError`, ``ValueError``, ``OSError``) become one line
     on stderr and exit code 2; a command that needs a missing optional extra says which one
     to install (exit 2). A group called without a command prints its help (exit 2).
     """
-    from surfhap.cli._help import command_tree
-
     try:
         with input_warnings_as_lines():
-            code = command_tree(app, argv).main(args=argv, prog_name="surfhap", standalone_mode=False)
+            code = command.main(args=argv, prog_name="surfhap", standalone_mode=False)
     except typer.Abort:
         error_line("aborted")
         return 130
@@ -179,25 +198,26 @@ def report(data: dict, lines, as_json: bool) -> None:
         typer.echo(json.dumps(data, default=_json_value))
         return
     for line in [lines] if isinstance(lines, str) else lines:
-        stdout.print(line)
+        stdout().print(line)
 
 
 def print_table(header, rows, title: str | None = None) -> None:
     """A table on stdout: on a terminal a rich table whose cells wrap (a name is never cut to
     'otake20…'); piped, one tab-separated line per row after the header line."""
-    if not stdout.is_terminal:
+    if not stdout().is_terminal:
         for row in [header, *rows]:
             typer.echo("\t".join(" ".join(str(c).split()) if "\n" not in str(c) else "; ".join(str(c).splitlines())
                                   for c in row))
         return
     from rich.table import Table
+    from rich.text import Text
 
     table = Table(title=title)
     for col in header:
         table.add_column(col, overflow="fold")
     for row in rows:
         table.add_row(*(c if isinstance(c, Text) else Text(str(c)) for c in row))
-    stdout.print(table)
+    stdout().print(table)
 
 
 def check_out(path, option: str, overwrite: bool):
@@ -217,10 +237,10 @@ def status_line(description: str):
     """Work of unknown length (a fit, a first index build, writing figures): a spinner on a
     terminal's stderr. Nothing when stderr is not a terminal: a log holds results and errors
     only, and bad input found during the work stays the one error line."""
-    if not stderr.is_terminal:
+    if not stderr().is_terminal:
         yield
         return
-    with stderr.status(f"{description} ...", spinner="dots"):
+    with stderr().status(f"{description} ...", spinner="dots"):
         yield
 
 
@@ -228,13 +248,13 @@ def status_line(description: str):
 def progress_bar(description: str, enabled: bool = True):
     """A rich progress bar on a terminal's stderr (nothing otherwise, as :func:`status_line`);
     yields ``update(fraction)``."""
-    if not enabled or not stderr.is_terminal:
+    if not enabled or not stderr().is_terminal:
         yield lambda fraction: None
         return
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
-                  TimeElapsedColumn(), TimeRemainingColumn(), console=stderr, transient=True) as prog:
+                  TimeElapsedColumn(), TimeRemainingColumn(), console=stderr(), transient=True) as prog:
         task = prog.add_task(description, total=1.0)
         yield lambda fraction: prog.update(task, completed=fraction)
 

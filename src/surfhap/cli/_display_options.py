@@ -9,7 +9,6 @@ The ``[display]`` section may hold ``file`` (a display JSON, relative to the con
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 from surfhap.errors import ConfigError
@@ -35,6 +34,8 @@ def parse_range(text: str, source: str) -> tuple[float, float]:
 
 def _read_config(path: Path):
     """The ``[display]`` section of a config file, validated (unknown keys refused)."""
+    import tomllib
+
     from pydantic import Field
 
     from surfhap.exchange.display_file import DisplayValues

@@ -55,8 +55,8 @@ def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear
     with StopSignals() as guard:
         try:
             backend.start(engine)
-            stdout.print(f"playing {schedule.levels.size} intensities x {schedule.step_seconds:g} s on {output}, "
-                         f"recording {dev.name}")
+            stdout().print(f"playing {schedule.levels.size} intensities x {schedule.step_seconds:g} s on {output}, "
+                           f"recording {dev.name}")
             t, fn, fs, level = rig.record_steps(dev, engine, schedule, keep_running=lambda: not guard.stopped)
         except SensorSilent as exc:  # the watchdog has begun the ramp to zero; the stop ramp ends it
             failure = str(exc)
@@ -68,7 +68,7 @@ def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear
         error_line(f"{failure or engine.failure}; the drive ramped to zero")
         raise typer.Exit(3)
     report_status(dev)
-    stdout.print(f"recorded {t.size} samples, {dev.gaps} gaps ({dev.lost} records lost)")
+    stdout().print(f"recorded {t.size} samples, {dev.gaps} gaps ({dev.lost} records lost)")
     return rig.step_recordings(t, fn, fs, level, schedule, dev.rate, limits.v_max, dev.name)
 
 

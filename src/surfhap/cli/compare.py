@@ -45,7 +45,7 @@ def compare(
                        "renders": [p.summary for p in comp.profiles], "figure": out and str(out)}, [], True)
     print_table(MaterialComparison.header, comp.rows())
     if out is not None:
-        stdout.print(f"wrote {out}")
+        stdout().print(f"wrote {out}")
 
 
 def register(app: typer.Typer) -> None:

@@ -96,7 +96,7 @@ def scenes_cmd() -> None:
 
     for name in builtin_scene_names():
         desc = json.loads(builtin_scene_path(name).read_text(encoding="utf-8")).get("description", "")
-        stdout.print(f"{name:<10} {desc}")
+        stdout().print(f"{name:<10} {desc}")
 
 
 def simulate_cmd(
@@ -256,9 +256,9 @@ def run_cmd(
             except OSError as exc:
                 source.stop()
                 raise ConfigError(f"cannot open the device link ({exc.strerror or exc})", source="--device") from None
-            stderr.print(f"surfhap ff: {sc.name} on {backend.name} at {loop.rate:.0f} Hz; touch {touch}"
-                         f"{'' if backend.name != 'osc' else f'; positions on udp port {backend.listen_port}'}"
-                         " (Ctrl-C stops)")
+            stderr().print(f"surfhap ff: {sc.name} on {backend.name} at {loop.rate:.0f} Hz; touch {touch}"
+                           f"{'' if backend.name != 'osc' else f'; positions on udp port {backend.listen_port}'}"
+                           " (Ctrl-C stops)")
             end = time.monotonic() + duration if duration > 0 else None
             while not loop.done.is_set():
                 if end is not None and time.monotonic() >= end:
@@ -292,8 +292,8 @@ def _exit_if_failed(error: BaseException | None) -> None:
     """A force loop that raised has ramped down through the safety stage: one line, exit 3
     (as ``play`` does for a failed backend). ``ff run`` and ``ff simulate`` end the same way."""
     if error is not None:
-        stderr.print(f"error: force-feedback loop failed ({_one_line(error)}); the force was ramped to zero", markup=False,
-                     soft_wrap=True)
+        stderr().print(f"error: force-feedback loop failed ({_one_line(error)}); the force was ramped to zero", markup=False,
+                       soft_wrap=True)
         raise typer.Exit(3)
 
 
@@ -337,7 +337,7 @@ class _WebSource:
         from surfhap.web.process import WebProcess
 
         self.server = WebProcess(self.session, ServerConfig(host=self.host, port=self.port)).start()
-        stdout.print(f"touch page: http://{self.host}:{self.port}/")
+        stdout().print(f"touch page: http://{self.host}:{self.port}/")
 
     def stop(self) -> None:
         if self.server is not None:

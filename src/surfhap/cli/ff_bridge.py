@@ -45,7 +45,7 @@ def bridge_check_cmd(
         raise ConfigError(f"cannot resolve {host!r} ({exc.strerror or exc})", source="URL") from None
     except OSError as exc:
         raise ConfigError(f"cannot listen ({exc.strerror or exc})", source="--listen") from None
-    if stdout.is_terminal:
+    if stdout().is_terminal:
         from rich.text import Text
 
         print_table(("check", "result", "detail"), [(r.name, Text("PASS", "green") if r.passed else Text("FAIL", "red"),

@@ -1,7 +1,7 @@
 """``surfhap fit``: build material models from real recordings.
 
-This module defines the ``fit`` group (``fit_app``) and its ``imu`` command; other command
-modules add their fitting commands to ``fit_app``.
+This module defines the ``fit`` group (``fit_app``) and its ``imu`` command; ``friction`` and
+``accel`` come from :mod:`surfhap.cli.fit_recordings`.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ import typer
 from surfhap.cli._batch import fit_imu_batch, fit_imu_command
 from surfhap.cli._common import check_out, report, status_line
 from surfhap.cli._options import JobsOption, JsonOption, OverwriteOption, SchedulerOption
+from surfhap.cli.fit_recordings import fit_accel_cmd, fit_friction_cmd
 from surfhap.errors import ConfigError
 
 __all__ = ["fit_app", "register"]
@@ -59,6 +60,10 @@ def fit_imu(
                                         command=fit_imu_command(recording[0], into, out, **fit), **fit))
     report({**row, "out": str(target)},
            f"{target}: texture AR({row['order']}) at {row['sample_rate']:g} Hz from {row['name']} ({row['aic_note']})", as_json)
+
+
+fit_app.command("friction")(fit_friction_cmd)
+fit_app.command("accel")(fit_accel_cmd)
 
 
 def register(app: typer.Typer) -> None:

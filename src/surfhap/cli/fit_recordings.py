@@ -1,6 +1,6 @@
 """``surfhap fit friction`` and ``surfhap fit accel``: material models from recordings.
 
-Both commands are added to the ``fit`` group defined in :mod:`surfhap.cli.fit`.
+Both commands are added to the ``fit`` group by :mod:`surfhap.cli.fit`.
 """
 
 from __future__ import annotations
@@ -16,10 +16,9 @@ from surfhap.cli._common import check_out, status_line
 from surfhap.cli._common import report as _report  # 'report' is the --report option
 from surfhap.cli._signals import StopSignals
 from surfhap.cli._options import JobsOption, JsonOption, OverwriteOption, SchedulerOption
-from surfhap.cli.fit import fit_app
 from surfhap.errors import ConfigError
 
-__all__ = ["register", "fit_friction_cmd", "fit_accel_cmd"]
+__all__ = ["fit_friction_cmd", "fit_accel_cmd"]
 
 
 def _speeds_mm(text: str) -> tuple[float, ...]:
@@ -61,7 +60,6 @@ def _fit_and_write(fit_fn, recordings: list[Path], columns: str | None, material
     return fit, command
 
 
-@fit_app.command("friction")
 def fit_friction_cmd(
     recordings: List[Path] = typer.Argument(..., help="Friction recordings (CSV or NPZ): time, normal_force, shear_force or cof, speed or position."),
     material: str = typer.Option(..., "--material", help="Name of the material to write."),
@@ -113,7 +111,6 @@ def fit_friction_cmd(
     _report(data, lines, as_json)
 
 
-@fit_app.command("accel")
 def fit_accel_cmd(
     recordings: List[Path] = typer.Argument(..., help="Tool-scan recordings (CSV or NPZ): time, acceleration, speed, normal_force[, shear_force]."),
     material: str = typer.Option(..., "--material", help="Name of the material to write."),
@@ -150,6 +147,3 @@ def fit_accel_cmd(
         lines.append(f"report: {data['report']}")
     _report(data, lines, as_json)
 
-
-def register(app: typer.Typer) -> None:
-    """The commands live on ``fit_app`` (registered by :mod:`surfhap.cli.fit`); nothing else to do."""

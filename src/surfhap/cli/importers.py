@@ -31,8 +31,8 @@ def import_hatt_cmd(
     check_out(out, "--out", overwrite)
     written = import_hatt_folder(folder, out)
     for path in written:
-        stdout.print(str(path))
-    stdout.print(f"{len(written)} material(s) written to {out}")
+        stdout().print(str(path))
+    stdout().print(f"{len(written)} material(s) written to {out}")
 
 
 def register(app: typer.Typer) -> None:

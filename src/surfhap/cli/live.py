@@ -75,8 +75,8 @@ def _finish(engine, guard: StopSignals | None) -> None:
     """Exit 3 (after the status was printed) when the output backend failed, else 130 when a
     signal stopped the command (``guard``; None for a simulated run)."""
     if engine.failure is not None:
-        stderr.print(f"[bold red]error:[/] {engine.failure}; the output was halted at 0 V", markup=True,
-                     soft_wrap=True)
+        stderr().print(f"[bold red]error:[/] {engine.failure}; the output was halted at 0 V", markup=True,
+                       soft_wrap=True)
         raise typer.Exit(EXIT_BACKEND_FAILED)
     if guard is not None:
         guard.finish("the output ramped to 0 V, status above")
@@ -192,11 +192,11 @@ def serve_cmd(
 
         osc = parse_host_port(osc_in, "--osc-in", listen=True)
     if host not in LOOPBACK:
-        stderr.print(f"[yellow]warning:[/] binding {host}: the page is reachable from your network; "
-                     "anyone who can reach it can drive the display", markup=True, soft_wrap=True)
+        stderr().print(f"[yellow]warning:[/] binding {host}: the page is reachable from your network; "
+                       "anyone who can reach it can drive the display", markup=True, soft_wrap=True)
     if osc is not None and osc[0] not in LOOPBACK:
-        stderr.print(f"[yellow]warning:[/] --osc-in binds {osc[0]}: OSC touch input is reachable from your "
-                     "network; anyone who can send it a datagram can drive the display", markup=True, soft_wrap=True)
+        stderr().print(f"[yellow]warning:[/] --osc-in binds {osc[0]}: OSC touch input is reachable from your "
+                       "network; anyone who can send it a datagram can drive the display", markup=True, soft_wrap=True)
     from surfhap.exchange.trajectory_csv import read_trajectory_csv
 
     clk = _clock(clock)
@@ -224,7 +224,7 @@ def serve_cmd(
                 server = ServerThread(create_app(cfg, touch=session), host=host, port=port, config=cfg).start()
             shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
             shown = f"[{shown}]" if ":" in shown else shown
-            stdout.print(f"surfhap live: {session.title} -> {output}; open http://{shown}:{port}/ (Ctrl-C stops)")
+            stdout().print(f"surfhap live: {session.title} -> {output}; open http://{shown}:{port}/ (Ctrl-C stops)")
             end = time.monotonic() + duration if duration > 0 else None
             while ((end is None or time.monotonic() < end) and session.engine.failure is None
                    and not session.engine.stopped and not guard.wait(0.05)):
@@ -246,10 +246,10 @@ def devices_cmd() -> None:
 
     devs = list_devices()
     if not devs:
-        stdout.print("no output devices found")
+        stdout().print("no output devices found")
         return
     for d in devs:
-        stdout.print(f"{d['index']:>3}  {d['name']}  [{d['hostapi']}]  {d['channels']} ch  {d['default_rate']:.0f} Hz")
+        stdout().print(f"{d['index']:>3}  {d['name']}  [{d['hostapi']}]  {d['channels']} ch  {d['default_rate']:.0f} Hz")
 
 
 def play_cmd(

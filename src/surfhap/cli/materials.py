@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.text import Text
 
 from surfhap.cli._common import print_table, report, stdout
 from surfhap.cli._display_options import resolve_display_and_range
@@ -19,43 +18,84 @@ __all__ = ["register"]
 
 
 def _show(name: str, display, rng) -> None:
+    from rich.text import Text
+
     from surfhap.exchange.materials import load_material
     from surfhap.render.drive import default_method
     from surfhap.render.gain_plan import plan_gains
 
     m = load_material(name)
     spec = m.spec
-    stdout.print(Text.assemble((m.name, "bold"), f": {spec.description}"))
+    stdout().print(Text.assemble((m.name, "bold"), f": {spec.description}"))
     fr = spec.friction
     if fr.quasi_static:
         q = fr.quasi_static
-        stdout.print(f"  quasi-static mu_p = a fn^b (1 + d v^q)/(1 + c v): a={q.a:g} b={q.b:g} c={q.c:g} d={q.d:g} q={q.q:g}")
-        stdout.print(f"    from: {q.provenance.reference}")
+        stdout().print(f"  quasi-static mu_p = a fn^b (1 + d v^q)/(1 + c v): a={q.a:g} b={q.b:g} c={q.c:g} d={q.d:g} q={q.q:g}")
+        stdout().print(f"    from: {q.provenance.reference}")
     if fr.coulomb:
-        stdout.print(f"  Coulomb mu0 = {fr.coulomb.mu0:g}\n    from: {fr.coulomb.provenance.reference}")
-    stdout.print(f"  texture: {m.texture_text()}")
+        stdout().print(f"  Coulomb mu0 = {fr.coulomb.mu0:g}\n    from: {fr.coulomb.provenance.reference}")
+    stdout().print(f"  texture: {m.texture_text()}")
     if spec.texture is not None:
         p = spec.texture.provenance
-        stdout.print(f"    from: {p.reference or p.recording}" + (f" ({p.note})" if p.note else ""))
+        stdout().print(f"    from: {p.reference or p.recording}" + (f" ({p.note})" if p.note else ""))
         cal = spec.texture_calibration
         if cal is not None:
-            stdout.print(f"    strength: r = {cal.target_voltage_ratio:g}, beta = {cal.beta:g}, sd(x) = {cal.reference_std:.4g}, "
-                         f"mu_t = {cal.relative_scale:.4g} * mu_low * x")
-            stdout.print(f"    from: {cal.provenance.reference}")
+            stdout().print(f"    strength: r = {cal.target_voltage_ratio:g}, beta = {cal.beta:g}, sd(x) = {cal.reference_std:.4g}, "
+                           f"mu_t = {cal.relative_scale:.4g} * mu_low * x")
+            stdout().print(f"    from: {cal.provenance.reference}")
             if cal.provenance.note:
-                stdout.print(f"    how: {cal.provenance.note}")
+                stdout().print(f"    how: {cal.provenance.note}")
     for note in spec.notes:
-        stdout.print(f"  note: {note}")
+        stdout().print(f"  note: {note}")
     method = default_method(m)
     plan = plan_gains(m, method, display, rng)
-    stdout.print(f"  gain plan ({method}, display: {display.source}; loads {rng.loads[0]:g}-{rng.loads[1]:g} N, "
-                 f"speeds {rng.speeds[0]:g}-{rng.speeds[1]:g} m/s):")
-    stdout.print(f"    alpha = {plan.alpha:.1f} V/sqrt(N) (calibrated {plan.alpha_calibrated:.1f}; bound by {plan.binding}), "
-                 f"rendering gain {plan.rendering_gain:.3f}, headroom {plan.headroom:.3f} ({plan.headroom_db:.2f} dB) "
-                 f"at the texture's {plan.percentile:g}th percentile")
+    stdout().print(f"  gain plan ({method}, display: {display.source}; loads {rng.loads[0]:g}-{rng.loads[1]:g} N, "
+                   f"speeds {rng.speeds[0]:g}-{rng.speeds[1]:g} m/s):")
+    stdout().print(f"    alpha = {plan.alpha:.1f} V/sqrt(N) (calibrated {plan.alpha_calibrated:.1f}; bound by {plan.binding}), "
+                   f"rendering gain {plan.rendering_gain:.3f}, headroom {plan.headroom:.3f} ({plan.headroom_db:.2f} dB) "
+                   f"at the texture's {plan.percentile:g}th percentile")
     print_table(("load N", "added friction N (over speeds)", f"peak V ({plan.percentile:g} %)"),
                 [(f"{plan.loads[i]:.2f}", f"{plan.friction_low_n[i]:.4f} - {plan.friction_high_n[i]:.4f}",
                   f"{plan.peak_voltage[i]:.1f}") for i in range(0, plan.loads.size, max(1, plan.loads.size // 6))])
+
+
+def _builtin_specs():
+    """(name, file contents as JSON) of every built-in material, sorted: the list reads the files
+    as written (they are package data, validated by the tests), without the pydantic models and
+    numpy that loading a material costs (a quarter of a second of start-up)."""
+    import json
+    from importlib import resources
+
+    folder = resources.files("surfhap.models") / "builtin"
+    return [(p.name[:-5], json.loads(p.read_text(encoding="utf-8")))
+            for p in sorted(folder.iterdir(), key=lambda p: p.name[:-5]) if p.name.endswith(".json")]
+
+
+def _row(name: str, spec: dict) -> tuple[str, str, str, str, str]:
+    """One row of the list from a material file's contents; tests/test_cli_startup.py checks each
+    built-in's row against the loaded Material (texture_text, default_method, its laws)."""
+    friction, texture = spec["friction"], spec.get("texture")
+    laws = []
+    if (q := friction.get("quasi_static")) is not None:
+        laws.append(f"mu_p: a={q['a']:g} b={q['b']:g} c={q['c']:g} d={q['d']:g} q={q['q']:g}")
+    if (c := friction.get("coulomb")) is not None:
+        laws.append(f"mu0={c['mu0']:g}")
+    if texture is None:
+        text = "none (friction-only)"
+    else:
+        models = texture["models"]
+        order = max(max(len(m["ar_lsf"]), len(m["ma_lsf"])) if "ar_lsf" in m else len(m["coefficients"]) for m in models)
+        text = f"{texture['quantity']}, {len(models)} model(s) of order <= {order} @ {texture['sample_rate']:g} Hz"
+        if (cal := texture.get("calibration")) is not None:
+            text += f", voltage ratio 10:{10 * cal['target_voltage_ratio']:g} (calibrated)"
+    sources = []
+    for part in (friction.get("quasi_static"), friction.get("coulomb"), texture):
+        if part is not None:
+            p = part["provenance"]
+            sources.append(p["reference"].split(",")[0].split(" (")[0] if p["source"] == "paper"
+                           else f"fit of {p['recording']}")
+    method = "otake2022" if friction.get("quasi_static") is not None else "otake2021"
+    return name, "\n".join(laws), text, method, "\n".join(dict.fromkeys(sources))
 
 
 def materials(
@@ -67,34 +107,17 @@ def materials(
     as_json: JsonOption = False,
 ) -> None:
     """List the built-in materials, their friction laws, texture models and sources."""
-    from surfhap.exchange.materials import builtin_names, load_material
-    from surfhap.render.drive import default_method
-
     if show is not None:
         disp, rng = resolve_display_and_range(display, load_range, speed_range, config)
         _show(show, disp, rng)
         return
-    header, rows = ("name", "friction", "texture", "default method", "sources"), []
-    for name in builtin_names():
-        m = load_material(name)
-        fr = []
-        if m.quasi_static:
-            q = m.quasi_static
-            fr.append(f"mu_p: a={q.a:g} b={q.b:g} c={q.c:g} d={q.d:g} q={q.q:g}")
-        if m.coulomb:
-            fr.append(f"mu0={m.coulomb.mu0:g}")
-        srcs = []
-        spec = m.spec
-        for part in (spec.friction.quasi_static, spec.friction.coulomb, spec.texture):
-            if part is not None:
-                p = part.provenance
-                srcs.append(p.reference.split(",")[0].split(" (")[0] if p.source == "paper" else f"fit of {p.recording}")
-        rows.append((name, "\n".join(fr), m.texture_text(), default_method(m), "\n".join(dict.fromkeys(srcs))))
+    header = ("name", "friction", "texture", "default method", "sources")
+    rows = [_row(name, spec) for name, spec in _builtin_specs()]
     if as_json:
         return report({"materials": [dict(zip(header, r)) for r in rows]}, [], True)
     print_table(header, rows, title="built-in materials")
-    if stdout.is_terminal:
-        stdout.print("Show one with its provenance and gain plan: surfhap materials --show NAME")
+    if stdout().is_terminal:
+        stdout().print("Show one with its provenance and gain plan: surfhap materials --show NAME")
 
 
 def calibrate_texture(

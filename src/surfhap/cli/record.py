@@ -89,8 +89,8 @@ def force(
                     meta=meta)
     write_recording_csv(rec, out)
     report_status(dev)
-    stdout.print(f"wrote {out}: {int(keep.sum())} samples at {dev.rate:g} Hz, {dev.gaps} gaps "
-                 f"({dev.lost} records lost), from {dev.name}")
+    stdout().print(f"wrote {out}: {int(keep.sum())} samples at {dev.rate:g} Hz, {dev.gaps} gaps "
+                   f"({dev.lost} records lost), from {dev.name}")
 
 
 def register(app: typer.Typer) -> None:

@@ -83,7 +83,7 @@ def render_cmd(
                  f"saturated {s['saturated_fraction']:.1%} -> {paths['render']}", as_json)
     for warning in (result.saturation_warning(), result.texture_warning()):
         if warning is not None:
-            stderr.print(f"[bold yellow]warning:[/] {warning}", markup=True, soft_wrap=True)
+            stderr().print(f"[bold yellow]warning:[/] {warning}", markup=True, soft_wrap=True)
     guard.finish(f"wrote the first {s['rendered_s']:g} s of {s['requested_s']:g} s to {paths['render']}" if result.interrupted
                  else f"after the render was complete ({paths['render']})")
     fault = result.fault_error()

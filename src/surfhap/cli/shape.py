@@ -228,7 +228,7 @@ def scenes_cmd(
     with progress_bar("writing scenes", enabled=out is not None) as update:
         for i, sc in enumerate(scenes):
             lay = " ".join(f"{p}:{k}" for p, k in sc.layout.items())
-            stdout.print(f"{sc.name:28s} {lay}")
+            stdout().print(f"{sc.name:28s} {lay}")
             if out is not None:
                 v, f = sc.mesh(resolution)
                 trimesh.Trimesh(v, f, process=False).export(out / f"{sc.name}.obj")

@@ -43,7 +43,7 @@ def templates() -> None:
     from surfhap.lab.designs import TEMPLATES
 
     for name, d in TEMPLATES.items():
-        stdout.print(f"{name:26s} {d['kind']:18s} {d['participants']:3d} participants  {d['name']}")
+        stdout().print(f"{name:26s} {d['kind']:18s} {d['participants']:3d} participants  {d['name']}")
 
 
 @study_app.command("new")
@@ -78,8 +78,8 @@ def new(
     target.write_text(json.dumps(study.model_dump(mode="json"), indent=1) + "\n", encoding="utf-8")
     (out / "logs").mkdir(exist_ok=True)
     n = len(study.participants[0].trials)
-    stdout.print(f"{spec.name}: {len(study.participants)} participants x {n} trials, seed {spec.seed}")
-    stdout.print(f"wrote {target}")
+    stdout().print(f"{spec.name}: {len(study.participants)} participants x {n} trials, seed {spec.seed}")
+    stdout().print(f"wrote {target}")
 
 
 def _simulate(runner, seed: int, p_correct: float, pace: float, guard: StopSignals, ff=None) -> None:
@@ -179,8 +179,8 @@ def run(
                 raise ConfigError(f"no comfort voltage for {pid}: run 'study comfort' first or give --comfort-voltage "
                                   "(a session on a real display never starts at the 250 V safety limit by default)",
                                   source="--output")
-            stderr.print(f"no comfort voltage measured for {pid} ('study comfort'): session limit is the safety "
-                         "limit")
+            stderr().print(f"no comfort voltage measured for {pid} ('study comfort'): session limit is the safety "
+                           "limit")
     runner = SessionRunner(study, participant, gain=gain, comfort_voltage=comfort_voltage,
                            mode="simulated" if simulate is not None else "page", display=disp,
                            allow_same_day=allow_same_day,
@@ -188,9 +188,9 @@ def run(
                                          ("--comfort-voltage" if comfort_voltage is not None else None)})
     try:
         if measured is not None:
-            stderr.print(f"comfort voltage {measured:.1f} V (from 'study comfort'): session limit {runner.v_max:.1f} V")
+            stderr().print(f"comfort voltage {measured:.1f} V (from 'study comfort'): session limit {runner.v_max:.1f} V")
         if runner.n_done:
-            stderr.print(f"resuming {runner.plan.id}: {runner.n_done}/{runner.total} trials already logged")
+            stderr().print(f"resuming {runner.plan.id}: {runner.n_done}/{runner.total} trials already logged")
         with StopSignals() as guard:
             if simulate is not None and ff_device is not None:
                 from surfhap.lab.stimuli import FFStimulusPlayer, FFStudySession
@@ -205,10 +205,10 @@ def run(
                 _simulate(runner, simulate, p_correct, pace, guard)
             else:
                 _run_page(runner, host, port, output, amp_gain, guard, lsl, ff_device)
-        stderr.print(f"{runner.plan.id}: {runner.n_done}/{runner.total} trials logged in {runner.log.path}")
+        stderr().print(f"{runner.plan.id}: {runner.n_done}/{runner.total} trials logged in {runner.log.path}")
         if runner.finished and runner.later:
-            stdout.print(f"{runner.plan.id}: session {runner.study_session} done; session {runner.study_session + 1} "
-                         "on another day ('study run' again)")
+            stdout().print(f"{runner.plan.id}: session {runner.study_session} done; session {runner.study_session + 1} "
+                           "on another day ('study run' again)")
     finally:
         runner.close()
     guard.finish("paused; every answered trial is in the log (run again to resume)")
@@ -229,7 +229,7 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
 
     markers = open_markers(lsl, runner.plan.id)
     if markers.enabled:
-        stderr.print(f"LSL markers: stream 'surfhap-{runner.plan.id}' (type Markers)")
+        stderr().print(f"LSL markers: stream 'surfhap-{runner.plan.id}' (type Markers)")
     haply = None
     if ff_device is not None and ff_device.startswith("haply://"):
         from surfhap.live.ff_haply import HaplyDevice, parse_haply_url
@@ -246,9 +246,9 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
         if session is not None:
             session.stop()
         raise
-    stderr.print(f"participant page: [bold]{server.url}[/]  (Ctrl-C pauses; run again to resume)")
-    stderr.print(f"experimenter page (keep this address to yourself): {server.url}/experimenter?token="
-                 f"{page.experimenter_token}", soft_wrap=True)
+    stderr().print(f"participant page: [bold]{server.url}[/]  (Ctrl-C pauses; run again to resume)")
+    stderr().print(f"experimenter page (keep this address to yourself): {server.url}/experimenter?token="
+                   f"{page.experimenter_token}", soft_wrap=True)
 
     def table() -> Table:
         tb = Table(show_header=False, box=None)
@@ -265,12 +265,12 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
         return tb
 
     try:
-        with Live(table(), console=stderr, refresh_per_second=4, transient=False) as live:
+        with Live(table(), console=stderr(), refresh_per_second=4, transient=False) as live:
             while not runner.finished and not guard.wait(0.25) and not (ff_loop is not None and ff_loop.done.is_set()):
                 live.update(table())
             live.update(table())
-        if not stderr.is_terminal:  # a redirected Live table ends without a newline: the next line starts its own
-            stderr.line()
+        if not stderr().is_terminal:  # a redirected Live table ends without a newline: the next line starts its own
+            stderr().line()
         if not guard.stopped:
             guard.wait(1.0)  # let the page fetch the "done" screen
     finally:  # the output first: its stop ramp runs on the live drive
@@ -320,7 +320,7 @@ def comfort(
             with StopSignals() as guard:
                 _run_page(runner, host, port, output, amp_gain, guard)
             if guard.stopped:
-                stdout.print(f"{runner.plan.id}: {runner.result().levels.size} staircase trials logged; run again to continue")
+                stdout().print(f"{runner.plan.id}: {runner.result().levels.size} staircase trials logged; run again to continue")
                 guard.finish("paused; every answered trial is in the log")
         res = runner.result()
         if runner.finished:
@@ -328,10 +328,10 @@ def comfort(
             thr = ("none (no reversal): 'study run' will not start" if v is None else
                    f"{v:.1f} V (one {runner.params.steps[-1]:g} dB step below the {runner.adaptive.method} estimate "
                    f"{res.threshold:.1f} V)")
-            stdout.print(f"{runner.plan.id}: comfort voltage {thr} after {res.levels.size} trials "
-                         f"({res.stopped_by})")
+            stdout().print(f"{runner.plan.id}: comfort voltage {thr} after {res.levels.size} trials "
+                           f"({res.stopped_by})")
         else:
-            stdout.print(f"{runner.plan.id}: {res.levels.size} staircase trials logged; run again to continue")
+            stdout().print(f"{runner.plan.id}: {res.levels.size} staircase trials logged; run again to continue")
     finally:
         runner.close()
 
@@ -387,7 +387,7 @@ def export(
 
     check_out(out, "--out", overwrite)
     written = export_logs(log, fmt, out)
-    stdout.print(f"wrote {written[0]}" if fmt == "csv" else f"wrote {len(written)} files into {out}")
+    stdout().print(f"wrote {written[0]}" if fmt == "csv" else f"wrote {len(written)} files into {out}")
 
 
 def register(app: typer.Typer) -> None:
