@@ -7,6 +7,8 @@ means no switching (DC drive), useful to show the fading on the simulated displa
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -32,7 +34,8 @@ def polarity(envelope, n0, step, out):
     """``out = +-envelope``: sign +1 during the first half of each carrier period, drive sample
     ``n0 + i`` at ``step`` (= carrier / drive rate, 0 = off) periods per sample."""
     for i in range(envelope.shape[0]):
-        phase = ((n0 + i) * step) % 1.0
+        x = (n0 + i) * step
+        phase = x - math.floor(x)  # = x % 1.0 exactly (x >= 0), without the slow float modulo
         out[i] = envelope[i] if phase < 0.5 else -envelope[i]
 
 
