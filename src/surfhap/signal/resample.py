@@ -9,6 +9,7 @@ Integer up- and down-sampling have their own kernels (no integer division per sa
 
 from __future__ import annotations
 
+import functools
 from fractions import Fraction
 
 import numba
@@ -99,6 +100,17 @@ def resample_block(x, z, Hr, L, M, t0, out):
     return count
 
 
+@functools.lru_cache(maxsize=64)
+def _branches(L: int, K: int, rate_in: int, rate_out: int) -> tuple[np.ndarray, np.ndarray]:
+    # the low-pass's (L, K) polyphase branches (branch ph = h[ph::L]) and the same reversed, read-only:
+    # designed once per conversion (firwin costs a millisecond; a batch makes many chains)
+    h = firwin(L * K, 0.45 * min(rate_in, rate_out), window=("kaiser", 7.0), fs=L * rate_in) * L
+    H = np.ascontiguousarray(h.reshape(K, L).T)
+    Hr = np.ascontiguousarray(H[:, ::-1])
+    H.flags.writeable = Hr.flags.writeable = False
+    return H, Hr
+
+
 class RationalResampler:
     """Stateful polyphase resampler from ``rate_in`` to ``rate_out`` Hz.
 
@@ -116,12 +128,8 @@ class RationalResampler:
         self.rate_in, self.rate_out = int(rate_in), int(rate_out)
         K = int(taps_per_phase) if self.M == 1 else int(taps_per_phase) * max(1, -(-self.M // self.L))
         self.K = K
-        fs_up = self.L * self.rate_in
-        cutoff = 0.45 * min(self.rate_in, self.rate_out)
-        h = firwin(self.L * K, cutoff, window=("kaiser", 7.0), fs=fs_up) * self.L
-        self._H = np.ascontiguousarray(h.reshape(K, self.L).T)  # (L, K): branch ph = h[ph::L]
-        self._Hr = np.ascontiguousarray(self._H[:, ::-1])
-        self.delay = (self.L * K - 1) / 2.0 / fs_up
+        self._H, self._Hr = _branches(self.L, K, self.rate_in, self.rate_out)
+        self.delay = (self.L * K - 1) / 2.0 / (self.L * self.rate_in)
         self.max_block = int(max_block)
         self._z = np.zeros(K - 1 + self.max_block)
         self._t0 = np.zeros(1, dtype=np.int64)
