@@ -7,8 +7,6 @@ means no switching (DC drive), useful to show the fading on the simulated displa
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
@@ -35,7 +33,7 @@ def polarity(envelope, n0, step, out):
     ``n0 + i`` at ``step`` (= carrier / drive rate, 0 = off) periods per sample."""
     for i in range(envelope.shape[0]):
         x = (n0 + i) * step
-        phase = x - math.floor(x)  # = x % 1.0 exactly (x >= 0), without the slow float modulo
+        phase = x - np.floor(x)  # = x % 1.0 exactly (x >= 0); a float floor, no float modulo or int round trip
         out[i] = envelope[i] if phase < 0.5 else -envelope[i]
 
 
