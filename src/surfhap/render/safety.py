@@ -105,17 +105,16 @@ def _safety_kernel(x, load, touch_age, out, state, counters, gain, ramp_step, ag
     finger = load.shape[0] > 0
     prev = state[0]
     ramp = state[1]
-    # the counters kept in locals in the loop (in the array they cost a load and a store per sample)
-    n_clamped = n_rise = n_faults = n_lifted = n_watchdog = n_halted = 0
     for i in range(out.shape[0]):
         v = x[i]
+        counters[0] += 1
         scale = gain * ramp
         if ramp_step > 0.0:
             ramp -= ramp_step
             if ramp < 1e-9:  # rounding of the repeated subtraction: end exactly at 0
                 ramp = 0.0
         if halt:
-            n_halted += 1
+            counters[6] += 1
             prev = 0.0
             out[i] = 0.0
             continue
@@ -128,21 +127,21 @@ def _safety_kernel(x, load, touch_age, out, state, counters, gain, ramp_step, ag
             age = age0 + i * dt
             bad = False
         if bad or not (np.isfinite(v) and np.isfinite(scale)) or abs(v) > absurd:
-            n_faults += 1
+            counters[3] += 1
             prev = 0.0
             out[i] = 0.0
             continue
         if ld < lift:
-            n_lifted += 1
+            counters[4] += 1
             prev = 0.0
             out[i] = 0.0
             continue
         mag = abs(v) * scale
         if mag > v_max:
             mag = v_max
-            n_clamped += 1
+            counters[1] += 1
         if not age <= timeout:  # stale, no touch yet (inf) or NaN
-            n_watchdog += 1
+            counters[5] += 1
             cap = prev - wd_step
             if cap < 0.0 or not age <= hard_age:
                 cap = 0.0
@@ -150,18 +149,11 @@ def _safety_kernel(x, load, touch_age, out, state, counters, gain, ramp_step, ag
                 mag = cap
         elif mag > prev + rise_step:
             mag = prev + rise_step
-            n_rise += 1
+            counters[2] += 1
         prev = mag
         out[i] = mag if v >= 0.0 else -mag
     state[0] = prev
     state[1] = ramp
-    counters[0] += out.shape[0]
-    counters[1] += n_clamped
-    counters[2] += n_rise
-    counters[3] += n_faults
-    counters[4] += n_lifted
-    counters[5] += n_watchdog
-    counters[6] += n_halted
 
 
 @numba.njit(cache=True, nogil=True)
