@@ -32,7 +32,8 @@ def polarity(envelope, n0, step, out):
     """``out = +-envelope``: sign +1 during the first half of each carrier period, drive sample
     ``n0 + i`` at ``step`` (= carrier / drive rate, 0 = off) periods per sample."""
     for i in range(envelope.shape[0]):
-        phase = ((n0 + i) * step) % 1.0
+        x = (n0 + i) * step
+        phase = x - np.floor(x)  # = x % 1.0 exactly (x >= 0); a float floor, no float modulo or int round trip
         out[i] = envelope[i] if phase < 0.5 else -envelope[i]
 
 

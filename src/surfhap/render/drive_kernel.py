@@ -54,9 +54,14 @@ def friction_texture_law(load, speed, texture, quasi, a, b, c, d, q, mu0, textur
     mu_tex (a :class:`~surfhap.render.drive.DriveBlock`'s rows); returns (clipped, touching) as
     :func:`target_to_voltage`.
     """
+    last_fn = last_v = math.nan
+    m = mu0
     for i in range(load.shape[0]):
         fn = load[i]
-        m = quasi_static_cof(fn, speed[i], a, b, c, d, q) if quasi else mu0
+        v = speed[i]
+        if quasi and not (fn == last_fn and v == last_v):  # the finger state is held between touch samples
+            m = quasi_static_cof(fn, v, a, b, c, d, q)
+            last_fn, last_v = fn, v
         x = texture[i]
         if texture_mode == TEXTURE_RELATIVE:
             t = scale * m * x
