@@ -5,13 +5,14 @@ analytic Butterworth response, scipy.signal.freqz and statsmodels."""
 import numpy as np
 import pytest
 from scipy.integrate import quad
-from scipy.signal import butter, freqz, periodogram, sosfiltfilt
+from scipy.signal import butter, freqz, periodogram, sosfilt_zi, sosfiltfilt
 from statsmodels.tsa.arima_process import arma_acovf
 
 from surfhap.models.interpolated import InterpolatedARMABank
 from surfhap.models.texture import ARModel, TextureBank
 from surfhap.signal.ar import ar_moments, ar_psd
 from surfhap.signal.bands import BandSplit
+from surfhap.signal.filters import sos_filtfilt
 from surfhap.signal.lsf import ar_to_lsf
 
 
@@ -152,3 +153,14 @@ def test_calibration_std_is_what_the_split_measures_on_the_synthesised_texture()
     x = lfilter([1.0], np.r_[1.0, -m.coefficients], np.sqrt(m.variance) * np.random.default_rng(5).standard_normal(2_000_000))
     measured = float(np.std(BandSplit().high(x[5000:], fs)))
     assert texture_band_std(m.coefficients, m.variance, fs, 3.5) == pytest.approx(measured, rel=0.015)
+
+
+@pytest.mark.parametrize("order, cutoff, fs", [(4, 3.5, 2000.0), (1, 2.5, 1000.0), (8, 20.0, 500.0)])
+def test_compiled_filtfilt_equals_scipy_sosfiltfilt_sample_for_sample(order, cutoff, fs):
+    # the compiled forward-backward pass of BandSplit (signal.filters.sos_filtfilt) repeats
+    # scipy's sosfilt recursion operation for operation: equal to the last bit on this machine
+    # (rtol 1e-13 leaves room for a libm or compiler that rounds one step differently)
+    sos = butter(order, cutoff, fs=fs, output="sos")
+    x = np.random.default_rng(order).standard_normal((3, 4687)).cumsum(axis=1)
+    np.testing.assert_allclose(sos_filtfilt(sos, sosfilt_zi(sos), x), sosfiltfilt(sos, x, axis=-1, padtype=None), rtol=1e-13,
+                               atol=1e-13)

@@ -8,7 +8,7 @@ from surfhap.fit.friction import PARAMETERS, fit_quasi_static, quasi_static_mode
 from surfhap.fit.material_fit import fit_friction
 from surfhap.fit.preprocess import prepare_friction_recording
 from surfhap.fit.synthetic import synthetic_friction_recordings
-from surfhap.models.friction import QuasiStaticLaw
+from surfhap.models.friction import QUASI_STATIC_RANGES, QuasiStaticLaw
 from surfhap.render.chain import TextureChain
 from surfhap.signal.ar import ar_psd
 
@@ -41,6 +41,38 @@ def test_quasi_static_fit_recovers_parameters_within_standard_errors():
     for k, true in zip(PARAMETERS, theta):
         assert abs(fit.params[k] - true) < 3 * fit.standard_errors[k], k
     assert 0.9 < fit.r2 <= 1
+
+
+def test_quasi_static_fit_equals_scipy_least_squares_on_eq3_written_out():
+    # reference: eq. 3 of Otake et al. 2022 and its derivatives in numpy, handed to scipy's
+    # least_squares with the fit's options and start; the fit evaluates them compiled (the
+    # Jacobian reusing mu_p of the accepted step), the same arithmetic up to the last bits of
+    # pow, so rtol 1e-9 (equal to the last bit on the bench material)
+    from scipy.optimize import least_squares
+
+    rng = np.random.default_rng(4)
+    fn, v = rng.uniform(0.2, 1.5, 2000), rng.uniform(0.0, 0.3, 2000)
+    v[:5] = 0.0
+    mu = 0.4 * fn**0.35 * (1 + 3 * v**0.6) / (1 + 2 * v) + 0.01 * rng.standard_normal(fn.size)
+    x0 = np.array([0.3, 0.2, 1.0, 1.0, 0.4])
+    fit = fit_quasi_static(fn, v, mu, x0=x0)
+
+    def model(th):
+        a, b, c, d, q = th
+        return a * np.power(fn, np.full_like(fn, b)) * (1 + d * np.power(v, np.full_like(v, q))) / (1 + c * v)
+
+    def jac(th):
+        a, b, c, d, q = th
+        m, vq = model(th), np.power(v, q)
+        g = vq / (1 + d * vq)
+        return np.column_stack([m / a, m * np.log(fn), -m * v / (1 + c * v), m * g, m * d * g * np.log(np.where(v > 0, v, 1.0))])
+
+    lo = [QUASI_STATIC_RANGES[k][0] for k in PARAMETERS]
+    ref = least_squares(lambda th: model(th) - mu, x0, jac=jac, bounds=(np.add(lo, [1e-9, 0, 0, 0, 0]), [QUASI_STATIC_RANGES[k][1] for k in PARAMETERS]),
+                        method="trf", x_scale="jac", max_nfev=200)
+    np.testing.assert_allclose([fit.params[k] for k in PARAMETERS], ref.x, rtol=1e-9)
+    se = np.sqrt(np.diag(float(ref.fun @ ref.fun) / (fn.size - 5) * np.linalg.pinv(ref.jac.T @ ref.jac)))
+    np.testing.assert_allclose([fit.standard_errors[k] for k in PARAMETERS], se, rtol=1e-9)
 
 
 def test_contact_selection_and_band_split(fitted):

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from scipy.signal import welch
+from scipy.signal import periodogram, welch
 from statsmodels.regression.linear_model import burg as sm_burg
 from statsmodels.tsa.stattools import acovf
 
@@ -34,6 +34,22 @@ def test_welch_spans_matches_scipy_on_one_long_span():
     f2, p2 = welch(x, 1000.0, nperseg=256)
     np.testing.assert_allclose(f, f2)
     np.testing.assert_allclose(p, p2, rtol=1e-10)
+
+
+def test_welch_spans_of_long_and_short_spans_weights_every_window_equally():
+    # reference: scipy's Welch of each long span counts once per window, a short span is one
+    # Hann periodogram zero-padded to nperseg; spans in mixed order (they are FFT'd in chunks)
+    rng = np.random.default_rng(2)
+    spans = [rng.standard_normal(n) for n in (700, 100, 256, 40, 1500, 10, 300)]
+    f, p = welch_spans(spans, 1000.0, nperseg=256)
+    total, count = 0.0, 0
+    for s in spans:
+        if s.size >= 256:
+            k = 1 + (s.size - 256) // 128
+            total, count = total + k * welch(s, 1000.0, nperseg=256)[1], count + k
+        elif s.size >= 16:
+            total, count = total + periodogram(s, 1000.0, window="hann", nfft=256)[1], count + 1
+    np.testing.assert_allclose(p, total / count, rtol=1e-10)
 
 
 def test_similarity_index_properties():
@@ -77,6 +93,17 @@ def test_speed_spans_and_splice():
     np.testing.assert_array_equal(speed_spans(v, fs, 0.05, valid=valid), [[0, 150], [200, 400], [401, 580]])
     assert [p.size for p in splice(np.arange(580), spans)] == [150, 380]
     np.testing.assert_array_equal(true_runs([0, 1, 1, 0, 1], 2), [[1, 3]])
+
+
+def test_runs_cut_at_breaks_equal_the_runs_of_each_piece():
+    # reference: true_runs of every piece on its own (how the friction fit found spans run by run)
+    rng = np.random.default_rng(3)
+    mask = rng.uniform(size=3000) < 0.9
+    starts = np.array([0, 400, 401, 1000, 2500])
+    ref = np.concatenate([true_runs(mask[a:b], 5) + a for a, b in zip(starts, np.r_[starts[1:], mask.size])])
+    np.testing.assert_array_equal(true_runs(mask, 5, breaks=starts), ref)
+    spans = speed_spans(np.full(300, 0.05), 1000.0, 0.05, min_duration=0.05, breaks=np.array([0, 120]))
+    np.testing.assert_array_equal(spans, [[0, 120], [120, 300]])
 
 
 @pytest.mark.parametrize("criterion", ["aic", "bic"])

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -88,10 +89,10 @@ class Recording:
     def n(self) -> int:
         return int(self.time.size)
 
-    @property
+    @cached_property
     def sample_rate(self) -> float:
         """Hz, from the median sampling interval (snapped to a whole number of Hz when within
-        1 ppm of one, so that 2 kHz written as time stamps stays 2000 Hz)."""
+        1 ppm of one, so that 2 kHz written as time stamps stays 2000 Hz); computed once."""
         r = float(1.0 / np.median(np.diff(self.time)))
         whole = round(r)
         return float(whole) if whole > 0 and abs(r - whole) <= 1e-6 * r else r

@@ -57,21 +57,35 @@ def quasi_static_model(theta: np.ndarray, fn: np.ndarray, v: np.ndarray) -> np.n
     return QuasiStaticLaw(*map(float, theta)).coefficient(fn, v)
 
 
-def _jacobian(theta, fn, v):
-    """d mu_p / d(a, b, c, d, q), written with mu_p itself (``quasi_static_model``)."""
-    a, b, c, d, q = theta
-    mu = quasi_static_model(theta, fn, v)
-    vq = np.power(v, q)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        logv = np.where(v > 0, np.log(np.where(v > 0, v, 1.0)), 0.0)
-    dlog_num = vq / (1.0 + d * vq)  # d log(1 + d v^q) / dd
-    J = np.empty((fn.size, 5))
-    J[:, 0] = mu / a
-    J[:, 1] = mu * np.log(fn)
-    J[:, 2] = -mu * v / (1.0 + c * v)
-    J[:, 3] = mu * dlog_num
-    J[:, 4] = mu * d * dlog_num * logv
-    return J
+class _Residual:
+    """Residual ``mu_p - mu`` and Jacobian of eq. 3 for ``least_squares``; the Jacobian at the
+    last evaluated theta (every accepted step) reuses its mu_p, and the logs of fn and v are
+    taken once."""
+
+    def __init__(self, fn, v, mu):
+        from surfhap.models.friction_kernel import quasi_static, quasi_static_jacobian
+
+        self.fn, self.v, self.mu, self._law, self._jac = fn, v, mu, quasi_static, quasi_static_jacobian
+        self.log_fn = np.log(fn)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self.log_v = np.where(v > 0, np.log(np.where(v > 0, v, 1.0)), 0.0)
+        self._theta = self._mu_p = None
+
+    def residual(self, theta):
+        """mu_p - mu (n,): the compiled eq. 3 (``QuasiStaticLaw.coefficient`` without
+        re-validating theta, which the bounds keep in range)."""
+        self._theta, self._mu_p = theta.copy(), np.empty(self.fn.size)
+        self._law(self.fn, self.v, self._mu_p, *map(float, theta))
+        return self._mu_p - self.mu
+
+    def jacobian(self, theta):
+        """d mu_p / d(a, b, c, d, q) (n, 5)."""
+        a, b, c, d, q = map(float, theta)
+        if not np.array_equal(theta, self._theta):
+            self.residual(theta)
+        J = np.empty((self.fn.size, 5))
+        self._jac(self._mu_p, self.v, np.power(self.v, q), self.log_fn, self.log_v, a, c, d, J)
+        return J
 
 
 @dataclass(frozen=True)
@@ -125,13 +139,14 @@ def fit_quasi_static(fn: np.ndarray, v: np.ndarray, mu: np.ndarray, label: str =
         a0, b0 = max(float(np.mean(mu)), 1e-3), 0.0
     start = np.asarray(x0, dtype=float) if x0 is not None else np.array([a0, b0, 0.5, 0.5, 0.5])
     start = np.clip(start, _LOWER + 1e-6, np.where(np.isfinite(_UPPER), _UPPER - 1e-6, start + 1))
-    best = least_squares(lambda th: quasi_static_model(th, fn, v) - mu, start, jac=lambda th: _jacobian(th, fn, v),
-                         bounds=(_LOWER, _UPPER), method="trf", x_scale="jac", max_nfev=200)
+    res = _Residual(fn, v, mu)
+    best = least_squares(res.residual, start, jac=res.jacobian, bounds=(_LOWER, _UPPER), method="trf", x_scale="jac",
+                         max_nfev=200)
     theta = best.x
     resid = best.fun
     dof = max(fn.size - 5, 1)
     s2 = float(resid @ resid) / dof
-    J = _jacobian(theta, fn, v)
+    J = best.jac  # at best.x
     try:
         cov = s2 * np.linalg.pinv(J.T @ J)
         se = np.sqrt(np.maximum(np.diag(cov), 0.0))

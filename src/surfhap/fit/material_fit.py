@@ -225,18 +225,16 @@ def fit_friction(
     notes = []
     jobs_v = []
     trim = int(round(edge_trim * fs))
-    for vref in refs:
-        groups = []
-        for lab in participants:
-            spans = []
-            for p in by_part[lab]:
-                for a, b in p.runs:
-                    valid = np.ones(b - a, dtype=bool)
-                    valid[:trim] = False
-                    valid[max(b - a - trim, 0):] = False
-                    for s0, s1 in speed_spans(p.speed[a:b], fs, vref, tolerance, min_span, valid=valid):
-                        spans.append(p.cof_high[a + s0 : a + s1])
-            groups.append(spans)
+    valid = {}  # id(recording) -> its contact runs without ``trim`` samples at either end
+    for p in prepared:
+        ok = valid[id(p)] = np.ones(p.n_kept, dtype=bool)
+        for a, b in p.runs:
+            ok[a:min(a + trim, b)] = False
+            ok[max(b - trim, a):b] = False
+    for vref in refs:  # spans never cross from one contact run into the next
+        groups = [[p.cof_high[s0:s1] for p in by_part[lab]
+                   for s0, s1 in speed_spans(p.speed, fs, vref, tolerance, min_span, valid=valid[id(p)], breaks=p.runs[:, 0])]
+                  for lab in participants]
         jobs_v.append((groups, participants, fs, vref, max_order, criterion, estimator, cutoff, taper, fill_below or None))
     results = _map(_velocity_job, jobs_v, jobs)
     textures = []

@@ -78,21 +78,15 @@ def prepare_friction_recording(rec: Recording, cutoff: float = 3.5, min_run: flo
         raise RecordingFormatError(f"no contact run of {min_run * 1000:.0f} ms or longer with normal and shear force above "
                                    f"{threshold} N", source=rec.source, field="normal_force")
     split = BandSplit(cutoff=cutoff)
-    parts = {k: [] for k in ("normal", "speed", "cof_low", "cof_high", "normal_low", "speed_low")}
-    out_runs = np.empty_like(runs)
-    pos = 0
-    for r, (a, b) in enumerate(runs):
-        cof = fsh[a:b] / fn[a:b]
-        low, nlow, vlow = split.low(np.stack([cof, fn[a:b], v[a:b]]), fs)  # no edge step (BandSplit)
-        high = cof - low
-        for key, val in (("normal", fn[a:b]), ("speed", v[a:b]), ("cof_low", low), ("cof_high", high),
-                         ("normal_low", nlow), ("speed_low", np.abs(vlow))):
-            parts[key].append(val)
-        out_runs[r] = (pos, pos + b - a)
-        pos += b - a
-    arrays = {k: np.concatenate(v_) for k, v_ in parts.items()}
+    stops = np.cumsum(runs[:, 1] - runs[:, 0])
+    out_runs = np.stack([stops - (runs[:, 1] - runs[:, 0]), stops], axis=1)
     keep = np.zeros(rec.n, dtype=bool)
     for a, b in runs:
         keep[a:b] = True
-    return PreparedRecording(rec.source, rec.participant, rec.sha256, fs, float(cutoff), runs=out_runs,
-                             shear_sum=float(np.sum(fsh[keep])), normal_sum=float(np.sum(fn[keep])), **arrays)
+    normal, speed, shear = fn[keep], v[keep], fsh[keep]
+    cof = shear / normal
+    low = np.empty((3, normal.size))
+    for a, b in out_runs:  # run by run: no edge step (BandSplit)
+        low[:, a:b] = split.low(np.stack([cof[a:b], normal[a:b], speed[a:b]]), fs)
+    return PreparedRecording(rec.source, rec.participant, rec.sha256, fs, float(cutoff), normal, speed, low[0], cof - low[0],
+                             low[1], np.abs(low[2]), out_runs, float(np.sum(shear)), float(np.sum(normal)))

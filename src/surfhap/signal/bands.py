@@ -30,11 +30,12 @@ def _butter_low(order: int, cutoff: float, sample_rate: float) -> tuple[np.ndarr
 
 def _filtfilt(sos: np.ndarray, zi: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Forward-backward ``sosfilt`` of x (..., n) along its last axis, each pass started in the
-    steady state of its first sample: ``sosfiltfilt(sos, x, axis=-1, padtype=None)``."""
-    state = zi.reshape(zi.shape[0], *([1] * (x.ndim - 1)), 2)  # (k, ..., 2), broadcast over the leading axes
-    y, _ = sosfilt(sos, x, axis=-1, zi=state * x[..., :1][None])
-    y, _ = sosfilt(sos, y[..., ::-1], axis=-1, zi=state * y[..., -1:][None])
-    return y[..., ::-1]
+    steady state of its first sample: ``sosfiltfilt(sos, x, axis=-1, padtype=None)``, compiled
+    (:func:`surfhap.signal.filters.sos_filtfilt`; numba is imported on the first split)."""
+    from surfhap.signal.filters import sos_filtfilt
+
+    rows = np.ascontiguousarray(x.reshape(-1, x.shape[-1]))
+    return sos_filtfilt(sos, zi, rows).reshape(x.shape)
 
 
 @dataclass(frozen=True)
@@ -78,8 +79,8 @@ class BandSplit:
             mean = seg.mean(axis=-1)
             return mean + ((seg - mean[..., None]) @ t / tt) * (at - (m - 1) / 2.0)
 
-        head = 2.0 * line_end(x[..., :m], 0)[..., None] - x[..., np.arange(pad, 0, -1)]
-        tail = 2.0 * line_end(x[..., n - m:], m - 1)[..., None] - x[..., np.arange(n - 2, n - pad - 2, -1)]
+        head = 2.0 * line_end(x[..., :m], 0)[..., None] - x[..., pad:0:-1]
+        tail = 2.0 * line_end(x[..., n - m:], m - 1)[..., None] - x[..., n - pad - 1:n - 1][..., ::-1]
         return _filtfilt(sos, zi, np.concatenate((head, x, tail), axis=-1))[..., pad:pad + n]
 
     def split(self, x: np.ndarray, sample_rate: float) -> tuple[np.ndarray, np.ndarray]:

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.signal import get_window
@@ -71,6 +72,33 @@ class AveragedSpectrum:
 
 def _next_pow2(n: int) -> int:
     return 1 << int(np.ceil(np.log2(max(2, n))))
+
+
+def _chunks(items: Sequence, sizes: Sequence[int], budget: int = 1 << 22):
+    """items in consecutive chunks (lists) whose sizes sum to at most ``budget`` (or of one item)."""
+    chunk, total = [], 0
+    for item, size in zip(items, sizes):
+        if chunk and total + size > budget:
+            yield chunk
+            chunk, total = [], 0
+        chunk.append(item)
+        total += size
+    if chunk:
+        yield chunk
+
+
+@lru_cache(maxsize=256)
+def _tukey(n: int, taper: float) -> tuple[np.ndarray, float, float]:
+    """Tukey window (n,) and its sums of squares and fourth powers."""
+    w = tukey(n, taper)
+    return w, float(w @ w), float(np.sum(w**4))
+
+
+@lru_cache(maxsize=256)
+def _hann(n: int) -> tuple[np.ndarray, float]:
+    """Periodic Hann window (n,) (``get_window("hann", n)``) and its sum of squares."""
+    w = get_window("hann", n)
+    return w, float(np.sum(w**2))
 
 
 def average_spectra(
@@ -124,24 +152,25 @@ def average_spectra(
     n_eff = 0.0
     for spans in spans_by_group:
         per = np.zeros(nfft // 2 + 1)
-        n_g = 0
         w2 = 0.0
-        for s in spans:
-            if demean:
-                s = s - s.mean()
-            if taper > 0:
-                w = tukey(s.size, taper)
-                s = s * w
-                sw2, sw4 = float(w @ w), float(np.sum(w**4))
-            else:
-                sw2 = sw4 = float(s.size)
-            X = np.fft.rfft(s, nfft)
-            per += X.real**2 + X.imag**2
-            n_g += s.size
-            w2 += sw2
-            n_eff += sw2 * sw2 / sw4
+        for chunk in _chunks(spans, [nfft] * len(spans)):  # one FFT call per chunk of spans, zero-padded to nfft
+            rows = np.zeros((len(chunk), nfft))
+            for row, s in zip(rows, chunk):
+                if demean:
+                    s = s - s.mean()
+                if taper > 0:
+                    w, sw2, sw4 = _tukey(s.size, taper)
+                    s = s * w
+                else:
+                    sw2 = sw4 = float(s.size)
+                row[: s.size] = s
+                w2 += sw2
+                n_eff += sw2 * sw2 / sw4
+            X = np.fft.rfft(rows, axis=1)
+            for p in X.real**2 + X.imag**2:
+                per += p
         acc += per / w2
-        n_total += n_g
+        n_total += sum(s.size for s in spans)
     mean_per = acc / len(spans_by_group)
     freqs = np.fft.rfftfreq(nfft, 1.0 / sample_rate)
     if gain is not None:
@@ -172,27 +201,28 @@ def welch_spans(spans: Sequence[np.ndarray], sample_rate: float, nperseg: int = 
     Returns freqs (nperseg // 2 + 1,) Hz and the one-sided PSD (units^2/Hz).
     """
     nper = int(nperseg)
-    acc = np.zeros(nper // 2 + 1)
-    count = 0
-    full_win = get_window("hann", nper)
     step = nper // 2
-    for s in spans:
-        s = np.asarray(s, dtype=float).reshape(-1)
-        if s.size < 16:
-            continue
-        if s.size >= nper:
-            k = 1 + (s.size - nper) // step
-            idx = np.arange(k)[:, None] * step + np.arange(nper)[None, :]
-            seg = s[idx]
-            seg = seg - seg.mean(axis=1, keepdims=True)
-            X = np.fft.rfft(seg * full_win, nper, axis=1)
-            acc += np.sum(X.real**2 + X.imag**2, axis=0) / np.sum(full_win**2)
-            count += k
+    full_win, full_w2 = _hann(nper)
+    spans = [s for s in (np.asarray(s, dtype=float).reshape(-1) for s in spans) if s.size >= 16]
+    ks = [1 + (s.size - nper) // step if s.size >= nper else 0 for s in spans]  # full windows per span
+    summed = {}  # span index -> the summed power of its full windows
+    long_ = [i for i, k in enumerate(ks) if k]
+    for chunk in _chunks(long_, [ks[i] * nper for i in long_]):  # the windows of several spans in one FFT call
+        seg = np.concatenate([spans[i][np.arange(ks[i])[:, None] * step + np.arange(nper)[None, :]] for i in chunk])
+        seg = seg - seg.mean(axis=1, keepdims=True)
+        X = np.fft.rfft(seg * full_win, nper, axis=1)
+        power = X.real**2 + X.imag**2
+        for i, a in zip(chunk, np.cumsum([0] + [ks[i] for i in chunk])):
+            summed[i] = np.sum(power[a:a + ks[i]], axis=0) / full_w2
+    acc = np.zeros(nper // 2 + 1)
+    for i, s in enumerate(spans):
+        if ks[i]:
+            acc += summed[i]
         else:
-            win = get_window("hann", s.size)
+            win, w2 = _hann(s.size)
             X = np.fft.rfft((s - s.mean()) * win, nper)
-            acc += (X.real**2 + X.imag**2) / np.sum(win**2)
-            count += 1
+            acc += (X.real**2 + X.imag**2) / w2
+    count = sum(ks) + ks.count(0)
     if count == 0:
         raise ValueError("no span long enough for a spectrum (need >= 16 samples)")
     psd = 2.0 * acc / count / sample_rate

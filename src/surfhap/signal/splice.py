@@ -12,15 +12,21 @@ import numpy as np
 __all__ = ["true_runs", "speed_spans", "splice"]
 
 
-def true_runs(mask: np.ndarray, min_length: int = 1) -> np.ndarray:
+def true_runs(mask: np.ndarray, min_length: int = 1, breaks: np.ndarray | None = None) -> np.ndarray:
     """Runs of True in mask (n,) bool as an (k, 2) int array of [start, stop) indices,
-    keeping runs of at least ``min_length`` samples."""
+    keeping runs of at least ``min_length`` samples; a run is also cut at each index in
+    ``breaks`` (the starts of concatenated pieces)."""
     m = np.asarray(mask, dtype=bool).astype(np.int8)
     if m.size == 0:
         return np.zeros((0, 2), dtype=np.int64)
     d = np.diff(np.concatenate(([0], m, [0])))
     starts = np.flatnonzero(d == 1)
     stops = np.flatnonzero(d == -1)
+    if breaks is not None:
+        b = np.asarray(breaks, dtype=np.int64)
+        b = b[(b > 0) & (b < m.size)]
+        b = b[(m[b] == 1) & (m[b - 1] == 1)]  # inside a run: one more stop and start there
+        starts, stops = np.sort(np.concatenate((starts, b))), np.sort(np.concatenate((stops, b)))
     keep = (stops - starts) >= max(1, int(min_length))
     return np.stack([starts[keep], stops[keep]], axis=1).astype(np.int64)
 
@@ -32,17 +38,18 @@ def speed_spans(
     tolerance: float = 0.020,
     min_duration: float = 0.100,
     valid: np.ndarray | None = None,
+    breaks: np.ndarray | None = None,
 ) -> np.ndarray:
     """Spans where ``|speed - reference| <= tolerance`` for at least ``min_duration`` s.
 
-    speed (n,) m/s (its magnitude is used); valid (n,) bool or None; tolerance m/s;
-    returns (k, 2) int [start, stop) indices.
+    speed (n,) m/s (its magnitude is used); valid (n,) bool or None; tolerance m/s; no span
+    crosses an index in ``breaks`` (see :func:`true_runs`); returns (k, 2) int [start, stop) indices.
     """
     v = np.abs(np.asarray(speed, dtype=float))
     ok = np.abs(v - reference) <= tolerance
     if valid is not None:
         ok &= np.asarray(valid, dtype=bool)
-    return true_runs(ok, int(np.ceil(min_duration * sample_rate - 1e-9)))
+    return true_runs(ok, int(np.ceil(min_duration * sample_rate - 1e-9)), breaks)
 
 
 def splice(x: np.ndarray, spans: np.ndarray) -> list[np.ndarray]:
