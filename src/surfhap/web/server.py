@@ -200,7 +200,8 @@ def uvicorn_config(app, cfg: ServerConfig):
         if part is not None:
             part.gate = gate
     config = uvicorn.Config(
-        app, http=lambda **kw: _Gated(gate, H11Protocol(**kw)), ws="websockets-sansio", ws_per_message_deflate=False,
+        app, loop="auto", http=lambda **kw: _Gated(gate, H11Protocol(**kw)), ws="websockets-sansio",
+        ws_per_message_deflate=False,
         log_level="warning", log_config=None, lifespan="on", ws_max_size=cfg.max_message_bytes,
         ws_ping_interval=None, timeout_keep_alive=cfg.keep_alive_timeout,
         h11_max_incomplete_event_size=cfg.max_header_bytes, backlog=cfg.backlog,
