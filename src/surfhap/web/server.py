@@ -4,7 +4,7 @@ connections (slowloris).
 
 Header size, keep-alive, backlog and ``limit_concurrency`` are uvicorn's own options, and
 WebSocket compression is off (per-message deflate cost more CPU than anything else per
-pointer event). What uvicorn lacks: a deadline for a request head (its keep-alive timer stops
+pointer event) and the event loop is uvloop where installed (``loop="auto"``). What uvicorn lacks: a deadline for a request head (its keep-alive timer stops
 at the first byte) and a connection cap that closes the idlest. :class:`ConnectionGate` is an
 ``asyncio.Protocol`` around uvicorn's h11 protocol (composition through uvicorn's ``http``
 option, nothing subclassed): a connection waiting for a request (new, or kept alive after a
