@@ -142,9 +142,10 @@ def page_to_surface(msg: Move, width_px: float, height_px: float, space, surface
     ``height_px`` CSS pixels: positions clipped to the page, then mapped through CSS pixels
     (``surface=False``: real finger speed) or onto the whole ``space`` (``surface=True``);
     load = pressure x ``space.max_load`` (pressure 0 counts as 0.5)."""
-    x = min(max(msg.x, 0.0), 1.0)
-    y = min(max(msg.y, 0.0), 1.0)
-    load = (msg.p if msg.p > 0 else 0.5) * space.max_load
+    x, y, p = msg.x, msg.y, msg.p  # comparisons, not min/max: this runs for every pointer event
+    x = 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
+    y = 0.0 if y < 0.0 else (1.0 if y > 1.0 else y)
+    load = (p if p > 0 else 0.5) * space.max_load
     if surface:
         return x * space.width, y * space.height, load
     return x * width_px * CSS_PX_M, y * height_px * CSS_PX_M, load

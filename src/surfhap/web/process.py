@@ -24,8 +24,9 @@ import math
 import multiprocessing as mp
 import os
 import select
+import struct
 import threading
-from itertools import islice
+from itertools import chain, islice
 from typing import Callable
 
 import numpy as np
@@ -137,7 +138,8 @@ class ProcessLink:
         try:
             while self.pending and select.select([], [self.touch_out], [], 0)[1]:
                 rows = [self.pending.pop(k) for k in list(islice(self.pending, BATCH))]
-                self.touch_out.send_bytes(np.array(rows, dtype=np.float64).tobytes())
+                # native float64s as EngineEnd reads them (struct: half the CPU of np.array(rows))
+                self.touch_out.send_bytes(struct.pack(f"={COLS * len(rows)}d", *chain.from_iterable(rows)))
         except (OSError, ValueError):
             self.pending.clear()  # the engine side is gone
         if self.pending:

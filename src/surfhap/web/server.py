@@ -4,7 +4,7 @@ connections (slowloris).
 
 Header size, keep-alive, backlog and ``limit_concurrency`` are uvicorn's own options, and
 WebSocket compression is off (per-message deflate cost more CPU than anything else per
-pointer event). What uvicorn lacks: a deadline for a request head (its keep-alive timer stops
+pointer event) and the event loop is uvloop where installed (``loop="auto"``). What uvicorn lacks: a deadline for a request head (its keep-alive timer stops
 at the first byte) and a connection cap that closes the idlest. :class:`ConnectionGate` is an
 ``asyncio.Protocol`` around uvicorn's h11 protocol (composition through uvicorn's ``http``
 option, nothing subclassed): a connection waiting for a request (new, or kept alive after a
@@ -200,7 +200,8 @@ def uvicorn_config(app, cfg: ServerConfig):
         if part is not None:
             part.gate = gate
     config = uvicorn.Config(
-        app, http=lambda **kw: _Gated(gate, H11Protocol(**kw)), ws="websockets-sansio", ws_per_message_deflate=False,
+        app, loop="auto", http=lambda **kw: _Gated(gate, H11Protocol(**kw)), ws="websockets-sansio",
+        ws_per_message_deflate=False,
         log_level="warning", log_config=None, lifespan="on", ws_max_size=cfg.max_message_bytes,
         ws_ping_interval=None, timeout_keep_alive=cfg.keep_alive_timeout,
         h11_max_incomplete_event_size=cfg.max_header_bytes, backlog=cfg.backlog,

@@ -68,11 +68,14 @@ class Client:
         since = now() - self.server0
         if t_page is None:
             t = since
-        else:
+        else:  # comparisons, not min/max: this runs for every pointer event
             if self.page0 is None:
                 self.page0 = t_page - since
-            t = min(t_page - self.page0, since + CATCH_UP_S)
-        self.elapsed = max(self.elapsed, t)
+            t = t_page - self.page0
+            if t > since + CATCH_UP_S:
+                t = since + CATCH_UP_S
+        if t > self.elapsed:
+            self.elapsed = t
         return self.elapsed
 
 
@@ -85,13 +88,15 @@ async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: Rejec
     the socket is closed. Every :data:`FAIR_TURN` messages the loop yields to the event loop."""
     from starlette.websockets import WebSocketDisconnect
 
+    receive, allow, clock, max_bytes = ws.receive, client.limiter.allow, client.clock, cfg.max_message_bytes
     n = 0
     while True:
         n += 1
-        if n % FAIR_TURN == 0:
+        if n == FAIR_TURN:
+            n = 0
             await asyncio.sleep(0)
         try:  # a closed socket ends the loop; an error in ``handle`` propagates
-            msg = await ws.receive()
+            msg = await receive()
         except (WebSocketDisconnect, RuntimeError):
             return
         text = msg.get("text")
@@ -99,15 +104,15 @@ async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: Rejec
             if msg["type"] == "websocket.disconnect":
                 return
             why = "binary frames are not accepted"
-        elif len(text) > cfg.max_message_bytes:
-            why = f"message of {len(text)} bytes (limit {cfg.max_message_bytes})"
+        elif len(text) > max_bytes:
+            why = f"message of {len(text)} bytes (limit {max_bytes})"
         else:
             try:
                 message = parse_message(text)
             except ValidationError as exc:
                 message, why = None, reason(exc.errors(include_url=False, include_input=False))
             if message is not None:
-                if client.limiter.allow(client.clock(None if message.type == "hello" else message.t * 1e-3)):
+                if allow(clock(None if message.type == "hello" else message.t * 1e-3)):
                     handle(message)
                     continue
                 why = "rate limit exceeded"
@@ -239,15 +244,17 @@ def touch_router(link, hub: Hub, cfg: ServerConfig):
         space, push = link.space, link.push_touch
 
         def handle(msg) -> None:
-            if msg.type == "hello":
+            kind = msg.type
+            if kind == "hello":
                 client.width_px, client.height_px = msg.w, msg.h
                 return
-            if msg.type == "move":
+            if kind == "move":
                 xm, ym, load = page_to_surface(msg, client.width_px, client.height_px, space, surface_positions)
-                push(client.id, xm, ym, load, t_event=msg.t * 1e-3)
+                push(client.id, xm, ym, load, msg.t * 1e-3)
+                client.down = True
             else:  # up
-                push(client.id, 0.0, 0.0, 0.0, t_event=msg.t * 1e-3)
-            client.down = msg.type == "move"
+                push(client.id, 0.0, 0.0, 0.0, msg.t * 1e-3)
+                client.down = False
             client.last_seq, client.last_t = msg.seq, msg.t
             client.received += 1
 
