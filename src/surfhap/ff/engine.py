@@ -1,6 +1,7 @@
 """The force-feedback engine: touch kinematics -> effects (control law) -> safety stage, one tick
-per call; the control law's arithmetic and the safety stage run compiled in one call
-(:mod:`surfhap.ff.tick_kernel`), this class holds their state arrays.
+per call; with built-in effects the whole tick is one compiled call (:func:`surfhap.ff.tick_kernel.tick`,
+the effects' laws in :mod:`surfhap.ff.effect_kernel`), this class holds their state arrays and
+packs the effects when they are set.
 
 Driven tick by tick by a clock that is not its business (:class:`surfhap.live.ff_loop.FFLoop`
 on the runtime's wall or simulated clock): ``touch(t, x, y, load)`` per touch sample (screen
@@ -103,16 +104,17 @@ class FFEngine:
         self.device = device
         self.rate = float(rate)
         self.dt = 1.0 / self.rate
-        # safety stage: state S, parameters P, counters N, output (3,) N (tick_kernel layouts)
-        self.S, self.P = kernel.new_state(), kernel.safety_params(device, self.rate, velocity_cutoff)
-        self.N = np.zeros(len(kernel.COUNTERS), dtype=np.int64)
-        self.out = np.zeros(3)
-        # control law: reference R (rx, ry, rz, fresh) and parameters L (k_max, damping, weight, h_lim, ref_step)
-        self.R = np.array([0.0, 0.0, 0.0, 1.0])
-        self.L = np.array([device.k_max, device.damping, device.weight, device.workspace[2], device.ref_speed / rate])
+        # safety stage: state S, parameters P, counters N, output (3,) N; control law: reference R
+        # (rx, ry, rz, fresh), parameters L (k_max, damping, weight, h_lim, ref_step); tick state T,
+        # screen history H: views of the buffers Z, PL (tick_kernel layouts)
         self.max_extrapolate = float(max_extrapolate)
-        self.T = kernel.new_tick_state(self.dt, device.touch_timeout, self.max_extrapolate)
-        self._set_effects(self._pack(effects))
+        L = np.array([device.k_max, device.damping, device.weight, device.workspace[2], device.ref_speed / rate])
+        self.Z, self.PL = kernel.buffers(kernel.safety_params(device, self.rate, velocity_cutoff), L, self.dt,
+                                         device.touch_timeout, self.max_extrapolate)
+        views = kernel.views.py_func(self.Z, self.PL, np.zeros((0, ek.E_COLS + ek.X_COLS)))
+        self.S, self.R, self.out, self.T, self.H, self.P, self.L = views[:7]
+        self.N = np.zeros(len(kernel.COUNTERS), dtype=np.int64)
+        self.effects = list(effects)  # packed by reset()
         self.predictor = predictor
         self._atau = 1.0 / (2.0 * math.pi * accel_cutoff)
         self.button_presses = ButtonPresses(buttons)
@@ -122,7 +124,7 @@ class FFEngine:
 
     @staticmethod
     def _pack(effects: list[Effect]) -> tuple:
-        """The effects of a scene packed for the compiled tick: ``(effects, E, F, X, python)``, the
+        """The effects of a scene packed for the compiled tick: ``(effects, EX, F, python)``, the
         built-in ones' rows (state reset) and data, ``python`` the ``(index, effect)`` evaluated in
         Python (code EXTERNAL: their terms go through ``X`` each tick)."""
         if len(effects) > 30:
@@ -141,13 +143,15 @@ class FFEngine:
                 rows[-1][ek._FIELD] = size
                 data.append(d)
                 size += d.size
-        E = np.array(rows).reshape(len(rows), ek.E_COLS)
-        return list(effects), E, np.concatenate(data), np.zeros((len(rows), ek.X_COLS)), python
+        EX = np.zeros((len(rows), ek.E_COLS + ek.X_COLS))
+        EX[:, :ek.E_COLS] = np.array(rows).reshape(len(rows), ek.E_COLS)
+        return list(effects), EX, np.concatenate(data), python
 
     def _set_effects(self, packed: tuple) -> None:
         """Use packed effects (bit i of ``mask`` = effect i active); the reference restarts at the
         screen on the next tick (bumpless)."""
-        self.effects, self.E, self.F, self.X, self._python = packed
+        self.effects, self.EX, self.F, self._python = packed
+        self.E, self.X = self.EX[:, :ek.E_COLS], self.EX[:, ek.E_COLS:]
         for _, e in self._python:
             e.reset()
         self.T[kernel._MASK] = 0.0  # no effect active on the last tick (idle)
@@ -278,30 +282,24 @@ class FFEngine:
         one compiled call (:func:`surfhap.ff.tick_kernel.tick`)."""
         if self._pending is not self._switched:
             self._take_switch()
-        T = self.T
-        args = (self.S, self.P, self.N, self.R, self.L, T)
-        if self.error is None and not self._python:
-            try:
-                kernel.tick(*args, self.H, self.E, self.F, self.X, float(t), float(t_pos), float(px), float(py),
-                            float(pz), self.stopping, self.out)
-                if self.button_presses.buttons:
-                    self.button = self.button_presses.update(T[ek._TOUCHED] != 0.0, T[ek._FX], T[ek._FY], T[ek._PZ])
-                return self.out
-            except Exception as exc:  # noqa: BLE001 - kept for the caller; the safety stage ramps down
-                self.error = exc
-                self.stopping = True
-            return self.limit(0.0, 0.0, 0.0, True)
-        kernel.kinematics(self.S, self.P, self.N, T, self.H, float(t), float(t_pos), float(px), float(py), float(pz))
+        T, pos = self.T, (float(t), float(t_pos), float(px), float(py), float(pz))
         if self.error is None:
             try:
-                self._python_terms(TickState.of(T))
-                kernel.finish(*args, self.E, self.F, self.X, self.stopping, self.out)
+                if self._python:  # the kinematics, the Python effects' terms, then the rest
+                    kernel.kinematics(self.S, self.P, self.N, T, self.H, *pos)
+                    self._python_terms(TickState.of(T))
+                    kernel.finish(self.S, self.P, self.N, self.R, self.L, T, self.E, self.F, self.X, self.stopping,
+                                  self.out)
+                else:
+                    kernel.tick(self.Z, self.PL, self.N, self.EX, self.F, *pos, self.stopping)
                 if self.button_presses.buttons:
                     self.button = self.button_presses.update(T[ek._TOUCHED] != 0.0, T[ek._FX], T[ek._FY], T[ek._PZ])
                 return self.out
             except Exception as exc:  # noqa: BLE001 - kept for the caller; the safety stage ramps down
-                self.error = exc
+                self.error = exc  # (raised after this tick's observe: the effects come after it)
                 self.stopping = True
+        else:
+            kernel.kinematics(self.S, self.P, self.N, T, self.H, *pos)
         return self.limit(0.0, 0.0, 0.0, self.stopping)
 
     def _python_terms(self, s: TickState) -> None:

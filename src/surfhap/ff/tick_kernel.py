@@ -33,7 +33,7 @@ import numpy as np
 from surfhap.ff import effect_kernel as ek
 from surfhap.ff.effect_kernel import _DT, _FAX, _FAY, _FVX, _FVY, _FX, _FY, _PX, _PY, _SPEED, _T, _TOUCHED
 
-__all__ = ["observe", "limit", "law", "force", "kinematics", "finish", "tick", "new_tick_state", "safety_params", "new_state", "warm_up", "COUNTERS", "MAX_STEP"]
+__all__ = ["observe", "limit", "law", "force", "kinematics", "finish", "tick", "views", "buffers", "new_tick_state", "safety_params", "new_state", "warm_up", "COUNTERS", "MAX_STEP"]
 
 MAX_STEP = 1.0  # s, largest clock advance per tick (a stall beyond this is past every timeout anyway)
 _EPS = 1e-9  # s, rounding of the watchdog comparison
@@ -58,6 +58,9 @@ _TICKS, _CLAMPED, _SLEWED, _FAULTS, _LOST, _WS_N, _STOPPED, _STALE, _REJECTED, _
 (_STAMP_T, _NEW, _TOUCH_AT, _T_PRED, _FINGER, _T_LAST, _HK, _MASK, _STALE_T, _TTIMEOUT, _MAX_EX, _QX, _QY, _QVX, _QVY,
  _QON, _QRESET) = range(17, 34)
 _T_SIZE = 34
+HIST = 512  # ticks of screen positions kept (0.5 s at 1 kHz)
+_ZR, _ZO, _ZT = _S_SIZE, _S_SIZE + 4, _S_SIZE + 7  # Z: S, R, out, T, H
+_ZH = _ZT + _T_SIZE
 
 
 def safety_params(device, rate: float, velocity_cutoff: float) -> np.ndarray:
@@ -311,11 +314,31 @@ def finish(S, P, N, R, L, T, E, F, X, stop, out):
     force(S, P, N, R, L, kx, ky, kz, h, hv, fx, fy, fz, stop, out)
 
 
+@numba.njit(cache=True, inline="always")
+def views(Z, PL, EX):
+    """The engine's arrays as views of its three buffers (few arguments: each array passed to a
+    compiled call costs its unboxing): ``S, R, out, T, H`` of ``Z``, ``P, L`` of ``PL``, ``E, X`` of ``EX``."""
+    return (Z[:_ZR], Z[_ZR:_ZO], Z[_ZO:_ZT], Z[_ZT:_ZH], Z[_ZH:].reshape((2, HIST)), PL[:_P_SIZE], PL[_P_SIZE:],
+            EX[:, :ek.E_COLS], EX[:, ek.E_COLS:])
+
+
 @numba.njit(cache=True)
-def tick(S, P, N, R, L, T, H, E, F, X, t, t_pos, px, py, pz, stop, out):
-    """One haptic tick of compiled effects: :func:`kinematics` and :func:`finish` (into ``out``)."""
+def tick(Z, PL, N, EX, F, t, t_pos, px, py, pz, stop):
+    """One haptic tick of compiled effects (:func:`kinematics`, :func:`finish`) on the engine's
+    buffers (:func:`views`); the force is in ``out``."""
+    S, R, out, T, H, P, L, E, X = views(Z, PL, EX)
     kinematics(S, P, N, T, H, t, t_pos, px, py, pz)
     finish(S, P, N, R, L, T, E, F, X, stop, out)
+
+
+def buffers(P: np.ndarray, L: np.ndarray, dt: float, touch_timeout: float, max_extrapolate: float):
+    """Reset buffers ``Z`` and ``PL`` (:func:`views`) holding a new state, the safety parameters ``P``
+    and the control law's ``L``."""
+    Z = np.zeros(_ZH + 2 * HIST)
+    Z[:_ZR] = new_state()
+    Z[_ZR:_ZO] = (0.0, 0.0, 0.0, 1.0)
+    Z[_ZT:_ZH] = new_tick_state(dt, touch_timeout, max_extrapolate)
+    return Z, np.concatenate([P, L])
 
 
 def warm_up() -> None:
@@ -329,7 +352,10 @@ def warm_up() -> None:
     force(S, P, N, R, L, 1000.0, 1000.0, 1000.0, 0.0, 0.0, 0.0, 0.0, 0.0, False, out)
     limit(S, P, N, 0.0, 0.0, 0.0, True, out)
     law(R, L, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1000.0, 1000.0, 1000.0, 0.0, 0.0, 0.0, 0.0, 0.0, out)
-    T, H, E, X = new_tick_state(1e-3, 0.1, 0.05), np.zeros((2, 8)), np.zeros((1, ek.E_COLS)), np.zeros((1, ek.X_COLS))
-    tick(S, P, N, R, L, T, H, E, np.zeros(1), X, 0.0, 0.0, 0.0, 0.0, 0.0, False, out)
+    Z, PL = buffers(P, L, 1e-3, 0.1, 0.05)
+    EX = np.zeros((1, ek.E_COLS + ek.X_COLS))
+    tick(Z, PL, N, EX, np.zeros(1), 0.0, 0.0, 0.0, 0.0, 0.0, False)
+    S, R, out, T, H, P, L, E, X = views.py_func(Z, PL, EX)
     kinematics(S, P, N, T, H, 0.0, 0.0, 0.0, 0.0, 0.0)
+    finish(S, P, N, R, L, T, E, np.zeros(1), X, False, out)
     ek.value(np.array([ek.CONST, 0.0]), 0, 0.0, 0.0)
