@@ -129,22 +129,18 @@ class FFEngine:
         Python (code EXTERNAL: their terms go through ``X`` each tick)."""
         if len(effects) > 30:
             raise ValueError("at most 30 effects per scene")
-        rows, data, size, python = [], [np.zeros(1)], 1, []
+        EX, data, size, python = np.zeros((len(effects), ek.E_COLS + ek.X_COLS)), [np.zeros(1)], 1, []
         for i, e in enumerate(effects):
             packed = e.packed()
-            if packed is None:
+            if packed is None:  # a zero row: code EXTERNAL
                 python.append((i, e))
-                rows.append(np.zeros(ek.E_COLS))
                 continue
-            row, d = packed
-            rows.append(row.copy())
-            rows[-1][ek._STATE] = 0.0  # reset
-            if d is not None:
-                rows[-1][ek._FIELD] = size
-                data.append(d)
-                size += d.size
-        EX = np.zeros((len(rows), ek.E_COLS + ek.X_COLS))
-        EX[:, :ek.E_COLS] = np.array(rows).reshape(len(rows), ek.E_COLS)
+            EX[i, :ek.E_COLS] = packed[0]
+            EX[i, ek._STATE] = 0.0  # reset
+            if packed[1] is not None:
+                EX[i, ek._FIELD] = size
+                data.append(packed[1])
+                size += packed[1].size
         return list(effects), EX, np.concatenate(data), python
 
     def _set_effects(self, packed: tuple) -> None:
