@@ -1,7 +1,7 @@
 """The compiled per-tick arithmetic of the force loop (numba kernels over small arrays, as
 :mod:`surfhap.render.drive_kernel` does for the texture laws), semantics in
 :mod:`surfhap.ff.engine` (the one implementation of the force law and its limits): :func:`observe` takes the device
-position (clock, stamp, plausibility, velocity filter); :func:`force` is the control law's tail
+position (clock, stamp, plausibility, velocity filter); :func:`finish` is the control law's tail
 after the effects' merged terms (bumpless reference, damping, eq. 8) followed by
 :func:`limit`, the safety stage's output (workspace brake and wall, stop landing, clamp, slew)
 -- the safety limits applied last, in one call per tick.
@@ -17,10 +17,10 @@ Layouts (float64 arrays, indices below):
   bookkeeping of :class:`surfhap.ff.engine.FFEngine` (indices below), ``H`` (2, n) the ring of
   screen x, y per tick; ``E``, ``F``, ``X`` the effects (:mod:`surfhap.ff.effect_kernel`).
 
-:func:`tick` is one haptic tick in one call: :func:`observe`, :func:`kinematics` (touch
-freshness, prediction, history), the effects merged (:func:`surfhap.ff.effect_kernel.merge`)
-and :func:`force`; with effects evaluated in Python the engine calls :func:`kinematics` and
-:func:`finish` around them.
+:func:`tick` is one haptic tick in one call: :func:`kinematics` (:func:`observe`, touch
+freshness, prediction, history) and :func:`finish` (the effects merged by
+:func:`surfhap.ff.effect_kernel.merge`, the control law, :func:`limit`); with effects evaluated
+in Python the engine calls :func:`kinematics` and :func:`finish` around them.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ import numpy as np
 from surfhap.ff import effect_kernel as ek
 from surfhap.ff.effect_kernel import _DT, _FAX, _FAY, _FVX, _FVY, _FX, _FY, _PX, _PY, _SPEED, _T, _TOUCHED
 
-__all__ = ["observe", "limit", "law", "force", "kinematics", "finish", "tick", "views", "buffers", "new_tick_state", "safety_params", "new_state", "warm_up", "COUNTERS", "MAX_STEP"]
+__all__ = ["observe", "limit", "law", "kinematics", "finish", "tick", "views", "buffers", "new_tick_state", "safety_params", "new_state", "warm_up", "COUNTERS", "MAX_STEP"]
 
 MAX_STEP = 1.0  # s, largest clock advance per tick (a stall beyond this is past every timeout anyway)
 _EPS = 1e-9  # s, rounding of the watchdog comparison
@@ -254,14 +254,6 @@ def law(R, L, px, py, pz, vx, vy, vz, kx, ky, kz, h, hv, fx, fy, fz, out):
 
 
 @numba.njit(cache=True)
-def force(S, P, N, R, L, kx, ky, kz, h, hv, fx, fy, fz, stop, out):
-    """One tick's force after :func:`observe`: the control law of the merged terms at the
-    accepted position, then the safety stage's :func:`limit` (last) -- into ``out`` (3,) N."""
-    law(R, L, S[_P], S[_P + 1], S[_P + 2], S[_V], S[_V + 1], S[_V + 2], kx, ky, kz, h, hv, fx, fy, fz, out)
-    limit(S, P, N, out[0], out[1], out[2], stop, out)
-
-
-@numba.njit(cache=True)
 def kinematics(S, P, N, T, H, t, t_pos, px, py, pz):
     """:func:`observe`, then the screen's history, the touch's freshness on the safety clock
     (a touch stamp older than this tick by more than one period is stale) and the finger's
@@ -308,10 +300,12 @@ def kinematics(S, P, N, T, H, t, t_pos, px, py, pz):
 
 @numba.njit(cache=True)
 def finish(S, P, N, R, L, T, E, F, X, stop, out):
-    """The effects merged at this tick's state, then :func:`force` (safety stage last)."""
+    """One tick's force after :func:`kinematics` (into ``out`` (3,) N): the effects merged at this
+    tick's state, the control law at the accepted position, then the safety stage's :func:`limit` (last)."""
     mask, kx, ky, kz, h, hv, fx, fy, fz = ek.merge(E, F, X, T, L[0])
     T[_MASK] = mask
-    force(S, P, N, R, L, kx, ky, kz, h, hv, fx, fy, fz, stop, out)
+    law(R, L, S[_P], S[_P + 1], S[_P + 2], S[_V], S[_V + 1], S[_V + 2], kx, ky, kz, h, hv, fx, fy, fz, out)
+    limit(S, P, N, out[0], out[1], out[2], stop, out)
 
 
 @numba.njit(cache=True, inline="always")
@@ -349,7 +343,6 @@ def warm_up() -> None:
     S, P, N = new_state(), safety_params(DeviceParams(), 1000.0, 100.0), np.zeros(len(COUNTERS), dtype=np.int64)
     R, L, out = np.array([0.0, 0.0, 0.0, 1.0]), np.array([1000.0, 10.0, 3.8, 0.04, 2e-4]), np.zeros(3)
     observe(S, P, N, 0.0, 0.0, 0.0, 0.0, 0.0)
-    force(S, P, N, R, L, 1000.0, 1000.0, 1000.0, 0.0, 0.0, 0.0, 0.0, 0.0, False, out)
     limit(S, P, N, 0.0, 0.0, 0.0, True, out)
     law(R, L, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1000.0, 1000.0, 1000.0, 0.0, 0.0, 0.0, 0.0, 0.0, out)
     Z, PL = buffers(P, L, 1e-3, 0.1, 0.05)
