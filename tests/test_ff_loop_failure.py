@@ -9,13 +9,37 @@ import pytest
 
 from surfhap.cli import main
 from surfhap.exchange.trajectory_csv import write_trajectory_csv
-from surfhap.ff import FALCON, FFEngine, Sliding, Stiffness
+from surfhap.ff import FALCON, Effect, FFEngine, Sliding, Stiffness
+from surfhap.ff import scene as ff_scene
 from surfhap.live.ff_devices import SimDeviceBackend
 from surfhap.live.ff_loop import FFLoop
 from surfhap.runtime.clock import SimClock
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.models.trajectory import Trajectory
 from surfhap.sim.ff_device import SimDevice
+
+
+class Failing(Effect):
+    """A Python effect (evaluated in Python each touched tick) with the terms of the built-in
+    ``inner`` that raises ``message`` from its call number ``after + 1`` on."""
+
+    def __init__(self, inner: Effect, after: int, message: str):
+        self.inner, self.after, self.message, self.calls = inner, after, message, 0
+        self.name, self.vibration = inner.name, inner.vibration
+        super().__init__()
+
+    def terms(self, s):
+        self.calls += 1
+        if self.calls > self.after:
+            raise RuntimeError(self.message)
+        return self.inner.terms(s)
+
+
+def failing_sliding(monkeypatch, after: int) -> None:
+    """Scenes loaded from now on have their Sliding effect raise after ``after`` calls."""
+    build = ff_scene.build_effects
+    monkeypatch.setattr(ff_scene, "build_effects", lambda *a: [
+        Failing(e, after, "injected\nfailure") if isinstance(e, Sliding) else e for e in build(*a)])
 
 
 class Recording(SimDeviceBackend):
@@ -35,16 +59,7 @@ def test_exception_in_an_effect_ramps_down_in_the_running_loop():
     """The haptic thread: an effect raises while the screen is held at the weight plus a
     pressing finger; every written change stays within the slew limit, the loop ends at 0 N
     and keeps the error."""
-    calls = {"n": 0}
-
-    class Flaky(Stiffness):
-        def terms(self, s):
-            calls["n"] += 1
-            if calls["n"] > 200:
-                raise RuntimeError("injected")
-            return super().terms(s)
-
-    eng = FFEngine([Flaky(300.0)], FALCON, TouchPredictor(), touch_latency=0.0)
+    eng = FFEngine([Failing(Stiffness(300.0), 200, "injected")], FALCON, TouchPredictor(), touch_latency=0.0)
     be = Recording()
     loop = FFLoop(eng, be)
     loop.start()
@@ -72,10 +87,7 @@ def test_ff_run_exits_3_with_one_line_when_the_loop_fails(tmp_path, capsys, monk
     csv = tmp_path / "t.csv"
     write_trajectory_csv(Trajectory(t, 0.1 + 0.03 * np.sin(np.pi * t), np.full(t.size, 0.07), np.ones(t.size)), csv)
 
-    def boom(self, s):
-        raise RuntimeError("injected\nfailure")
-
-    monkeypatch.setattr(Sliding, "terms", boom)
+    failing_sliding(monkeypatch, 0)
     code = main(["ff", "run", "follow", "--json", "--device", "sim", "--trajectory", str(csv)])
     out = capsys.readouterr()
     assert code == 3, out.err
@@ -90,16 +102,7 @@ def test_ff_run_exits_3_with_one_line_when_the_loop_fails(tmp_path, capsys, monk
 def test_ff_simulate_exits_3_with_one_line_when_an_effect_fails(tmp_path, capsys, monkeypatch):
     """The offline simulation ends like the live loop: the files are written (the force ramped
     down through the safety stage, never a jump), the summary keeps the error, one line, exit 3."""
-    calls = {"n": 0}
-    original = Sliding.terms
-
-    def flaky(self, s):
-        calls["n"] += 1
-        if calls["n"] > 300:
-            raise RuntimeError("injected\nfailure")
-        return original(self, s)
-
-    monkeypatch.setattr(Sliding, "terms", flaky)
+    failing_sliding(monkeypatch, 300)
     out_dir = tmp_path / "sim"
     code = main(["ff", "simulate", "follow", "--out", str(out_dir), "--no-figures"])
     out = capsys.readouterr()

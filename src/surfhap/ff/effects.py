@@ -8,6 +8,11 @@ of the control law (eq. 8) as a tuple ``(kx, ky, kz, h, ffx, ffy, ffz)``:
 * ``h``            : m, its offset of the normal reference ``X0 + h e_z``;
 * ``ffx, ffy, ffz``: N, its feed-forward force (moving force, grating, attraction).
 
+The built-in effects' laws are compiled (:func:`surfhap.ff.effect_kernel.terms`, the one place
+each is written): ``packed()`` gives the engine their row and data, and ``terms`` evaluates the
+same law for one state. Any other :class:`Effect` (``packed()`` None) runs its ``terms`` in
+Python each touched tick, as does a built-in effect over a field that is not packed (a mesh).
+
 An effect alone is its paper law (eqs. 1-5), ``ff + K (X0 + h e_z - X_t)`` (X0 = 0, N in the
 device frame of :mod:`surfhap.ff.params`); :meth:`surfhap.ff.engine.FFEngine.merge` merges
 several effects into one force (eq. 8). Parameters that vary over the picture come from :mod:`surfhap.ff.fields`
@@ -19,12 +24,13 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 
+import numpy as np
+
+from surfhap.ff import effect_kernel as ek
 from surfhap.ff.fields import ConstantField, Field
 from surfhap.ff.params import K_MAX
 
 __all__ = ["TickState", "Effect", "Stiffness", "Shape", "Roughness", "Sliding", "Idle", "Attraction"]
-
-TWO_PI = 2.0 * math.pi
 
 
 class TickState:
@@ -49,6 +55,19 @@ class TickState:
         self.fx = self.fy = self.fvx = self.fvy = self.fax = self.fay = self.speed = self.load = 0.0
         self.px = self.py = self.pz = self.vx = self.vy = self.vz = 0.0
 
+    @classmethod
+    def of(cls, T: np.ndarray) -> "TickState":
+        """The state held in the engine's tick array ``T`` (its first fields, in slot order)."""
+        s = cls()
+        for k, v in zip(cls.__slots__, T.tolist()):
+            setattr(s, k, v)
+        s.touched = s.touched != 0.0
+        return s
+
+    def array(self) -> np.ndarray:
+        """This state as the compiled laws read it (slot order)."""
+        return np.array([float(getattr(self, k)) for k in self.__slots__])
+
 
 def _field(v) -> Field:
     return v if isinstance(v, Field) else ConstantField(float(v))
@@ -68,42 +87,67 @@ class Effect(ABC):
     def reset(self) -> None:
         """Back to the start (an effect with state overrides it)."""
 
+    def packed(self) -> tuple[np.ndarray, np.ndarray | None] | None:
+        """The compiled layout ``(E row, data)`` (:mod:`surfhap.ff.effect_kernel`), None: Python only."""
+        return None
+
     @abstractmethod
     def terms(self, s: TickState):
         """None (not here) or ``(kx, ky, kz, h, ffx, ffy, ffz)`` for this tick."""
 
 
-class Idle(Effect):
+class _Compiled(Effect):
+    """A built-in effect: its law is :func:`surfhap.ff.effect_kernel.terms` of its ``code``, over
+    its ``field`` (None: none) with the parameters ``a, b``; ``row`` also holds its state."""
+
+    code = ek.EXTERNAL
+    field: Field | None = None
+
+    def __init__(self, a: float = 0.0, b: float = 0.0, k_max: float = K_MAX):
+        self.row = np.array([[self.code, 0.0, float(k_max), a, b, 0.0]])
+        super().__init__(k_max)
+
+    def reset(self) -> None:
+        self.row[0, ek._STATE] = 0.0
+
+    def _data(self) -> np.ndarray | None:
+        return None if self.field is None else self.field.packed
+
+    def packed(self):
+        return None if self.field is not None and self.field.packed is None else (self.row[0], self._data())
+
+    def terms(self, s: TickState):
+        data = self._data()
+        v = math.nan if self.field is None else self.field.value(s.fx, s.fy)
+        r = ek.terms(self.row, 0, float(v), s.array(), np.zeros(1) if data is None else data)
+        return r[1:] if r[0] else None
+
+
+class Idle(_Compiled):
     """Centring when the screen is not touched (eq. 5): K = K_max I3, reference X0."""
 
     name = "idle"
+    code = ek.IDLE
 
-    def terms(self, s: TickState):
-        km = self.k_max
-        return (km, km, km, 0.0, 0.0, 0.0, 0.0)
+    def __init__(self, k_max: float = K_MAX):
+        super().__init__(k_max=k_max)
 
 
-class Stiffness(Effect):
+class Stiffness(_Compiled):
     """Elastic normal force (eq. 1): K = diag(K_max, K_max, k_mat), lateral axes locked.
 
     k_mat : N/m, the simulated stiffness (a number or a stiffness map field).
     """
 
     name = "stiffness"
+    code = ek.STIFFNESS
 
     def __init__(self, k_mat, k_max: float = K_MAX):
-        self.k_mat = _field(k_mat)
-        super().__init__(k_max)
-
-    def terms(self, s: TickState):
-        k = self.k_mat.value(s.fx, s.fy)
-        if not k > 0.0:  # NaN or <= 0: no material here
-            return None
-        km = self.k_max
-        return (km, km, k if k < km else km, 0.0, 0.0, 0.0, 0.0)
+        self.k_mat = self.field = _field(k_mat)
+        super().__init__(k_max=k_max)
 
 
-class Shape(Effect):
+class Shape(_Compiled):
     """Follow the height h(f) under the finger (eq. 2): K = K_max I3, reference X0 + h e_z.
 
     height : field of heights in m (a height map or a mesh top surface,
@@ -111,21 +155,15 @@ class Shape(Effect):
     """
 
     name = "shape"
+    code = ek.SHAPE
 
     def __init__(self, height: Field, scale: float = 1.0, k_max: float = K_MAX):
-        self.height = _field(height)
+        self.height = self.field = _field(height)
         self.scale = float(scale)
-        super().__init__(k_max)
-
-    def terms(self, s: TickState):
-        h = self.height.value(s.fx, s.fy)
-        if h != h:
-            return None
-        km = self.k_max
-        return (km, km, km, self.scale * h, 0.0, 0.0, 0.0)
+        super().__init__(self.scale, k_max=k_max)
 
 
-class Roughness(Effect):
+class Roughness(_Compiled):
     """Grating vibration (eq. 3): normal displacement ``delta sin(phi)``, K = K_max I3.
 
     depth  : m, grating depth delta (number or roughness map; NaN / 0 = smooth).
@@ -142,34 +180,19 @@ class Roughness(Effect):
 
     name = "roughness"
     vibration = True  # its offset bypasses the control law's reference rate limit
+    code = ek.ROUGHNESS
 
     def __init__(self, depth, period: float, k_max: float = K_MAX):
         if not (math.isfinite(period) and period > 0):
             raise ValueError("roughness period must be > 0 m")
-        self.depth = _field(depth)
+        self.depth = self.field = _field(depth)
         self.period = float(period)
-        super().__init__(k_max)
+        super().__init__(self.period, k_max=k_max)
 
-    def reset(self) -> None:
-        self.phase = 0.0  # rad
-
-    def terms(self, s: TickState):
-        d = self.depth.value(s.fx, s.fy)
-        if not d > 0.0:
-            return None
-        # the distance travelled this tick in periods, wrapped: the phase stays in [0, 2 pi)
-        # whatever the speed (a non-finite or absurd speed advances it by nothing)
-        cyc = s.speed * s.dt / self.period
-        cyc = cyc - math.floor(cyc) if 0.0 <= cyc < 1e15 else 0.0
-        ph = self.phase + TWO_PI * cyc
-        if not 0.0 <= ph < TWO_PI:
-            ph = ph - TWO_PI if TWO_PI <= ph < 2.0 * TWO_PI else 0.0
-        self.phase = ph
-        km = self.k_max
-        return (km, km, km, d * math.sin(ph), 0.0, 0.0, 0.0)
+    phase = property(lambda self: float(self.row[0, ek._STATE]), doc="rad, the grating's phase in [0, 2 pi)")
 
 
-class Sliding(Effect):
+class Sliding(_Compiled):
     """Follow (alpha > 0) / Reverse (alpha < 0) lateral screen motion (eq. 4), normal axis held.
 
     alpha : slipperiness in [-1, 1] (number or friction map).
@@ -193,6 +216,7 @@ class Sliding(Effect):
     """
 
     name = "sliding"
+    code = ek.SLIDING
 
     def __init__(self, alpha, nu: float = 20.0, mass: float = 0.0, k_max: float = K_MAX):
         if not (math.isfinite(nu) and nu >= 0):
@@ -200,22 +224,12 @@ class Sliding(Effect):
         if not (math.isfinite(mass) and 0.0 <= mass <= 20.0):
             raise ValueError("sliding mass must be within 0-20 kg")
         self.mass = float(mass)
-        self.alpha = _field(alpha)
+        self.alpha = self.field = _field(alpha)
         self.nu = float(nu)
-        super().__init__(k_max)
-
-    def terms(self, s: TickState):
-        a = self.alpha.value(s.fx, s.fy)
-        if a != a:
-            return None
-        a = -1.0 if a < -1.0 else (1.0 if a > 1.0 else a)
-        nu = self.nu
-        am = a * self.mass
-        return (0.0, 0.0, self.k_max, 0.0, nu * (a * s.fvx - s.vx) + am * s.fax, nu * (a * s.fvy - s.vy) + am * s.fay,
-                0.0)
+        super().__init__(self.nu, self.mass, k_max=k_max)
 
 
-class Attraction(Effect):
+class Attraction(_Compiled):
     """Lateral pull towards (strength > 0) or push away from (< 0) points of interest.
 
     The map use case of 004 (Sec. 6) attracts or repels the finger at points of interest
@@ -228,30 +242,15 @@ class Attraction(Effect):
     """
 
     name = "attraction"
+    code = ek.ATTRACTION
 
     def __init__(self, points, k_max: float = K_MAX):
         self.points = [(float(x), float(y), float(r), float(f)) for x, y, r, f in points]
         for _, _, r, _ in self.points:
             if not r > 0:
                 raise ValueError("attraction radius must be > 0 m")
-        super().__init__(k_max)
+        self._points = np.array(self.points, dtype=float).reshape(-1)
+        super().__init__(len(self.points), k_max=k_max)
 
-    def terms(self, s: TickState):
-        fx = fy = 0.0
-        hit = False
-        px, py = s.fx, s.fy
-        for x, y, r, f in self.points:
-            dx = x - px
-            dy = y - py
-            d = math.hypot(dx, dy)
-            if d >= r or d <= 0.0:
-                continue
-            w = 2.0 * (r - d) / r
-            g = (f if w >= 1.0 else f * w) / d
-            fx += g * dx
-            fy += g * dy
-            hit = True
-        if not hit:
-            return None
-        km = self.k_max
-        return (km, km, km, 0.0, fx, fy, 0.0)
+    def _data(self) -> np.ndarray:
+        return self._points

@@ -1,6 +1,7 @@
 """The force-feedback engine: touch kinematics -> effects (control law) -> safety stage, one tick
-per call; the control law's arithmetic and the safety stage run compiled in one call
-(:mod:`surfhap.ff.tick_kernel`), this class holds their state arrays.
+per call; with built-in effects the whole tick is one compiled call (:func:`surfhap.ff.tick_kernel.tick`,
+the effects' laws in :mod:`surfhap.ff.effect_kernel`), this class holds their state arrays and
+packs the effects when they are set.
 
 Driven tick by tick by a clock that is not its business (:class:`surfhap.live.ff_loop.FFLoop`
 on the runtime's wall or simulated clock): ``touch(t, x, y, load)`` per touch sample (screen
@@ -55,7 +56,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from surfhap.ff import tick_kernel as kernel
+from surfhap.ff import effect_kernel as ek, tick_kernel as kernel
 from surfhap.ff.buttons import ButtonPresses
 from surfhap.ff.effects import Effect, TickState
 from surfhap.ff.params import DeviceParams
@@ -99,71 +100,88 @@ class FFEngine:
         if not (math.isfinite(velocity_cutoff) and velocity_cutoff > 0):
             raise ValueError("velocity_cutoff must be > 0 Hz")
         self.touch_latency = float(touch_latency)
-        self._hist_n = 512
-        self._hist_x = [0.0] * self._hist_n
-        self._hist_y = [0.0] * self._hist_n
-        self._hist_k = 0  # ticks recorded
+        self.H = np.zeros((2, 512))  # screen x, y per tick (the last 0.5 s at 1 kHz)
         self.device = device
         self.rate = float(rate)
         self.dt = 1.0 / self.rate
-        # safety stage: state S, parameters P, counters N, output (3,) N (tick_kernel layouts)
-        self.S, self.P = kernel.new_state(), kernel.safety_params(device, self.rate, velocity_cutoff)
-        self.N = np.zeros(len(kernel.COUNTERS), dtype=np.int64)
-        self.out = np.zeros(3)
-        # control law: reference R (rx, ry, rz, fresh) and parameters L (k_max, damping, weight, h_lim, ref_step)
-        self.R = np.array([0.0, 0.0, 0.0, 1.0])
-        self.L = np.array([device.k_max, device.damping, device.weight, device.workspace[2], device.ref_speed / rate])
-        self._set_effects(effects)
-        self.predictor = predictor
+        # safety stage: state S, parameters P, counters N, output (3,) N; control law: reference R
+        # (rx, ry, rz, fresh), parameters L (k_max, damping, weight, h_lim, ref_step); tick state T,
+        # screen history H: views of the buffers Z, PL (tick_kernel layouts)
         self.max_extrapolate = float(max_extrapolate)
+        L = np.array([device.k_max, device.damping, device.weight, device.workspace[2], device.ref_speed / rate])
+        self.Z, self.PL = kernel.buffers(kernel.safety_params(device, self.rate, velocity_cutoff), L, self.dt,
+                                         device.touch_timeout, self.max_extrapolate)
+        views = kernel.views.py_func(self.Z, self.PL, np.zeros((0, ek.E_COLS + ek.X_COLS)))
+        self.S, self.R, self.out, self.T, self.H, self.P, self.L = views[:7]
+        self.N = np.zeros(len(kernel.COUNTERS), dtype=np.int64)
+        self.effects = list(effects)  # packed by reset()
+        self.predictor = predictor
         self._atau = 1.0 / (2.0 * math.pi * accel_cutoff)
         self.button_presses = ButtonPresses(buttons)
         self.button = -1
         self._pending = self._switched = None
         self.reset()
 
-    def _set_effects(self, effects: list[Effect]) -> None:
-        """The effects of a scene (bit i of ``mask`` = effect i active), reset; the reference
-        restarts at the screen on the next tick (bumpless)."""
+    @staticmethod
+    def _pack(effects: list[Effect]) -> tuple:
+        """The effects of a scene packed for the compiled tick: ``(effects, EX, F, python)``, the
+        built-in ones' rows (state reset) and data, ``python`` the ``(index, effect)`` evaluated in
+        Python (code EXTERNAL: their terms go through ``X`` each tick)."""
         if len(effects) > 30:
             raise ValueError("at most 30 effects per scene")
-        self.effects = list(effects)
-        self._calls = [(e.terms, e.vibration) for e in self.effects]
-        for e in self.effects:
+        EX, data, size, python = np.zeros((len(effects), ek.E_COLS + ek.X_COLS)), [np.zeros(1)], 1, []
+        for i, e in enumerate(effects):
+            packed = e.packed()
+            if packed is None:  # a zero row: code EXTERNAL
+                python.append((i, e))
+                continue
+            EX[i, :ek.E_COLS] = packed[0]
+            EX[i, ek._STATE] = 0.0  # reset
+            if packed[1] is not None:
+                EX[i, ek._FIELD] = size
+                data.append(packed[1])
+                size += packed[1].size
+        return list(effects), EX, np.concatenate(data), python
+
+    def _set_effects(self, packed: tuple) -> None:
+        """Use packed effects (bit i of ``mask`` = effect i active); the reference restarts at the
+        screen on the next tick (bumpless)."""
+        self.effects, self.EX, self.F, self._python = packed
+        self.E, self.X = self.EX[:, :ek.E_COLS], self.EX[:, ek.E_COLS:]
+        for _, e in self._python:
             e.reset()
-        self.mask = 0  # bit mask of the effects active on the last tick (0 = idle)
+        self.T[kernel._MASK] = 0.0  # no effect active on the last tick (idle)
         self.R[:] = (0.0, 0.0, 0.0, 1.0)
 
     def reset(self) -> None:
-        self._set_effects(self.effects)
+        self._set_effects(self._pack(self.effects))
         self.button_presses.reset()
         self.button = -1
         self.S[:] = kernel.new_state()
         self.N[:] = 0
         self.out[:] = 0.0
         self.predictor.reset()
-        self.state = TickState()  # untouched, at rest at X0
-        self.state.dt = self.dt
+        self.T[:] = kernel.new_tick_state(self.dt, self.device.touch_timeout, self.max_extrapolate)
         self._pvx = self._pvy = 0.0
         self._pt = math.nan
-        self._stamp = -math.inf  # caller stamp of the last accepted touch sample
-        self._new_touch = False  # a touch sample since the last tick
-        self._touch_at = -math.inf  # its arrival on the safety stage's clock
-        self._t_pred = 0.0  # time stamp of the last predictor update
-        self._finger = False  # last sample said "finger down"
         self.stopping = False
         self.error = None  # the first exception of an effect / the control law
         self.touch_rejected = 0
-        self.touch_stale = 0
-        self._hist_k = 0
-        self._t_last = 0.0
+
+    mask = property(lambda self: int(self.T[kernel._MASK]), doc="bit mask of the effects active on the last tick")
+    touch_stale = property(lambda self: int(self.T[kernel._STALE_T]), doc="touch samples found stale at a tick")
+
+    @property
+    def state(self) -> TickState:
+        """A copy of the last tick's state (what an effect read)."""
+        return TickState.of(self.T)
 
     def switch(self, effects: list[Effect], buttons=()) -> None:
         """Another scene's effects from the next tick, without resetting the safety stage: the
         weight compensation and the output stay up (bumpless, from the screen's position).
         Any thread may call it (e.g. a study's next stimulus while the loop runs): the switch is
-        one tuple store, taken by the haptic thread at the start of its next tick."""
-        self._pending = (list(effects), ButtonPresses(buttons))
+        one tuple store (the effects packed here), taken by the haptic thread at the start of its next tick."""
+        self._pending = (self._pack(effects), ButtonPresses(buttons))
 
     def _take_switch(self) -> None:
         pending = self._switched = self._pending  # never cleared: a switch sent meanwhile is taken next tick
@@ -197,56 +215,58 @@ class FFEngine:
         """One touch sample: screen position (m), load (N; <= 0 = lifted), arrival time ``t``
         (s, engine clock; orders samples) and optionally the source's own time stamp ``t_event``
         (s, its own clock; used by the prediction filter when finite)."""
-        if not (t == t and abs(t) != math.inf and t >= self._stamp and abs(x) <= TOUCH_BOUND
+        T, pr = self.T, self.predictor
+        if not (t == t and abs(t) != math.inf and t >= T[kernel._STAMP_T] and abs(x) <= TOUCH_BOUND
                 and abs(y) <= TOUCH_BOUND and abs(load) <= MAX_LOAD):  # also NaN
             self.touch_rejected += 1
             return
-        self._stamp = t
-        self._new_touch = True
+        T[kernel._STAMP_T] = t
+        T[kernel._NEW] = 1.0
+        if T[kernel._QRESET] != 0.0 or load <= 0.0:  # a tick found the last touch stale / lifted
+            pr.reset()
+            T[kernel._QRESET] = T[kernel._QON] = 0.0
         if load <= 0.0:
-            self._finger = False
-            self.predictor.reset()
-            self.state.fax = self.state.fay = 0.0
+            T[kernel._FINGER] = T[ek._FAX] = T[ek._FAY] = 0.0
             self._pt = math.nan
             return
-        self._finger = True
-        self.state.load = load
+        T[kernel._FINGER] = 1.0
+        T[ek._LOAD] = load
         sx, sy = self._screen_at(t - self.touch_latency)
         te = t_event if (t_event == t_event and abs(t_event) < 1e12) else t
-        pr = self.predictor
         pr.update(te, x + sx, y + sy)
         if not pr.vx * pr.vx + pr.vy * pr.vy <= MAX_SPEED * MAX_SPEED:  # a jump: restart the filter here
             self.touch_rejected += 1
             pr.reset()
             pr.update(te, x + sx, y + sy)
             self._pt = math.nan
-        st = self.state
+        vx, vy = pr.vx, pr.vy
         h = te - self._pt
         if 0.0 < h <= 0.1:
             g = h / (self._atau + h)
-            st.fax += g * ((pr.vx - self._pvx) / h - st.fax)
-            st.fay += g * ((pr.vy - self._pvy) / h - st.fay)
-            a = math.hypot(st.fax, st.fay)
+            fax = T[ek._FAX] + g * ((vx - self._pvx) / h - T[ek._FAX])
+            fay = T[ek._FAY] + g * ((vy - self._pvy) / h - T[ek._FAY])
+            a = math.hypot(fax, fay)
             if a > MAX_ACCELERATION:
-                st.fax *= MAX_ACCELERATION / a
-                st.fay *= MAX_ACCELERATION / a
+                fax *= MAX_ACCELERATION / a
+                fay *= MAX_ACCELERATION / a
         else:
-            st.fax = st.fay = 0.0
-        self._pt, self._pvx, self._pvy = te, pr.vx, pr.vy
-        self._t_pred = t
+            fax = fay = 0.0
+        T[ek._FAX], T[ek._FAY] = fax, fay
+        self._pt, self._pvx, self._pvy = te, vx, vy
+        T[kernel._T_PRED] = t
+        T[kernel._QX:kernel._QON + 1] = pr.x, pr.y, vx, vy, float(pr.started)
 
     def _screen_at(self, ts: float) -> tuple[float, float]:
         """Screen x, y (m) recorded at the tick nearest to time ts (clamped to the history)."""
-        k = self._hist_k
+        T, n = self.T, self.H.shape[1]
+        k = int(T[kernel._HK])
         if k == 0:
             return 0.0, 0.0
-        back = (self._t_last - ts) * self.rate
-        back = int(round(back)) if 0.0 < back < self._hist_n else (0 if not back > 0.0 else self._hist_n)
-        lim = min(k, self._hist_n) - 1
-        if back > lim:
-            back = lim
-        j = (k - 1 - back) % self._hist_n
-        return self._hist_x[j], self._hist_y[j]
+        back = (float(T[kernel._T_LAST]) - ts) * self.rate
+        back = int(round(back)) if 0.0 < back < n else (0 if not back > 0.0 else n)
+        back = min(back, min(k, n) - 1)
+        j = (k - 1 - back) % n
+        return float(self.H[0, j]), float(self.H[1, j])
 
     def stop(self) -> None:
         """Lower the tablet and ramp the force to zero (safety stage), and keep it there."""
@@ -254,84 +274,45 @@ class FFEngine:
 
     # ----------------------------------------------------------------- tick
     def tick(self, t: float, px: float, py: float, pz: float, t_pos: float) -> np.ndarray:
-        """Safe force (3,) N for this tick; see the module docstring."""
+        """Safe force (3,) N for this tick; see the module docstring. With compiled effects only,
+        one compiled call (:func:`surfhap.ff.tick_kernel.tick`)."""
         if self._pending is not self._switched:
             self._take_switch()
-        s = self.state
-        if self.observe(t, t_pos, px, py, pz):
-            s.px, s.py, s.pz, s.vx, s.vy, s.vz = self.S[:6].tolist()
-        c = float(self.S[kernel._NOW])
-        s.t = c
-        j = self._hist_k % self._hist_n
-        self._hist_x[j] = s.px
-        self._hist_y[j] = s.py
-        self._hist_k += 1
-        finite_t = t == t and abs(t) != math.inf
-        if finite_t:
-            self._t_last = t
-        if self._new_touch:  # stamp its arrival on this clock: the caller's stamp can only age it
-            self._new_touch = False
-            age = t - self._stamp
-            if not (finite_t and age >= -self.dt):
-                self.touch_stale += 1
-                self._finger = False
-                self.predictor.reset()
-                self._touch_at = -math.inf
-                self._stamp = t if finite_t else self._stamp
-            else:
-                self._touch_at = c - (age if age > 0.0 else 0.0)
-        touched = self._finger and (c - self._touch_at) <= self.device.touch_timeout + 1e-9 and self.predictor.started
-        if touched:
-            pr = self.predictor
-            ahead = t - self._t_pred
-            if not ahead > 0.0:
-                ahead = 0.0
-            elif ahead > self.max_extrapolate:
-                ahead = self.max_extrapolate
-            s.fx = pr.x + pr.vx * ahead
-            s.fy = pr.y + pr.vy * ahead
-            s.fvx = pr.vx
-            s.fvy = pr.vy
-            s.speed = math.hypot(s.fvx, s.fvy)
-        else:
-            s.fvx = s.fvy = s.speed = 0.0
-        s.touched = touched
+        T, pos = self.T, (float(t), float(t_pos), float(px), float(py), float(pz))
         if self.error is None:
             try:
-                kx, ky, kz, h, hv, fx, fy, fz = self.merge(s)
+                if self._python:  # the kinematics, the Python effects' terms, then the rest
+                    kernel.kinematics(self.S, self.P, self.N, T, self.H, *pos)
+                    self._python_terms(TickState.of(T))
+                    kernel.finish(self.S, self.P, self.N, self.R, self.L, T, self.E, self.F, self.X, self.stopping,
+                                  self.out)
+                else:
+                    kernel.tick(self.Z, self.PL, self.N, self.EX, self.F, *pos, self.stopping)
                 if self.button_presses.buttons:
-                    self.button = self.button_presses.update(touched, s.fx, s.fy, s.pz)
-                # the control law's arithmetic and the safety stage (last): one compiled call
-                kernel.force(self.S, self.P, self.N, self.R, self.L, kx, ky, kz, h, hv, fx, fy, fz, self.stopping,
-                             self.out)
+                    self.button = self.button_presses.update(T[ek._TOUCHED] != 0.0, T[ek._FX], T[ek._FY], T[ek._PZ])
                 return self.out
             except Exception as exc:  # noqa: BLE001 - kept for the caller; the safety stage ramps down
-                self.error = exc
+                self.error = exc  # (raised after this tick's observe: the effects come after it)
                 self.stopping = True
+        else:
+            kernel.kinematics(self.S, self.P, self.N, T, self.H, *pos)
         return self.limit(0.0, 0.0, 0.0, self.stopping)
 
+    def _python_terms(self, s: TickState) -> None:
+        """The Python effects' terms at ``s`` into ``X`` (called only on a touched tick, as merged)."""
+        X = self.X
+        for i, e in self._python:
+            r = e.terms(s) if s.touched else None
+            X[i, 0] = r is not None
+            if r is not None:
+                X[i, 1:8] = r
+                X[i, 8] = e.vibration
+
     def merge(self, s: TickState) -> tuple[float, float, float, float, float, float, float, float]:
-        """The active effects' terms merged (sets ``mask``): ``(kx, ky, kz, h, hv, fx, fy, fz)``
-        -- per axis the most compliant stiffness, the summed normal offsets (``hv`` the
-        vibrations') and the summed feed-forward forces."""
-        kx = ky = kz = self.device.k_max
-        h = hv = fx = fy = fz = 0.0
-        mask = 0
-        if s.touched:
-            bit = 1
-            for call, vib in self._calls:
-                r = call(s)
-                if r is not None:
-                    mask |= bit
-                    a, b, c, hh, p, q, w = r
-                    kx, ky, kz = min(kx, a), min(ky, b), min(kz, c)
-                    if vib:
-                        hv += hh
-                    else:
-                        h += hh
-                    fx += p
-                    fy += q
-                    fz += w
-                bit <<= 1
-        self.mask = mask
-        return float(kx), float(ky), float(kz), float(h), float(hv), float(fx), float(fy), float(fz)
+        """The active effects' terms merged at ``s`` (sets ``mask``, advances the effects' state):
+        ``(kx, ky, kz, h, hv, fx, fy, fz)`` (:func:`surfhap.ff.effect_kernel.merge`)."""
+        self.T[:len(TickState.__slots__)] = s.array()
+        self._python_terms(s)
+        mask, *terms = ek.merge(self.E, self.F, self.X, self.T, self.L[0])
+        self.T[kernel._MASK] = mask
+        return tuple(terms)

@@ -4,24 +4,31 @@ A field answers ``value(x, y) -> float`` for a point in content coordinates (m, 
 display's touch coordinates when the screen is at the workspace centre). ``NaN`` means
 "undefined here": an effect driven by a field is inactive where its field is NaN.
 
-Fields are evaluated once per haptic tick, so ``value`` is scalar Python arithmetic on
-arrays built up front (a few hundred ns); nothing allocates.
+The built-in constant, grid and rectangle fields are *packed*: ``packed`` is a float array
+whose law (:func:`surfhap.ff.effect_kernel.value`) the compiled haptic tick evaluates, built up
+front (nothing allocates per tick). A field without ``packed`` (a subclass's own ``value``, a
+mesh) is evaluated in Python, and its effect with it.
 """
 
 from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["Field", "ConstantField", "GridField", "RectsField", "MeshHeightField"]
+from surfhap.ff import effect_kernel as ek
+
+__all__ = ["Field", "ConstantField", "GridField", "RectsField", "MeshHeightField", "Ramp"]
 
 NAN = math.nan
 
 
 class Field(ABC):
     """Base class: ``value(x, y)`` in the field's unit (documented by its user)."""
+
+    packed: np.ndarray | None = None  # the compiled layout, None = Python only
 
     @abstractmethod
     def value(self, x: float, y: float) -> float:
@@ -32,17 +39,20 @@ class Field(ABC):
         return np.array([self.value(float(a), float(b)) for a, b in zip(np.ravel(x), np.ravel(y))]).reshape(np.shape(x))
 
 
-class ConstantField(Field):
+class _Packed(Field):
+    def value(self, x: float, y: float) -> float:
+        return ek.value(self.packed, 0, float(x), float(y))
+
+
+class ConstantField(_Packed):
     """The same value everywhere (NaN = nowhere)."""
 
     def __init__(self, value: float):
         self.v = float(value)
-
-    def value(self, x: float, y: float) -> float:
-        return self.v
+        self.packed = np.array([ek.CONST, self.v])
 
 
-class GridField(Field):
+class GridField(_Packed):
     """A (ny, nx) array spread over the rectangle ``[x0, x0 + width] x [y0, y0 + height]``.
 
     Row 0 is at ``y0`` (the top of an image when touch y grows downwards), column 0 at
@@ -59,59 +69,40 @@ class GridField(Field):
         self.data = np.ascontiguousarray(a)
         self.ny, self.nx = a.shape
         self.x0, self.y0, self.width, self.height = float(x0), float(y0), float(width), float(height)
-        self.sx = self.nx / self.width  # pixels per metre
-        self.sy = self.ny / self.height
         self.outside = float(outside)
-        self._rows = self.data.tolist()  # nested lists: scalar reads without numpy overhead
-
-    def value(self, x: float, y: float) -> float:
-        u = (x - self.x0) * self.sx - 0.5
-        v = (y - self.y0) * self.sy - 0.5
-        if not (-0.5 <= u <= self.nx - 0.5 and -0.5 <= v <= self.ny - 0.5):
-            return self.outside
-        nx1, ny1 = self.nx - 1, self.ny - 1
-        if u < 0.0:
-            u = 0.0
-        elif u > nx1:
-            u = float(nx1)
-        if v < 0.0:
-            v = 0.0
-        elif v > ny1:
-            v = float(ny1)
-        i = int(u)
-        j = int(v)
-        fu = u - i
-        fv = v - j
-        i1 = i + 1 if i < nx1 else i
-        j1 = j + 1 if j < ny1 else j
-        r0 = self._rows[j]
-        r1 = self._rows[j1]
-        top = r0[i] + fu * (r0[i1] - r0[i])
-        bot = r1[i] + fu * (r1[i1] - r1[i])
-        return top + fv * (bot - top)
+        head = [ek.GRID, self.x0, self.y0, self.nx / self.width, self.ny / self.height, self.nx, self.ny, self.outside]
+        self.packed = np.concatenate([head, self.data.ravel()])
 
 
-class RectsField(Field):
+class Ramp(NamedTuple):
+    """A rectangle's value growing linearly from ``start`` to ``end`` across it along x (``on_x``) or y."""
+
+    on_x: bool
+    start: float
+    end: float
+
+
+class RectsField(_Packed):
     """Piecewise field of axis-aligned rectangles; the last rectangle containing the point wins.
 
-    rects   : sequence of ``(x0, y0, x1, y1, value)``; a value may be a float or a callable
-              ``f(x, y) -> float`` (stairs are ramps).
+    rects   : sequence of ``(x0, y0, x1, y1, value)``; a value is a float or a :class:`Ramp`
+              (stairs are ramps).
     default : value where no rectangle contains the point (NaN = undefined).
     """
 
     def __init__(self, rects, default: float = NAN):
-        self.rects = [(float(a), float(b), float(c), float(d), v) for a, b, c, d, v in rects]
-        for a, b, c, d, _ in self.rects:
+        self.rects = [(float(a), float(b), float(c), float(d), v if isinstance(v, Ramp) else float(v))
+                      for a, b, c, d, v in rects]
+        rows = []
+        for a, b, c, d, v in self.rects:
             if not (c > a and d > b):
                 raise ValueError("a rectangle needs x1 > x0 and y1 > y0")
+            if isinstance(v, Ramp):  # mode 1 / 2: along x / y from its lower edge over its size
+                rows += [a, b, c, d, 1.0 if v.on_x else 2.0, v.start, v.end, a if v.on_x else b, c - a if v.on_x else d - b]
+            else:
+                rows += [a, b, c, d, 0.0, v, 0.0, 0.0, 1.0]
         self.default = float(default)
-
-    def value(self, x: float, y: float) -> float:
-        for k in range(len(self.rects) - 1, -1, -1):
-            a, b, c, d, v = self.rects[k]
-            if a <= x <= c and b <= y <= d:
-                return v(x, y) if callable(v) else v
-        return self.default
+        self.packed = np.array([ek.RECTS, len(self.rects), self.default, *rows])
 
 
 class MeshHeightField(Field):

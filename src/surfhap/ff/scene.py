@@ -44,7 +44,7 @@ from pydantic import BaseModel, ConfigDict, Field as PField, ValidationError, mo
 from surfhap.errors import SceneFormatError
 from surfhap.ff.buttons import Button
 from surfhap.ff.effects import Attraction, Effect, Roughness, Shape, Sliding, Stiffness
-from surfhap.ff.fields import ConstantField, Field, GridField, MeshHeightField, RectsField
+from surfhap.ff.fields import ConstantField, Field, GridField, MeshHeightField, Ramp as RampValue, RectsField
 from surfhap.ff.params import DeviceParams
 
 __all__ = ["SceneSpec", "FFScene", "load_scene", "load_ff_scene", "builtin_scene_names", "builtin_scene_path"]
@@ -233,19 +233,14 @@ def _read_image(path: Path, src: str, field: str) -> np.ndarray:
     return a
 
 
-def _ramp(r: Rect):
-    a, b, on_x = r.ramp.from_, r.ramp.to, r.ramp.axis == "x"
-    lo, span = (r.x0, r.x1 - r.x0) if on_x else (r.y0, r.y1 - r.y0)
-    return lambda x, y: a + (b - a) * ((x if on_x else y) - lo) / span
-
-
 def _field(m, size, base: Path, src: str, field: str) -> Field:
     if isinstance(m, (int, float)):
         return ConstantField(float(m))
     if m.constant is not None:
         return ConstantField(m.constant)
     if m.rects is not None:
-        rects = [(r.x0, r.y0, r.x1, r.y1, r.value if r.ramp is None else _ramp(r)) for r in m.rects]
+        rects = [(r.x0, r.y0, r.x1, r.y1, r.value if r.ramp is None else RampValue(r.ramp.axis == "x", r.ramp.from_, r.ramp.to))
+                 for r in m.rects]
         return RectsField(rects, np.nan if m.default is None else m.default)
     img = _read_image(base / m.image, src, f"{field}.image")
     lo, hi = m.range

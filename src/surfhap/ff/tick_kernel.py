@@ -1,7 +1,7 @@
 """The compiled per-tick arithmetic of the force loop (numba kernels over small arrays, as
 :mod:`surfhap.render.drive_kernel` does for the texture laws), semantics in
 :mod:`surfhap.ff.engine` (the one implementation of the force law and its limits): :func:`observe` takes the device
-position (clock, stamp, plausibility, velocity filter); :func:`force` is the control law's tail
+position (clock, stamp, plausibility, velocity filter); :func:`finish` is the control law's tail
 after the effects' merged terms (bumpless reference, damping, eq. 8) followed by
 :func:`limit`, the safety stage's output (workspace brake and wall, stop landing, clamp, slew)
 -- the safety limits applied last, in one call per tick.
@@ -12,7 +12,15 @@ Layouts (float64 arrays, indices below):
 * ``P`` safety parameters, from :class:`surfhap.ff.params.DeviceParams` (:func:`safety_params`);
 * ``N`` int64 counters (:data:`COUNTERS` order);
 * ``R`` control-law reference: rx, ry, rz (m), fresh (1 = take the screen's position);
-* ``L`` control-law parameters: k_max, damping, weight, h_lim, ref_step.
+* ``L`` control-law parameters: k_max, damping, weight, h_lim, ref_step;
+* ``T`` tick state: :class:`surfhap.ff.effects.TickState`'s fields (0:17), then the touch
+  bookkeeping of :class:`surfhap.ff.engine.FFEngine` (indices below), ``H`` (2, n) the ring of
+  screen x, y per tick; ``E``, ``F``, ``X`` the effects (:mod:`surfhap.ff.effect_kernel`).
+
+:func:`tick` is one haptic tick in one call: :func:`kinematics` (:func:`observe`, touch
+freshness, prediction, history) and :func:`finish` (the effects merged by
+:func:`surfhap.ff.effect_kernel.merge`, the control law, :func:`limit`); with effects evaluated
+in Python the engine calls :func:`kinematics` and :func:`finish` around them.
 """
 
 from __future__ import annotations
@@ -22,7 +30,10 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["observe", "limit", "law", "force", "safety_params", "new_state", "warm_up", "COUNTERS", "MAX_STEP"]
+from surfhap.ff import effect_kernel as ek
+from surfhap.ff.effect_kernel import _DT, _FAX, _FAY, _FVX, _FVY, _FX, _FY, _PX, _PY, _SPEED, _T, _TOUCHED
+
+__all__ = ["observe", "limit", "law", "kinematics", "finish", "tick", "views", "buffers", "new_tick_state", "safety_params", "new_state", "warm_up", "COUNTERS", "MAX_STEP"]
 
 MAX_STEP = 1.0  # s, largest clock advance per tick (a stall beyond this is past every timeout anyway)
 _EPS = 1e-9  # s, rounding of the watchdog comparison
@@ -40,6 +51,16 @@ _P_SIZE = 26
 COUNTERS = ("ticks", "clamped", "slew_limited", "faults", "device_lost", "workspace", "stopped", "stale", "rejected",
             "braked")
 _TICKS, _CLAMPED, _SLEWED, _FAULTS, _LOST, _WS_N, _STOPPED, _STALE, _REJECTED, _BRAKED = range(10)
+# T after the TickState fields: the last accepted touch's caller stamp, a touch since the last
+# tick, its arrival on the safety clock, the predictor's last update, finger down, last finite
+# caller time, ticks recorded in H, mask, stale touches, touch_timeout, max_extrapolate, the
+# predictor's output (x, y, vx, vy, started) and "reset the predictor before its next update"
+(_STAMP_T, _NEW, _TOUCH_AT, _T_PRED, _FINGER, _T_LAST, _HK, _MASK, _STALE_T, _TTIMEOUT, _MAX_EX, _QX, _QY, _QVX, _QVY,
+ _QON, _QRESET) = range(17, 34)
+_T_SIZE = 34
+HIST = 512  # ticks of screen positions kept (0.5 s at 1 kHz)
+_ZR, _ZO, _ZT = _S_SIZE, _S_SIZE + 4, _S_SIZE + 7  # Z: S, R, out, T, H
+_ZH = _ZT + _T_SIZE
 
 
 def safety_params(device, rate: float, velocity_cutoff: float) -> np.ndarray:
@@ -61,6 +82,14 @@ def new_state() -> np.ndarray:
     s[_ZERO] = 1.0
     s[_STOP_AT] = math.inf
     return s
+
+
+def new_tick_state(dt: float, touch_timeout: float, max_extrapolate: float) -> np.ndarray:
+    """A reset ``T``: untouched, at rest at X0, no touch yet."""
+    T = np.zeros(_T_SIZE)
+    T[_DT], T[_TTIMEOUT], T[_MAX_EX] = dt, touch_timeout, max_extrapolate
+    T[_STAMP_T] = T[_TOUCH_AT] = -math.inf
+    return T
 
 
 @numba.njit(cache=True, inline="always")
@@ -225,11 +254,85 @@ def law(R, L, px, py, pz, vx, vy, vz, kx, ky, kz, h, hv, fx, fy, fz, out):
 
 
 @numba.njit(cache=True)
-def force(S, P, N, R, L, kx, ky, kz, h, hv, fx, fy, fz, stop, out):
-    """One tick's force after :func:`observe`: the control law of the merged terms at the
-    accepted position, then the safety stage's :func:`limit` (last) -- into ``out`` (3,) N."""
+def kinematics(S, P, N, T, H, t, t_pos, px, py, pz):
+    """:func:`observe`, then the screen's history, the touch's freshness on the safety clock
+    (a touch stamp older than this tick by more than one period is stale) and the finger's
+    world position, extrapolated from the predictor's last update by at most ``max_extrapolate``."""
+    if observe(S, P, N, t, t_pos, px, py, pz):
+        for i in range(6):
+            T[_PX + i] = S[_P + i]
+    c = S[_NOW]
+    T[_T] = c
+    k = int(T[_HK])
+    j = k % H.shape[1]
+    H[0, j], H[1, j] = T[_PX], T[_PY]
+    T[_HK] = k + 1
+    finite_t = _finite(t)
+    if finite_t:
+        T[_T_LAST] = t
+    if T[_NEW] != 0.0:  # stamp its arrival on this clock: the caller's stamp can only age it
+        T[_NEW] = 0.0
+        age = t - T[_STAMP_T]
+        if not (finite_t and age >= -T[_DT]):
+            T[_STALE_T] += 1.0
+            T[_FINGER] = T[_QON] = 0.0
+            T[_QRESET] = 1.0
+            T[_TOUCH_AT] = -math.inf
+            if finite_t:
+                T[_STAMP_T] = t
+        else:
+            T[_TOUCH_AT] = c - (age if age > 0.0 else 0.0)
+    touched = T[_FINGER] != 0.0 and (c - T[_TOUCH_AT]) <= T[_TTIMEOUT] + 1e-9 and T[_QON] != 0.0
+    if touched:
+        ahead = t - T[_T_PRED]
+        if not ahead > 0.0:
+            ahead = 0.0
+        elif ahead > T[_MAX_EX]:
+            ahead = T[_MAX_EX]
+        T[_FX] = T[_QX] + T[_QVX] * ahead
+        T[_FY] = T[_QY] + T[_QVY] * ahead
+        T[_FVX], T[_FVY] = T[_QVX], T[_QVY]
+        T[_SPEED] = math.hypot(T[_FVX], T[_FVY])
+    else:
+        T[_FVX] = T[_FVY] = T[_SPEED] = 0.0
+    T[_TOUCHED] = 1.0 if touched else 0.0
+
+
+@numba.njit(cache=True)
+def finish(S, P, N, R, L, T, E, F, X, stop, out):
+    """One tick's force after :func:`kinematics` (into ``out`` (3,) N): the effects merged at this
+    tick's state, the control law at the accepted position, then the safety stage's :func:`limit` (last)."""
+    mask, kx, ky, kz, h, hv, fx, fy, fz = ek.merge(E, F, X, T, L[0])
+    T[_MASK] = mask
     law(R, L, S[_P], S[_P + 1], S[_P + 2], S[_V], S[_V + 1], S[_V + 2], kx, ky, kz, h, hv, fx, fy, fz, out)
     limit(S, P, N, out[0], out[1], out[2], stop, out)
+
+
+@numba.njit(cache=True, inline="always")
+def views(Z, PL, EX):
+    """The engine's arrays as views of its three buffers (few arguments: each array passed to a
+    compiled call costs its unboxing): ``S, R, out, T, H`` of ``Z``, ``P, L`` of ``PL``, ``E, X`` of ``EX``."""
+    return (Z[:_ZR], Z[_ZR:_ZO], Z[_ZO:_ZT], Z[_ZT:_ZH], Z[_ZH:].reshape((2, HIST)), PL[:_P_SIZE], PL[_P_SIZE:],
+            EX[:, :ek.E_COLS], EX[:, ek.E_COLS:])
+
+
+@numba.njit(cache=True)
+def tick(Z, PL, N, EX, F, t, t_pos, px, py, pz, stop):
+    """One haptic tick of compiled effects (:func:`kinematics`, :func:`finish`) on the engine's
+    buffers (:func:`views`); the force is in ``out``."""
+    S, R, out, T, H, P, L, E, X = views(Z, PL, EX)
+    kinematics(S, P, N, T, H, t, t_pos, px, py, pz)
+    finish(S, P, N, R, L, T, E, F, X, stop, out)
+
+
+def buffers(P: np.ndarray, L: np.ndarray, dt: float, touch_timeout: float, max_extrapolate: float):
+    """Reset buffers ``Z`` and ``PL`` (:func:`views`) holding a new state, the safety parameters ``P``
+    and the control law's ``L``."""
+    Z = np.zeros(_ZH + 2 * HIST)
+    Z[:_ZR] = new_state()
+    Z[_ZR:_ZO] = (0.0, 0.0, 0.0, 1.0)
+    Z[_ZT:_ZH] = new_tick_state(dt, touch_timeout, max_extrapolate)
+    return Z, np.concatenate([P, L])
 
 
 def warm_up() -> None:
@@ -240,6 +343,12 @@ def warm_up() -> None:
     S, P, N = new_state(), safety_params(DeviceParams(), 1000.0, 100.0), np.zeros(len(COUNTERS), dtype=np.int64)
     R, L, out = np.array([0.0, 0.0, 0.0, 1.0]), np.array([1000.0, 10.0, 3.8, 0.04, 2e-4]), np.zeros(3)
     observe(S, P, N, 0.0, 0.0, 0.0, 0.0, 0.0)
-    force(S, P, N, R, L, 1000.0, 1000.0, 1000.0, 0.0, 0.0, 0.0, 0.0, 0.0, False, out)
     limit(S, P, N, 0.0, 0.0, 0.0, True, out)
     law(R, L, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1000.0, 1000.0, 1000.0, 0.0, 0.0, 0.0, 0.0, 0.0, out)
+    Z, PL = buffers(P, L, 1e-3, 0.1, 0.05)
+    EX = np.zeros((1, ek.E_COLS + ek.X_COLS))
+    tick(Z, PL, N, EX, np.zeros(1), 0.0, 0.0, 0.0, 0.0, 0.0, False)
+    S, R, out, T, H, P, L, E, X = views.py_func(Z, PL, EX)
+    kinematics(S, P, N, T, H, 0.0, 0.0, 0.0, 0.0, 0.0)
+    finish(S, P, N, R, L, T, E, np.zeros(1), X, False, out)
+    ek.value(np.array([ek.CONST, 0.0]), 0, 0.0, 0.0)
