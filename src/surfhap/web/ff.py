@@ -50,7 +50,8 @@ class FFWebEngine:
         return self.loop.push_touch(source, x, y, load, t_event=t_event, t_arrival=t_arrival)
 
     def warm_up(self) -> None:
-        """Nothing to compile: the force-feedback engine is plain Python."""
+        """Nothing to do here: the force loop compiles its tick (``tick_kernel.warm_up``) when it
+        starts, before its first deadline."""
 
     def record(self, t, px, py, pz, fx, fy, fz, mask: int | None = None, button: int | None = None) -> None:
         """One trace row (called by the feedback thread): device position px, py, pz (m) and
