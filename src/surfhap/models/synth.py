@@ -19,6 +19,8 @@ if TYPE_CHECKING:
 
 __all__ = ["ARSynthesizer", "nearest_model"]
 
+_POOL = 1024  # normal numbers drawn ahead
+
 
 @numba.njit(cache=True, nogil=True)
 def nearest_model(midpoints, speed, out):
@@ -73,6 +75,9 @@ class ARSynthesizer:
         self.max_block = int(max_block)
         self._buf = np.zeros(self.p_max + self.max_block)
         self._noise = np.empty(self.max_block)
+        # a generator of its own is drawn ahead in batches (the same numbers, one call per batch
+        # rather than per block); a shared Generator is drawn only as needed
+        self._pool = np.empty(_POOL if not isinstance(seed, np.random.Generator) else 0)
         self._index = np.zeros(self.max_block, dtype=np.int64)
         self._mid = np.ascontiguousarray(bank.midpoints, dtype=np.float64)
         self.model_index = self._index[:0]
@@ -83,6 +88,7 @@ class ARSynthesizer:
         seed = self._seed
         self._rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         self._buf[:] = 0.0
+        self._pos = self._pool.shape[0]  # the pool is used up
 
     def process(self, speed: np.ndarray, load: np.ndarray | None = None) -> np.ndarray:
         speed = np.ascontiguousarray(speed, dtype=np.float64)
@@ -91,7 +97,17 @@ class ARSynthesizer:
             self._buf = np.concatenate([self._buf[:self.p_max], np.zeros(n)])
             self._noise, self._index = np.empty(n), np.zeros(n, dtype=np.int64)
         noise = self._noise[:n]
-        self._rng.standard_normal(out=noise)
+        pos = self._pos
+        if pos + n <= self._pool.shape[0]:  # standard_normal draws one number after the other: a batch
+            noise[:] = self._pool[pos:pos + n]  # drawn ahead gives the same sequence
+            self._pos = pos + n
+        else:
+            k = self._pool.shape[0] - pos
+            noise[:k] = self._pool[pos:]
+            self._rng.standard_normal(out=noise[k:])
+            if self._pool.shape[0]:
+                self._rng.standard_normal(out=self._pool)
+                self._pos = 0
         out = np.empty(n)
         self.model_index = self._index[:n]
         _ar_bank_kernel(noise, speed, self._mid, self.model_index, self._coefs, self._orders, self._sigmas, self._buf, self.p_max, out)

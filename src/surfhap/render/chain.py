@@ -30,6 +30,7 @@ from surfhap.models.material import Material
 from surfhap.models.panel import DisplayModel
 from surfhap.render.carrier import PolarityCarrier, check_carrier, polarity
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
+from surfhap.render.drive_kernel import law_block
 from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
 from surfhap.render.hold import hold_latest, control_times
 from surfhap.render.safety import SafetyLimits, SafetyStage, stage_block
@@ -144,7 +145,7 @@ def _clean_inputs(speed, load, max_load, max_speed, out):
 def _drive_tail(voltage, load, touch_time, state, work, index, resampler, safety, drive, load_drive):
     # envelope up to the drive rate, carrier, finger held at the drive rate (load_drive, touch ages
     # in work[1]), safety stage; returns the drive samples written. state: model and drive samples so
-    # far, control and drive rate, carrier step, hold tolerance, last load and touch time
+    # far, control and drive rate, carrier step, hold tolerance, last load and touch time, max load
     n = load.shape[0]
     m = resample_block(voltage, *resampler, drive)
     control_times(state[0], state[2], work[0, :n])
@@ -157,6 +158,18 @@ def _drive_tail(voltage, load, touch_time, state, work, index, resampler, safety
     if n:
         state[6], state[7] = load[n - 1], touch_time[n - 1]
     return m
+
+
+@numba.njit(cache=True, nogil=True)
+def _law_and_tail(kind, params, speed, load, touch_time, texture, rows, state, work, index, resampler, safety, drive, load_drive):
+    # a chain block after the texture, in one call: cleaned inputs (in work; idempotent), the law
+    # (law_block) into rows (4, n), then the tail; returns (drive samples, clipped, touching)
+    n = load.shape[0]
+    clean = work[:, :n]
+    _clean_inputs(speed, load, state[8], _MAX_SPEED, clean)
+    clipped, touching = law_block(kind, params, clean[1], clean[0], texture, rows)
+    m = _drive_tail(rows[0], load, touch_time, state, work, index, resampler, safety, drive, load_drive)
+    return m, clipped, touching
 
 
 class TextureChain:
@@ -216,7 +229,8 @@ class TextureChain:
         for proc in (self.synth, self.law, self.upsampler, self.carrier, self.safety, self.correction):
             if proc is not None:
                 proc.reset()
-        self._state = np.array([0, 0, self.control_rate, self.drive_rate, self.carrier.step, 1e-9 / self.control_rate, 0, -np.inf])
+        self._state = np.array([0, 0, self.control_rate, self.drive_rate, self.carrier.step, 1e-9 / self.control_rate, 0, -np.inf,
+                                self._max_load])
         self._work = np.zeros((2, 64))  # clean speed, load; then the hold's source times, touch ages
         self._index = np.zeros(64, dtype=np.int64)
         self._resampler, self._safety = self.upsampler.kernel_args(), self.safety.kernel_args()
@@ -236,14 +250,27 @@ class TextureChain:
             self._work, self._index = np.zeros((2, 2 * size)), np.zeros(2 * size, dtype=np.int64)
         # the models see a physical finger state (absurd values are the safety stage's business)
         clean = self._work[:, :n]
-        _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
-        texture = self.synth.process(clean[0], clean[1]) if self.synth is not None else np.zeros(n)
-        law = self.law.process(clean[0], clean[1], texture)
-        if self.correction is not None:
-            law = self.correction(law, clean[1])
+        if self.synth is not None:
+            _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
+            texture = self.synth.process(clean[0], clean[1])
+        else:
+            texture = np.zeros(n)
         drive, load_drive = np.empty(size) if drive_out is None else drive_out[:size], np.empty(size)
         if drive.shape[0] < size:
             raise ValueError(f"drive_out holds {drive.shape[0]} samples, the block needs {size}")
-        m = _drive_tail(law.voltage, load, touch_time, self._state, self._work, self._index, self._resampler, self._safety,
-                        drive, load_drive)
+        fused = self.law.compiled if self.correction is None else None
+        if fused is not None:  # law and tail in one compiled call
+            rows = np.empty((4, n))
+            m, clipped, touching = _law_and_tail(*fused, speed, load, touch_time, texture, rows, self._state, self._work,
+                                                 self._index, self._resampler, self._safety, drive, load_drive)
+            self.law.count(n, clipped, touching)
+            law = DriveBlock(rows[0], rows[1], rows[2], rows[3])
+        else:
+            if self.synth is None:
+                _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
+            law = self.law.process(clean[0], clean[1], texture)
+            if self.correction is not None:
+                law = self.correction(law, clean[1])
+            m = _drive_tail(law.voltage, load, touch_time, self._state, self._work, self._index, self._resampler, self._safety,
+                            drive, load_drive)
         return ChainBlock(drive[:m], load_drive[:m], law.target, TextureDetail(texture, law))
