@@ -28,12 +28,12 @@ from surfhap.errors import ConfigError
 from surfhap.render.block import RenderBlock
 from surfhap.models.material import Material
 from surfhap.models.panel import DisplayModel
-from surfhap.render.carrier import PolarityCarrier, check_carrier, polarity
+from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
 from surfhap.render.drive_kernel import law_block
 from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
-from surfhap.render.hold import hold_latest, control_times
-from surfhap.render.safety import SafetyLimits, SafetyStage, stage_block
+from surfhap.render.hold import drive_tail, tail_state
+from surfhap.render.safety import SafetyLimits, SafetyStage
 from surfhap.render.texture_source import TextureSource
 from surfhap.signal.resample import RationalResampler, resample_block
 
@@ -143,21 +143,8 @@ def _clean_inputs(speed, load, max_load, max_speed, out):
 
 @numba.njit(cache=True, nogil=True)
 def _drive_tail(voltage, load, touch_time, state, work, index, resampler, safety, drive, load_drive):
-    # envelope up to the drive rate, carrier, finger held at the drive rate (load_drive, touch ages
-    # in work[1]), safety stage; returns the drive samples written. state: model and drive samples so
-    # far, control and drive rate, carrier step, hold tolerance, last load and touch time, max load
-    n = load.shape[0]
-    m = resample_block(voltage, *resampler, drive)
-    control_times(state[0], state[2], work[0, :n])
-    hold_latest(state[1], state[3], work[0, :n], state[5], load, touch_time, state[6], state[7], load_drive[:m],
-                work[1, :m], index[:m])
-    polarity(drive[:m], state[1], state[4], drive[:m])
-    stage_block(drive[:m], load_drive[:m], work[1, :m], drive[:m], *safety)
-    state[0] += n
-    state[1] += m
-    if n:
-        state[6], state[7] = load[n - 1], touch_time[n - 1]
-    return m
+    # the envelope up to the drive rate, then the chains' tail (hold, carrier, safety); returns m
+    return drive_tail(resample_block(voltage, *resampler, drive), load, touch_time, state, work, index, safety, drive, load_drive)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -229,8 +216,7 @@ class TextureChain:
         for proc in (self.synth, self.law, self.upsampler, self.carrier, self.safety, self.correction):
             if proc is not None:
                 proc.reset()
-        self._state = np.array([0, 0, self.control_rate, self.drive_rate, self.carrier.step, 1e-9 / self.control_rate, 0, -np.inf,
-                                self._max_load])
+        self._state = np.append(tail_state(self.control_rate, self.drive_rate, self.carrier.step), self._max_load)
         self._work = np.zeros((2, 64))  # clean speed, load; then the hold's source times, touch ages
         self._index = np.zeros(64, dtype=np.int64)
         self._resampler, self._safety = self.upsampler.kernel_args(), self.safety.kernel_args()
