@@ -35,13 +35,14 @@ def nearest_model(midpoints, speed, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def _ar_bank_kernel(noise, speed, midpoints, model_idx, coefs, orders, sigmas, buf, pmax, out):
-    # buf: (pmax + n,) ; buf[:pmax] holds the previous outputs, oldest first
-    n = noise.shape[0]
+def _ar_bank_kernel(noise, start, speed, midpoints, model_idx, coefs, orders, sigmas, buf, pmax, out):
+    # n = speed.shape[0] samples driven by noise[start:start + n] (model_idx: >= n); buf: (pmax + n,),
+    # buf[:pmax] holds the previous outputs, oldest first
+    n = speed.shape[0]
     nearest_model(midpoints, speed, model_idx)
     for i in range(n):
         m = model_idx[i]
-        acc = sigmas[m] * noise[i]
+        acc = sigmas[m] * noise[start + i]
         pos = pmax + i
         for j in range(orders[m]):
             acc += coefs[m, j] * buf[pos - 1 - j]
@@ -80,8 +81,10 @@ class ARSynthesizer:
         self._pool = np.empty(_POOL if not isinstance(seed, np.random.Generator) else 0)
         self._index = np.zeros(self.max_block, dtype=np.int64)
         self._mid = np.ascontiguousarray(bank.midpoints, dtype=np.float64)
-        self.model_index = self._index[:0]
+        self._n = 0
         self.reset()
+
+    model_index = property(lambda self: self._index[:self._n], doc="(n,) the model of each sample of the last call")
 
     def reset(self) -> None:
         """Clear the history and restart the noise generator from the seed."""
@@ -96,19 +99,19 @@ class ARSynthesizer:
         if n > self._noise.shape[0]:  # a long offline block: room for it, the history kept
             self._buf = np.concatenate([self._buf[:self.p_max], np.zeros(n)])
             self._noise, self._index = np.empty(n), np.zeros(n, dtype=np.int64)
-        noise = self._noise[:n]
         pos = self._pos
         if pos + n <= self._pool.shape[0]:  # standard_normal draws one number after the other: a batch
-            noise[:] = self._pool[pos:pos + n]  # drawn ahead gives the same sequence
+            noise = self._pool  # drawn ahead gives the same sequence
             self._pos = pos + n
         else:
-            k = self._pool.shape[0] - pos
+            noise, k = self._noise, self._pool.shape[0] - pos
             noise[:k] = self._pool[pos:]
-            self._rng.standard_normal(out=noise[k:])
+            self._rng.standard_normal(out=noise[k:n])
+            pos = 0
             if self._pool.shape[0]:
                 self._rng.standard_normal(out=self._pool)
                 self._pos = 0
         out = np.empty(n)
-        self.model_index = self._index[:n]
-        _ar_bank_kernel(noise, speed, self._mid, self.model_index, self._coefs, self._orders, self._sigmas, self._buf, self.p_max, out)
+        self._n = n
+        _ar_bank_kernel(noise, pos, speed, self._mid, self._index, self._coefs, self._orders, self._sigmas, self._buf, self.p_max, out)
         return out
