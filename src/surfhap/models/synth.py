@@ -17,7 +17,7 @@ import numpy as np
 if TYPE_CHECKING:
     from surfhap.models.texture import TextureBank
 
-__all__ = ["ARSynthesizer", "nearest_model"]
+__all__ = ["ARSynthesizer", "ar_bank_block", "nearest_model"]
 
 _POOL = 1024  # normal numbers drawn ahead
 
@@ -35,7 +35,7 @@ def nearest_model(midpoints, speed, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def _ar_bank_kernel(noise, start, speed, midpoints, model_idx, coefs, orders, sigmas, buf, pmax, out):
+def ar_bank_block(speed, noise, start, midpoints, model_idx, coefs, orders, sigmas, buf, pmax, out):
     # n = speed.shape[0] samples driven by noise[start:start + n] (model_idx: >= n); buf: (pmax + n,),
     # buf[:pmax] holds the previous outputs, oldest first
     n = speed.shape[0]
@@ -95,23 +95,29 @@ class ARSynthesizer:
 
     def process(self, speed: np.ndarray, load: np.ndarray | None = None) -> np.ndarray:
         speed = np.ascontiguousarray(speed, dtype=np.float64)
-        n = speed.shape[0]
+        out = np.empty(speed.shape[0])
+        ar_bank_block(speed, *self.kernel_args(speed.shape[0]), out)
+        return out
+
+    def kernel_args(self, n: int) -> tuple:
+        """The rest of :func:`ar_bank_block`'s arguments for the next ``n`` samples (their noise
+        drawn): noise and its start, the bank and the history."""
         if n > self._noise.shape[0]:  # a long offline block: room for it, the history kept
             self._buf = np.concatenate([self._buf[:self.p_max], np.zeros(n)])
             self._noise, self._index = np.empty(n), np.zeros(n, dtype=np.int64)
-        pos = self._pos
-        if pos + n <= self._pool.shape[0]:  # standard_normal draws one number after the other: a batch
-            noise = self._pool  # drawn ahead gives the same sequence
+        pool, pos = self._pool, self._pos
+        size = pool.shape[0]
+        if pos + n <= size:  # standard_normal draws one number after the other: a batch drawn
+            noise = pool  # ahead gives the same sequence
             self._pos = pos + n
-        else:
-            noise, k = self._noise, self._pool.shape[0] - pos
-            noise[:k] = self._pool[pos:]
-            self._rng.standard_normal(out=noise[k:n])
-            pos = 0
-            if self._pool.shape[0]:
-                self._rng.standard_normal(out=self._pool)
-                self._pos = 0
-        out = np.empty(n)
+        elif n <= size:  # what is left moves to the front, the rest is drawn behind it
+            pool[:size - pos] = pool[pos:]
+            self._rng.standard_normal(out=pool[size - pos:])
+            noise, pos, self._pos = pool, 0, n
+        else:  # longer than the pool, or a shared generator (no pool): drawn as needed
+            noise = self._noise
+            noise[:size - pos] = pool[pos:]
+            self._rng.standard_normal(out=noise[size - pos:n])
+            pos, self._pos = 0, size
         self._n = n
-        _ar_bank_kernel(noise, pos, speed, self._mid, self._index, self._coefs, self._orders, self._sigmas, self._buf, self.p_max, out)
-        return out
+        return noise, pos, self._mid, self._index, self._coefs, self._orders, self._sigmas, self._buf, self.p_max

@@ -28,6 +28,7 @@ from surfhap.errors import ConfigError
 from surfhap.render.block import RenderBlock
 from surfhap.models.material import Material
 from surfhap.models.panel import DisplayModel
+from surfhap.models.synth import ARSynthesizer, ar_bank_block
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
 from surfhap.render.drive_kernel import law_block
@@ -148,12 +149,16 @@ def _drive_tail(voltage, load, touch_time, state, work, index, resampler, safety
 
 
 @numba.njit(cache=True, nogil=True)
-def _law_and_tail(kind, params, speed, load, touch_time, texture, rows, state, work, index, resampler, safety, drive, load_drive):
-    # a chain block after the texture, in one call: cleaned inputs (in work; idempotent), the law
-    # (law_block) into rows (4, n), then the tail; returns (drive samples, clipped, touching)
+def _chain_block(kind, params, speed, load, touch_time, ar, texture, rows, state, work, index, resampler, safety, drive,
+                 load_drive):
+    # a chain block in one call: cleaned inputs (in work; idempotent), the texture of an AR bank at
+    # the control rate (ar: ar_bank_block's arguments; start -1: texture given), the law (law_block)
+    # into rows (4, n), then the tail; returns (drive samples, clipped, touching)
     n = load.shape[0]
     clean = work[:, :n]
     _clean_inputs(speed, load, state[8], _MAX_SPEED, clean)
+    if ar[1] >= 0:
+        ar_bank_block(clean[0], *ar, texture)
     clipped, touching = law_block(kind, params, clean[1], clean[0], texture, rows)
     m = _drive_tail(rows[0], load, touch_time, state, work, index, resampler, safety, drive, load_drive)
     return m, clipped, touching
@@ -202,6 +207,11 @@ class TextureChain:
         self.law = make_drive_law(self.method, material, self.params, self.control_rate, display=cfg.display,
                                   v_max=cfg.limits.v_max)
         self.synth = TextureSource(material.texture, self.control_rate, seed=cfg.seed) if self.law.uses_texture else None
+        # an AR bank at the control rate is synthesised inside the block's compiled call
+        direct = self.synth is not None and self.synth.resampler is None and isinstance(self.synth.synth, ARSynthesizer)
+        self._ar = self.synth.synth if direct else None
+        self._no_ar = (np.zeros(0), -1, np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, 0)), np.zeros(0, dtype=np.int64),
+                       np.zeros(0), np.zeros(0), 0)
         self.upsampler = RationalResampler(self.control_rate, int(cfg.drive_rate))
         self.carrier = PolarityCarrier(self.carrier_hz, cfg.drive_rate)
         self.safety = SafetyStage(cfg.drive_rate, cfg.limits)
@@ -236,19 +246,22 @@ class TextureChain:
             self._work, self._index = np.zeros((2, 2 * size)), np.zeros(2 * size, dtype=np.int64)
         # the models see a physical finger state (absurd values are the safety stage's business)
         clean = self._work[:, :n]
-        if self.synth is not None:
-            _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
-            texture = self.synth.process(clean[0], clean[1])
-        else:
-            texture = np.zeros(n)
         drive, load_drive = np.empty(size) if drive_out is None else drive_out[:size], np.empty(size)
         if drive.shape[0] < size:
             raise ValueError(f"drive_out holds {drive.shape[0]} samples, the block needs {size}")
         fused = self.law.compiled if self.correction is None else None
-        if fused is not None:  # law and tail in one compiled call
+        ar = self._no_ar
+        if fused is not None and self._ar is not None:  # the texture inside the block's call
+            texture, ar = np.empty(n), self._ar.kernel_args(n)
+        elif self.synth is not None:
+            _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
+            texture = self.synth.process(clean[0], clean[1])
+        else:
+            texture = np.zeros(n)
+        if fused is not None:  # texture, law and tail in one compiled call
             rows = np.empty((4, n))
-            m, clipped, touching = _law_and_tail(*fused, speed, load, touch_time, texture, rows, self._state, self._work,
-                                                 self._index, self._resampler, self._safety, drive, load_drive)
+            m, clipped, touching = _chain_block(*fused, speed, load, touch_time, ar, texture, rows, self._state, self._work,
+                                                self._index, self._resampler, self._safety, drive, load_drive)
             self.law.count(n, clipped, touching)
             law = DriveBlock(rows[0], rows[1], rows[2], rows[3])
         else:
