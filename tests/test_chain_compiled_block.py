@@ -78,3 +78,71 @@ def test_chain_writes_the_drive_into_a_given_buffer():
         at += ref.size
     with pytest.raises(ValueError, match="drive_out"):
         into.process(np.zeros(10), np.zeros(10), np.zeros(10), drive_out=np.empty(10 * 44100 // 2000 + 1))
+
+
+def _forbid(monkeypatch, *classes):
+    def forbidden(*args, **kwargs):
+        raise AssertionError("a chain block called a stage's Python wrapper")
+
+    for cls in classes:
+        monkeypatch.setattr(cls, "process", forbidden)
+
+
+def test_texture_law_runs_inside_the_block_kernel(monkeypatch):
+    """The drive law is evaluated inside the chain's compiled block (no DriveLaw.process per
+    block); its rows equal the law object's own evaluation on the cleaned inputs, and its
+    clipped/touching counts advance as that of a law run block by block."""
+    from surfhap.render.drive import DriveLaw
+
+    material = dataclasses.replace(load_material("leather"), texture=BANK)
+    for method in ("otake2022", "otake2021", "zhao", "friction-only"):
+        chain = TextureChain(material, ChainConfig(method=method, drive_rate=20000))
+        ref = TextureChain(material, ChainConfig(method=method, drive_rate=20000)).law
+        rng = np.random.default_rng(5)
+        blocks = []
+        _forbid(monkeypatch, DriveLaw)
+        for n in (2, 1, 3, 40):
+            speed, load = rng.uniform(-0.3, 0.3, n), rng.uniform(-0.2, 0.8, n)
+            blocks.append((chain.process(speed, load, np.zeros(n)), speed, load))
+        monkeypatch.undo()
+        for blk, speed, load in blocks:
+            clean_speed = np.minimum(np.abs(speed), 10.0)
+            clean_load = np.where((load > 0) & (load <= chain.config.limits.max_load), load, 0.0)
+            want = ref.process(clean_speed, clean_load, blk.texture)
+            for got, exp in zip(blk.drive_law, want):
+                np.testing.assert_array_equal(got, exp)
+        assert (chain.law.clipped, chain.law.touching) == (ref.clipped, ref.touching) and ref.touching > 0
+
+
+def test_shape_drive_is_one_compiled_call(monkeypatch):
+    """The shape chain's drive-rate stage (grains, voltage, carrier, safety stage) calls no
+    stage's Python wrapper per block, and gives the drive of those wrappers run one after the
+    other on the held finger (grainy grains: the envelope's random draws included)."""
+    from surfhap.render.drive_kernel import target_to_voltage
+    from surfhap.render.grains import GrainPlayer
+    from surfhap.render.shape_renderer import ShapeConfig, ShapeDrive
+
+    cfg = ShapeConfig(grain="area-grainy", seed=4)
+    drive_stage = ShapeDrive(cfg, control_rate=1000)
+    grains = GrainPlayer(cfg.grain, cfg.drive_rate, drive_stage.device, seed=cfg.seed, params=cfg.grain_params)
+    carrier = PolarityCarrier(cfg.carrier, cfg.drive_rate)
+    safety = SafetyStage(cfg.drive_rate, cfg.limits)
+    rng = np.random.default_rng(6)
+    blocks = []
+    _forbid(monkeypatch, GrainPlayer, PolarityCarrier, SafetyStage)
+    for b in range(30):
+        inten = np.full(20, rng.uniform(0.3, 1.0))
+        tick = np.zeros(20)
+        tick[3] = 0.8 if b % 7 == 0 else 0.0
+        load = np.array([0.0 if b in (10, 11) else 0.5])
+        blocks.append((inten, tick, load, drive_stage.process(inten, tick, load, np.array([b * 1e-3]))))
+    monkeypatch.undo()
+    for b, (inten, tick, load, (drive, target, load_drive)) in enumerate(blocks):
+        want_target = grains.process(inten, tick)
+        np.testing.assert_array_equal(target, want_target)
+        np.testing.assert_array_equal(load_drive, np.full(20, load[0]))  # one model sample held over its 20 drive samples
+        envelope = np.empty(20)
+        target_to_voltage(want_target, want_target, drive_stage.alpha, envelope)
+        ages = (b * 20 + np.arange(20)) / cfg.drive_rate - b * 1e-3
+        np.testing.assert_array_equal(drive, safety.process(carrier.process(envelope), load_drive, ages))
+    assert drive_stage.safety.counters == safety.counters and safety.counters.lifted > 0

@@ -145,6 +145,8 @@ class SimulatedDisplay:
         self._down = RationalResampler(self.drive_rate, self.friction_rate)
         self.delay = self._down.delay
         self._unit = np.ones(1)
+        self._params = (self._a, model.mu_panel, *self._curve)
+        self._resampler = self._down.kernel_args()
         self._force = np.empty(0)
 
     def reset(self) -> None:
@@ -157,8 +159,8 @@ class SimulatedDisplay:
         gain = self._unit if gain is None else np.ascontiguousarray(gain, dtype=np.float64)
         if gain.shape != (1,) and gain.shape != drive.shape:
             raise ValueError("gain must hold one value or one per drive sample")
-        if self._force.shape[0] < drive.shape[0]:  # the drive-rate friction: a scratch buffer kept between blocks
-            self._force = np.empty(drive.shape[0])
-        force, out = self._force[:drive.shape[0]], np.empty(drive.shape[0] * self._down.L // self._down.M + 2)
-        m = _display_kernel(drive, load, gain, self._state, self._a, self.model.mu_panel, *self._curve, force, *self._down.kernel_args(), out)
+        if self._force.shape[0] < drive.shape[0]:  # the drive-rate friction before decimation: scratch
+            self._force = np.empty(2 * drive.shape[0])
+        out = np.empty(drive.shape[0] * self._down.L // self._down.M + 2)
+        m = _display_kernel(drive, load, gain, self._state, *self._params, self._force[:drive.shape[0]], *self._resampler, out)
         return out[:m]

@@ -17,7 +17,9 @@ import numpy as np
 if TYPE_CHECKING:
     from surfhap.models.texture import TextureBank
 
-__all__ = ["ARSynthesizer", "nearest_model"]
+__all__ = ["ARSynthesizer", "ar_bank_block", "nearest_model"]
+
+_POOL = 1024  # normal numbers drawn ahead
 
 
 @numba.njit(cache=True, nogil=True)
@@ -33,13 +35,14 @@ def nearest_model(midpoints, speed, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def _ar_bank_kernel(noise, speed, midpoints, model_idx, coefs, orders, sigmas, buf, pmax, out):
-    # buf: (pmax + n,) ; buf[:pmax] holds the previous outputs, oldest first
-    n = noise.shape[0]
+def ar_bank_block(speed, noise, start, midpoints, model_idx, coefs, orders, sigmas, buf, pmax, out):
+    # n = speed.shape[0] samples driven by noise[start:start + n] (model_idx: >= n); buf: (pmax + n,),
+    # buf[:pmax] holds the previous outputs, oldest first
+    n = speed.shape[0]
     nearest_model(midpoints, speed, model_idx)
     for i in range(n):
         m = model_idx[i]
-        acc = sigmas[m] * noise[i]
+        acc = sigmas[m] * noise[start + i]
         pos = pmax + i
         for j in range(orders[m]):
             acc += coefs[m, j] * buf[pos - 1 - j]
@@ -73,26 +76,48 @@ class ARSynthesizer:
         self.max_block = int(max_block)
         self._buf = np.zeros(self.p_max + self.max_block)
         self._noise = np.empty(self.max_block)
+        # a generator of its own is drawn ahead in batches (the same numbers, one call per batch
+        # rather than per block); a shared Generator is drawn only as needed
+        self._pool = np.empty(_POOL if not isinstance(seed, np.random.Generator) else 0)
         self._index = np.zeros(self.max_block, dtype=np.int64)
         self._mid = np.ascontiguousarray(bank.midpoints, dtype=np.float64)
-        self.model_index = self._index[:0]
+        self._n = 0
         self.reset()
+
+    model_index = property(lambda self: self._index[:self._n], doc="(n,) the model of each sample of the last call")
 
     def reset(self) -> None:
         """Clear the history and restart the noise generator from the seed."""
         seed = self._seed
         self._rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         self._buf[:] = 0.0
+        self._pos = self._pool.shape[0]  # the pool is used up
 
     def process(self, speed: np.ndarray, load: np.ndarray | None = None) -> np.ndarray:
         speed = np.ascontiguousarray(speed, dtype=np.float64)
-        n = speed.shape[0]
+        out = np.empty(speed.shape[0])
+        ar_bank_block(speed, *self.kernel_args(speed.shape[0]), out)
+        return out
+
+    def kernel_args(self, n: int) -> tuple:
+        """The rest of :func:`ar_bank_block`'s arguments for the next ``n`` samples (their noise
+        drawn): noise and its start, the bank and the history."""
         if n > self._noise.shape[0]:  # a long offline block: room for it, the history kept
             self._buf = np.concatenate([self._buf[:self.p_max], np.zeros(n)])
             self._noise, self._index = np.empty(n), np.zeros(n, dtype=np.int64)
-        noise = self._noise[:n]
-        self._rng.standard_normal(out=noise)
-        out = np.empty(n)
-        self.model_index = self._index[:n]
-        _ar_bank_kernel(noise, speed, self._mid, self.model_index, self._coefs, self._orders, self._sigmas, self._buf, self.p_max, out)
-        return out
+        pool, pos = self._pool, self._pos
+        size = pool.shape[0]
+        if pos + n <= size:  # standard_normal draws one number after the other: a batch drawn
+            noise = pool  # ahead gives the same sequence
+            self._pos = pos + n
+        elif n <= size:  # what is left moves to the front, the rest is drawn behind it
+            pool[:size - pos] = pool[pos:]
+            self._rng.standard_normal(out=pool[size - pos:])
+            noise, pos, self._pos = pool, 0, n
+        else:  # longer than the pool, or a shared generator (no pool): drawn as needed
+            noise = self._noise
+            noise[:size - pos] = pool[pos:]
+            self._rng.standard_normal(out=noise[size - pos:n])
+            pos, self._pos = 0, size
+        self._n = n
+        return noise, pos, self._mid, self._index, self._coefs, self._orders, self._sigmas, self._buf, self.p_max

@@ -28,11 +28,13 @@ from surfhap.errors import ConfigError
 from surfhap.render.block import RenderBlock
 from surfhap.models.material import Material
 from surfhap.models.panel import DisplayModel
-from surfhap.render.carrier import PolarityCarrier, check_carrier, polarity
+from surfhap.models.synth import ARSynthesizer, ar_bank_block
+from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
+from surfhap.render.drive_kernel import law_block
 from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
-from surfhap.render.hold import hold_latest, control_times
-from surfhap.render.safety import SafetyLimits, SafetyStage, stage_block
+from surfhap.render.hold import drive_tail, tail_state
+from surfhap.render.safety import SafetyLimits, SafetyStage
 from surfhap.render.texture_source import TextureSource
 from surfhap.signal.resample import RationalResampler, resample_block
 
@@ -142,21 +144,24 @@ def _clean_inputs(speed, load, max_load, max_speed, out):
 
 @numba.njit(cache=True, nogil=True)
 def _drive_tail(voltage, load, touch_time, state, work, index, resampler, safety, drive, load_drive):
-    # envelope up to the drive rate, carrier, finger held at the drive rate (load_drive, touch ages
-    # in work[1]), safety stage; returns the drive samples written. state: model and drive samples so
-    # far, control and drive rate, carrier step, hold tolerance, last load and touch time
+    # the envelope up to the drive rate, then the chains' tail (hold, carrier, safety); returns m
+    return drive_tail(resample_block(voltage, *resampler, drive), load, touch_time, state, work, index, safety, drive, load_drive)
+
+
+@numba.njit(cache=True, nogil=True)
+def _chain_block(kind, params, speed, load, touch_time, ar, texture, rows, state, work, index, resampler, safety, drive,
+                 load_drive):
+    # a chain block in one call: cleaned inputs (in work; idempotent), the texture of an AR bank at
+    # the control rate (ar: ar_bank_block's arguments; start -1: texture given), the law (law_block)
+    # into rows (4, n), then the tail; returns (drive samples, clipped, touching)
     n = load.shape[0]
-    m = resample_block(voltage, *resampler, drive)
-    control_times(state[0], state[2], work[0, :n])
-    hold_latest(state[1], state[3], work[0, :n], state[5], load, touch_time, state[6], state[7], load_drive[:m],
-                work[1, :m], index[:m])
-    polarity(drive[:m], state[1], state[4], drive[:m])
-    stage_block(drive[:m], load_drive[:m], work[1, :m], drive[:m], *safety)
-    state[0] += n
-    state[1] += m
-    if n:
-        state[6], state[7] = load[n - 1], touch_time[n - 1]
-    return m
+    clean = work[:, :n]
+    _clean_inputs(speed, load, state[8], _MAX_SPEED, clean)
+    if ar[1] >= 0:
+        ar_bank_block(clean[0], *ar, texture)
+    clipped, touching = law_block(kind, params, clean[1], clean[0], texture, rows)
+    m = _drive_tail(rows[0], load, touch_time, state, work, index, resampler, safety, drive, load_drive)
+    return m, clipped, touching
 
 
 class TextureChain:
@@ -202,6 +207,11 @@ class TextureChain:
         self.law = make_drive_law(self.method, material, self.params, self.control_rate, display=cfg.display,
                                   v_max=cfg.limits.v_max)
         self.synth = TextureSource(material.texture, self.control_rate, seed=cfg.seed) if self.law.uses_texture else None
+        # an AR bank at the control rate is synthesised inside the block's compiled call
+        direct = self.synth is not None and self.synth.resampler is None and isinstance(self.synth.synth, ARSynthesizer)
+        self._ar = self.synth.synth if direct else None
+        self._no_ar = (np.zeros(0), -1, np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, 0)), np.zeros(0, dtype=np.int64),
+                       np.zeros(0), np.zeros(0), 0)
         self.upsampler = RationalResampler(self.control_rate, int(cfg.drive_rate))
         self.carrier = PolarityCarrier(self.carrier_hz, cfg.drive_rate)
         self.safety = SafetyStage(cfg.drive_rate, cfg.limits)
@@ -216,7 +226,7 @@ class TextureChain:
         for proc in (self.synth, self.law, self.upsampler, self.carrier, self.safety, self.correction):
             if proc is not None:
                 proc.reset()
-        self._state = np.array([0, 0, self.control_rate, self.drive_rate, self.carrier.step, 1e-9 / self.control_rate, 0, -np.inf])
+        self._state = np.append(tail_state(self.control_rate, self.drive_rate, self.carrier.step), self._max_load)
         self._work = np.zeros((2, 64))  # clean speed, load; then the hold's source times, touch ages
         self._index = np.zeros(64, dtype=np.int64)
         self._resampler, self._safety = self.upsampler.kernel_args(), self.safety.kernel_args()
@@ -236,14 +246,30 @@ class TextureChain:
             self._work, self._index = np.zeros((2, 2 * size)), np.zeros(2 * size, dtype=np.int64)
         # the models see a physical finger state (absurd values are the safety stage's business)
         clean = self._work[:, :n]
-        _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
-        texture = self.synth.process(clean[0], clean[1]) if self.synth is not None else np.zeros(n)
-        law = self.law.process(clean[0], clean[1], texture)
-        if self.correction is not None:
-            law = self.correction(law, clean[1])
         drive, load_drive = np.empty(size) if drive_out is None else drive_out[:size], np.empty(size)
         if drive.shape[0] < size:
             raise ValueError(f"drive_out holds {drive.shape[0]} samples, the block needs {size}")
-        m = _drive_tail(law.voltage, load, touch_time, self._state, self._work, self._index, self._resampler, self._safety,
-                        drive, load_drive)
+        fused = self.law.compiled if self.correction is None else None
+        ar = self._no_ar
+        if fused is not None and self._ar is not None:  # the texture inside the block's call
+            texture, ar = np.empty(n), self._ar.kernel_args(n)
+        elif self.synth is not None:
+            _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
+            texture = self.synth.process(clean[0], clean[1])
+        else:
+            texture = np.zeros(n)
+        if fused is not None:  # texture, law and tail in one compiled call
+            rows = np.empty((4, n))
+            m, clipped, touching = _chain_block(*fused, speed, load, touch_time, ar, texture, rows, self._state, self._work,
+                                                self._index, self._resampler, self._safety, drive, load_drive)
+            self.law.count(n, clipped, touching)
+            law = DriveBlock(rows[0], rows[1], rows[2], rows[3])
+        else:
+            if self.synth is None:
+                _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
+            law = self.law.process(clean[0], clean[1], texture)
+            if self.correction is not None:
+                law = self.correction(law, clean[1])
+            m = _drive_tail(law.voltage, load, touch_time, self._state, self._work, self._index, self._resampler, self._safety,
+                            drive, load_drive)
         return ChainBlock(drive[:m], load_drive[:m], law.target, TextureDetail(texture, law))

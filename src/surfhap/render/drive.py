@@ -153,6 +153,7 @@ class DriveLaw:
 
     method: ClassVar[str]
     textured: ClassVar[bool] = True  # whether the method renders the material's texture
+    _kind: int | None = None  # the law_block kind (the square baseline has its own kernel)
 
     def __init__(self, material: Material, params: DriveParams, sample_rate: float | None = None, *,
                  display: DisplayModel | None = None, v_max: float = 250.0):
@@ -187,12 +188,24 @@ class DriveLaw:
         self.clipped = 0
         self.touching = 0
 
+    @property
+    def compiled(self) -> tuple[int, np.ndarray] | None:
+        """(kind, parameters) of :func:`~surfhap.render.drive_kernel.law_block` when that kernel is
+        the whole law (no square wave, no measured device curve), else None."""
+        return None if self._kind is None or self._display is not None else (self._kind, self._params)
+
+    def count(self, n: int, clipped: int, touching: int) -> None:
+        """Account a block of ``n`` samples the law rendered."""
+        self.clipped += clipped
+        self.touching += touching
+        self._n += n
+
     def _evaluate(self, speed: np.ndarray, load: np.ndarray, texture: np.ndarray, start: int):
         """The law over contiguous float64 (n,) arrays from sample ``start``: (DriveBlock, clipped,
-        touching), by the subclass's ``_kernel(load, speed, texture, *_args, out)``, out (4, n) the rows."""
+        touching), by :func:`~surfhap.render.drive_kernel.law_block`, out (4, n) the rows."""
         out = np.empty((4, load.shape[0]))
-        clipped, touching = self._kernel(load, speed, texture, *self._args, out)
-        return DriveBlock(*out), clipped, touching
+        clipped, touching = self._kernels.law_block(self._kind, self._params, load, speed, texture, out)
+        return DriveBlock(out[0], out[1], out[2], out[3]), clipped, touching
 
     def process(self, speed: np.ndarray, load: np.ndarray, texture: np.ndarray) -> DriveBlock:
         """speed, load, texture: (n,) float (m/s, N, texture quantity) -> a DriveBlock of (n,)."""
@@ -205,9 +218,7 @@ class DriveLaw:
         block, clipped, touching = self._evaluate(speed, load, texture, self._n)
         if self._display is not None:  # a measured device curve: the display's force -> voltage map
             block = block._replace(voltage=self.voltage_for(block.target))
-        self.clipped += clipped
-        self.touching += touching
-        self._n += n
+        self.count(n, clipped, touching)
         return block
 
     def voltage_for(self, target: np.ndarray) -> np.ndarray:
@@ -254,8 +265,8 @@ class _FrictionTexture(DriveLaw):
             texture = (k.TEXTURE_COF, g)
         else:
             texture = (k.TEXTURE_ACCELERATION, g * p.effective_mass)
-        self._args = (*friction, *texture, float(p.beta if self.textured else 0.0), float(p.alpha))
-        self._kernel = k.friction_texture_law
+        self._kind = k.LAW_FRICTION_TEXTURE
+        self._params = np.array([*friction, *texture, p.beta if self.textured else 0.0, p.alpha], dtype=np.float64)
 
 
 class Otake2022(_FrictionTexture):
@@ -311,8 +322,8 @@ class Zhao(_Coulomb, DriveLaw):
         else:
             texture = (k.TEXTURE_COF, p.texture_gain)
         fn_c = -1.0 if p.constant_load is None else float(p.constant_load)
-        self._args = (float(self.friction_law.mu0), fn_c, *texture, float(p.alpha))
-        self._kernel = k.zhao_law
+        self._kind = k.LAW_ZHAO
+        self._params = np.array([self.friction_law.mu0, fn_c, *texture, p.alpha], dtype=np.float64)
 
 
 class Square(DriveLaw):
@@ -348,7 +359,7 @@ class Square(DriveLaw):
         out = np.zeros((4, load.shape[0]))
         clipped, touching = self._kernels.square_law(start, self._step, self.on_force, load, float(self.params.alpha), out[1], out[0])
         out[2] = self.friction_law.coefficient(load, speed)
-        return DriveBlock(*out), clipped, touching
+        return DriveBlock(out[0], out[1], out[2], out[3]), clipped, touching
 
 
 LAWS: dict[str, type[DriveLaw]] = {cls.method: cls for cls in (Otake2022, Otake2021, Zhao, FrictionOnly, Square)}

@@ -18,13 +18,17 @@ import numba
 
 from surfhap.models.friction_kernel import quasi_static_cof
 
-__all__ = ["target_to_voltage", "friction_texture_law", "zhao_law", "square_law", "TEXTURE_NONE", "TEXTURE_RELATIVE", "TEXTURE_COF", "TEXTURE_ACCELERATION"]
+__all__ = ["target_to_voltage", "friction_texture_law", "zhao_law", "square_law", "law_block", "LAW_FRICTION_TEXTURE", "LAW_ZHAO",
+           "TEXTURE_NONE", "TEXTURE_RELATIVE", "TEXTURE_COF", "TEXTURE_ACCELERATION"]
 
 # how a texture sample x becomes the textural CoF mu_t (``scale`` = texture_gain times ...)
 TEXTURE_NONE = 0  # mu_t = 0
 TEXTURE_RELATIVE = 1  # mu_t = scale mu_low x           (scale = gain * texture_relative_scale)
 TEXTURE_COF = 2  # mu_t = scale x                       (scale = gain)
 TEXTURE_ACCELERATION = 3  # mu_t = scale x / fn, 0 without contact (scale = gain * effective_mass)
+# the laws :func:`law_block` runs, by kind, with their scalar parameters packed in one float array
+LAW_FRICTION_TEXTURE = 0  # friction_texture_law: quasi (0/1), a, b, c, d, q, mu0, texture_mode, scale, beta, alpha
+LAW_ZHAO = 1  # zhao_law: mu0, constant_load, texture_mode, scale, alpha
 
 
 @numba.njit(cache=True, nogil=True)
@@ -108,3 +112,14 @@ def square_law(start, cycles_per_sample, on_force, load, alpha, target, voltage)
     for i in range(target.shape[0]):
         target[i] = on_force if ((start + i) * cycles_per_sample) % 1.0 < 0.5 else 0.0
     return target_to_voltage(target, load, alpha, voltage)
+
+
+@numba.njit(cache=True, nogil=True)
+def law_block(kind, p, load, speed, texture, out):
+    """The law of ``kind`` (``LAW_*``) with its parameters ``p`` (float array, in the order of
+    the law's kernel) over (n,) arrays into ``out`` (4, n): one compiled entry point for the
+    laws' objects and the texture chain's block; returns (clipped, touching)."""
+    if kind == LAW_ZHAO:
+        return zhao_law(load, speed, texture, p[0], p[1], int(p[2]), p[3], p[4], out)
+    return friction_texture_law(load, speed, texture, p[0] != 0.0, p[1], p[2], p[3], p[4], p[5], p[6], int(p[7]), p[8], p[9],
+                                p[10], out)

@@ -37,7 +37,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from surfhap.errors import ConfigError
 from surfhap.models.device_curve import DeviceCurve
 
-__all__ = ["GrainParams", "GRAINS", "AREA_GRAINS", "GrainPlayer", "grain_name", "hann_pulse"]
+__all__ = ["GrainParams", "GRAINS", "AREA_GRAINS", "GrainPlayer", "grain_block", "grain_name", "hann_pulse"]
 
 GRAINS = ("area-even", "area-grainy", "edge-tick")
 AREA_GRAINS = ("area-even", "area-grainy")
@@ -105,13 +105,13 @@ class GrainPlayer:
         self._grain_pulse = hann_pulse(self.params.grainy_width, self.drive_rate)
         self._tick_pulse = hann_pulse(self.params.tick_width, self.drive_rate)
         self._p_event = self.params.grainy_rate / self.drive_rate
+        self._curve = np.array([*device.coefficients, device.u_max], dtype=np.float64)
         self.reset()
 
     def reset(self) -> None:
         self._rng = np.random.default_rng(self.seed)
         self._grain_tail = np.zeros(self._grain_pulse.size - 1)
-        self._tick_left = 0  # samples of the current tick still to play
-        self._tick_amp = 0.0
+        self._ticks = np.zeros(2)  # samples of the current tick still to play, its amplitude
 
     def _area_envelope(self, m: int) -> np.ndarray:
         if self.grain == "area-even":
@@ -129,13 +129,16 @@ class GrainPlayer:
         m = inten.shape[0]
         if tick.shape != (m,):
             raise ValueError("intensity and tick must be (m,) arrays of one length")
-        even = self.grain == "area-even"
-        env = inten if even else self._area_envelope(m)  # not read when even
         out = np.empty(m)
-        c0, c1, c2 = self.device.coefficients
-        self._tick_left, self._tick_amp = _grain_kernel(inten, tick, env, even, c0, c1, c2, self.device.u_max,
-                                                        self._tick_pulse, int(self._tick_left), float(self._tick_amp), out)
+        grain_block(inten, tick, *self.kernel_args(inten), out)
         return out
+
+    def kernel_args(self, intensity: np.ndarray) -> tuple:
+        """The rest of :func:`grain_block`'s arguments for the next block of ``intensity`` (m,)
+        (the area-grainy envelope is drawn here): envelope, even, curve, tick pulse and state."""
+        even = self.grain == "area-even"
+        env = intensity if even else self._area_envelope(intensity.shape[0])  # not read when even
+        return env, even, self._curve, self._tick_pulse, self._ticks
 
 
 @numba.njit(cache=True, nogil=True)
@@ -146,7 +149,12 @@ def _device_force(i, c0, c1, c2, top):
 
 
 @numba.njit(cache=True, nogil=True)
-def _grain_kernel(inten, tick, env, even, c0, c1, c2, top, pulse, tick_left, tick_amp, out):
+def grain_block(inten, tick, env, even, curve, pulse, ticks, out):
+    """The grains' force (m,) N into ``out``: area grain at the held intensity (times the grainy
+    envelope ``env`` unless ``even``), edge ticks; ``curve`` (c0, c1, c2, top) the device curve,
+    ``ticks`` the running tick (samples left, amplitude), updated (:meth:`GrainPlayer.kernel_args`)."""
+    c0, c1, c2, top = curve[0], curve[1], curve[2], curve[3]
+    tick_left, tick_amp = int(ticks[0]), ticks[1]
     # area grain: device force of the held intensity (times the grainy envelope), 0 where silent
     m = inten.shape[0]
     for i in range(m):
@@ -184,4 +192,4 @@ def _grain_kernel(inten, tick, env, even, c0, c1, c2, top, pulse, tick_left, tic
         tick_amp = amp
         tick_left = kp - n if nxt == m else 0
         s = nxt if nxt < m else -1
-    return tick_left, tick_amp
+    ticks[0], ticks[1] = tick_left, tick_amp

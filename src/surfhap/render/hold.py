@@ -35,9 +35,11 @@ import math
 import numba
 import numpy as np
 
+from surfhap.render.carrier import polarity
 from surfhap.render.kinematics import _STARTED, _SPEED, _X, _Y, TouchPredictor, predict
+from surfhap.render.safety import stage_block
 
-__all__ = ["hold_latest", "control_times", "TouchHold", "TrajectoryRows", "NO_TOUCH_TIME", "NO_LIFT", "COUNTERS"]
+__all__ = ["hold_latest", "control_times", "drive_tail", "tail_state", "TouchHold", "TrajectoryRows", "NO_TOUCH_TIME", "NO_LIFT", "COUNTERS"]
 
 NO_TOUCH_TIME = -1.0e6  # "touched long ago": the watchdog holds the output at zero
 NO_LIFT = 1 << 62  # TouchHold.fill(): no late lift in this chunk
@@ -82,6 +84,33 @@ def control_times(n_model0, control_rate, out):
     at a fixed control rate."""
     for k in range(out.shape[0]):
         out[k] = (n_model0 + k) / control_rate
+
+
+@numba.njit(cache=True, nogil=True)
+def drive_tail(m, load, touch_time, state, work, index, safety, drive, load_drive):
+    """The tail every chain ends with, on ``drive[:m]`` (the envelope at the drive rate, V) in
+    place: the finger of the model samples (load, touch_time (n,)) held at the drive rate
+    (``load_drive``, touch ages in ``work[1]``), the polarity carrier, the safety stage (state,
+    counters, limits of :meth:`~surfhap.render.safety.SafetyStage.kernel_args`). ``state``
+    (float): model and drive samples so far, control and drive rate (Hz), carrier step, hold
+    tolerance (s), the last load and touch time, advanced here; ``work`` (2, >= n, m), ``index``
+    (>= m) scratch. Returns m."""
+    n = load.shape[0]
+    control_times(state[0], state[2], work[0, :n])
+    hold_latest(state[1], state[3], work[0, :n], state[5], load, touch_time, state[6], state[7], load_drive[:m],
+                work[1, :m], index[:m])
+    polarity(drive[:m], state[1], state[4], drive[:m])
+    stage_block(drive[:m], load_drive[:m], work[1, :m], drive[:m], *safety)
+    state[0] += n
+    state[1] += m
+    if n:
+        state[6], state[7] = load[n - 1], touch_time[n - 1]
+    return m
+
+
+def tail_state(control_rate: float, drive_rate: float, carrier_step: float) -> np.ndarray:
+    """A fresh :func:`drive_tail` state (no sample yet: 0 N, touched never)."""
+    return np.array([0.0, 0.0, control_rate, drive_rate, carrier_step, 1e-9 / control_rate, 0.0, -np.inf])
 
 
 # H: the hold's float state; I: its int64 state and counters (``TouchHold.counts``)

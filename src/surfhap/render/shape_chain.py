@@ -28,7 +28,7 @@ from typing import Callable
 from surfhap.models.panel import SimulatedDisplay
 from surfhap.models.trajectory import Trajectory
 from surfhap.render.block import RenderBlock
-from surfhap.render.hold import TouchHold, TrajectoryRows, hold_latest, control_times
+from surfhap.render.hold import TouchHold, TrajectoryRows
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.render.shape_renderer import ShapeBlock, ShapeConfig, ShapeDrive, ShapeRenderer, ShapeResult
 from surfhap.shape.calibration import ShapeCalibration, calibrate
@@ -53,14 +53,13 @@ class ShapeChain:
         self.surface = surface
         self.calibration = calibration
         self.touch_stage = ShapeRenderer(surface, calibration, cfg)
-        self.drive_stage = ShapeDrive(cfg)
+        self.drive_stage = ShapeDrive(cfg, control_rate)
         self.safety = self.drive_stage.safety
         self.drive_rate = int(cfg.drive_rate)
         self.control_rate = int(control_rate)
         self.ratio = self.drive_rate // self.control_rate
         self.half = (surface_size[0] / 2.0, surface_size[1] / 2.0)
         self.lift = cfg.limits.lift_threshold
-        self._hold_tol = 1e-9 / self.control_rate
         self._fmin = float(calibration.fmin)
         self._fmax = float(calibration.fmax)
         self._edges = bool(cfg.edges) and not cfg.edge_walk
@@ -69,10 +68,6 @@ class ShapeChain:
         mb = int(max_block)
         self._inten = np.zeros(mb)
         self._tick = np.zeros(mb)
-        self._load = np.zeros(mb)
-        self._age = np.zeros(mb)
-        self._index = np.zeros(mb, dtype=np.int64)
-        self._src_time = np.zeros(mb)
         self._px = np.zeros(1)
         self._py = np.zeros(1)
         self._on = np.ones(1, dtype=bool)
@@ -81,10 +76,6 @@ class ShapeChain:
     def reset(self) -> None:
         self.reset_touch()
         self.drive_stage.reset()
-        self._n_drive = 0
-        self._n_model = 0
-        self._last_load = 0.0
-        self._last_touch = -math.inf
         self._have = False
         self._lx = self._ly = math.nan
         self._intensity = 0.0
@@ -152,18 +143,7 @@ class ShapeChain:
             inten[i * r:j * r] = self._intensity
             if tick > 0.0:
                 ticks[i * r] = tick
-        loads = self._load[:m]
-        age = self._age[:m]
-        src = self._src_time[:n]
-        control_times(self._n_model, float(self.control_rate), src)
-        hold_latest(self._n_drive, float(self.drive_rate), src, self._hold_tol, load, touch_time, self._last_load,
-                    self._last_touch, loads, age, self._index[:m])
-        drive, target = self.drive_stage.process(inten, ticks, loads, age)
-        self._n_drive += m
-        self._n_model += n
-        if n:
-            self._last_load = float(load[n - 1])
-            self._last_touch = float(touch_time[n - 1])
+        drive, target, loads = self.drive_stage.process(inten, ticks, load, touch_time)
         return RenderBlock(drive, loads, target[::self.ratio])
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Annotated, NamedTuple
 
+import numba
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator
 
@@ -30,7 +31,8 @@ from surfhap.models.panel import DisplayModel
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive_kernel import target_to_voltage
 from surfhap.models.device_curve import DeviceCurve
-from surfhap.render.grains import GrainParams, GrainPlayer, grain_name
+from surfhap.render.grains import GrainParams, GrainPlayer, grain_block, grain_name
+from surfhap.render.hold import drive_tail, tail_state
 from surfhap.render.safety import SafetyCounters, SafetyLimits, SafetyStage
 from surfhap.results import Result, jsonable
 from surfhap.shape.calibration import ShapeCalibration
@@ -164,42 +166,63 @@ class ShapeRenderer:
 
 
 class ShapeDrive:
-    """Drive-rate processor: ``process(intensity, tick, load, touch_age) -> (drive, target)``.
+    """Drive-rate processor: ``process(intensity, tick, load, touch_time) -> (drive, target, load_drive)``.
 
-    All inputs (m,) float at the drive rate: held area intensity (0 = silent), tick
-    intensity at tick onsets, finger load (N) and age (s) of the freshest touch sample.
-    Returns the drive (m,) V after carrier and safety stage, and the target added friction
-    (m,) N of the grains.
+    intensity (held area intensity, 0 = silent) and tick (tick intensity at tick onsets): (m,)
+    float at the drive rate; load (N) and touch_time (s, chain clock) (n,) of the model samples
+    at ``control_rate``, held at the drive rate for the safety stage. Returns the drive (m,) V
+    after carrier and safety stage, the grains' target added friction (m,) N and the held load
+    (m,) N; one compiled call (:func:`_shape_drive`) unless a measured device curve maps the force.
     """
 
-    def __init__(self, config: ShapeConfig | None = None):
+    def __init__(self, config: ShapeConfig | None = None, control_rate: int | None = None):
         cfg = config or ShapeConfig()
         self.config = cfg
         self.drive_rate = int(cfg.drive_rate)
+        self.control_rate = self.drive_rate if control_rate is None else int(control_rate)
         self.alpha = float(cfg.alpha if cfg.alpha is not None else cfg.display.calibrated_alpha)
         self._gain = (self.alpha / cfg.display.calibrated_alpha) ** 2  # rendering gain on the target force
         self.device = cfg.device if cfg.device is not None else display_device_curve(cfg)
         self.grains = GrainPlayer(cfg.grain, self.drive_rate, self.device, seed=cfg.seed, params=cfg.grain_params)
         self.carrier = PolarityCarrier(cfg.carrier, self.drive_rate)
         self.safety = SafetyStage(self.drive_rate, cfg.limits)
+        self._work = np.zeros((2, 0))
+        self._index = np.zeros(0, dtype=np.int64)
         self.reset()
 
     def reset(self) -> None:
         self.grains.reset()
-        self.carrier.reset()
         self.safety.reset()
+        self._state = tail_state(self.control_rate, self.drive_rate, self.carrier.step)
 
-    def process(self, intensity, tick, load, touch_age):
-        target = self.grains.process(intensity, tick)
+    def process(self, intensity, tick, load, touch_time):
+        inten = np.ascontiguousarray(intensity, dtype=np.float64)
+        tick = np.ascontiguousarray(tick, dtype=np.float64)
         load = np.ascontiguousarray(load, dtype=np.float64)
+        touch_time = np.ascontiguousarray(touch_time, dtype=np.float64)
+        m, n = inten.shape[0], load.shape[0]
+        if self._index.shape[0] < max(m, n):
+            self._work, self._index = np.zeros((2, 2 * max(m, n))), np.zeros(2 * max(m, n), dtype=np.int64)
+        drive, target, load_drive = np.empty(m), np.empty(m), np.empty(m)
+        tail = (self._state, self._work, self._index, self.safety.kernel_args(), drive, load_drive)
         disp = self.config.display
         if disp.device_curve is None:  # the compiled form of the display's map: alpha sqrt(max(F, 0))
-            envelope = np.empty(target.shape[0])
-            target_to_voltage(target, load, self.alpha, envelope)
+            _shape_drive(inten, tick, *self.grains.kernel_args(inten), self.alpha, load, touch_time, *tail, target)
         else:
-            envelope = disp.voltage_for_force(self._gain * target, self.config.limits.v_max)
-        drive = self.safety.process(self.carrier.process(envelope), load, touch_age)
-        return drive, target
+            grain_block(inten, tick, *self.grains.kernel_args(inten), target)
+            drive[:] = disp.voltage_for_force(self._gain * target, self.config.limits.v_max)
+            drive_tail(m, load, touch_time, *tail)
+        return drive, target, load_drive
+
+
+@numba.njit(cache=True, nogil=True)
+def _shape_drive(inten, tick, env, even, curve, pulse, ticks, alpha, load, touch_time, state, work, index, safety, drive,
+                 load_drive, target):
+    # a shape block after the touch-rate stage, in one call: grains, V = alpha sqrt(max(F, 0)), the chains' tail
+    grain_block(inten, tick, env, even, curve, pulse, ticks, target)
+    m = target.shape[0]
+    target_to_voltage(target, target, alpha, drive[:m])
+    return drive_tail(m, load, touch_time, state, work, index, safety, drive, load_drive)
 
 
 @dataclass
