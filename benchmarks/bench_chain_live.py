@@ -34,8 +34,10 @@ def main():
     touch = np.zeros(per_block)
     last_touch = 0.0
     v = 0.0
-    for b in range(-200, n_blocks):  # the first 200 blocks warm up (JIT, caches)
-        now = max(b, 0) * 1e-3
+    warm = 200  # the first 200 blocks warm up (JIT, caches)
+    driven = 0  # blocks with a non-zero drive: the bench must time the drive, not the watchdog's zeros
+    for b in range(-warm, n_blocks):
+        now = (b + warm) * 1e-3  # the chain's own clock: block k starts at k ms
         w0 = time.perf_counter()
         t0 = time.thread_time_ns()
         if b % 8 == 0:
@@ -49,11 +51,14 @@ def main():
         display.process(out.drive, out.load_drive)
         dt = (time.thread_time_ns() - t0) * 1e-9
         if b >= 0:
+            driven += bool(np.any(out.drive))
             times[b] = dt
             walls[b] = time.perf_counter() - w0
+    if driven < n_blocks // 2:
+        raise SystemExit(f"live_block_1ms: only {driven} of {n_blocks} blocks drove the display (touch stamps off the chain's clock?)")
     p99 = float(np.percentile(times, 99))
     share = p99 / 1e-3
-    report("live_block_1ms", {"blocks": n_blocks, "median_us": round(float(np.median(times)) * 1e6, 1),
+    report("live_block_1ms", {"blocks": n_blocks, "driven_blocks": driven, "median_us": round(float(np.median(times)) * 1e6, 1),
                               "p99_us": round(p99 * 1e6, 1), "p99_share_of_block": round(share, 4),
                               "wall_p99_us": round(float(np.percentile(walls, 99)) * 1e6, 1)},
            0.10 / share, "p99 <= 10 % of the 1 ms block (ratio = 0.10 / share >= 1)", share <= 0.10)
