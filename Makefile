@@ -79,3 +79,4 @@ calibrate-builtins: $(STAMP)
 
 clean:
 	rm -rf $(VENV) demo build *.egg-info src/*.egg-info .pytest_cache .import_linter_cache
+	find src -name '*.nbi' -delete -o -name '*.nbc' -delete  # numba's cache: it misses a changed callee in another module
