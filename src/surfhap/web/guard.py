@@ -13,7 +13,7 @@ handshake passes:
   ``Content-Length`` or chunked body is refused (413, ``Connection: close``);
 * **errors**: an exception answers 500 with one log line (type, message, where), never a
   traceback; FastAPI's validation error of a pydantic body (:mod:`surfhap.web.messages`) is a
-  422 with a one-line reason (:meth:`RequestGuard.invalid`);
+  422 with a one-line reason (:meth:`RequestGuard.install`);
 * **connection state**: a finished response tells the server's
   :class:`~surfhap.web.server.ConnectionGate` that the connection waits again.
 
@@ -107,8 +107,10 @@ class RequestGuard:
 
         from surfhap.web.messages import reason
 
-        async def invalid_body(request, exc: RequestValidationError):
-            return JSONResponse(self.invalid(request.scope, reason(exc.errors())), status_code=422)
+        async def invalid_body(request, exc: RequestValidationError):  # counted and logged (throttled)
+            why, scope = reason(exc.errors()), request.scope
+            self.count("invalid", _peer(scope), f"{scope.get('method', '')} {_short(scope.get('path'))}: {why}")
+            return JSONResponse({"error": why}, status_code=422)
 
         app.add_exception_handler(RequestValidationError, invalid_body)
         app.add_middleware(_GuardMiddleware, guard=self)
@@ -142,11 +144,6 @@ class RequestGuard:
         if kind in _REFUSALS and self.on_refused is not None:
             self.on_refused()
         self.rejects.reject(peer, reason)
-
-    def invalid(self, scope, reason: str) -> dict:
-        """Count and log (throttled) an invalid request body; returns the 422 body."""
-        self.count("invalid", _peer(scope), f"{scope.get('method', '')} {_short(scope.get('path'))}: {reason}")
-        return {"error": reason}
 
     @property
     def refused(self) -> int:

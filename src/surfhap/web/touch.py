@@ -167,8 +167,7 @@ class Hub:
             srv = {"clients": len(self.clients), "rejected": self.rejects.count, "refused": self.refused}
             if self.gate is not None:
                 srv["connections"] = self.gate.counters()
-            status = {**self.engine_status, "server": srv}
-            self.status_json = encode(status)
+            self.status_json = encode({**self.engine_status, "server": srv})
             self.status_no += 1
         ev, self._event = self._event, asyncio.Event()
         ev.set()
