@@ -88,6 +88,7 @@ GOOD = {"format": "surfhap-ff-scene", "schema_version": 1, "name": "x", "size_m"
     ({**GOOD, "effects": [{"type": "stiffness"}]}, "effects.0.k_mat"),
     ({**GOOD, "effects": [{"type": "wobble"}]}, "effects.0"),
     ({**GOOD, "size_m": [0.2]}, "size_m"),
+    ({**GOOD, "size_m": [0.2, 5.0]}, "size_m.1"),  # the side out of range is named
     ({**GOOD, "effects": [{"type": "roughness", "depth": 1e-4, "period_m": -1}]}, "effects.0.period_m"),
     ({**GOOD, "effects": [{"type": "stiffness", "k_mat": {"image": "missing.png"}}]}, "effects.0.k_mat.image"),
     ({**GOOD, "effects": [{"type": "shape", "height": {"rects": [{"x0": 0, "y0": 0, "x1": -1, "y1": 1, "value": 1}]}}]},

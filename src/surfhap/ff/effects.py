@@ -103,7 +103,7 @@ class _Compiled(Effect):
     code = ek.EXTERNAL
     field: Field | None = None
 
-    def __init__(self, a: float = 0.0, b: float = 0.0, k_max: float = K_MAX):
+    def __init__(self, k_max: float = K_MAX, a: float = 0.0, b: float = 0.0):
         self.row = np.array([[self.code, 0.0, float(k_max), a, b, 0.0]])
         super().__init__(k_max)
 
@@ -129,9 +129,6 @@ class Idle(_Compiled):
     name = "idle"
     code = ek.IDLE
 
-    def __init__(self, k_max: float = K_MAX):
-        super().__init__(k_max=k_max)
-
 
 class Stiffness(_Compiled):
     """Elastic normal force (eq. 1): K = diag(K_max, K_max, k_mat), lateral axes locked.
@@ -144,7 +141,7 @@ class Stiffness(_Compiled):
 
     def __init__(self, k_mat, k_max: float = K_MAX):
         self.k_mat = self.field = _field(k_mat)
-        super().__init__(k_max=k_max)
+        super().__init__(k_max)
 
 
 class Shape(_Compiled):
@@ -160,7 +157,7 @@ class Shape(_Compiled):
     def __init__(self, height: Field, scale: float = 1.0, k_max: float = K_MAX):
         self.height = self.field = _field(height)
         self.scale = float(scale)
-        super().__init__(self.scale, k_max=k_max)
+        super().__init__(k_max, self.scale)
 
 
 class Roughness(_Compiled):
@@ -187,7 +184,7 @@ class Roughness(_Compiled):
             raise ValueError("roughness period must be > 0 m")
         self.depth = self.field = _field(depth)
         self.period = float(period)
-        super().__init__(self.period, k_max=k_max)
+        super().__init__(k_max, self.period)
 
     phase = property(lambda self: float(self.row[0, ek._STATE]), doc="rad, the grating's phase in [0, 2 pi)")
 
@@ -226,7 +223,7 @@ class Sliding(_Compiled):
         self.mass = float(mass)
         self.alpha = self.field = _field(alpha)
         self.nu = float(nu)
-        super().__init__(self.nu, self.mass, k_max=k_max)
+        super().__init__(k_max, self.nu, self.mass)
 
 
 class Attraction(_Compiled):
@@ -250,7 +247,7 @@ class Attraction(_Compiled):
             if not r > 0:
                 raise ValueError("attraction radius must be > 0 m")
         self._points = np.array(self.points, dtype=float).reshape(-1)
-        super().__init__(len(self.points), k_max=k_max)
+        super().__init__(k_max, len(self.points))
 
     def _data(self) -> np.ndarray:
         return self._points

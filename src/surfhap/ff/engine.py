@@ -100,7 +100,6 @@ class FFEngine:
         if not (math.isfinite(velocity_cutoff) and velocity_cutoff > 0):
             raise ValueError("velocity_cutoff must be > 0 Hz")
         self.touch_latency = float(touch_latency)
-        self.H = np.zeros((2, 512))  # screen x, y per tick (the last 0.5 s at 1 kHz)
         self.device = device
         self.rate = float(rate)
         self.dt = 1.0 / self.rate
@@ -109,16 +108,14 @@ class FFEngine:
         # screen history H: views of the buffers Z, PL (tick_kernel layouts)
         self.max_extrapolate = float(max_extrapolate)
         L = np.array([device.k_max, device.damping, device.weight, device.workspace[2], device.ref_speed / rate])
-        self.Z, self.PL = kernel.buffers(kernel.safety_params(device, self.rate, velocity_cutoff), L, self.dt,
-                                         device.touch_timeout, self.max_extrapolate)
+        self.Z, self.PL = kernel.buffers(kernel.safety_params(device, self.rate, velocity_cutoff), L)
         views = kernel.views.py_func(self.Z, self.PL, np.zeros((0, ek.E_COLS + ek.X_COLS)))
         self.S, self.R, self.out, self.T, self.H, self.P, self.L = views[:7]
         self.N = np.zeros(len(kernel.COUNTERS), dtype=np.int64)
         self.effects = list(effects)  # packed by reset()
         self.predictor = predictor
         self._atau = 1.0 / (2.0 * math.pi * accel_cutoff)
-        self.button_presses = ButtonPresses(buttons)
-        self.button = -1
+        self.button_presses = ButtonPresses(buttons)  # reset() resets it and ``button``
         self._pending = self._switched = None
         self.reset()
 
@@ -182,12 +179,6 @@ class FFEngine:
         Any thread may call it (e.g. a study's next stimulus while the loop runs): the switch is
         one tuple store (the effects packed here), taken by the haptic thread at the start of its next tick."""
         self._pending = (self._pack(effects), ButtonPresses(buttons))
-
-    def _take_switch(self) -> None:
-        pending = self._switched = self._pending  # never cleared: a switch sent meanwhile is taken next tick
-        self._set_effects(pending[0])
-        self.button_presses = pending[1]
-        self.button = -1
 
     # ----------------------------------------------------------------- safety stage
     @property
@@ -276,8 +267,10 @@ class FFEngine:
     def tick(self, t: float, px: float, py: float, pz: float, t_pos: float) -> np.ndarray:
         """Safe force (3,) N for this tick; see the module docstring. With compiled effects only,
         one compiled call (:func:`surfhap.ff.tick_kernel.tick`)."""
-        if self._pending is not self._switched:
-            self._take_switch()
+        if self._pending is not self._switched:  # never cleared: a switch sent meanwhile is taken next tick
+            self._switched = self._pending
+            self._set_effects(self._switched[0])
+            self.button_presses, self.button = self._switched[1], -1
         T, pos = self.T, (float(t), float(t_pos), float(px), float(py), float(pz))
         if self.error is None:
             try:

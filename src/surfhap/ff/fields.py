@@ -34,10 +34,6 @@ class Field(ABC):
     def value(self, x: float, y: float) -> float:
         """The field at (x, y) m."""
 
-    def sample(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Vectorised convenience for figures and tests: (n,) values at (n,) points."""
-        return np.array([self.value(float(a), float(b)) for a, b in zip(np.ravel(x), np.ravel(y))]).reshape(np.shape(x))
-
 
 class _Packed(Field):
     def value(self, x: float, y: float) -> float:

@@ -35,12 +35,14 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from importlib.resources import files
 from pathlib import Path
 from typing import Annotated, Literal, Union
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field as PField, ValidationError, model_validator
 
+from surfhap.checked import within
 from surfhap.errors import SceneFormatError
 from surfhap.ff.buttons import Button
 from surfhap.ff.effects import Attraction, Effect, Roughness, Shape, Sliding, Stiffness
@@ -49,18 +51,17 @@ from surfhap.ff.params import DeviceParams
 
 __all__ = ["SceneSpec", "FFScene", "load_scene", "load_ff_scene", "builtin_scene_names", "builtin_scene_path"]
 
-_STRICT = ConfigDict(extra="forbid")
+class _Strict(BaseModel):  # every part of a scene file: unknown keys are errors
+    model_config = ConfigDict(extra="forbid")
 
 
-class Ramp(BaseModel):
-    model_config = _STRICT
+class Ramp(_Strict):
     axis: Literal["x", "y"]
     from_: float = PField(alias="from")
     to: float
 
 
-class Rect(BaseModel):
-    model_config = _STRICT
+class Rect(_Strict):
     x0: float
     y0: float
     x1: float
@@ -77,8 +78,7 @@ class Rect(BaseModel):
         return self
 
 
-class MapSpec(BaseModel):
-    model_config = _STRICT
+class MapSpec(_Strict):
     constant: float | None = None
     image: str | None = None
     range: tuple[float, float] = (0.0, 1.0)
@@ -96,8 +96,7 @@ class MapSpec(BaseModel):
 MapLike = Union[float, MapSpec]
 
 
-class MeshSpec(BaseModel):
-    model_config = _STRICT
+class MeshSpec(_Strict):
     path: str
     up: Literal["x", "y", "z", "-x", "-y", "-z"] = "z"
     size_m: float = PField(0.08, gt=0.0, le=1.0)
@@ -105,14 +104,12 @@ class MeshSpec(BaseModel):
     center_m: tuple[float, float] | None = None
 
 
-class StiffnessSpec(BaseModel):
-    model_config = _STRICT
+class StiffnessSpec(_Strict):
     type: Literal["stiffness"]
     k_mat: MapLike  # N/m
 
 
-class ShapeSpec(BaseModel):
-    model_config = _STRICT
+class ShapeSpec(_Strict):
     type: Literal["shape"]
     height: MapLike | None = None  # m
     mesh: MeshSpec | None = None
@@ -125,31 +122,27 @@ class ShapeSpec(BaseModel):
         return self
 
 
-class RoughnessSpec(BaseModel):
-    model_config = _STRICT
+class RoughnessSpec(_Strict):
     type: Literal["roughness"]
     depth: MapLike  # m
     period_m: float = PField(gt=0.0, le=0.1)
 
 
-class SlidingSpec(BaseModel):
-    model_config = _STRICT
+class SlidingSpec(_Strict):
     type: Literal["sliding"]
     alpha: MapLike
     nu: float = PField(20.0, ge=0.0, le=100.0)
     inertia: bool = True
 
 
-class PointSpec(BaseModel):
-    model_config = _STRICT
+class PointSpec(_Strict):
     x: float
     y: float
     radius: float = PField(gt=0.0)
     strength: float = PField(ge=-8.0, le=8.0)
 
 
-class AttractionSpec(BaseModel):
-    model_config = _STRICT
+class AttractionSpec(_Strict):
     type: Literal["attraction"]
     points: list[PointSpec] = PField(min_length=1)
 
@@ -158,25 +151,21 @@ EffectSpec = Annotated[Union[StiffnessSpec, ShapeSpec, RoughnessSpec, SlidingSpe
                        PField(discriminator="type")]
 
 
-class SceneSpec(BaseModel):
+_Size = within(0.01, 2.0, "size_m must be within 0.01-2 m")
+
+
+class SceneSpec(_Strict):
     """The JSON schema of a scene file (see the module docstring)."""
 
-    model_config = _STRICT
     format: Literal["surfhap-ff-scene"]
     schema_version: Literal[1]
     name: str
     description: str = ""
-    size_m: tuple[float, float]
+    size_m: tuple[_Size, _Size]
     picture: MapSpec | None = None
     effects: list[EffectSpec] = PField(min_length=1, max_length=30)
     buttons: list[Button] = PField(default_factory=list, max_length=64)
     provenance: dict[str, str] = PField(default_factory=dict)
-
-    @model_validator(mode="after")
-    def _size(self):
-        if not all(0.01 <= v <= 2.0 for v in self.size_m):
-            raise ValueError("size_m must be within 0.01-2 m")
-        return self
 
 
 @dataclass
@@ -204,14 +193,11 @@ class FFScene:
     def picture_array(self, n: int = 200) -> np.ndarray:
         """(ny, nx) picture sampled for display (zeros if the scene has none)."""
         w, h = self.size
-        nx = n
         ny = max(2, int(round(n * h / w)))
         if self.picture is None:
-            return np.zeros((ny, nx))
-        xs = (np.arange(nx) + 0.5) * w / nx
-        ys = (np.arange(ny) + 0.5) * h / ny
-        X, Y = np.meshgrid(xs, ys)
-        return np.nan_to_num(self.picture.sample(X, Y))
+            return np.zeros((ny, n))
+        X, Y = np.meshgrid((np.arange(n) + 0.5) * w / n, (np.arange(ny) + 0.5) * h / ny)
+        return np.nan_to_num(np.vectorize(self.picture.value, otypes=[float])(X, Y))
 
 
 def _read_image(path: Path, src: str, field: str) -> np.ndarray:
@@ -275,32 +261,28 @@ def build_effects(spec: SceneSpec, device: DeviceParams, base: Path, src: str) -
     out: list[Effect] = []
     km = device.k_max
     for i, e in enumerate(spec.effects):
-        f = f"effects.{i}"
-        size = spec.size_m
+        def m(name: str, e=e, i=i) -> Field:  # the effect's map ``name``
+            return _field(getattr(e, name), spec.size_m, base, src, f"effects.{i}.{name}")
+
         if e.type == "stiffness":
-            out.append(Stiffness(_field(e.k_mat, size, base, src, f"{f}.k_mat"), k_max=km))
+            out.append(Stiffness(m("k_mat"), k_max=km))
         elif e.type == "shape":
-            h = _mesh_field(e.mesh, size, base, src) if e.mesh is not None else _field(e.height, size, base, src, f"{f}.height")
+            h = _mesh_field(e.mesh, spec.size_m, base, src) if e.mesh is not None else m("height")
             out.append(Shape(h, scale=e.scale, k_max=km))
         elif e.type == "roughness":
-            out.append(Roughness(_field(e.depth, size, base, src, f"{f}.depth"), e.period_m, k_max=km))
+            out.append(Roughness(m("depth"), e.period_m, k_max=km))
         elif e.type == "sliding":
-            out.append(Sliding(_field(e.alpha, size, base, src, f"{f}.alpha"), nu=e.nu,
-                               mass=device.moving_mass if e.inertia else 0.0, k_max=km))
+            out.append(Sliding(m("alpha"), nu=e.nu, mass=device.moving_mass if e.inertia else 0.0, k_max=km))
         else:
             out.append(Attraction([(p.x, p.y, p.radius, p.strength) for p in e.points], k_max=km))
     return out
 
 
 def builtin_scene_names() -> list[str]:
-    from importlib.resources import files
-
     return sorted(p.name[:-5] for p in files("surfhap.ff").joinpath("scenes").iterdir() if p.name.endswith(".json"))
 
 
 def builtin_scene_path(name: str) -> Path:
-    from importlib.resources import files
-
     return Path(str(files("surfhap.ff").joinpath("scenes", f"{name}.json")))
 
 

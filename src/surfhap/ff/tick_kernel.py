@@ -325,14 +325,10 @@ def tick(Z, PL, N, EX, F, t, t_pos, px, py, pz, stop):
     finish(S, P, N, R, L, T, E, F, X, stop, out)
 
 
-def buffers(P: np.ndarray, L: np.ndarray, dt: float, touch_timeout: float, max_extrapolate: float):
-    """Reset buffers ``Z`` and ``PL`` (:func:`views`) holding a new state, the safety parameters ``P``
-    and the control law's ``L``."""
-    Z = np.zeros(_ZH + 2 * HIST)
-    Z[:_ZR] = new_state()
-    Z[_ZR:_ZO] = (0.0, 0.0, 0.0, 1.0)
-    Z[_ZT:_ZH] = new_tick_state(dt, touch_timeout, max_extrapolate)
-    return Z, np.concatenate([P, L])
+def buffers(P: np.ndarray, L: np.ndarray):
+    """The buffers ``Z`` (zeros: the caller resets ``S``, ``R`` and ``T`` in it) and ``PL`` holding
+    the safety parameters ``P`` and the control law's ``L`` (:func:`views`)."""
+    return np.zeros(_ZH + 2 * HIST), np.concatenate([P, L])
 
 
 def warm_up() -> None:
@@ -340,15 +336,14 @@ def warm_up() -> None:
     real-time tick pays for it (call before starting a haptic thread)."""
     from surfhap.ff.params import DeviceParams
 
-    S, P, N = new_state(), safety_params(DeviceParams(), 1000.0, 100.0), np.zeros(len(COUNTERS), dtype=np.int64)
-    R, L, out = np.array([0.0, 0.0, 0.0, 1.0]), np.array([1000.0, 10.0, 3.8, 0.04, 2e-4]), np.zeros(3)
+    N, EX = np.zeros(len(COUNTERS), dtype=np.int64), np.zeros((1, ek.E_COLS + ek.X_COLS))
+    Z, PL = buffers(safety_params(DeviceParams(), 1000.0, 100.0), np.array([1000.0, 10.0, 3.8, 0.04, 2e-4]))
+    S, R, out, T, H, P, L, E, X = views.py_func(Z, PL, EX)
+    S[:], T[:] = new_state(), new_tick_state(1e-3, 0.1, 0.05)
+    tick(Z, PL, N, EX, np.zeros(1), 0.0, 0.0, 0.0, 0.0, 0.0, False)
+    kinematics(S, P, N, T, H, 0.0, 0.0, 0.0, 0.0, 0.0)
+    finish(S, P, N, R, L, T, E, np.zeros(1), X, False, out)
     observe(S, P, N, 0.0, 0.0, 0.0, 0.0, 0.0)
     limit(S, P, N, 0.0, 0.0, 0.0, True, out)
     law(R, L, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1000.0, 1000.0, 1000.0, 0.0, 0.0, 0.0, 0.0, 0.0, out)
-    Z, PL = buffers(P, L, 1e-3, 0.1, 0.05)
-    EX = np.zeros((1, ek.E_COLS + ek.X_COLS))
-    tick(Z, PL, N, EX, np.zeros(1), 0.0, 0.0, 0.0, 0.0, 0.0, False)
-    S, R, out, T, H, P, L, E, X = views.py_func(Z, PL, EX)
-    kinematics(S, P, N, T, H, 0.0, 0.0, 0.0, 0.0, 0.0)
-    finish(S, P, N, R, L, T, E, np.zeros(1), X, False, out)
     ek.value(np.array([ek.CONST, 0.0]), 0, 0.0, 0.0)

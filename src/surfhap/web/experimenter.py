@@ -60,13 +60,8 @@ def experimenter_router(page, token: str):
                 player.mute()  # SetGain(0) / no force effect: through the output's safety stage
         return runner.experimenter_state()
 
-    @api.post("/pause")
-    def do_pause():
-        return pause(True)
-
-    @api.post("/resume")
-    def do_resume():
-        return pause(False)
+    api.add_api_route("/pause", lambda: pause(True), methods=["POST"])
+    api.add_api_route("/resume", lambda: pause(False), methods=["POST"])
 
     @api.post("/skip")
     def skip(req: SkipRequest):

@@ -13,7 +13,7 @@ handshake passes:
   ``Content-Length`` or chunked body is refused (413, ``Connection: close``);
 * **errors**: an exception answers 500 with one log line (type, message, where), never a
   traceback; FastAPI's validation error of a pydantic body (:mod:`surfhap.web.messages`) is a
-  422 with a one-line reason (:meth:`RequestGuard.invalid`);
+  422 with a one-line reason (:meth:`RequestGuard.install`);
 * **connection state**: a finished response tells the server's
   :class:`~surfhap.web.server.ConnectionGate` that the connection waits again.
 
@@ -24,7 +24,6 @@ Everything refused or rejected is counted (:attr:`RequestGuard.counts`) and logg
 from __future__ import annotations
 
 import ipaddress
-import json
 import logging
 import traceback
 from typing import Callable
@@ -55,13 +54,6 @@ def host_allow_list(bind_host: str, allowed_hosts=()) -> tuple[str, ...]:
     if bind_host not in WILDCARD_HOSTS:
         names.append(_as_host(bind_host))
     return tuple(dict.fromkeys(n for n in names if n))
-
-
-def _header(scope, name: bytes) -> str | None:
-    for k, v in scope.get("headers", ()):
-        if k == name:
-            return v.decode("latin-1")
-    return None
 
 
 def _short(text: str | None, n: int = 80) -> str:
@@ -115,8 +107,10 @@ class RequestGuard:
 
         from surfhap.web.messages import reason
 
-        async def invalid_body(request, exc: RequestValidationError):
-            return JSONResponse(self.invalid(request.scope, reason(exc.errors())), status_code=422)
+        async def invalid_body(request, exc: RequestValidationError):  # counted and logged (throttled)
+            why, scope = reason(exc.errors()), request.scope
+            self.count("invalid", _peer(scope), f"{scope.get('method', '')} {_short(scope.get('path'))}: {why}")
+            return JSONResponse({"error": why}, status_code=422)
 
         app.add_exception_handler(RequestValidationError, invalid_body)
         app.add_middleware(_GuardMiddleware, guard=self)
@@ -135,12 +129,13 @@ class RequestGuard:
         except ValueError:
             return False
 
-    def origin_ok(self, scope) -> bool:
-        origin = _header(scope, b"origin")
+    def origin_ok(self, headers) -> bool:
+        """The ``Origin`` rule for a request's ``headers`` (Starlette's ``Headers``)."""
+        origin = headers.get("origin")
         if origin is None:
-            cross = (_header(scope, b"sec-fetch-site") or "").lower() in ("cross-site", "same-site")
+            cross = headers.get("sec-fetch-site", "").lower() in ("cross-site", "same-site")
             return self.allow_missing_origin and not cross
-        o, host = origin.rstrip("/").lower(), _header(scope, b"host")
+        o, host = origin.rstrip("/").lower(), headers.get("host")
         return o in self.origins or (bool(host) and o == "http://" + host.strip().lower())
 
     def count(self, kind: str, peer: str, reason: str) -> None:
@@ -150,24 +145,17 @@ class RequestGuard:
             self.on_refused()
         self.rejects.reject(peer, reason)
 
-    def invalid(self, scope, reason: str) -> dict:
-        """Count and log (throttled) an invalid request body; returns the 422 body."""
-        self.count("invalid", _peer(scope), f"{scope.get('method', '')} {_short(scope.get('path'))}: {reason}")
-        return {"error": reason}
-
     @property
     def refused(self) -> int:
         """Requests and handshakes refused before reaching the app (host, origin, body)."""
         return sum(self.counts[k] for k in _REFUSALS)
 
 
-async def _respond(send, status: int, error: str) -> None:
+def _refusal(status: int, error: str):
     """A JSON error that closes the connection (the request's body may be left unread)."""
-    body = json.dumps({"error": error}).encode()
-    headers = [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
-               (b"connection", b"close")]
-    await send({"type": "http.response.start", "status": status, "headers": headers})
-    await send({"type": "http.response.body", "body": body})
+    from starlette.responses import JSONResponse
+
+    return JSONResponse({"error": error}, status, headers={"connection": "close"})
 
 
 class _GuardMiddleware:
@@ -180,23 +168,26 @@ class _GuardMiddleware:
         kind = scope["type"]
         if kind not in ("http", "websocket"):
             return await self.app(scope, receive, send)
-        g, peer, host = self.guard, _peer(scope), _header(scope, b"host")
+        from starlette.datastructures import Headers
+
+        headers = Headers(scope=scope)
+        g, peer, host = self.guard, _peer(scope), headers.get("host")
         what = "WebSocket" if kind == "websocket" else f"{scope.get('method', '')} {_short(scope.get('path'))}"
         refusal = None
         if not g.host_ok(host):
             g.count("host", peer, f"refused {what} for host {_short(host)}")
             refusal = (400, "host not allowed")
-        elif (kind == "websocket" or scope.get("method") not in SAFE_METHODS) and not g.origin_ok(scope):
-            g.count("origin", peer, f"refused {what}: origin {_short(_header(scope, b'origin'))} not allowed "
+        elif (kind == "websocket" or scope.get("method") not in SAFE_METHODS) and not g.origin_ok(headers):
+            g.count("origin", peer, f"refused {what}: origin {_short(headers.get('origin'))} not allowed "
                                     f"for host {_short(host)}")
             refusal = (403, "origin not allowed")
         if refusal is not None:
             if kind == "websocket":
                 return await send({"type": "websocket.close", "code": 1008})
-            return await _respond(send, *refusal)
+            return await _refusal(*refusal)(scope, receive, send)
         if kind == "websocket":  # its messages go straight through (nothing to track: the hot path)
             return await self._call(scope, receive, send, peer, what)
-        body = await self._read_body(scope, receive, send, peer, what)
+        body = await self._read_body(scope, receive, send, headers.get("content-length", "0"), peer, what)
         if body is None:
             return None
         pending = [{"type": "http.request", "body": body, "more_body": False}]
@@ -214,7 +205,7 @@ class _GuardMiddleware:
                 g.gate.response_done(scope.get("client"))
 
         if not await self._call(scope, replay, tracked_send, peer, what) and not started:
-            await _respond(send, 500, "internal error")
+            await _refusal(500, "internal error")(scope, receive, send)
 
     async def _call(self, scope, receive, send, peer: str, what: str) -> bool:
         """Run the app; False after an exception (one log line, never a traceback)."""
@@ -227,10 +218,11 @@ class _GuardMiddleware:
             self.guard.count("error", peer, f"{what} failed: {type(exc).__name__}: {_short(str(exc), 120)}{at}")
             return False
 
-    async def _read_body(self, scope, receive, send, peer: str, what: str) -> bytes | None:
-        """The whole body, at most the cap; None after refusing it (413) or a disconnect."""
+    async def _read_body(self, scope, receive, send, declared: str, peer: str, what: str) -> bytes | None:
+        """The whole body (``declared``: its Content-Length), at most the cap; None after
+        refusing it (413) or a disconnect."""
         g, cap = self.guard, self.guard.max_body_bytes
-        declared = (_header(scope, b"content-length") or "0").strip()
+        declared = declared.strip()
         chunks = bytearray()
         while declared.isdigit() and len(declared) <= 15 and int(declared) <= cap:
             message = await receive()
@@ -243,5 +235,5 @@ class _GuardMiddleware:
             if not message.get("more_body", False):
                 return bytes(chunks)
         g.count("body", peer, f"refused {what}: body over {cap} bytes (declared {_short(declared, 20)})")
-        await _respond(send, 413, f"request body over {cap} bytes")
+        await _refusal(413, f"request body over {cap} bytes")(scope, receive, send)
         return None

@@ -153,11 +153,7 @@ def page_to_surface(msg: Move, width_px: float, height_px: float, space, surface
 
 def json_default(o):
     """JSON for numpy scalars (and ``str`` of anything else) in engine status dicts."""
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.floating):
-        return float(o)
-    return str(o)
+    return o.item() if isinstance(o, (np.integer, np.floating)) else str(o)
 
 
 def encode(obj) -> str:

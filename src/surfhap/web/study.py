@@ -100,10 +100,8 @@ def study_router(page: StudyPage, cfg: ServerConfig):
     def image(trial_id: str):
         """The picture of the current trial's scene (visual tasks and the touch pad)."""
         t = runner.current()
-        name = None
-        if t is not None and t.id == trial_id:
-            name = next((st.render.get("scene") or st.render.get("mesh") for st in t.stimuli
-                         if st.render.get("scene") or st.render.get("mesh")), None)
+        stimuli = t.stimuli if t is not None and t.id == trial_id else ()
+        name = next(filter(None, (st.render.get("scene") or st.render.get("mesh") for st in stimuli)), None)
         if not name:
             return JSONResponse({"error": "no picture for this trial"}, status_code=404)
         if name not in pictures:
@@ -177,9 +175,6 @@ def study_router(page: StudyPage, cfg: ServerConfig):
         live = player is not None
 
         def handle(msg) -> None:
-            if msg.type == "hello":
-                client.width_px, client.height_px = msg.w, msg.h
-                return
             down = msg.type == "move"
             if live and down:
                 player.touch(client.id, min(max(msg.x, 0.0), 1.0), min(max(msg.y, 0.0), 1.0), msg.p, msg.t,

@@ -21,7 +21,7 @@ from pydantic import ValidationError
 from surfhap.live.config import ServerConfig
 from surfhap.live.sources import RateLimiter, RejectLog
 from surfhap.runtime.clock import now
-from surfhap.web.messages import Hello, Move, Up, encode, page_to_surface, parse_message, reason, trace_message
+from surfhap.web.messages import Move, Up, encode, page_to_surface, parse_message, reason, trace_message
 
 __all__ = ["Client", "Hub", "pointer_messages", "touch_router", "PAGE_CSP"]
 
@@ -80,9 +80,10 @@ class Client:
 
 
 async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: RejectLog,
-                           handle: Callable[[Union[Hello, Move, Up]], None]) -> None:
-    """``handle`` each validated message (:mod:`surfhap.web.messages`) of the WebSocket ``ws``
-    until it closes (a callback, not an async generator: cheaper per message). A binary,
+                           handle: Callable[[Union[Move, Up]], None]) -> None:
+    """``handle`` each validated move and up (:mod:`surfhap.web.messages`) of the WebSocket ``ws``
+    until it closes (a callback, not an async generator: cheaper per message); a hello sets
+    ``client``'s page size. A binary,
     oversized, invalid or too frequent message (``client.limiter`` on :meth:`Client.clock`) is
     counted on ``client`` and logged (throttled) through ``rejects``; after ``cfg.max_rejects``
     the socket is closed. Every :data:`FAIR_TURN` messages the loop yields to the event loop."""
@@ -112,8 +113,12 @@ async def pointer_messages(ws, cfg: ServerConfig, client: Client, rejects: Rejec
             except ValidationError as exc:
                 message, why = None, reason(exc.errors(include_url=False, include_input=False))
             if message is not None:
-                if allow(clock(None if message.type == "hello" else message.t * 1e-3)):
-                    handle(message)
+                hello = message.type == "hello"
+                if allow(clock(None if hello else message.t * 1e-3)):
+                    if hello:
+                        client.width_px, client.height_px = message.w, message.h
+                    else:
+                        handle(message)
                     continue
                 why = "rate limit exceeded"
         client.rejected += 1
@@ -162,8 +167,7 @@ class Hub:
             srv = {"clients": len(self.clients), "rejected": self.rejects.count, "refused": self.refused}
             if self.gate is not None:
                 srv["connections"] = self.gate.counters()
-            status = {**self.engine_status, "server": srv}
-            self.status_json = encode(status)
+            self.status_json = encode({**self.engine_status, "server": srv})
             self.status_no += 1
         ev, self._event = self._event, asyncio.Event()
         ev.set()
@@ -244,11 +248,7 @@ def touch_router(link, hub: Hub, cfg: ServerConfig):
         space, push = link.space, link.push_touch
 
         def handle(msg) -> None:
-            kind = msg.type
-            if kind == "hello":
-                client.width_px, client.height_px = msg.w, msg.h
-                return
-            if kind == "move":
+            if msg.type == "move":
                 xm, ym, load = page_to_surface(msg, client.width_px, client.height_px, space, surface_positions)
                 push(client.id, xm, ym, load, msg.t * 1e-3)
                 client.down = True
