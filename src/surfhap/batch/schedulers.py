@@ -179,36 +179,29 @@ _LOCAL_CLUSTER_CONFIG = {
 }
 
 
-def _dask_client(spec: SchedulerSpec, preload: Sequence[str] = ()):
-    """(client, cluster or None) for a Dask spec: a LocalCluster of ``spec.workers``
-    single-threaded worker processes (forked from the fork server with ``preload`` imported,
-    where the platform has one), or a client of the scheduler at ``spec.address``."""
+@contextlib.contextmanager
+def _dask(spec: SchedulerSpec, preload: Sequence[str] = ()):
+    """A Dask client, closed on exit: of a LocalCluster of ``spec.workers`` single-threaded worker
+    processes (forked from the fork server with ``preload`` imported, where the platform has one;
+    closed with the client), or of the scheduler at ``spec.address``."""
     import dask.config
     from dask.distributed import Client, LocalCluster  # the optional 'dask' extra
 
-    if spec.address is None:
-        config = dict(_LOCAL_CLUSTER_CONFIG)
-        if _start_fork_server(spec, preload):  # before the nannies: they would set their own preload
-            config["distributed.worker.multiprocessing-method"] = "forkserver"
-        with dask.config.set(config):  # the nannies pass it on to their workers
-            cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True, dashboard_address=":0")
-        return Client(cluster), cluster
-    try:
-        return Client(spec.address, timeout="10s"), None
-    except OSError as exc:
-        raise ConfigError(f"cannot reach the Dask scheduler at {spec.address}: {exc}", source="--scheduler") from None
-
-
-@contextlib.contextmanager
-def _dask(spec: SchedulerSpec, preload: Sequence[str] = ()):
-    """A client of :func:`_dask_client`, closed (with its local cluster) on exit."""
-    client, cluster = _dask_client(spec, preload)
-    try:
+    if spec.address is not None:
+        try:
+            client = Client(spec.address, timeout="10s")
+        except OSError as exc:
+            raise ConfigError(f"cannot reach the Dask scheduler at {spec.address}: {exc}", source="--scheduler") from None
+        with client:
+            yield client
+        return
+    config = dict(_LOCAL_CLUSTER_CONFIG)
+    if _start_fork_server(spec, preload):  # before the nannies: they would set their own preload
+        config["distributed.worker.multiprocessing-method"] = "forkserver"
+    with dask.config.set(config):  # the nannies pass it on to their workers
+        cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True, dashboard_address=":0")
+    with cluster, Client(cluster) as client:
         yield client
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 @contextlib.contextmanager
