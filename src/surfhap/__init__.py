@@ -37,11 +37,21 @@ from surfhap.errors import (
     TrajectoryFormatError,
     UnknownMaterialError,
 )
-from surfhap.io import _MODULES as _IO_MODULES
 
 # public name -> module that defines it, loaded on first attribute access
 _LAZY_MODULES = {
-    **_IO_MODULES,  # every reader and writer of sh.io
+    # the file formats (surfhap.exchange): sh.io lists these entries
+    "surfhap.exchange.display_file": ("load_display", "read_display_json"),
+    "surfhap.exchange.hatt": ("import_hatt_folder", "read_hatt_xml", "write_hatt_xml"),
+    "surfhap.exchange.material_json": ("read_material_json", "write_material_json"),
+    "surfhap.exchange.materials": ("builtin_names", "load_material"),
+    "surfhap.exchange.mesh": ("read_mesh",),
+    "surfhap.exchange.recordings": ("read_recording", "read_recordings", "Recording"),
+    "surfhap.exchange.render_files": ("write_render",),
+    "surfhap.exchange.render_store": ("read_render",),
+    "surfhap.exchange.shape_files": ("read_calibration", "write_calibration", "write_shape"),
+    "surfhap.exchange.trajectory_csv": ("read_trajectory_csv", "write_trajectory_csv"),
+    "surfhap.exchange.tribometer": ("read_tribometer",),
     "surfhap.fit.accel": ("AccelFit", "fit_accel"),
     "surfhap.fit.material_fit": ("fit_friction", "FrictionFit"),
     "surfhap.models.friction": ("CoulombLaw", "QuasiStaticLaw"),
