@@ -80,7 +80,7 @@ class MaterialComparison(Result):
 
     def plot(self, ax=None):
         """Friction over speed and load, spectra, drive voltage histograms (4 panels)."""
-        from surfhap.report.compare_figures import plot_comparison
+        from surfhap.report.lab_figures import plot_comparison
 
         return plot_comparison(self, ax)
 
