@@ -90,18 +90,15 @@ _NAMESPACES = ("texture", "io", "shape", "ff", "lab", "fit")
 _lazy_getattr, _lazy_dir = _lazy_names(__name__, _LAZY_MODULES, globals())
 
 
-def _package_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("surfhap")
-    except PackageNotFoundError:  # a source tree on sys.path that was never installed
-        return "0+unknown"
-
-
 def __getattr__(name: str):
     if name == "__version__":
-        globals()[name] = value = _package_version()
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("surfhap")
+        except PackageNotFoundError:  # a source tree on sys.path that was never installed
+            value = "0+unknown"
+        globals()[name] = value
         return value
     if name in _NAMESPACES:
         return _import_module(f"{__name__}.{name}")
