@@ -159,14 +159,6 @@ def plot_psychometric(fit, ax=None):
     return fig
 
 
-def _spectrum_band(p) -> tuple[float, float]:
-    """(low, high) Hz where a material's added-friction spectrum means something: from the first
-    Welch bin up to 0.4 x the texture's rate (its resampler rolls off above 0.45 fs; above that the
-    spectrum is the numerical floor), or 0.4 x the control rate for a friction-only material."""
-    rate = p.summary.get("texture_rate_hz") or p.summary["control_rate_hz"]
-    return float(p.freqs[1]), 0.4 * float(rate)
-
-
 def plot_comparison(comp, ax=None) -> Figure:
     """Friction over speed and load, spectra of the added friction (log-log, limited to each
     texture's band), voltage histograms (4 panels)."""
@@ -177,7 +169,9 @@ def plot_comparison(comp, ax=None) -> Figure:
         c, ls = f"C{i}", ("-", "--", ":", "-.")[i % 4]  # a style too: materials with one law overlap
         a_v.plot(p.speeds * 1e3, p.mu_speed, color=c, ls=ls, label=p.name)
         a_l.plot(p.loads, p.force_load, color=c, ls=ls, label=p.name)
-        f0, f1 = _spectrum_band(p)
+        # where the spectrum means something: from the first Welch bin to 0.4 x the texture's rate (its
+        # resampler rolls off above 0.45 fs: above, the numerical floor), or the control rate's (friction only)
+        f0, f1 = float(p.freqs[1]), 0.4 * float(p.summary.get("texture_rate_hz") or p.summary["control_rate_hz"])
         ok = (p.freqs >= f0) & (p.freqs <= f1) & (p.psd > 0)
         if ok.any():
             a_s.loglog(p.freqs[ok], p.psd[ok], color=c, ls=ls, lw=0.9, label=f"{p.name} (to {f1:g} Hz)")
