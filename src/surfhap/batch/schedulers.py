@@ -111,25 +111,20 @@ def _pool_context(preload: Sequence[str] = ()):
     return ctx
 
 
-def _start_fork_server(spec: SchedulerSpec, preload: Sequence[str]) -> bool:
-    """Start the fork server (it imports ``preload``, and ``distributed`` for a Dask cluster, in the
-    background); False where the platform has none. The server lives until this process ends; a
-    second call reuses it."""
+def prestart(spec: SchedulerSpec, preload: Sequence[str] = ()) -> bool:
+    """Start the local workers' fork server now, importing ``preload`` (and ``distributed`` for a
+    Dask ``local:N`` cluster) in the background, so that it overlaps the caller's own set-up
+    (loading materials, building the jobs). True when a fork server runs; False, doing nothing,
+    for the serial scheduler, a remote cluster, or where the platform has no fork server. The
+    server lives until this process ends; a second call reuses it."""
+    if spec.kind == "serial" or spec.address is not None:
+        return False
     if _pool_context(("distributed", *preload) if spec.kind == "dask" else preload).get_start_method() != "forkserver":
         return False
     from multiprocessing import forkserver
 
     forkserver.ensure_running()
     return True
-
-
-def prestart(spec: SchedulerSpec, preload: Sequence[str] = ()) -> None:
-    """Start the local workers' fork server now, importing ``preload`` in the background, so
-    that it overlaps the caller's own set-up (loading materials, building the jobs). For
-    local processes and a Dask ``local:N`` cluster; does nothing for the serial scheduler, a
-    remote cluster, or where there is no fork server."""
-    if spec.kind == "processes" or (spec.kind == "dask" and spec.address is None):
-        _start_fork_server(spec, preload)
 
 
 class _Pool:
@@ -196,7 +191,7 @@ def _dask(spec: SchedulerSpec, preload: Sequence[str] = ()):
             yield client
         return
     config = dict(_LOCAL_CLUSTER_CONFIG)
-    if _start_fork_server(spec, preload):  # before the nannies: they would set their own preload
+    if prestart(spec, preload):  # before the nannies: they would set their own preload
         config["distributed.worker.multiprocessing-method"] = "forkserver"
     with dask.config.set(config):  # the nannies pass it on to their workers
         cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True, dashboard_address=":0")
