@@ -127,7 +127,7 @@ def test_cli_bad_file_exit_2(tmp_path, capsys):
 
 @pytest.mark.parametrize("tau", [0.01, 0.05, 0.3])
 def test_leakage_time_constant_recovered(tau):
-    from surfhap.lab.leakage import fit_leakage
+    from surfhap.lab.calibration import fit_leakage
 
     recs = [synthetic_tribometer(v, "voltage", k=4e-6, mu_panel=0.5, leakage_time_constant=tau, duration=6.0,
                                  noise=NOISE, seed=i) for i, v in enumerate([150.0, 250.0])]

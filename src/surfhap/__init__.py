@@ -40,6 +40,7 @@ from surfhap.errors import (
 
 # public name -> module that defines it, loaded on first attribute access
 _LAZY_MODULES = {
+    # the file formats (surfhap.exchange): sh.io lists these entries
     "surfhap.exchange.display_file": ("load_display", "read_display_json"),
     "surfhap.exchange.hatt": ("import_hatt_folder", "read_hatt_xml", "write_hatt_xml"),
     "surfhap.exchange.material_json": ("read_material_json", "write_material_json"),
@@ -50,6 +51,7 @@ _LAZY_MODULES = {
     "surfhap.exchange.render_store": ("read_render",),
     "surfhap.exchange.shape_files": ("read_calibration", "write_calibration", "write_shape"),
     "surfhap.exchange.trajectory_csv": ("read_trajectory_csv", "write_trajectory_csv"),
+    "surfhap.exchange.tribometer": ("read_tribometer",),
     "surfhap.fit.accel": ("AccelFit", "fit_accel"),
     "surfhap.fit.material_fit": ("fit_friction", "FrictionFit"),
     "surfhap.models.friction": ("CoulombLaw", "QuasiStaticLaw"),
@@ -72,7 +74,6 @@ _LAZY_MODULES = {
     "surfhap.models.panel": ("DisplayModel", "SimulatedDisplay"),
     "surfhap.models.electrostatics": ("electrostatic_constant", "ElectrostaticStack"),
     "surfhap.models.trajectory": ("constant_scan", "strokes", "Trajectory"),
-    "surfhap.exchange.tribometer": ("read_tribometer",),
     "surfhap.lab.calibration": ("calibrate_display",),
     "surfhap.lab.staircase": ("Staircase", "StaircaseParams"),
     "surfhap.lab.designs": ("build_study", "study_template"),
@@ -89,18 +90,15 @@ _NAMESPACES = ("texture", "io", "shape", "ff", "lab", "fit")
 _lazy_getattr, _lazy_dir = _lazy_names(__name__, _LAZY_MODULES, globals())
 
 
-def _package_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("surfhap")
-    except PackageNotFoundError:  # a source tree on sys.path that was never installed
-        return "0+unknown"
-
-
 def __getattr__(name: str):
     if name == "__version__":
-        globals()[name] = value = _package_version()
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("surfhap")
+        except PackageNotFoundError:  # a source tree on sys.path that was never installed
+            value = "0+unknown"
+        globals()[name] = value
         return value
     if name in _NAMESPACES:
         return _import_module(f"{__name__}.{name}")
@@ -111,95 +109,7 @@ def __dir__():
     return sorted(set(_lazy_dir()) | set(_NAMESPACES) | {"__version__"})
 
 
-__all__ = [
-    "AccelFit",
-    "DeviceParams",
-    "FFEngine",
-    "load_ff_scene",
-    "SimDevice",
-    "SimFinger",
-    "simulate_ff",
-    "all_scenes",
-    "ARModel",
-    "builtin_names",
-    "builtin_shape",
-    "calibrate",
-    "ChainConfig",
-    "ConfigError",
-    "constant_scan",
-    "CoulombLaw",
-    "DeviceCurve",
-    "DisplayModel",
-    "FidelityMetrics",
-    "fidelity_metrics",
-    "GainPlan",
-    "load_display",
-    "OperatingRange",
-    "plan_gains",
-    "read_display_json",
-    "DriveParams",
-    "electrostatic_constant",
-    "ElectrostaticStack",
-    "fit_accel",
-    "fit_friction",
-    "formative_profile",
-    "FrictionFit",
-    "get_scene",
-    "GrainParams",
-    "heightmap_surface",
-    "import_hatt_folder",
-    "InputError",
-    "InterpolatedARMABank",
-    "load_material",
-    "Material",
-    "MaterialFile",
-    "MaterialFormatError",
-    "MeshFormatError",
-    "METHODS",
-    "QuasiStaticLaw",
-    "read_calibration",
-    "read_hatt_xml",
-    "read_material_json",
-    "read_mesh",
-    "read_recording",
-    "read_recordings",
-    "read_trajectory_csv",
-    "Recording",
-    "RecordingFormatError",
-    "read_render",
-    "render_shape",
-    "RenderResult",
-    "SafetyLimits",
-    "SafetyStage",
-    "ScanPlan",
-    "ShapeCalibration",
-    "ShapeConfig",
-    "ShapeResult",
-    "SimulatedDisplay",
-    "straight_scan",
-    "strokes",
-    "SurfhapError",
-    "TextureBank",
-    "TextureChain",
-    "TopHits",
-    "TopSurface",
-    "Trajectory",
-    "TrajectoryFormatError",
-    "UnknownMaterialError",
-    "write_calibration",
-    "write_hatt_xml",
-    "write_material_json",
-    "write_render",
-    "write_shape",
-    "write_trajectory_csv",
-    # lab tools
-    "analyze_study",
-    "build_study",
-    "calibrate_display",
-    "compare_materials",
-    "read_tribometer",
-    "Staircase",
-    "StaircaseParams",
-    "study_template",
-    "StudyFormatError",
-]
+#: the exceptions imported above and every lazy name
+__all__ = sorted({name for name, value in list(globals().items())
+                  if isinstance(value, type) and issubclass(value, SurfhapError)}
+                 | {name for names in _LAZY_MODULES.values() for name in names})

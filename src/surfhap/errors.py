@@ -31,6 +31,13 @@ __all__ = [
 ]
 
 
+def _one_line(message: str, *where: str | None) -> str:
+    """``source: field: message`` (the given ``where`` parts) on one line whatever the input held: a
+    JSON key or value with a line break (any of str.splitlines' separators) is quoted into the
+    field or message by the readers."""
+    return " ".join(": ".join([*(p for p in where if p), message]).splitlines())
+
+
 class SurfhapError(Exception):
     """Base class of every surfhap error."""
 
@@ -45,13 +52,7 @@ class InputError(SurfhapError, ValueError):
         self.message = message
         self.source = None if source is None else str(source)
         self.field = field
-        super().__init__(self._line())
-
-    def _line(self) -> str:
-        parts = [p for p in (self.source, self.field) if p]
-        # one line whatever the input held: a JSON key or value with a line break (any of
-        # str.splitlines' separators) is quoted into the field or message by the readers
-        return " ".join(": ".join([*parts, self.message]).splitlines())
+        super().__init__(_one_line(message, self.source, field))
 
 
 class MaterialFormatError(InputError):
@@ -98,7 +99,7 @@ class InputWarning(UserWarning):
     def __init__(self, message: str, *, source: str | None = None):
         self.message = message
         self.source = None if source is None else str(source)
-        super().__init__(" ".join(": ".join(p for p in (self.source, message) if p).splitlines()))
+        super().__init__(_one_line(message, self.source))
 
 
 class MeshUnitsWarning(InputWarning):
@@ -113,14 +114,12 @@ def _format_errors() -> tuple[type[BaseException], ...]:
     return (zipfile.BadZipFile, zlib.error, EOFError)
 
 
+_OS_REASONS = {errno.ENOENT: "no such file", errno.EISDIR: "is a folder, not a file",
+               errno.ENOSPC: "no space left on the device"}
+
+
 def _os_reason(exc: OSError) -> str:
-    if exc.errno == errno.ENOENT:
-        return "no such file"
-    if exc.errno == errno.EISDIR:
-        return "is a folder, not a file"
-    if exc.errno == errno.ENOSPC:
-        return "no space left on the device"
-    return exc.strerror or type(exc).__name__
+    return _OS_REASONS.get(exc.errno) or exc.strerror or type(exc).__name__
 
 
 @contextmanager

@@ -111,25 +111,20 @@ def _pool_context(preload: Sequence[str] = ()):
     return ctx
 
 
-def _start_fork_server(spec: SchedulerSpec, preload: Sequence[str]) -> bool:
-    """Start the fork server (it imports ``preload``, and ``distributed`` for a Dask cluster, in the
-    background); False where the platform has none. The server lives until this process ends; a
-    second call reuses it."""
+def prestart(spec: SchedulerSpec, preload: Sequence[str] = ()) -> bool:
+    """Start the local workers' fork server now, importing ``preload`` (and ``distributed`` for a
+    Dask ``local:N`` cluster) in the background, so that it overlaps the caller's own set-up
+    (loading materials, building the jobs). True when a fork server runs; False, doing nothing,
+    for the serial scheduler, a remote cluster, or where the platform has no fork server. The
+    server lives until this process ends; a second call reuses it."""
+    if spec.kind == "serial" or spec.address is not None:
+        return False
     if _pool_context(("distributed", *preload) if spec.kind == "dask" else preload).get_start_method() != "forkserver":
         return False
     from multiprocessing import forkserver
 
     forkserver.ensure_running()
     return True
-
-
-def prestart(spec: SchedulerSpec, preload: Sequence[str] = ()) -> None:
-    """Start the local workers' fork server now, importing ``preload`` in the background, so
-    that it overlaps the caller's own set-up (loading materials, building the jobs). For
-    local processes and a Dask ``local:N`` cluster; does nothing for the serial scheduler, a
-    remote cluster, or where there is no fork server."""
-    if spec.kind == "processes" or (spec.kind == "dask" and spec.address is None):
-        _start_fork_server(spec, preload)
 
 
 class _Pool:
@@ -179,36 +174,29 @@ _LOCAL_CLUSTER_CONFIG = {
 }
 
 
-def _dask_client(spec: SchedulerSpec, preload: Sequence[str] = ()):
-    """(client, cluster or None) for a Dask spec: a LocalCluster of ``spec.workers``
-    single-threaded worker processes (forked from the fork server with ``preload`` imported,
-    where the platform has one), or a client of the scheduler at ``spec.address``."""
+@contextlib.contextmanager
+def _dask(spec: SchedulerSpec, preload: Sequence[str] = ()):
+    """A Dask client, closed on exit: of a LocalCluster of ``spec.workers`` single-threaded worker
+    processes (forked from the fork server with ``preload`` imported, where the platform has one;
+    closed with the client), or of the scheduler at ``spec.address``."""
     import dask.config
     from dask.distributed import Client, LocalCluster  # the optional 'dask' extra
 
-    if spec.address is None:
-        config = dict(_LOCAL_CLUSTER_CONFIG)
-        if _start_fork_server(spec, preload):  # before the nannies: they would set their own preload
-            config["distributed.worker.multiprocessing-method"] = "forkserver"
-        with dask.config.set(config):  # the nannies pass it on to their workers
-            cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True, dashboard_address=":0")
-        return Client(cluster), cluster
-    try:
-        return Client(spec.address, timeout="10s"), None
-    except OSError as exc:
-        raise ConfigError(f"cannot reach the Dask scheduler at {spec.address}: {exc}", source="--scheduler") from None
-
-
-@contextlib.contextmanager
-def _dask(spec: SchedulerSpec, preload: Sequence[str] = ()):
-    """A client of :func:`_dask_client`, closed (with its local cluster) on exit."""
-    client, cluster = _dask_client(spec, preload)
-    try:
+    if spec.address is not None:
+        try:
+            client = Client(spec.address, timeout="10s")
+        except OSError as exc:
+            raise ConfigError(f"cannot reach the Dask scheduler at {spec.address}: {exc}", source="--scheduler") from None
+        with client:
+            yield client
+        return
+    config = dict(_LOCAL_CLUSTER_CONFIG)
+    if prestart(spec, preload):  # before the nannies: they would set their own preload
+        config["distributed.worker.multiprocessing-method"] = "forkserver"
+    with dask.config.set(config):  # the nannies pass it on to their workers
+        cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True, dashboard_address=":0")
+    with cluster, Client(cluster) as client:
         yield client
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 @contextlib.contextmanager

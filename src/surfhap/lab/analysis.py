@@ -309,10 +309,8 @@ class AnovaResult(Result):
     method: str = "repeated-measures ANOVA"
 
     def effect(self, name: str) -> tuple[str, float, float, float, float]:
-        for r in self.rows:
-            if r[0] == name:
-                return r
-        raise KeyError(name)
+        """The row of effect ``name`` (KeyError if the ANOVA has none)."""
+        return {r[0]: r for r in self.rows}[name]
 
     def summary(self) -> dict:
         return jsonable({"method": self.method, "depvar": self.depvar, "subjects": self.subjects,

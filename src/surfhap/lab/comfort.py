@@ -196,14 +196,11 @@ class ComfortRunner:
         self.params = self.adaptive if isinstance(self.adaptive, StaircaseParams) else default_comfort_params()
         self.material = material or next((str(s.render["material"]) for t in self.plan.trials for s in t.stimuli
                                           if "material" in s.render), "cork")
-        from surfhap import __version__
-
         self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}-comfort.jsonl", participant=self.plan.id,
                             config={"participant": self.plan.id, "procedure": "comfort staircase",
                                     "method": self.adaptive.method,
                                     "adaptive": self.adaptive.model_dump(mode="json"),
-                                    "material": self.material, "square_frequency": COMFORT_FREQUENCY},
-                            software_version=__version__)
+                                    "material": self.material, "square_frequency": COMFORT_FREQUENCY})
         a = self.adaptive
         self.stair = (QuestStair(np.geomspace(5.0, SAFETY_V_MAX, 35), np.geomspace(0.01, 1.0, 9), a.max_trials,
                                  COMFORT_TARGET, a.lapse) if isinstance(a, QuestPlusParams) else

@@ -80,16 +80,9 @@ class MaterialComparison(Result):
 
     def plot(self, ax=None):
         """Friction over speed and load, spectra, drive voltage histograms (4 panels)."""
-        from surfhap.report.compare_figures import plot_comparison
+        from surfhap.report.lab_figures import plot_comparison
 
         return plot_comparison(self, ax)
-
-
-def _law_text(mat) -> str:
-    if mat.quasi_static is not None:
-        q = mat.quasi_static
-        return f"quasi-static a={q.a:.3g} b={q.b:.3g} c={q.c:.3g} d={q.d:.3g} q={q.q:.3g}"
-    return f"Coulomb mu0={mat.coulomb.mu0:.3g}"
 
 
 def compare_materials(refs: Sequence[str], *, speed: float = 0.1, load: float = 0.5, duration: float = 4.0,
@@ -127,7 +120,10 @@ def compare_materials(refs: Sequence[str], *, speed: float = 0.1, load: float = 
         hist, _ = np.histogram(v_on, bins=edges)
         hist = hist / max(1, v_on.size)
         name = mat.name if ref == mat.name else f"{mat.name} ({Path(ref).name})"  # a file: said, beside built-ins
-        out.append(MaterialProfile(name, res.method, _law_text(mat), mat.texture_text(), speeds, mu_v, loads, f_l,
+        q = mat.quasi_static
+        law = (f"Coulomb mu0={mat.coulomb.mu0:.3g}" if q is None else
+               f"quasi-static a={q.a:.3g} b={q.b:.3g} c={q.c:.3g} d={q.d:.3g} q={q.q:.3g}")
+        out.append(MaterialProfile(name, res.method, law, mat.texture_text(), speeds, mu_v, loads, f_l,
                                    freqs, psd, edges, hist, float(np.mean(v_on)), float(np.percentile(v_on, 95)),
                                    float(np.max(v)), res.summary()))
     return MaterialComparison(tuple(out), speed, load, duration)

@@ -88,7 +88,7 @@ class PsychometricFit(Result):
 
     def plot(self, ax=None):
         """Proportion correct per level (marker area ~ trials), the fitted curve, the threshold and its CI."""
-        from surfhap.report.psychometric_figures import plot_psychometric
+        from surfhap.report.lab_figures import plot_psychometric
 
         return plot_psychometric(self, ax)
 

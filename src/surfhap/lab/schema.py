@@ -143,8 +143,7 @@ class InfoField(_Strict):
 class DesignSpec(_Strict):
     format: Literal["surfhap-study-design"] = DESIGN_FORMAT
     version: Literal[1] = 1
-    kind: Literal["nafc", "realism", "identification", "ratings", "shape-choice", "scene-recognition",
-                  "sliding-pairs"]
+    kind: Literal[KINDS]
     name: str = Field(min_length=1, max_length=200)
     seed: int = Field(0, ge=0)
     participants: int = Field(ge=1, le=1000)

@@ -127,15 +127,12 @@ class SessionRunner:
         self.limit_s = sess.stimulus_limit_s  # each stimulus's play time from its first touch (None: no limit)
         self.display = display  # the panel the stimuli are rendered for (--display; None: the assumptions)
         study_file = self.dir / "study.json" if self.dir.is_dir() else self.dir
-        from surfhap import __version__
-
         config = {"study": str(study_file), "study_sha256": hashlib.sha256(study_file.read_bytes()).hexdigest(),
                   "design": self.study.design.name, "kind": self.study.design.kind, "participant": self.plan.id,
                   "group": self.plan.group, "gain": self.gain, "v_max": self.v_max, "mode": mode,
                   "display": None if display is None else display.describe(),
                   "host": platform.node(), "python": platform.python_version(), **(extra_config or {})}
-        self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}.jsonl", participant=self.plan.id, config=config,
-                            software_version=__version__)
+        self.log = TrialLog(self.dir / "logs" / f"{self.plan.id}.jsonl", participant=self.plan.id, config=config)
         self._lock = threading.Lock()
         self._shown_at: dict[str, float] = {}
         self._stimulus_log: dict[str, list] = {}

@@ -87,10 +87,10 @@ class TrialLog:
 
     ``participant`` goes into every trial record; ``config`` is the snapshot written at the start
     of every session (study file hash, participant, gain, safety limit, host, ...),
-    ``software_version`` the surfhap version.
+    ``software_version`` the surfhap version (default: the installed one).
     """
 
-    def __init__(self, path: str | Path, *, participant: str, config: dict, software_version: str):
+    def __init__(self, path: str | Path, *, participant: str, config: dict, software_version: str | None = None):
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._lock_fd = os.open(str(self.path) + ".lock", os.O_RDWR | os.O_CREAT, 0o644)
@@ -116,6 +116,8 @@ class TrialLog:
         self._ids = {t["trial_id"] for t in contents.trials}
         self.session = len(contents.sessions) + 1
         self.participant = participant
+        if software_version is None:
+            from surfhap import __version__ as software_version
         # written before the session's first record: a start that fails before leaves no session
         self._head: list[dict] | None = [{"type": "session", "session": self.session, "started": now_iso(),
                                           "software_version": software_version, "config": config,

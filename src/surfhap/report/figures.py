@@ -1,4 +1,4 @@
-"""Figures for texture rendering and model fitting (matplotlib, object API, no pyplot state).
+"""Figures for texture rendering (open and closed loop) and model fitting (matplotlib, object API, no pyplot state).
 
 Each function takes a result object and ``ax`` (None, one Axes, or one Axes per panel: see
 :func:`surfhap.report.axes.figure_axes`) and returns the ``matplotlib.figure.Figure``; saving
@@ -14,7 +14,8 @@ from scipy.signal import welch
 from surfhap.report.axes import draw_drive, figure_axes, plain_log_ticks
 from surfhap.signal.bands import BandSplit
 
-__all__ = ["plot_render", "plot_order_selection", "plot_imu_fit", "plot_fidelity", "render_spectrum", "spectrum_of", "law_line"]
+__all__ = ["plot_render", "plot_order_selection", "plot_imu_fit", "plot_fidelity", "render_spectrum", "spectrum_of", "law_line",
+           "plot_loop_comparison"]
 
 _SPLIT = BandSplit()  # 3.5 Hz, the band split of Otake et al. 2022
 
@@ -139,4 +140,17 @@ def plot_fidelity(metrics, ax=None) -> Figure:
     ax.barh(shown, [d[k] for k in shown], color="C0")
     ax.axvline(0, color="k", lw=0.8)
     ax.set(xlabel="value", title=f"{metrics.material} — {metrics.method}, G = {metrics.rendering_gain:.3g}")
+    return fig
+
+
+def plot_loop_comparison(c, ax=None) -> Figure:
+    """Octave-band power of the texture band (dB), open and closed loop, with the low-band
+    RMS errors of both in the title."""
+    fig, (ax,) = figure_axes(ax, 1, (6, 3.5))
+    for figures, label, style in ((c.open, "open loop", "o-"), (c.closed, "closed loop", "s--")):
+        ax.semilogx(figures.centres, figures.texture_band, style, label=label)
+    ax.set(xlabel="octave band centre (Hz)", ylabel="texture band power (dB re 1 N²/Hz)",
+           title=f"low-band RMS error: open {c.open.low_band_rms * 1e3:.3g} mN, closed {c.closed.low_band_rms * 1e3:.3g} mN "
+                 f"(ratio {c.ratio:.2f})")
+    ax.legend()
     return fig

@@ -1,5 +1,6 @@
 """Figures for the lab tools: calibration fits, confusion matrices, proportions with intervals,
-real-vs-virtual rating scatter (matplotlib object API, no pyplot state).
+real-vs-virtual rating scatter, staircases, ANOVAs, psychometric fits and material comparisons
+(matplotlib object API, no pyplot state).
 
 Each function takes ``ax`` (None, one Axes, or one Axes per panel:
 :func:`surfhap.report.axes.figure_axes`) and returns the ``matplotlib.figure.Figure``; saving
@@ -11,10 +12,11 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from surfhap.report.axes import figure_axes
+from surfhap.report.axes import figure_axes, plain_log_ticks
+from surfhap.signal.bands import BandSplit
 
 __all__ = ["plot_calibration", "plot_confusion", "plot_proportions", "plot_rating_scatter", "plot_staircase",
-           "plot_anova"]
+           "plot_anova", "plot_psychometric", "plot_comparison"]
 
 
 def plot_calibration(cal, ax=None) -> Figure:
@@ -128,4 +130,67 @@ def plot_anova(an, ax=None, alpha: float = 0.05) -> Figure:
     ax.invert_yaxis()
     ax.set(xlabel="F", title=f"{an.method}: {an.depvar} ({an.subjects} subjects; filled: p < {alpha:g})")
     ax.margins(x=0.6)
+    return fig
+
+
+def plot_psychometric(fit, ax=None):
+    """Proportion correct per level (marker area ~ trials), the fitted curve, and the threshold
+    with its bootstrap interval if there is one; returns the Figure."""
+    fig, (ax,) = figure_axes(ax, 1, (5.0, 3.5))
+    levels, trials = np.asarray(fit.levels, float), np.asarray(fit.trials, float)
+    seen = trials > 0
+    ax.scatter(levels[seen], fit.correct[seen] / trials[seen], s=20 + 80 * trials[seen] / trials.max(),
+               color="C0", alpha=0.7, label="observed")
+    lo, hi = levels.min(), levels.max()
+    x = np.geomspace(lo, hi, 200) if fit.shape == "weibull" else np.linspace(lo, hi, 200)
+    ax.plot(x, fit.psi(x), color="C1", label=f"{fit.shape} fit")
+    if fit.shape == "weibull":
+        ax.set_xscale("log")
+    y = float(fit.psi(fit.threshold))
+    ax.axvline(fit.threshold, color="0.5", lw=0.8, ls="--")
+    if "threshold" in fit.ci:
+        t_lo, t_hi = fit.ci["threshold"]
+        ax.errorbar([fit.threshold], [y], xerr=[[fit.threshold - t_lo], [t_hi - fit.threshold]],
+                    fmt="o", color="k", capsize=3, label="threshold, 95 % CI")
+    ax.set_ylim(min(fit.guess, 0.5) - 0.05, 1.05)
+    ax.set_xlabel("stimulus level")
+    ax.set_ylabel("proportion correct")
+    ax.legend(fontsize="small")
+    return fig
+
+
+def plot_comparison(comp, ax=None) -> Figure:
+    """Friction over speed and load, spectra of the added friction (log-log, limited to each
+    texture's band), voltage histograms (4 panels)."""
+    fig, axs = figure_axes(ax, 4, (13, 7.5), nrows=2, ncols=2)
+    a_v, a_l, a_s, a_h = axs
+    lo, hi, p_lo, p_hi = np.inf, 0.0, np.inf, 0.0
+    for i, p in enumerate(comp.profiles):
+        c, ls = f"C{i}", ("-", "--", ":", "-.")[i % 4]  # a style too: materials with one law overlap
+        a_v.plot(p.speeds * 1e3, p.mu_speed, color=c, ls=ls, label=p.name)
+        a_l.plot(p.loads, p.force_load, color=c, ls=ls, label=p.name)
+        # where the spectrum means something: from the first Welch bin to 0.4 x the texture's rate (its
+        # resampler rolls off above 0.45 fs: above, the numerical floor), or the control rate's (friction only)
+        f0, f1 = float(p.freqs[1]), 0.4 * float(p.summary.get("texture_rate_hz") or p.summary["control_rate_hz"])
+        ok = (p.freqs >= f0) & (p.freqs <= f1) & (p.psd > 0)
+        if ok.any():
+            a_s.loglog(p.freqs[ok], p.psd[ok], color=c, ls=ls, lw=0.9, label=f"{p.name} (to {f1:g} Hz)")
+            lo, hi = min(lo, f0), max(hi, f1)
+            p_lo, p_hi = min(p_lo, float(p.psd[ok].min())), max(p_hi, float(p.psd[ok].max()))
+        centres = 0.5 * (p.v_edges[1:] + p.v_edges[:-1])
+        a_h.step(centres, p.v_hist, where="mid", color=c, ls=ls, label=f"{p.name} (mean {p.v_mean:.0f} V)")
+    if hi > 0:
+        a_s.axvline(BandSplit().cutoff, color="0.5", ls=":", lw=1, label="3.5 Hz band split")
+        a_s.set(xlim=(lo, hi), ylim=(p_lo / 2, p_hi * 2))
+        plain_log_ticks(a_s.xaxis)
+    a_v.set(xlabel="speed (mm/s)", ylabel="friction coefficient", title=f"friction law at {comp.load:g} N")
+    a_l.set(xlabel="normal force (N)", ylabel="friction force (N)",
+            title=f"friction law at {comp.speed * 1e3:g} mm/s")
+    a_s.set(xlabel="frequency (Hz)", ylabel="PSD (N$^2$/Hz)",
+            title=f"added friction on the simulated display, {comp.speed * 1e3:g} mm/s, {comp.load:g} N")
+    a_h.set(xlabel="|drive| (V)", ylabel="fraction of samples", title="drive voltage (after the safety stage)")
+    for ax in axs:
+        ax.legend(fontsize=8)
+    fig.suptitle(f"strokes at {comp.speed * 1e3:g} mm/s, {comp.load:g} N, {comp.duration:g} s; "
+                 f"each material by its default drive law ({', '.join(sorted({p.method for p in comp.profiles}))})")
     return fig

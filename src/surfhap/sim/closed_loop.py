@@ -188,7 +188,7 @@ class LoopComparison(Result):
                          "open_envelope_over": o.envelope_over, "closed_envelope_over": c.envelope_over})
 
     def plot(self, ax=None):
-        from surfhap.report.loop_figures import plot_loop_comparison
+        from surfhap.report.figures import plot_loop_comparison
 
         return plot_loop_comparison(self, ax)
 
