@@ -79,11 +79,6 @@ def gaussian_slope(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.stack([k * np.asarray(x) * z, k * np.asarray(y) * z], axis=-1)
 
 
-def _check_resolution(resolution: float) -> None:
-    if not (np.isfinite(resolution) and 1e-5 <= resolution <= 0.01):
-        raise ConfigError(f"must be within 1e-5..0.01 m, got {resolution}", field="resolution")
-
-
 def _grid_mesh(xs: np.ndarray, ys: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Triangulate a height grid z (ny, nx) over xs (nx,), ys (ny,): (vertices, faces), CCW
     seen from above."""
@@ -102,7 +97,8 @@ def _grid_mesh(xs: np.ndarray, ys: np.ndarray, z: np.ndarray) -> tuple[np.ndarra
 def _gaussian_mesh(resolution: float, centre: tuple[float, float], half: float, bumps) -> tuple[np.ndarray, np.ndarray]:
     """Grid step ``resolution`` m over the square of half-width ``half`` cm around ``centre`` (cm)
     of the sum of ``sign`` x Gaussian bump at each ``(cx, cy, sign)`` of ``bumps`` (cm)."""
-    _check_resolution(resolution)
+    if not (np.isfinite(resolution) and 1e-5 <= resolution <= 0.01):
+        raise ConfigError(f"must be within 1e-5..0.01 m, got {resolution}", field="resolution")
     n = int(round(2 * half * CM / resolution)) + 1
     xs = (np.linspace(-half, half, n) + centre[0]) * CM
     ys = (np.linspace(-half, half, n) + centre[1]) * CM
@@ -204,10 +200,9 @@ def light_direction(light: str) -> np.ndarray:
     if light == "spot":
         return np.array([0.0, 0.0, 1.0])
     if light == "directional":
-        a = np.radians(45.0)
-        rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
-        ry = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
-        travel = ry @ rx @ np.array([0.0, 0.0, -1.0])  # direction the light travels
+        from scipy.spatial.transform import Rotation
+
+        travel = Rotation.from_euler("xy", [45.0, 45.0], degrees=True).apply([0.0, 0.0, -1.0])  # where the light travels
         return -travel / np.linalg.norm(travel)
     raise ConfigError(f"unknown light {light!r} (spot | directional)", field="light")
 
