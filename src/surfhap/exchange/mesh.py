@@ -21,7 +21,7 @@ import numpy as np
 
 from surfhap.errors import MeshFormatError, MeshUnitsWarning
 
-__all__ = ["MeshData", "read_mesh", "arrays_from_trimesh", "orient_up", "builtin_mesh_path", "BUILTIN_MESHES",
+__all__ = ["MeshData", "read_mesh", "arrays_from_trimesh", "check_mesh", "orient_up", "builtin_mesh_path", "BUILTIN_MESHES",
            "PLAUSIBLE_EXTENT_M", "place_mesh"]
 
 #: (smallest, largest) plausible top-view extent of a mesh in metres: a touch surface is
@@ -85,10 +85,24 @@ def arrays_from_trimesh(mesh, source: str = "mesh") -> tuple[np.ndarray, np.ndar
         mesh = trimesh.util.concatenate(geoms)
     if not isinstance(mesh, trimesh.Trimesh):
         raise MeshFormatError(f"not a triangle mesh ({type(mesh).__name__})", source=source)
-    v = np.asarray(mesh.vertices, dtype=np.float64)
-    f = np.asarray(mesh.faces, dtype=np.int64)
-    if f.ndim != 2 or f.shape[0] == 0:
+    return check_mesh(mesh.vertices, mesh.faces, source)
+
+
+def check_mesh(vertices, faces, source: str) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (nv, 3) float64, faces (nf, 3) int64), contiguous; MeshFormatError naming
+    ``source`` unless they are a non-empty, finite triangle mesh whose faces index its vertices."""
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise MeshFormatError(f"vertices must be an (n, 3) array, got shape {v.shape}", source=source)
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise MeshFormatError(f"faces must be an (m, 3) array of triangles, got shape {f.shape}", source=source)
+    if f.shape[0] == 0 or v.shape[0] < 3:
         raise MeshFormatError("the mesh is empty (no triangles)", source=source)
+    if not np.all(np.isfinite(v)):
+        raise MeshFormatError("vertex coordinates contain NaN or inf", source=source)
+    if f.min() < 0 or f.max() >= v.shape[0]:
+        raise MeshFormatError(f"face indices outside 0..{v.shape[0] - 1}", source=source)
     return v, f
 
 
@@ -156,10 +170,4 @@ def read_mesh(path: str | Path, *, up: str = "z", scale: float = 1.0, size: floa
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise MeshFormatError(f"cannot parse the {ext.upper()} file ({msg[:160]})", source=src) from None
     v, f = arrays_from_trimesh(loaded, source=src)
-    if v.shape[0] < 3:
-        raise MeshFormatError("the mesh is empty (fewer than 3 vertices)", source=src)
-    if not np.all(np.isfinite(v)):
-        raise MeshFormatError("vertex coordinates contain NaN or inf", source=src)
-    if f.min() < 0 or f.max() >= v.shape[0]:
-        raise MeshFormatError("face indices point past the vertex list", source=src)
     return MeshData(place_mesh(v, up, scale, size, src), f, p.stem, src)
