@@ -255,8 +255,7 @@ class InterpolatedARMABank:
         k, *idx, w0, w1, w2 = _vertices(x, y, self._pts, self.triangles, self._inv, -1, lim)
         idx, w = np.array(idx), np.array([w0, w1, w2])
         ar = w @ self.ar_lsf[idx]
-        ma = w @ self.ma_lsf[idx] if self.ma_order else np.zeros(0)
-        return InterpolatedModel(lsf_to_poly(ar), lsf_to_poly(ma), float(w @ self.variances[idx]), float(w @ self.gains[idx]),
+        return InterpolatedModel(lsf_to_poly(ar), lsf_to_poly(w @ self.ma_lsf[idx]), float(w @ self.variances[idx]), float(w @ self.gains[idx]),
                                  int(k), idx, w)
 
     def psd_at(self, speed: float, load: float, freqs: np.ndarray) -> np.ndarray:

@@ -199,7 +199,6 @@ def select_order(
     x : (n,) float. One FFT autocovariance plus one Levinson–Durbin recursion gives all
     orders at once; the coefficients at the chosen order are the Yule–Walker ("mle") ones.
     """
-    check_criterion(criterion)
     x = np.asarray(x, dtype=float)
     if not 0 <= min_order <= max_order:
         raise ValueError("need 0 <= min_order <= max_order")
