@@ -138,7 +138,7 @@ def check_scan(speed: float, load: float, sensor_rate: float, duration: float | 
     if not (np.isfinite(load) and 0 < load <= MAX_LOAD):
         raise ConfigError(f"must be in (0, {MAX_LOAD:g}] N, got {load:g} ({_HINTS['load']})", field="load")
     if not (np.isfinite(sensor_rate) and 10 <= sensor_rate <= 10_000):
-        raise ConfigError(f"must be in [10, 10000] Hz, got {sensor_rate}", field="sensor_rate")
+        raise ConfigError(f"must be in [10, 10000] Hz, got {sensor_rate}", field="rate")  # the CLIs' rate=, --rate
     if duration is not None and not (np.isfinite(duration) and 0 < duration <= 3600):
         raise ConfigError(f"must be in (0, 3600] s, got {duration}", field="duration")
 
