@@ -103,10 +103,7 @@ def _gaussian_mesh(resolution: float, centre: tuple[float, float], half: float, 
     xs = (np.linspace(-half, half, n) + centre[0]) * CM
     ys = (np.linspace(-half, half, n) + centre[1]) * CM
     X, Y = np.meshgrid(xs, ys)
-    z = np.zeros_like(X)
-    for cx, cy, sign in bumps:
-        z += sign * gaussian_height(X - cx * CM, Y - cy * CM)
-    return _grid_mesh(xs, ys, z)
+    return _grid_mesh(xs, ys, sum(sign * gaussian_height(X - cx * CM, Y - cy * CM) for cx, cy, sign in bumps))
 
 
 def gaussian_bump(resolution: float = 0.0005, hole: bool = False, centre: tuple[float, float] = (0.0, 0.0),
@@ -123,13 +120,9 @@ def frustum_bump(hole: bool = False, centre: tuple[float, float] = (0.0, 0.0), p
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Square frustum bump (or hole) on a ``patch`` cm ground square (Fig. 11b), from its
     planar faces. Returns (vertices (24, 3) float m... (nv, 3), faces (18, 3) int)."""
-    h = -height if hole else height
-    rings = []
-    for half, z in ((patch / 2, 0.0), (base / 2, 0.0), (top / 2, h)):
-        rings.append([(-half, -half, z), (half, -half, z), (half, half, z), (-half, half, z)])
-    v = np.array([p for ring in rings for p in ring], dtype=float)
-    v[:, 0] += centre[0]
-    v[:, 1] += centre[1]
+    rings = ((patch / 2, 0.0), (base / 2, 0.0), (top / 2, -height if hole else height))  # ground, base, top
+    v = np.array([(sx * half + centre[0], sy * half + centre[1], z) for half, z in rings
+                  for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))], dtype=float)
     faces = []
     for r in range(2):  # ground ring (outer -> base), then sides (base -> top)
         o, i = 4 * r, 4 * (r + 1)
