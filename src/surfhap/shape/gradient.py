@@ -39,7 +39,6 @@ __all__ = [
     "lateral_force",
     "signed_sqrt",
     "intensity_from_fsq",
-    "neutral_intensity",
     "check_range",
 ]
 
@@ -189,8 +188,3 @@ def intensity_from_fsq(fsq: np.ndarray, fmin: float, fmax: float) -> np.ndarray:
     out = np.empty_like(f)
     _intensity_loop(f, fmin, fmax, out)
     return out.reshape(np.shape(fsq))
-
-
-def neutral_intensity(fmin: float, fmax: float) -> float:
-    """Intensity of a flat surface (Fsq = 0) under eq. 9."""
-    return float(intensity_from_fsq(np.zeros(1), fmin, fmax)[0])

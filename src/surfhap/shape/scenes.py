@@ -30,7 +30,6 @@ from surfhap.errors import ConfigError
 __all__ = [
     "CM",
     "gaussian_height",
-    "gaussian_slope",
     "gaussian_bump",
     "frustum_bump",
     "Scene",
@@ -70,13 +69,6 @@ def gaussian_height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     xc = np.asarray(x, dtype=float) / CM
     yc = np.asarray(y, dtype=float) / CM
     return GAUSS_A * np.exp(-(xc * xc + yc * yc) / GAUSS_S) * CM
-
-
-def gaussian_slope(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """(n, 2) gradient (dz/dx, dz/dy), dimensionless, of :func:`gaussian_height`."""
-    z = gaussian_height(x, y)
-    k = -2.0 / (GAUSS_S * CM * CM)
-    return np.stack([k * np.asarray(x) * z, k * np.asarray(y) * z], axis=-1)
 
 
 def _grid_mesh(xs: np.ndarray, ys: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
