@@ -90,8 +90,10 @@ def _build_grid(vertices: np.ndarray, faces: np.ndarray, cells_per_face: float =
     esign = np.sign(area2)
     ok = esign != 0
     zmax = tri[:, :, 2].max(axis=1)
-    bx0, by0 = txy.min(axis=1).T  # (nf,) bounding boxes of the xy projections
-    bx1, by1 = txy.max(axis=1).T
+    bx0 = txy[:, :, 0].min(axis=1)
+    bx1 = txy[:, :, 0].max(axis=1)
+    by0 = txy[:, :, 1].min(axis=1)
+    by1 = txy[:, :, 1].max(axis=1)
     if np.any(ok):
         x0, x1 = float(bx0[ok].min()), float(bx1[ok].max())
         y0, y1 = float(by0[ok].min()), float(by1[ok].max())
