@@ -21,8 +21,8 @@ import numpy as np
 
 from surfhap.errors import MeshFormatError, MeshUnitsWarning
 
-__all__ = ["MeshData", "read_mesh", "arrays_from_trimesh", "orient_up", "builtin_mesh_path", "BUILTIN_MESHES",
-           "PLAUSIBLE_EXTENT_M", "warn_mesh_extent"]
+__all__ = ["MeshData", "read_mesh", "arrays_from_trimesh", "check_mesh", "orient_up", "builtin_mesh_path", "BUILTIN_MESHES",
+           "PLAUSIBLE_EXTENT_M", "place_mesh"]
 
 #: (smallest, largest) plausible top-view extent of a mesh in metres: a touch surface is
 #: millimetres to decimetres across; outside this a mesh was most likely modelled in other units
@@ -85,17 +85,40 @@ def arrays_from_trimesh(mesh, source: str = "mesh") -> tuple[np.ndarray, np.ndar
         mesh = trimesh.util.concatenate(geoms)
     if not isinstance(mesh, trimesh.Trimesh):
         raise MeshFormatError(f"not a triangle mesh ({type(mesh).__name__})", source=source)
-    v = np.asarray(mesh.vertices, dtype=np.float64)
-    f = np.asarray(mesh.faces, dtype=np.int64)
-    if f.ndim != 2 or f.shape[0] == 0:
+    return check_mesh(mesh.vertices, mesh.faces, source)
+
+
+def check_mesh(vertices, faces, source: str) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (nv, 3) float64, faces (nf, 3) int64), contiguous; MeshFormatError naming
+    ``source`` unless they are a non-empty, finite triangle mesh whose faces index its vertices."""
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise MeshFormatError(f"vertices must be an (n, 3) array, got shape {v.shape}", source=source)
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise MeshFormatError(f"faces must be an (m, 3) array of triangles, got shape {f.shape}", source=source)
+    if f.shape[0] == 0 or v.shape[0] < 3:
         raise MeshFormatError("the mesh is empty (no triangles)", source=source)
+    if not np.all(np.isfinite(v)):
+        raise MeshFormatError("vertex coordinates contain NaN or inf", source=source)
+    if f.min() < 0 or f.max() >= v.shape[0]:
+        raise MeshFormatError(f"face indices outside 0..{v.shape[0] - 1}", source=source)
     return v, f
 
 
-def warn_mesh_extent(vertices: np.ndarray, source: str) -> None:
-    """Warn (:class:`MeshUnitsWarning`, with :func:`warnings.warn`) when the larger side of the
-    top-view (x-y) extent of ``vertices`` (metres) is outside :data:`PLAUSIBLE_EXTENT_M`."""
-    v = np.asarray(vertices, dtype=float)
+def place_mesh(vertices: np.ndarray, up: str, scale: float, size: float | None, source: str) -> np.ndarray:
+    """(n, 3) vertices turned so ``up`` is +z (:func:`orient_up`), times ``scale``, and with
+    ``size``: centred on x = y = 0 with the larger xy side ``size`` m (see :func:`read_mesh`).
+    Warns (:class:`MeshUnitsWarning`) when the larger side of the result's top-view (x-y)
+    extent (metres) is outside :data:`PLAUSIBLE_EXTENT_M`."""
+    v = orient_up(vertices, up) * float(scale)
+    if size is not None:
+        lo, hi = v.min(axis=0), v.max(axis=0)
+        extent = float(max(hi[0] - lo[0], hi[1] - lo[1]))
+        if extent <= 0:
+            raise MeshFormatError("the mesh has no extent in x and y", source=source)
+        centre = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.0])
+        v = (v - centre) * (size / extent)
     extent = float(np.max(np.ptp(v[:, :2], axis=0))) if v.size else 0.0
     lo, hi = PLAUSIBLE_EXTENT_M
     if not lo <= extent <= hi:
@@ -103,6 +126,7 @@ def warn_mesh_extent(vertices: np.ndarray, source: str) -> None:
         warnings.warn(MeshUnitsWarning(f"the mesh spans {extent:.4g} m across, read as metres; if it is in {guess}, "
                                        f"rescale it with --size METRES (the width it should span, e.g. --size 0.05) "
                                        "or --scale", source=source), stacklevel=3)
+    return v
 
 
 def read_mesh(path: str | Path, *, up: str = "z", scale: float = 1.0, size: float | None = None) -> MeshData:
@@ -146,19 +170,4 @@ def read_mesh(path: str | Path, *, up: str = "z", scale: float = 1.0, size: floa
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise MeshFormatError(f"cannot parse the {ext.upper()} file ({msg[:160]})", source=src) from None
     v, f = arrays_from_trimesh(loaded, source=src)
-    if v.shape[0] < 3:
-        raise MeshFormatError("the mesh is empty (fewer than 3 vertices)", source=src)
-    if not np.all(np.isfinite(v)):
-        raise MeshFormatError("vertex coordinates contain NaN or inf", source=src)
-    if f.min() < 0 or f.max() >= v.shape[0]:
-        raise MeshFormatError("face indices point past the vertex list", source=src)
-    v = orient_up(v, up) * float(scale)
-    if size is not None:
-        lo, hi = v.min(axis=0), v.max(axis=0)
-        extent = float(max(hi[0] - lo[0], hi[1] - lo[1]))
-        if extent <= 0:
-            raise MeshFormatError("the mesh has no extent in x and y", source=src)
-        centre = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.0])
-        v = (v - centre) * (size / extent)
-    warn_mesh_extent(v, src)
-    return MeshData(v, f, p.stem, src)
+    return MeshData(place_mesh(v, up, scale, size, src), f, p.stem, src)

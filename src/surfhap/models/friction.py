@@ -11,6 +11,7 @@ The laws are pydantic dataclasses: their ranges are checked once, here, and the 
 
 from __future__ import annotations
 
+import functools
 from typing import Annotated
 
 import numpy as np
@@ -70,17 +71,13 @@ class QuasiStaticLaw:
         return out
 
 
-_KERNEL = []
-
-
+@functools.cache
 def _quasi_static_kernel():
     """The compiled eq. 3 (numba), imported on the first evaluation rather than when a
     material is read (the CLI starts fast); later calls run no import statement."""
-    if not _KERNEL:
-        from surfhap.models.friction_kernel import quasi_static
+    from surfhap.models.friction_kernel import quasi_static
 
-        _KERNEL.append(quasi_static)
-    return _KERNEL[0]
+    return quasi_static
 
 
 FrictionLaw = CoulombLaw | QuasiStaticLaw

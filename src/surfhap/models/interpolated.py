@@ -72,48 +72,13 @@ class InterpolatedModel:
 def _triangle_transforms(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """(t, 2, 2) inverse edge matrices for barycentric coordinates. A degenerate triangle
     (collinear vertices; it contains no point) gets NaN, so it never matches a query."""
-    out = np.empty((triangles.shape[0], 2, 2))
-    for k, (i, j, l) in enumerate(triangles):
-        m = np.array([[points[j, 0] - points[i, 0], points[l, 0] - points[i, 0]],
-                      [points[j, 1] - points[i, 1], points[l, 1] - points[i, 1]]])
-        scale = max(float(np.max(np.abs(m))), 1e-300)
-        if abs(np.linalg.det(m / scale)) < 1e-12:
-            out[k] = np.nan
-        else:
-            out[k] = np.linalg.inv(m)
+    p = points[triangles]
+    m = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]], axis=-1)  # columns: the edges from vertex 0
+    scale = np.maximum(np.abs(m).max(axis=(1, 2), initial=0.0), 1e-300)
+    ok = np.abs(np.linalg.det(m / scale[:, None, None])) >= 1e-12
+    out = np.full(m.shape, np.nan)
+    out[ok] = np.linalg.inv(m[ok])
     return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _locate(x, y, pts, tris, inv, start):
-    """Triangle index and barycentric weights of (x, y); start: triangle to try first."""
-    nt = tris.shape[0]
-    for kk in range(nt + 1):
-        k = start if kk == 0 else kk - 1
-        if k < 0 or (kk > 0 and k == start):
-            continue
-        i0 = tris[k, 0]
-        dx = x - pts[i0, 0]
-        dy = y - pts[i0, 1]
-        l1 = inv[k, 0, 0] * dx + inv[k, 0, 1] * dy
-        l2 = inv[k, 1, 0] * dx + inv[k, 1, 1] * dy
-        l0 = 1.0 - l1 - l2
-        eps = -1e-9
-        if l0 >= eps and l1 >= eps and l2 >= eps:
-            return k, l0, l1, l2
-    return -1, 0.0, 0.0, 0.0
-
-
-@numba.njit(cache=True, nogil=True)
-def _nearest(x, y, pts, scale_x, scale_y):
-    best = 0
-    bd = 1e300
-    for i in range(pts.shape[0]):
-        d = ((x - pts[i, 0]) / scale_x) ** 2 + ((y - pts[i, 1]) / scale_y) ** 2
-        if d < bd:
-            bd = d
-            best = i
-    return best
 
 
 @numba.njit(cache=True, nogil=True)
@@ -128,12 +93,28 @@ def _clamp(speed, force, limits):
 @numba.njit(cache=True, nogil=True)
 def _vertices(x, y, pts, tris, inv, start, limits):
     """(triangle, i0, i1, i2, w0, w1, w2): the vertices of the triangle holding the clamped
-    (x, y) and their barycentric weights, or triangle -1 and the nearest vertex with weight 1."""
-    k, l0, l1, l2 = _locate(x, y, pts, tris, inv, start)
-    if k >= 0:
-        return k, tris[k, 0], tris[k, 1], tris[k, 2], l0, l1, l2
-    i = _nearest(x, y, pts, limits[4], limits[5])
-    return k, i, i, i, 1.0, 0.0, 0.0
+    (x, y) (triangle ``start`` tried first) and their barycentric weights, or triangle -1 and
+    the nearest vertex (distances scaled by limits[4:6]) with weight 1."""
+    for kk in range(tris.shape[0] + 1):
+        k = start if kk == 0 else kk - 1
+        if k < 0 or (kk > 0 and k == start):
+            continue
+        i0 = tris[k, 0]
+        dx = x - pts[i0, 0]
+        dy = y - pts[i0, 1]
+        l1 = inv[k, 0, 0] * dx + inv[k, 0, 1] * dy
+        l2 = inv[k, 1, 0] * dx + inv[k, 1, 1] * dy
+        l0 = 1.0 - l1 - l2
+        if l0 >= -1e-9 and l1 >= -1e-9 and l2 >= -1e-9:
+            return k, i0, tris[k, 1], tris[k, 2], l0, l1, l2
+    best = 0
+    bd = 1e300
+    for i in range(pts.shape[0]):
+        d = ((x - pts[i, 0]) / limits[4]) ** 2 + ((y - pts[i, 1]) / limits[5]) ** 2
+        if d < bd:
+            bd = d
+            best = i
+    return -1, best, best, best, 1.0, 0.0, 0.0
 
 
 @numba.njit(cache=True, nogil=True)
@@ -239,7 +220,7 @@ class InterpolatedARMABank:
         if tris.size and (tris.min() < 0 or tris.max() >= k):
             raise ValueError(f"triangle vertex indices must be within 0..{k - 1}")
         pts = np.ascontiguousarray(np.column_stack([self.speeds, self.forces]))
-        inv = _triangle_transforms(pts, tris) if tris.size else np.zeros((0, 2, 2))
+        inv = _triangle_transforms(pts, tris)
         for key, val in (("ar_lsf", ar), ("ma_lsf", ma), ("_pts", pts), ("_inv", inv)):
             object.__setattr__(self, key, val)
         return self
@@ -274,8 +255,7 @@ class InterpolatedARMABank:
         k, *idx, w0, w1, w2 = _vertices(x, y, self._pts, self.triangles, self._inv, -1, lim)
         idx, w = np.array(idx), np.array([w0, w1, w2])
         ar = w @ self.ar_lsf[idx]
-        ma = w @ self.ma_lsf[idx] if self.ma_order else np.zeros(0)
-        return InterpolatedModel(lsf_to_poly(ar), lsf_to_poly(ma), float(w @ self.variances[idx]), float(w @ self.gains[idx]),
+        return InterpolatedModel(lsf_to_poly(ar), lsf_to_poly(w @ self.ma_lsf[idx]), float(w @ self.variances[idx]), float(w @ self.gains[idx]),
                                  int(k), idx, w)
 
     def psd_at(self, speed: float, load: float, freqs: np.ndarray) -> np.ndarray:

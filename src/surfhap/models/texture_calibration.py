@@ -40,13 +40,7 @@ import numpy as np
 from surfhap.signal.ar import ar_psd
 from surfhap.signal.bands import BandSplit
 
-__all__ = ["PAPER_VOLTAGE_RATIOS", "RATIO_REFERENCE", "texture_band_std", "relative_scale", "voltage_ratio"]
-
-RATIO_REFERENCE = ("Otake et al. 2022 (shared/papers/003_1a15d13042f9a763.txt), Sec. IV-D: approximate ratios "
-                   "(friction component : textural component) of the applied voltages")
-
-# 003 Sec. IV-D: (10:3), (10:6), (10:6), (10:4) for leather, cork, denim and wood.
-PAPER_VOLTAGE_RATIOS = {"leather": 0.3, "cork": 0.6, "denim": 0.6, "wood": 0.4}
+__all__ = ["texture_band_std", "relative_scale"]
 
 
 def texture_band_std(coefficients, variance: float, sample_rate: float, cutoff: float = 3.5, n: int = 1 << 18) -> float:
@@ -68,7 +62,3 @@ def relative_scale(ratio: float, beta: float, reference_std: float) -> float:
         raise ValueError("ratio, beta and reference_std must be > 0")
     return float(ratio ** 2 / (beta * reference_std))
 
-
-def voltage_ratio(beta_sd_mu_t_over_mu_low: float) -> float:
-    """``r = sqrt(beta sd(mu_t) / mu_low)`` from the relative textural strength."""
-    return float(np.sqrt(max(beta_sd_mu_t_over_mu_low, 0.0)))

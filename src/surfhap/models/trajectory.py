@@ -18,7 +18,7 @@ from surfhap.errors import ConfigError
 from surfhap.models.finger import ACCELERATION_WINDOW, MAX_ACCELERATION, MAX_LOAD, MAX_SPEED
 
 __all__ = ["Trajectory", "constant_scan", "strokes", "DEFAULT_SENSOR_RATE", "MAX_SPEED", "MAX_LOAD", "MAX_ACCELERATION",
-           "ACCELERATION_WINDOW", "Implausible", "implausible"]
+           "ACCELERATION_WINDOW", "Implausible", "implausible", "check_scan"]
 
 DEFAULT_SENSOR_RATE = 125.0  # Hz, the force-sensor rate of Otake et al. 2021 (Sec. II)
 
@@ -131,21 +131,22 @@ def _acceleration(t, x, y, load) -> Implausible | None:
     return Implausible("acceleration", i, float(acc[k]), _bound_message("acceleration", float(acc[k])))
 
 
-def _check(speed: float, load: float, duration: float, sensor_rate: float):
+def check_scan(speed: float, load: float, sensor_rate: float, duration: float | None = None) -> None:
+    """The ranges of a synthetic scan (here and :func:`surfhap.shape.scan.straight_scan`); ConfigError naming the field."""
     if not (np.isfinite(speed) and 0 < speed <= MAX_SPEED):
         raise ConfigError(f"must be in (0, {MAX_SPEED:g}] m/s, got {speed:g} (in mm/s? use m/s)", field="speed")
     if not (np.isfinite(load) and 0 < load <= MAX_LOAD):
         raise ConfigError(f"must be in (0, {MAX_LOAD:g}] N, got {load:g} ({_HINTS['load']})", field="load")
-    if not (np.isfinite(duration) and 0 < duration <= 3600):
-        raise ConfigError(f"must be in (0, 3600] s, got {duration}", field="duration")
     if not (np.isfinite(sensor_rate) and 10 <= sensor_rate <= 10_000):
-        raise ConfigError(f"must be in [10, 10000] Hz, got {sensor_rate}", field="sensor_rate")
+        raise ConfigError(f"must be in [10, 10000] Hz, got {sensor_rate}", field="rate")  # the CLIs' rate=, --rate
+    if duration is not None and not (np.isfinite(duration) and 0 < duration <= 3600):
+        raise ConfigError(f"must be in (0, 3600] s, got {duration}", field="duration")
 
 
 def constant_scan(speed: float, load: float, duration: float, sensor_rate: float = DEFAULT_SENSOR_RATE,
                   direction: float = 0.0) -> Trajectory:
     """A straight scan at constant speed (m/s) and load (N), heading ``direction`` (rad)."""
-    _check(speed, load, duration, sensor_rate)
+    check_scan(speed, load, sensor_rate, duration)
     t = np.arange(0.0, duration + 0.5 / sensor_rate, 1.0 / sensor_rate)
     s = speed * t
     return Trajectory(t, s * np.cos(direction), s * np.sin(direction), np.full(t.size, float(load)),
@@ -155,7 +156,7 @@ def constant_scan(speed: float, load: float, duration: float, sensor_rate: float
 def strokes(speed: float, load: float, duration: float, length: float = 0.08,
             sensor_rate: float = DEFAULT_SENSOR_RATE) -> Trajectory:
     """Back-and-forth strokes of ``length`` m at constant ``speed`` (m/s), reversing at the ends."""
-    _check(speed, load, duration, sensor_rate)
+    check_scan(speed, load, sensor_rate, duration)
     if not (np.isfinite(length) and 0 < length <= 1.0):
         raise ConfigError(f"must be in (0, 1] m, got {length}", field="length")
     t = np.arange(0.0, duration + 0.5 / sensor_rate, 1.0 / sensor_rate)

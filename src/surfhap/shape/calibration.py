@@ -168,13 +168,10 @@ def scan_lines(surface: TopSurface, plan: ScanPlan):
     d = np.column_stack([np.cos(ang), np.sin(ang)])
     p = np.column_stack([-np.sin(ang), np.cos(ang)])
     # (direction, line, speed) grid
-    st = c[None, None, :] + offs[None, :, None] * p[:, None, :] - radius * d[:, None, :]
-    st = np.broadcast_to(st[:, :, None, :], (plan.directions, lines, speeds.size, 2)).reshape(-1, 2)
-    dirs = np.broadcast_to(d[:, None, None, :], (plan.directions, lines, speeds.size, 2)).reshape(-1, 2)
-    steps = np.broadcast_to(steps_v[None, None, :], (plan.directions, lines, speeds.size)).reshape(-1)
-    counts = np.broadcast_to(per_line[None, None, :], (plan.directions, lines, speeds.size)).reshape(-1)
-    return (np.ascontiguousarray(st), np.ascontiguousarray(dirs), np.ascontiguousarray(steps),
-            np.ascontiguousarray(counts), lines)
+    st = (c + offs[None, :, None] * p[:, None, :] - radius * d[:, None, :]).reshape(-1, 2)
+    per_speed, reps = speeds.size, plan.directions * lines
+    return (np.repeat(st, per_speed, axis=0), np.repeat(d, lines * per_speed, axis=0), np.tile(steps_v, reps),
+            np.tile(per_line, reps), lines)
 
 
 def scan_fsq(surface: TopSurface, plan: ScanPlan | None = None, fz: float = FZ_DEFAULT) -> tuple[np.ndarray, int]:

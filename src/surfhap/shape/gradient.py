@@ -39,7 +39,7 @@ __all__ = [
     "lateral_force",
     "signed_sqrt",
     "intensity_from_fsq",
-    "neutral_intensity",
+    "check_range",
 ]
 
 FZ_DEFAULT = 1.0  # N, assumed normal force (Kim et al. Sec. 3.1.1 and eq. 7)
@@ -111,7 +111,8 @@ def _gradient_loop(x, y, z, px, py, pz, pf, fz, fmin, fmax, force, fsq, inten, m
         pf = f
 
 
-def _check_range(fmin: float, fmax: float) -> tuple[float, float]:
+def check_range(fmin: float, fmax: float) -> tuple[float, float]:
+    """(fmin, fmax) as floats; ValueError unless finite with fmin < fmax (the Fsq range of eq. 9)."""
     fmin = float(fmin)
     fmax = float(fmax)
     if not (np.isfinite(fmin) and np.isfinite(fmax) and fmin < fmax):
@@ -129,7 +130,7 @@ def gradient_block(x: np.ndarray, y: np.ndarray, z: np.ndarray, fmin: float, fma
               trajectory (the first sample then gets force 0).
     Returns ``(force (n,) N, fsq (n,) sqrt(N), intensity (n,) in [0.3, 1], moved (n,) bool)``.
     """
-    fmin, fmax = _check_range(fmin, fmax)
+    fmin, fmax = check_range(fmin, fmax)
     x = np.ascontiguousarray(x, dtype=np.float64)
     y = np.ascontiguousarray(y, dtype=np.float64)
     z = np.ascontiguousarray(z, dtype=np.float64)
@@ -182,13 +183,8 @@ def intensity_from_fsq(fsq: np.ndarray, fmin: float, fmax: float) -> np.ndarray:
     fsq (n,) float; fmin < fmax. NaN inputs give the intensity of Fsq = 0. The result is
     always within [0.3, 1.0].
     """
-    fmin, fmax = _check_range(fmin, fmax)
+    fmin, fmax = check_range(fmin, fmax)
     f = np.ascontiguousarray(fsq, dtype=np.float64).ravel()
     out = np.empty_like(f)
     _intensity_loop(f, fmin, fmax, out)
     return out.reshape(np.shape(fsq))
-
-
-def neutral_intensity(fmin: float, fmax: float) -> float:
-    """Intensity of a flat surface (Fsq = 0) under eq. 9."""
-    return float(intensity_from_fsq(np.zeros(1), fmin, fmax)[0])

@@ -43,9 +43,8 @@ def heightmap_mesh(z: np.ndarray, pixel_size: float, height: float = 1.0) -> tup
 
     ny, nx = z.shape
     xs = (np.arange(nx) - (nx - 1) / 2.0) * pixel_size
-    ys = ((ny - 1) / 2.0 - np.arange(ny)) * pixel_size  # row 0 at the top
-    # _grid_mesh wants ys increasing: flip rows
-    return _grid_mesh(xs, ys[::-1], (z * height)[::-1])
+    ys = (np.arange(ny) - (ny - 1) / 2.0) * pixel_size
+    return _grid_mesh(xs, ys, (z * height)[::-1])  # rows flipped: row 0 (the top) at the largest y
 
 
 def read_heightmap_image(path: str | Path) -> np.ndarray:

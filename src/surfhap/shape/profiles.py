@@ -37,7 +37,6 @@ __all__ = [
     "profile_force",
     "ip_intensity",
     "piecewise_knots",
-    "piecewise_profile",
     "Profile1D",
     "formative_profile",
     "OFFSETS",
@@ -82,11 +81,6 @@ def piecewise_knots() -> np.ndarray:
     return np.array([-h, -3 * SIGMA, -SIGMA, 0.0, SIGMA, 3 * SIGMA, h]) + MU
 
 
-def piecewise_profile(x: np.ndarray, values_at_knots: np.ndarray) -> np.ndarray:
-    """Linear interpolation of knot values over x (m)."""
-    return np.interp(np.asarray(x, dtype=float), piecewise_knots(), np.asarray(values_at_knots, dtype=float))
-
-
 @dataclass
 class Profile1D(Result):
     """One formative-study profile sampled along the track: x (n,) m, height (n,) m,
@@ -125,6 +119,6 @@ def formative_profile(shape: str = "bump", mapping: str = "IP0.5", piecewise: bo
     inten = ip_intensity(force, OFFSETS[mapping])
     if piecewise:
         k = piecewise_knots()
-        inten = piecewise_profile(x, ip_intensity(profile_force(k, hole), OFFSETS[mapping]))
+        inten = np.interp(x, k, ip_intensity(profile_force(k, hole), OFFSETS[mapping]))
     name = f"{shape} {mapping}{' piecewise' if piecewise else ''}"
     return Profile1D(name, x, profile_height(x, hole), force, inten)

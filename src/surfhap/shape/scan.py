@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.models.trajectory import MAX_LOAD, MAX_SPEED, Trajectory
+from surfhap.models.trajectory import Trajectory, check_scan
 
 __all__ = ["straight_scan", "parse_scan", "top_view", "DEFAULT_TOUCH_RATE", "DEFAULT_LOAD"]
 
@@ -23,12 +23,7 @@ def straight_scan(x0: float, y0: float, x1: float, y1: float, speed: float, *, r
     length = float(np.hypot(x1 - x0, y1 - y0))
     if not length > 0:
         raise ConfigError("start and end of the scan coincide", field="scan")
-    if not 0 < speed <= MAX_SPEED:  # the plausibility bounds of every trajectory (models.trajectory)
-        raise ConfigError(f"speed must be in (0, {MAX_SPEED:g}] m/s, got {speed}", field="speed")
-    if not 10 <= rate <= 10_000:
-        raise ConfigError(f"rate must be in [10, 10000] Hz, got {rate}", field="rate")
-    if not 0 < load <= MAX_LOAD:
-        raise ConfigError(f"load must be in (0, {MAX_LOAD:g}] N, got {load}", field="load")
+    check_scan(speed, load, rate)  # the plausibility bounds of every trajectory (models.trajectory)
     duration = length / speed
     n = int(np.floor(duration * rate + 1e-9)) + 1
     if n > 10_000_000:

@@ -30,7 +30,6 @@ from surfhap.errors import ConfigError
 __all__ = [
     "CM",
     "gaussian_height",
-    "gaussian_slope",
     "gaussian_bump",
     "frustum_bump",
     "Scene",
@@ -72,18 +71,6 @@ def gaussian_height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return GAUSS_A * np.exp(-(xc * xc + yc * yc) / GAUSS_S) * CM
 
 
-def gaussian_slope(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """(n, 2) gradient (dz/dx, dz/dy), dimensionless, of :func:`gaussian_height`."""
-    z = gaussian_height(x, y)
-    k = -2.0 / (GAUSS_S * CM * CM)
-    return np.stack([k * np.asarray(x) * z, k * np.asarray(y) * z], axis=-1)
-
-
-def _check_resolution(resolution: float) -> None:
-    if not (np.isfinite(resolution) and 1e-5 <= resolution <= 0.01):
-        raise ConfigError(f"must be within 1e-5..0.01 m, got {resolution}", field="resolution")
-
-
 def _grid_mesh(xs: np.ndarray, ys: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Triangulate a height grid z (ny, nx) over xs (nx,), ys (ny,): (vertices, faces), CCW
     seen from above."""
@@ -102,15 +89,13 @@ def _grid_mesh(xs: np.ndarray, ys: np.ndarray, z: np.ndarray) -> tuple[np.ndarra
 def _gaussian_mesh(resolution: float, centre: tuple[float, float], half: float, bumps) -> tuple[np.ndarray, np.ndarray]:
     """Grid step ``resolution`` m over the square of half-width ``half`` cm around ``centre`` (cm)
     of the sum of ``sign`` x Gaussian bump at each ``(cx, cy, sign)`` of ``bumps`` (cm)."""
-    _check_resolution(resolution)
+    if not (np.isfinite(resolution) and 1e-5 <= resolution <= 0.01):
+        raise ConfigError(f"must be within 1e-5..0.01 m, got {resolution}", field="resolution")
     n = int(round(2 * half * CM / resolution)) + 1
     xs = (np.linspace(-half, half, n) + centre[0]) * CM
     ys = (np.linspace(-half, half, n) + centre[1]) * CM
     X, Y = np.meshgrid(xs, ys)
-    z = np.zeros_like(X)
-    for cx, cy, sign in bumps:
-        z += sign * gaussian_height(X - cx * CM, Y - cy * CM)
-    return _grid_mesh(xs, ys, z)
+    return _grid_mesh(xs, ys, sum(sign * gaussian_height(X - cx * CM, Y - cy * CM) for cx, cy, sign in bumps))
 
 
 def gaussian_bump(resolution: float = 0.0005, hole: bool = False, centre: tuple[float, float] = (0.0, 0.0),
@@ -127,13 +112,9 @@ def frustum_bump(hole: bool = False, centre: tuple[float, float] = (0.0, 0.0), p
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Square frustum bump (or hole) on a ``patch`` cm ground square (Fig. 11b), from its
     planar faces. Returns (vertices (24, 3) float m... (nv, 3), faces (18, 3) int)."""
-    h = -height if hole else height
-    rings = []
-    for half, z in ((patch / 2, 0.0), (base / 2, 0.0), (top / 2, h)):
-        rings.append([(-half, -half, z), (half, -half, z), (half, half, z), (-half, half, z)])
-    v = np.array([p for ring in rings for p in ring], dtype=float)
-    v[:, 0] += centre[0]
-    v[:, 1] += centre[1]
+    rings = ((patch / 2, 0.0), (base / 2, 0.0), (top / 2, -height if hole else height))  # ground, base, top
+    v = np.array([(sx * half + centre[0], sy * half + centre[1], z) for half, z in rings
+                  for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))], dtype=float)
     faces = []
     for r in range(2):  # ground ring (outer -> base), then sides (base -> top)
         o, i = 4 * r, 4 * (r + 1)
@@ -204,10 +185,9 @@ def light_direction(light: str) -> np.ndarray:
     if light == "spot":
         return np.array([0.0, 0.0, 1.0])
     if light == "directional":
-        a = np.radians(45.0)
-        rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
-        ry = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
-        travel = ry @ rx @ np.array([0.0, 0.0, -1.0])  # direction the light travels
+        from scipy.spatial.transform import Rotation
+
+        travel = Rotation.from_euler("xy", [45.0, 45.0], degrees=True).apply([0.0, 0.0, -1.0])  # where the light travels
         return -travel / np.linalg.norm(travel)
     raise ConfigError(f"unknown light {light!r} (spot | directional)", field="light")
 

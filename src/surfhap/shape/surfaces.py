@@ -32,14 +32,7 @@ def load_surface(mesh: str, *, up: str = "z", scale: float = 1.0, size: float | 
         raise MeshFormatError("no such file, and not a built-in shape (" + ", ".join(
             [n for n in builtin_shape_names() if n.count("-") < 2]) + ", or a scene from 'surfhap scenes')", source=mesh)
     if scale != 1.0 or size is not None or up != "z":
-        import numpy as np
+        from surfhap.exchange.mesh import place_mesh
 
-        from surfhap.exchange.mesh import orient_up, warn_mesh_extent
-
-        v = orient_up(surf.vertices, up) * scale
-        if size is not None:
-            lo, hi = v.min(axis=0), v.max(axis=0)
-            v = (v - np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.0])) * (size / max(hi[0] - lo[0], hi[1] - lo[1]))
-        warn_mesh_extent(v, mesh)
-        surf = TopSurface(v, surf.faces, name=surf.name, source=surf.source)
+        surf = TopSurface(place_mesh(surf.vertices, up, scale, size, mesh), surf.faces, name=surf.name, source=surf.source)
     return surf

@@ -28,6 +28,7 @@ import numba
 import numpy as np
 
 from surfhap.errors import MeshFormatError
+from surfhap.exchange.mesh import check_mesh
 from surfhap.shape.raycast import hit_one
 
 __all__ = ["TopSurface", "TopHits"]
@@ -70,22 +71,6 @@ def _query_kernel(xy, verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny,
         z, f = hit_one(xy[n, 0], xy[n, 1], verts, faces, esign, zmax, x0, y0, inv_cw, inv_ch, nx, ny, start, items)
         z_out[n] = z if f >= 0 else np.nan
         f_out[n] = f
-
-
-def _validate(vertices, faces, source):
-    v = np.ascontiguousarray(vertices, dtype=np.float64)
-    f = np.ascontiguousarray(faces, dtype=np.int64)
-    if v.ndim != 2 or v.shape[1] != 3:
-        raise MeshFormatError(f"vertices must be an (n, 3) array, got shape {v.shape}", source=source)
-    if f.ndim != 2 or f.shape[1] != 3:
-        raise MeshFormatError(f"faces must be an (m, 3) array of triangles, got shape {f.shape}", source=source)
-    if f.shape[0] == 0 or v.shape[0] < 3:
-        raise MeshFormatError("the mesh is empty (no triangles)", source=source)
-    if not np.all(np.isfinite(v)):
-        raise MeshFormatError("vertex coordinates contain NaN or inf", source=source)
-    if f.min() < 0 or f.max() >= v.shape[0]:
-        raise MeshFormatError(f"face indices outside 0..{v.shape[0] - 1}", source=source)
-    return v, f
 
 
 def _build_grid(vertices: np.ndarray, faces: np.ndarray, cells_per_face: float = 1.0):
@@ -140,7 +125,7 @@ class TopSurface:
     """
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, name: str = "mesh", source: str | None = None):
-        v, f = _validate(vertices, faces, source or name)
+        v, f = check_mesh(vertices, faces, source or name)
         self.vertices = v
         self.faces = f
         self.name = name

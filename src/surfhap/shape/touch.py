@@ -19,7 +19,7 @@ import numba
 import numpy as np
 
 from surfhap.shape.edges import edge_tick_one
-from surfhap.shape.gradient import gradient_step
+from surfhap.shape.gradient import check_range, gradient_step
 from surfhap.shape.raycast import hit_one
 
 __all__ = ["touch_step", "touch_block", "new_state"]
@@ -76,8 +76,7 @@ def touch_block(surface, x: np.ndarray, y: np.ndarray, state: np.ndarray, *, fz:
     updated in place. Returns ``(z, face, force, fsq, intensity, tick, theta)``, each (n,)
     (face int64).
     """
-    if not (np.isfinite(fmin) and np.isfinite(fmax) and fmin < fmax):
-        raise ValueError(f"need finite fmin < fmax, got ({fmin}, {fmax})")
+    fmin, fmax = check_range(fmin, fmax)
     if edges and not theta_min < 180.0:
         raise ValueError(f"theta_min must be below 180 deg, got {theta_min}")
     x = np.ascontiguousarray(x, dtype=np.float64)
@@ -85,6 +84,6 @@ def touch_block(surface, x: np.ndarray, y: np.ndarray, state: np.ndarray, *, fz:
     n = x.shape[0]
     out = [np.empty(n) for _ in range(7)]
     out[1] = np.empty(n, dtype=np.int64)
-    _touch_loop(x, y, state, float(fz), float(fmin), float(fmax), bool(edges), float(theta_min), float(threshold_deg),
+    _touch_loop(x, y, state, float(fz), fmin, fmax, bool(edges), float(theta_min), float(threshold_deg),
                 surface.up_normals, *surface._args, *out)
     return tuple(out)

@@ -87,20 +87,15 @@ def levinson_durbin(acov: np.ndarray, max_order: int) -> LevinsonResult:
         raise ValueError("autocovariance at lag 0 must be positive (constant signal?)")
     coefs = np.zeros((max_order + 1, max_order))
     variances = np.empty(max_order + 1)
-    refl = np.zeros(max_order)
     variances[0] = r[0]
-    a = np.zeros(max_order)
     for k in range(1, max_order + 1):
-        prev = a[: k - 1].copy()
-        acc = r[k] - prev @ r[k - 1 : 0 : -1] if k > 1 else r[1]
+        prev = coefs[k - 1, : k - 1]
         err = variances[k - 1]
-        kk = acc / err if err > 0 else 0.0
-        a[: k - 1] = prev - kk * prev[::-1]
-        a[k - 1] = kk
-        refl[k - 1] = kk
+        kk = (r[k] - prev @ r[k - 1 : 0 : -1]) / err if err > 0 else 0.0
+        coefs[k, : k - 1] = prev - kk * prev[::-1]
+        coefs[k, k - 1] = kk  # the reflection coefficient of order k
         variances[k] = max(err * (1.0 - kk * kk), 0.0)
-        coefs[k, :k] = a[:k]
-    return LevinsonResult(coefs, variances, refl)
+    return LevinsonResult(coefs, variances, np.diagonal(coefs[1:]).copy())
 
 
 def yule_walker(x: np.ndarray, order: int, demean: bool = True) -> tuple[np.ndarray, float]:
@@ -204,7 +199,6 @@ def select_order(
     x : (n,) float. One FFT autocovariance plus one Levinson–Durbin recursion gives all
     orders at once; the coefficients at the chosen order are the Yule–Walker ("mle") ones.
     """
-    check_criterion(criterion)
     x = np.asarray(x, dtype=float)
     if not 0 <= min_order <= max_order:
         raise ValueError("need 0 <= min_order <= max_order")
