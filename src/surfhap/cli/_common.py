@@ -13,8 +13,8 @@ import typer
 
 from surfhap.errors import ConfigError, InputWarning, SurfhapError
 
-__all__ = ["run_guarded", "fail", "error_line", "warning_line", "progress_bar", "status_line", "parse_key_values",
-           "stderr", "stdout", "OPTIONAL_MODULES", "require_modules", "figure_path", "report", "print_table",
+__all__ = ["run_guarded", "fail", "error_line", "warning_line", "progress_bar", "status_line",
+           "stderr", "stdout", "OPTIONAL_MODULES", "require_modules", "parse_numbers", "command_line", "figure_path", "save_figure", "report", "print_table",
            "check_out"]
 
 if TYPE_CHECKING:
@@ -65,6 +65,36 @@ def require_modules(*names: str) -> None:
 FIGURE_FORMATS = (".png", ".pdf", ".svg")
 
 
+def parse_numbers(text: str, option: str, what: str = "comma-separated numbers", count: int | None = None,
+                  kind: type = float) -> tuple:
+    """``"0.1,0.5"`` -> (0.1, 0.5): one or more numbers of type ``kind`` (exactly ``count`` when
+    given); other text is one ConfigError naming ``option``: "expected {what}, got '...'"."""
+    try:
+        values = tuple(kind(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        values = ()
+    if not values or len(values) != (count or len(values)):
+        raise ConfigError(f"expected {what}, got {text!r}", source=option)
+    return values
+
+
+def command_line(*args, **options) -> str:
+    """The ``surfhap`` command a provenance record stores: ``args``, then ``--name value`` per option
+    in the order given (``step_seconds`` -> ``--step-seconds``; numbers as ``:g``; a list repeats the
+    option; True is a bare flag; None and False are left out)."""
+    import shlex
+
+    words = ["surfhap", *map(str, args)]
+    for name, value in options.items():
+        flag = "--" + name.replace("_", "-")
+        if value is True:
+            words.append(flag)
+        elif value is not None and value is not False:
+            for v in value if isinstance(value, list) else [value]:
+                words += [flag, f"{v:g}" if isinstance(v, (int, float)) else str(v)]
+    return shlex.join(words)
+
+
 def figure_path(path, option: str):
     """The file a figure option (``--out``, ``--plot``, ``--figure``) writes: PNG when the name
     has no suffix (so the "wrote" line names the real file). Any other suffix than .png, .pdf and
@@ -80,6 +110,17 @@ def figure_path(path, option: str):
         raise ConfigError(f"a figure is written as {', '.join(FIGURE_FORMATS)}, not {path.suffix!r}", source=option,
                           field="suffix")
     return path
+
+
+def save_figure(fig, path, dpi: int = 110) -> None:
+    """Write a matplotlib figure to ``path`` (its folder made); an OSError names the file (exit 2)."""
+    from pathlib import Path
+
+    from surfhap.errors import writing
+
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    with writing(path):
+        fig.savefig(path, dpi=dpi)
 
 
 def _line(label: str, colour: str, message: str) -> None:
@@ -116,18 +157,11 @@ def input_warnings_as_lines():
         yield
 
 
-def fail(message: str) -> None:
-    """Print one error line and exit with code 2."""
+def fail(message: str, code: int = 2) -> None:
+    """Print one error line and exit with ``code``: 2 bad input, 3 a failed backend or real-time
+    loop (after the drive or force ramped to zero), 1 a failed render or batch job."""
     error_line(message)
-    raise typer.Exit(2)
-
-
-def _usage_line(exc: typer.TyperException) -> str:
-    ctx = getattr(exc, "ctx", None)
-    message = exc.format_message()
-    if ctx is None:
-        return message
-    return f"{message} (try '{ctx.command_path} --help')"
+    raise typer.Exit(code)
 
 
 def _error_text(exc: BaseException) -> str:
@@ -160,7 +194,7 @@ def run_guarded(command: TyperCommand | TyperGroup, argv: list[str]) -> int:
         if type(exc).__name__ == "NoArgsIsHelpError" and ctx is not None:
             exc.show()  # a bare group: its help
         else:
-            error_line(_usage_line(exc))
+            error_line(exc.format_message() + ("" if ctx is None else f" (try '{ctx.command_path} --help')"))
         return 2
     except ModuleNotFoundError as exc:
         extra = OPTIONAL_MODULES.get((exc.name or "").split(".")[0])
@@ -257,17 +291,3 @@ def progress_bar(description: str, enabled: bool = True):
                   TimeElapsedColumn(), TimeRemainingColumn(), console=stderr(), transient=True) as prog:
         task = prog.add_task(description, total=1.0)
         yield lambda fraction: prog.update(task, completed=fraction)
-
-
-def parse_key_values(text: str, option: str, keys: dict[str, float | None]) -> dict[str, float]:
-    """Parse ``"speed=0.1,load=0.5"`` into floats; ``keys`` maps allowed keys to defaults
-    (None = required)."""
-    from surfhap.exchange.files import parse_pairs
-
-    out = parse_pairs(text, option, keys, ConfigError, numbers=True)
-    for key, default in keys.items():
-        if key not in out:
-            if default is None:
-                raise ConfigError("missing (required)", source=option, field=key)
-            out[key] = default
-    return out

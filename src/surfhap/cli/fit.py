@@ -10,7 +10,7 @@ from typing import List, Optional
 import typer
 
 from surfhap.cli._batch import fit_imu_batch, fit_imu_command
-from surfhap.cli._common import check_out, status_line
+from surfhap.cli._common import check_out, parse_numbers, status_line
 from surfhap.cli._common import report as print_result  # 'report' is the --report option
 from surfhap.cli._options import JobsOption, JsonOption, OverwriteOption, SchedulerOption
 from surfhap.cli._signals import StopSignals
@@ -59,16 +59,6 @@ def fit_imu(
                                         command=fit_imu_command(recording[0], into, out, **fit), **fit))
     print_result({**row, "out": str(target)},
                  f"{target}: texture AR({row['order']}) at {row['sample_rate']:g} Hz from {row['name']} ({row['aic_note']})", as_json)
-
-
-def _speeds_mm(text: str) -> tuple[float, ...]:
-    try:
-        vals = tuple(float(v) for v in text.split(",") if v.strip())
-    except ValueError:
-        raise ConfigError(f"expected comma-separated numbers, got {text!r}", source="--reference-velocities") from None
-    if not vals:
-        raise ConfigError("give at least one velocity", source="--reference-velocities")
-    return vals
 
 
 def _command() -> str:
@@ -134,7 +124,7 @@ def fit_friction_cmd(
         raise ConfigError(f"must be one of {', '.join(ESTIMATORS)}", source="--estimator")
     if criterion.lower() not in ("aic", "bic"):
         raise ConfigError("must be aic or bic", source="--criterion")
-    speeds = tuple(v / 1000.0 if v > 5 else v for v in _speeds_mm(reference_velocities))
+    speeds = tuple(v / 1000.0 if v > 5 else v for v in parse_numbers(reference_velocities, "--reference-velocities"))
 
     def lines_of(fit) -> list[str]:
         qs = fit.quasi_static
