@@ -10,7 +10,7 @@ from pathlib import Path
 
 import typer
 
-from surfhap.cli._common import command_line, error_line, fail, stderr, stdout
+from surfhap.cli._common import command_line, error_line, fail, progress_bar, stdout
 from surfhap.cli._signals import EXIT_INTERRUPTED, StopSignals
 from surfhap.errors import ConfigError
 
@@ -59,22 +59,17 @@ def _slug(text: str) -> str:
 def _run(fn, items, root: Path, spec, what: str, preload: tuple[str, ...] = ()) -> None:
     """Run the jobs with a progress bar on stderr, write the index, print one line; exits 1
     when a job failed, 130 when a signal stopped the batch."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
     from surfhap.batch.index import index_rows, write_index
     from surfhap.batch.schedulers import JobOutcome, run_jobs
 
     where = spec.describe()
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[failed]}"),
-                  TimeElapsedColumn(), TimeRemainingColumn(), console=stderr(), transient=True,
-                  disable=not stderr().is_terminal) as prog:  # piped: no bar (rich would print its last state)
-        task = prog.add_task(f"{what} on {where}", total=len(items), failed="")
+    with progress_bar(f"{what} on {where}", total=len(items)) as update:
         finished: dict[int, JobOutcome] = {}
 
         def progress(outcome, done, total):
             finished[outcome.index] = outcome
             failed = sum(not o.ok for o in finished.values())
-            prog.update(task, completed=done, failed=f"{failed} failed" if failed else "")
+            update(done, f"{failed} failed" if failed else "")
 
         with StopSignals() as guard:  # Ctrl-C or SIGTERM: keep what finished, mark the rest, no traceback
             outcomes = guard.call(run_jobs, fn, items, spec, progress=progress, preload=preload)

@@ -279,15 +279,17 @@ def status_line(description: str):
 
 
 @contextmanager
-def progress_bar(description: str, enabled: bool = True):
+def progress_bar(description: str, enabled: bool = True, total: int | None = None):
     """A rich progress bar on a terminal's stderr (nothing otherwise, as :func:`status_line`);
-    yields ``update(fraction)``."""
+    yields ``update(fraction)``, or with ``total`` items ``update(done, note="")`` (the bar
+    counts done/total and shows the note)."""
     if not enabled or not stderr().is_terminal:
-        yield lambda fraction: None
+        yield lambda *args: None
         return
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+    count = MofNCompleteColumn() if total else TextColumn("{task.percentage:>3.0f}%")
+    with Progress(TextColumn("{task.description}"), BarColumn(), count, TextColumn("{task.fields[note]}"),
                   TimeElapsedColumn(), TimeRemainingColumn(), console=stderr(), transient=True) as prog:
-        task = prog.add_task(description, total=1.0)
-        yield lambda fraction: prog.update(task, completed=fraction)
+        task = prog.add_task(description, total=total or 1.0, note="")
+        yield lambda done, note="": prog.update(task, completed=done, note=note)

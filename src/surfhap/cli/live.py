@@ -165,8 +165,10 @@ def serve_cmd(
     Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
     (exit 130); exit 3 when the output backend failed."""
     require_modules("fastapi", "starlette", "uvicorn")  # the page; else: install surfhap[live]
+    from surfhap.exchange.trajectory_csv import read_trajectory_csv
     from surfhap.live.config import ServerConfig
     from surfhap.live.logfilter import configure_logging
+    from surfhap.live.netaddr import parse_host_port
     from surfhap.live.session import backend_info, build_session
     from surfhap.web import create_app
     from surfhap.web.process import WebProcess
@@ -180,19 +182,13 @@ def serve_cmd(
     if not 1 <= port <= 65535:
         raise ConfigError("must be within 1-65535", source="--port")
     allowed_hosts = _allowed_hosts(host, allow_host)
-    osc = None
-    if osc_in:
-        from surfhap.live.netaddr import parse_host_port
-
-        osc = parse_host_port(osc_in, "--osc-in", listen=True)
+    osc = parse_host_port(osc_in, "--osc-in", listen=True) if osc_in else None
     if host not in LOOPBACK:
         warning_line(f"binding {host}: the page is reachable from your network; anyone who can reach it can drive "
                      "the display")
     if osc is not None and osc[0] not in LOOPBACK:
         warning_line(f"--osc-in binds {osc[0]}: OSC touch input is reachable from your network; anyone who can send "
                      "it a datagram can drive the display")
-    from surfhap.exchange.trajectory_csv import read_trajectory_csv
-
     clk = _clock(clock)
     if clk.simulated and trajectory is None:
         raise ConfigError("a simulated clock needs --trajectory FILE (there is no page to touch)", source="--clock")
