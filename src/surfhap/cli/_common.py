@@ -210,26 +210,16 @@ def run_guarded(command: TyperCommand | TyperGroup, argv: list[str]) -> int:
     return code if isinstance(code, int) and not isinstance(code, bool) else 0
 
 
-def _json_value(value):
-    """``json.dumps`` default: numpy scalars and arrays, paths."""
-    from pathlib import PurePath
-
-    import numpy as np
-
-    if isinstance(value, (np.generic, np.ndarray)):
-        return value.tolist()
-    if isinstance(value, PurePath):
-        return str(value)
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
-
-
 def report(data: dict, lines, as_json: bool) -> None:
     """A command's result: its human summary ``lines`` or, with ``--json``, ``data`` as one
-    JSON object on one line of stdout (for scripts)."""
+    JSON object on one line of stdout (for scripts; numpy values as numbers, non-finite ones as
+    null, paths as text)."""
     import json
 
     if as_json:
-        typer.echo(json.dumps(data, default=_json_value))
+        from surfhap.results import jsonable
+
+        typer.echo(json.dumps(jsonable(data), default=str))
         return
     for line in [lines] if isinstance(lines, str) else lines:
         stdout().print(line)

@@ -19,7 +19,7 @@ from typing import Annotated, List, Optional
 import typer
 
 from surfhap.cli._output import parse_output
-from surfhap.cli._common import fail, parse_numbers, report, warning_line, require_modules, stderr, stdout
+from surfhap.cli._common import fail, parse_numbers, report, require_modules, stdout, warning_line
 from surfhap.cli._display_options import resolve_display
 from surfhap.cli._options import (ConfigOption, DisplayOption, JsonOption, LiveAmpGainOption, SeedOption,
                                   TrajectoryOption)
