@@ -13,9 +13,9 @@ import typer
 
 from surfhap.errors import ConfigError, InputWarning, SurfhapError
 
-__all__ = ["run_guarded", "fail", "error_line", "warning_line", "progress_bar", "status_line",
-           "stderr", "stdout", "OPTIONAL_MODULES", "require_modules", "parse_numbers", "command_line", "figure_path", "save_figure", "report", "print_table",
-           "check_out"]
+__all__ = ["run_guarded", "fail", "error_line", "warning_line", "progress_bar", "status_line", "stderr", "stdout",
+           "OPTIONAL_MODULES", "require_modules", "parse_numbers", "command_line", "figure_path", "save_figure",
+           "report", "print_table", "check_out"]
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -159,7 +159,8 @@ def input_warnings_as_lines():
 
 def fail(message: str, code: int = 2) -> None:
     """Print one error line and exit with ``code``: 2 bad input, 3 a failed backend or real-time
-    loop (after the drive or force ramped to zero), 1 a failed render or batch job."""
+    loop (after the drive or force ramped to zero), 1 a failed render or batch job, 130 an
+    interrupted batch."""
     error_line(message)
     raise typer.Exit(code)
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import shlex
 import sys
 from pathlib import Path
 from typing import List, Optional
@@ -10,7 +9,7 @@ from typing import List, Optional
 import typer
 
 from surfhap.cli._batch import fit_imu_batch, fit_imu_command
-from surfhap.cli._common import check_out, parse_numbers, status_line
+from surfhap.cli._common import check_out, command_line, parse_numbers, status_line
 from surfhap.cli._common import report as print_result  # 'report' is the --report option
 from surfhap.cli._options import JobsOption, JsonOption, OverwriteOption, SchedulerOption
 from surfhap.cli._signals import StopSignals
@@ -61,10 +60,6 @@ def fit_imu(
                  f"{target}: texture AR({row['order']}) at {row['sample_rate']:g} Hz from {row['name']} ({row['aic_note']})", as_json)
 
 
-def _command() -> str:
-    return shlex.join(["surfhap", *sys.argv[1:]]) if sys.argv and Path(sys.argv[0]).name.startswith("surfhap") else "surfhap fit"
-
-
 def _fit_and_write(fit_fn, write_report, lines_of, recordings: list[Path], columns: str | None, material: str,
                    out: Path, report: Path | None, jobs: int, scheduler: str | None, overwrite: bool, as_json: bool,
                    **params) -> None:
@@ -79,7 +74,8 @@ def _fit_and_write(fit_fn, write_report, lines_of, recordings: list[Path], colum
     parse_scheduler(scheduler, jobs)  # one line for a bad --jobs or --scheduler, before any file is read
     n_jobs = -1 if scheduler and jobs == 1 else jobs  # on a cluster, let the scheduler spread the work
     recs = read_recordings(recordings, parse_column_map(columns))
-    command = _command()
+    # the provenance: the command as typed (run as the surfhap script), else just its name
+    command = command_line(*sys.argv[1:]) if sys.argv and Path(sys.argv[0]).name.startswith("surfhap") else "surfhap fit"
     with StopSignals() as guard, joblib_backend(scheduler), status_line(f"fitting {material} from {len(recs)} recordings"):
         fit = guard.call(fit_fn, recs, material, jobs=n_jobs, **params)
     guard.finish(f"the fit did not finish; {out} not written")
