@@ -162,3 +162,18 @@ def test_progress_and_status_show_on_a_terminal_only(capsys, monkeypatch):
     with _common.status_line("writing figures"):
         pass
     assert "rendering" in term.getvalue() and "writing figures" in term.getvalue()
+
+
+def test_json_output_is_strict_json_for_numpy_and_non_finite_values(capsys):
+    """``--json`` goes through surfhap.results.jsonable: numpy scalars and arrays are numbers,
+    a non-finite value is null (Python's json would write NaN, which no strict parser reads),
+    a path is its text."""
+    from surfhap.cli._common import report
+
+    report({"a": np.float32(1.5), "b": np.arange(2), "c": float("nan"), "d": np.inf, "p": Path("x/y")}, [], True)
+    line = capsys.readouterr().out
+
+    def refuse(token):
+        raise ValueError(token)
+
+    assert json.loads(line, parse_constant=refuse) == {"a": 1.5, "b": [0, 1], "c": None, "d": None, "p": "x/y"}

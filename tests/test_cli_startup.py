@@ -22,7 +22,7 @@ from surfhap.cli._help import _plain
 
 REPO = Path(__file__).resolve().parents[1]
 HEAVY = ("numpy", "scipy", "numba", "pydantic", "rich", "matplotlib", "typer.rich_utils", "typer._adapters")
-COMMAND_MODULES = sorted({module for module, _ in COMMANDS.values()} | {"fit_recordings", "ff_bridge"})
+COMMAND_MODULES = sorted({module for module, _ in COMMANDS.values()} | {"ff_bridge"})
 
 
 def test_the_table_lists_every_command_with_its_real_summary():
@@ -41,7 +41,7 @@ def test_the_table_lists_every_command_with_its_real_summary():
 @pytest.mark.parametrize("args,modules", [
     (["--help"], []), ([], []), (["--version"], []), (["rendr"], []), (["render"], ["render"]),
     (["render", "cork", "--no-such-option"], ["render"]), (["render", "--help"], ["render"]),
-    (["play", "cork", "--no-such-option"], ["live"]), (["fit", "friction"], ["fit", "fit_recordings"]),
+    (["play", "cork", "--no-such-option"], ["live"]), (["fit", "friction"], ["fit"]),
     (["study", "run", "-h"], ["study"]), (["ff", "simulate", "-h"], ["ff", "ff_bridge"]),
 ])
 def test_help_and_usage_errors_import_only_their_command(args, modules):

@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import itertools
 import re
-import shlex
 from pathlib import Path
 
 import typer
 
-from surfhap.cli._common import error_line, stderr, stdout
+from surfhap.cli._common import command_line, error_line, fail, progress_bar, stdout
 from surfhap.cli._signals import EXIT_INTERRUPTED, StopSignals
 from surfhap.errors import ConfigError
 
@@ -57,25 +56,20 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9._+-]+", "-", text).strip("-") or "job"
 
 
-def _run(fn, items, root: Path, spec, what: str, preload: tuple[str, ...] = ()) -> int:
-    """Run the jobs with a progress bar on stderr, write the index, print one line; returns
-    the exit code (0 all done, 1 when a job failed)."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
+def _run(fn, items, root: Path, spec, what: str, preload: tuple[str, ...] = ()) -> None:
+    """Run the jobs with a progress bar on stderr, write the index, print one line; exits 1
+    when a job failed, 130 when a signal stopped the batch."""
     from surfhap.batch.index import index_rows, write_index
     from surfhap.batch.schedulers import JobOutcome, run_jobs
 
     where = spec.describe()
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[failed]}"),
-                  TimeElapsedColumn(), TimeRemainingColumn(), console=stderr(), transient=True,
-                  disable=not stderr().is_terminal) as prog:  # piped: no bar (rich would print its last state)
-        task = prog.add_task(f"{what} on {where}", total=len(items), failed="")
+    with progress_bar(f"{what} on {where}", total=len(items)) as update:
         finished: dict[int, JobOutcome] = {}
 
         def progress(outcome, done, total):
             finished[outcome.index] = outcome
             failed = sum(not o.ok for o in finished.values())
-            prog.update(task, completed=done, failed=f"{failed} failed" if failed else "")
+            update(done, f"{failed} failed" if failed else "")
 
         with StopSignals() as guard:  # Ctrl-C or SIGTERM: keep what finished, mark the rest, no traceback
             outcomes = guard.call(run_jobs, fn, items, spec, progress=progress, preload=preload)
@@ -86,14 +80,14 @@ def _run(fn, items, root: Path, spec, what: str, preload: tuple[str, ...] = ()) 
     paths = write_index(rows, root, where)
     if interrupted:
         done = sum(o.ok for o in finished.values())
-        error_line(f"interrupted: {done} of {len(items)} jobs done; index -> {paths['csv']} ({guard.name})")
-        return EXIT_INTERRUPTED
+        fail(f"interrupted: {done} of {len(items)} jobs done; index -> {paths['csv']} ({guard.name})", EXIT_INTERRUPTED)
     bad = [r for r in rows if r["status"] != "ok"]
     for r in bad:
         error_line(f"{r['job']}: {r['error']}")
     stdout().print(f"{len(rows) - len(bad)} of {len(rows)} jobs done on {where}"
                    f"{f', {len(bad)} failed' if bad else ''} -> {paths['csv']}")
-    return 1 if bad else 0
+    if bad:
+        raise typer.Exit(1)
 
 
 def render_batch(materials: list[str], scan: str | None, trajectory: Path | None, grid: list[str], config, out: Path,
@@ -102,8 +96,8 @@ def render_batch(materials: list[str], scan: str | None, trajectory: Path | None
     exits 1 when a job failed."""
     from surfhap.batch.jobs import RENDER_JOB_MODULES, RenderJob, run_render_job
     from surfhap.batch.schedulers import parse_scheduler
-    from surfhap.cli._common import parse_key_values
     from surfhap.cli._scan import SCAN_KEYS, scan_trajectory, trajectory_from_options
+    from surfhap.exchange.files import parse_pairs
     from surfhap.exchange.materials import load_material
 
     spec = parse_scheduler(scheduler, jobs)
@@ -113,8 +107,7 @@ def render_batch(materials: list[str], scan: str | None, trajectory: Path | None
     if (trajectory is None and scan is None and not axes) or (trajectory is not None and scan is not None):
         raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")
     mats = {m: load_material(m) for m in dict.fromkeys(materials)}
-    given = {} if scan is None else parse_key_values(scan, "--scan", dict.fromkeys(SCAN_KEYS, float("nan")))
-    base = {k: v for k, v in given.items() if v == v}  # the keys given: the grid and the defaults fill the rest
+    base = {} if scan is None else parse_pairs(scan, "--scan", SCAN_KEYS, ConfigError, numbers=True)  # grid fills in
     recorded = trajectory_from_options(None, trajectory) if trajectory is not None else None
     items = []
     for m, point in itertools.product(mats, itertools.product(*axes.values())):
@@ -125,19 +118,14 @@ def render_batch(materials: list[str], scan: str | None, trajectory: Path | None
             raise ConfigError(f"two jobs would write the folder {name!r}", source="MATERIAL")
         items.append(RenderJob(name, mats[m], traj, config, Path(out) / name, amp_gain=amp_gain, figure=figure,
                                params={"material": mats[m].name, **p}, fmt=fmt))
-    code = _run(run_render_job, items, Path(out), spec, f"rendering {len(items)} jobs", RENDER_JOB_MODULES)
-    if code:
-        raise typer.Exit(code)
+    _run(run_render_job, items, Path(out), spec, f"rendering {len(items)} jobs", RENDER_JOB_MODULES)
 
 
 def fit_imu_command(recording: Path, into: Path, out: Path | None, order: int | None, max_order: int, cutoff: float,
                     unit_scale: float, note: str | None) -> str:
     """The ``surfhap fit imu`` command of one recording (the texture provenance; a batch job's too)."""
-    command = ["surfhap", "fit", "imu", str(recording), "--into", str(into)]
-    command += ["--out", str(out)] if out is not None else []
-    command += ["--order", str(order)] if order is not None else []
-    command += ["--max-order", str(max_order), "--cutoff", f"{cutoff:g}", "--unit-scale", f"{unit_scale:g}"]
-    return shlex.join(command + (["--note", note] if note else []))
+    return command_line("fit", "imu", recording, into=into, out=out, order=order, max_order=max_order, cutoff=cutoff,
+                        unit_scale=unit_scale, note=note or None)
 
 
 def recordings_in(paths: list[Path]) -> list[Path]:
@@ -172,6 +160,4 @@ def fit_imu_batch(recordings: list[Path], into: Path, out: Path, jobs: int, sche
     targets = [Path(out) / n / "material.json" for n in names]
     items = [FitImuJob(n, f, into, t, command=fit_imu_command(f, into, t, **fit), **fit)
              for n, f, t in zip(names, files, targets)]
-    code = _run(run_fit_imu_job, items, Path(out), spec, f"fitting {len(items)} recordings", FIT_IMU_JOB_MODULES)
-    if code:
-        raise typer.Exit(code)
+    _run(run_fit_imu_job, items, Path(out), spec, f"fitting {len(items)} recordings", FIT_IMU_JOB_MODULES)

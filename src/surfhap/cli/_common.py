@@ -13,9 +13,9 @@ import typer
 
 from surfhap.errors import ConfigError, InputWarning, SurfhapError
 
-__all__ = ["run_guarded", "fail", "error_line", "warning_line", "progress_bar", "status_line", "parse_key_values",
-           "stderr", "stdout", "OPTIONAL_MODULES", "require_modules", "figure_path", "report", "print_table",
-           "check_out"]
+__all__ = ["run_guarded", "fail", "error_line", "warning_line", "progress_bar", "status_line", "stderr", "stdout",
+           "OPTIONAL_MODULES", "require_modules", "parse_numbers", "command_line", "figure_path", "save_figure",
+           "report", "print_table", "check_out"]
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -65,6 +65,36 @@ def require_modules(*names: str) -> None:
 FIGURE_FORMATS = (".png", ".pdf", ".svg")
 
 
+def parse_numbers(text: str, option: str, what: str = "comma-separated numbers", count: int | None = None,
+                  kind: type = float) -> tuple:
+    """``"0.1,0.5"`` -> (0.1, 0.5): one or more numbers of type ``kind`` (exactly ``count`` when
+    given); other text is one ConfigError naming ``option``: "expected {what}, got '...'"."""
+    try:
+        values = tuple(kind(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        values = ()
+    if not values or len(values) != (count or len(values)):
+        raise ConfigError(f"expected {what}, got {text!r}", source=option)
+    return values
+
+
+def command_line(*args, **options) -> str:
+    """The ``surfhap`` command a provenance record stores: ``args``, then ``--name value`` per option
+    in the order given (``step_seconds`` -> ``--step-seconds``; numbers as ``:g``; a list repeats the
+    option; True is a bare flag; None and False are left out)."""
+    import shlex
+
+    words = ["surfhap", *map(str, args)]
+    for name, value in options.items():
+        flag = "--" + name.replace("_", "-")
+        if value is True:
+            words.append(flag)
+        elif value is not None and value is not False:
+            for v in value if isinstance(value, list) else [value]:
+                words += [flag, f"{v:g}" if isinstance(v, (int, float)) else str(v)]
+    return shlex.join(words)
+
+
 def figure_path(path, option: str):
     """The file a figure option (``--out``, ``--plot``, ``--figure``) writes: PNG when the name
     has no suffix (so the "wrote" line names the real file). Any other suffix than .png, .pdf and
@@ -80,6 +110,17 @@ def figure_path(path, option: str):
         raise ConfigError(f"a figure is written as {', '.join(FIGURE_FORMATS)}, not {path.suffix!r}", source=option,
                           field="suffix")
     return path
+
+
+def save_figure(fig, path, dpi: int = 110) -> None:
+    """Write a matplotlib figure to ``path`` (its folder made); an OSError names the file (exit 2)."""
+    from pathlib import Path
+
+    from surfhap.errors import writing
+
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    with writing(path):
+        fig.savefig(path, dpi=dpi)
 
 
 def _line(label: str, colour: str, message: str) -> None:
@@ -116,18 +157,12 @@ def input_warnings_as_lines():
         yield
 
 
-def fail(message: str) -> None:
-    """Print one error line and exit with code 2."""
+def fail(message: str, code: int = 2) -> None:
+    """Print one error line and exit with ``code``: 2 bad input, 3 a failed backend or real-time
+    loop (after the drive or force ramped to zero), 1 a failed render or batch job, 130 an
+    interrupted batch."""
     error_line(message)
-    raise typer.Exit(2)
-
-
-def _usage_line(exc: typer.TyperException) -> str:
-    ctx = getattr(exc, "ctx", None)
-    message = exc.format_message()
-    if ctx is None:
-        return message
-    return f"{message} (try '{ctx.command_path} --help')"
+    raise typer.Exit(code)
 
 
 def _error_text(exc: BaseException) -> str:
@@ -160,7 +195,7 @@ def run_guarded(command: TyperCommand | TyperGroup, argv: list[str]) -> int:
         if type(exc).__name__ == "NoArgsIsHelpError" and ctx is not None:
             exc.show()  # a bare group: its help
         else:
-            error_line(_usage_line(exc))
+            error_line(exc.format_message() + ("" if ctx is None else f" (try '{ctx.command_path} --help')"))
         return 2
     except ModuleNotFoundError as exc:
         extra = OPTIONAL_MODULES.get((exc.name or "").split(".")[0])
@@ -176,26 +211,16 @@ def run_guarded(command: TyperCommand | TyperGroup, argv: list[str]) -> int:
     return code if isinstance(code, int) and not isinstance(code, bool) else 0
 
 
-def _json_value(value):
-    """``json.dumps`` default: numpy scalars and arrays, paths."""
-    from pathlib import PurePath
-
-    import numpy as np
-
-    if isinstance(value, (np.generic, np.ndarray)):
-        return value.tolist()
-    if isinstance(value, PurePath):
-        return str(value)
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
-
-
 def report(data: dict, lines, as_json: bool) -> None:
     """A command's result: its human summary ``lines`` or, with ``--json``, ``data`` as one
-    JSON object on one line of stdout (for scripts)."""
+    JSON object on one line of stdout (for scripts; numpy values as numbers, non-finite ones as
+    null, paths as text)."""
     import json
 
     if as_json:
-        typer.echo(json.dumps(data, default=_json_value))
+        from surfhap.results import jsonable
+
+        typer.echo(json.dumps(jsonable(data), default=str))
         return
     for line in [lines] if isinstance(lines, str) else lines:
         stdout().print(line)
@@ -245,29 +270,17 @@ def status_line(description: str):
 
 
 @contextmanager
-def progress_bar(description: str, enabled: bool = True):
+def progress_bar(description: str, enabled: bool = True, total: int | None = None):
     """A rich progress bar on a terminal's stderr (nothing otherwise, as :func:`status_line`);
-    yields ``update(fraction)``."""
+    yields ``update(fraction)``, or with ``total`` items ``update(done, note="")`` (the bar
+    counts done/total and shows the note)."""
     if not enabled or not stderr().is_terminal:
-        yield lambda fraction: None
+        yield lambda *args: None
         return
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+    count = MofNCompleteColumn() if total else TextColumn("{task.percentage:>3.0f}%")
+    with Progress(TextColumn("{task.description}"), BarColumn(), count, TextColumn("{task.fields[note]}"),
                   TimeElapsedColumn(), TimeRemainingColumn(), console=stderr(), transient=True) as prog:
-        task = prog.add_task(description, total=1.0)
-        yield lambda fraction: prog.update(task, completed=fraction)
-
-
-def parse_key_values(text: str, option: str, keys: dict[str, float | None]) -> dict[str, float]:
-    """Parse ``"speed=0.1,load=0.5"`` into floats; ``keys`` maps allowed keys to defaults
-    (None = required)."""
-    from surfhap.exchange.files import parse_pairs
-
-    out = parse_pairs(text, option, keys, ConfigError, numbers=True)
-    for key, default in keys.items():
-        if key not in out:
-            if default is None:
-                raise ConfigError("missing (required)", source=option, field=key)
-            out[key] = default
-    return out
+        task = prog.add_task(description, total=total or 1.0, note="")
+        yield lambda done, note="": prog.update(task, completed=done, note=note)

@@ -1,5 +1,5 @@
-"""Options shared by the commands that render for a display: ``--display``, ``--load-range``,
-``--speed-range`` and ``--config FILE.toml`` (a ``[display]`` section).
+"""The options shared by the commands that render for a display (cli/_options.py): ``--display``,
+``--load-range``, ``--speed-range`` and ``--config FILE.toml`` (a ``[display]`` section).
 
 Precedence: command-line options, then the config file, then the documented assumptions.
 The ``[display]`` section may hold ``file`` (a display JSON, relative to the config file),
@@ -11,25 +11,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from surfhap.cli._common import parse_numbers
 from surfhap.errors import ConfigError
 
-__all__ = ["DISPLAY_HELP", "LOAD_RANGE_HELP", "SPEED_RANGE_HELP", "CONFIG_HELP", "resolve_display_and_range",
-           "resolve_display", "parse_range"]
-
-DISPLAY_HELP = ("Your display: 'k=N/V^2,mu_panel=..,area=m^2[,leakage=s]' or a surfhap-display JSON file; "
-                "a measured device curve in the file maps forces to voltages (default: the documented "
-                "assumptions, docs/texture.md).")
-LOAD_RANGE_HELP = "Loads the gain plan must serve, 'LOW,HIGH' in N (default 0.1,1.0)."
-SPEED_RANGE_HELP = "Speeds the gain plan must serve, 'LOW,HIGH' in m/s (default 0.02,0.3)."
-CONFIG_HELP = "TOML file with a \\[display] section (file, k, mu_panel, area, leakage_time_constant, load_range, speed_range)."
-
-def parse_range(text: str, source: str) -> tuple[float, float]:
-    """'LOW,HIGH' -> (low, high) floats."""
-    try:
-        lo, hi = (float(p) for p in text.split(","))
-    except ValueError:
-        raise ConfigError(f"expected LOW,HIGH (two numbers), got {text!r}", source=source) from None
-    return lo, hi
+__all__ = ["resolve_display_and_range", "resolve_display"]
 
 
 def _read_config(path: Path):
@@ -70,8 +55,8 @@ def resolve_display_and_range(display: str | None, load_range: str | None, speed
         vals = sec.model_dump(include=set(DisplayValues.model_fields), exclude_none=True)
         model = display_from_values(**vals, source=f"{src} [display]", base=base) if (vals or base is None) else base
     default = OperatingRange()
-    loads = parse_range(load_range, "--load-range") if load_range is not None else tuple((sec and sec.load_range) or default.loads)
-    speeds = (parse_range(speed_range, "--speed-range") if speed_range is not None
+    loads = parse_numbers(load_range, "--load-range", "LOW,HIGH (two numbers)", 2) if load_range is not None else tuple((sec and sec.load_range) or default.loads)
+    speeds = (parse_numbers(speed_range, "--speed-range", "LOW,HIGH (two numbers)", 2) if speed_range is not None
               else tuple((sec and sec.speed_range) or default.speeds))
     try:
         rng = OperatingRange(loads=loads, speeds=speeds)

@@ -10,8 +10,6 @@ from typing import Annotated, Optional
 
 import typer
 
-from surfhap.cli._display_options import CONFIG_HELP, DISPLAY_HELP, LOAD_RANGE_HELP, SPEED_RANGE_HELP
-
 __all__ = ["DisplayOption", "LoadRangeOption", "SpeedRangeOption", "ConfigOption", "SeedOption",
            "TrajectoryOption", "FigureOption", "LiveAmpGainOption", "JobsOption", "SchedulerOption", "JsonOption",
            "OverwriteOption"]
@@ -21,10 +19,15 @@ JsonOption = Annotated[bool, typer.Option("--json", help="Print the result as on
 OverwriteOption = Annotated[bool, typer.Option("--overwrite", help="Replace an existing, non-empty --out (refused by default).")]
 
 # the simulated / user's display (see cli/_display_options.py)
-DisplayOption = Annotated[Optional[str], typer.Option("--display", help=DISPLAY_HELP)]
-LoadRangeOption = Annotated[Optional[str], typer.Option("--load-range", help=LOAD_RANGE_HELP)]
-SpeedRangeOption = Annotated[Optional[str], typer.Option("--speed-range", help=SPEED_RANGE_HELP)]
-ConfigOption = Annotated[Optional[Path], typer.Option("--config", help=CONFIG_HELP)]
+DisplayOption = Annotated[Optional[str], typer.Option("--display", help=(
+    "Your display: 'k=N/V^2,mu_panel=..,area=m^2[,leakage=s]' or a surfhap-display JSON file; a measured device "
+    "curve in the file maps forces to voltages (default: the documented assumptions, docs/texture.md)."))]
+LoadRangeOption = Annotated[Optional[str], typer.Option(
+    "--load-range", help="Loads the gain plan must serve, 'LOW,HIGH' in N (default 0.1,1.0).")]
+SpeedRangeOption = Annotated[Optional[str], typer.Option(
+    "--speed-range", help="Speeds the gain plan must serve, 'LOW,HIGH' in m/s (default 0.02,0.3).")]
+ConfigOption = Annotated[Optional[Path], typer.Option("--config", help=(
+    "TOML file with a \\[display] section (file, k, mu_panel, area, leakage_time_constant, load_range, speed_range)."))]
 
 # rendering
 SeedOption = Annotated[int, typer.Option("--seed", help="Seed of the texture noise (same seed, same output).")]

@@ -6,7 +6,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from surfhap.cli._common import parse_key_values
 from surfhap.errors import ConfigError
 
 __all__ = ["SCAN_KEYS", "scan_trajectory", "trajectory_from_options"]
@@ -35,10 +34,11 @@ def scan_trajectory(values: Mapping[str, float]):
 
 def trajectory_from_options(scan: str | None, trajectory: Path | None):
     """Build the trajectory from ``--scan key=value,...`` or ``--trajectory FILE``."""
+    from surfhap.exchange.files import parse_pairs
     from surfhap.exchange.trajectory_csv import read_trajectory_csv
 
     if (scan is None) == (trajectory is None):
         raise ConfigError("give exactly one of --scan or --trajectory", source="--scan/--trajectory")
     if trajectory is not None:
         return read_trajectory_csv(trajectory)
-    return scan_trajectory(parse_key_values(scan, "--scan", SCAN_KEYS))
+    return scan_trajectory(parse_pairs(scan, "--scan", SCAN_KEYS, ConfigError, numbers=True))

@@ -12,13 +12,12 @@ Writes the display file (``surfhap-display`` version 1) that ``surfhap render/se
 
 from __future__ import annotations
 
-import shlex
 from pathlib import Path
 from typing import Optional
 
 import typer
 
-from surfhap.cli._common import check_out, error_line, fail, figure_path, report, stdout
+from surfhap.cli._common import check_out, command_line, fail, figure_path, parse_numbers, report, save_figure, stdout
 from surfhap.cli._options import JsonOption, OverwriteOption
 from surfhap.cli.record import NORMAL, SHEAR, open_sensor, report_status
 
@@ -41,10 +40,7 @@ def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear
     from surfhap.render.safety import SafetyLimits
     from surfhap.runtime.clock import now
 
-    try:
-        lv = [float(v) for v in levels.split(",")] if levels else rig.KIM_LEVELS
-    except ValueError:
-        fail(f"--levels: expected comma-separated intensities, got {levels!r}")
+    lv = parse_numbers(levels, "--levels", "comma-separated intensities") if levels else rig.KIM_LEVELS
     schedule = rig.StepSchedule(lv, step_seconds or rig.STEP_SECONDS, revolution or rig.REVOLUTION)
     out = parse_output(output)
     limits = SafetyLimits(**({} if v_max is None else {"v_max": v_max}), watchdog_timeout=sensor_timeout)
@@ -65,8 +61,7 @@ def _live(sensor, output, levels, step_seconds, revolution, v_max, normal, shear
             backend.stop()
     guard.finish("the drive ramped to zero; nothing written")
     if failure or engine.failure:
-        error_line(f"{failure or engine.failure}; the drive ramped to zero")
-        raise typer.Exit(3)
+        fail(f"{failure or engine.failure}; the drive ramped to zero", 3)
     report_status(dev)
     stdout().print(f"recorded {t.size} samples, {dev.gaps} gaps ({dev.lost} records lost)")
     return rig.step_recordings(t, fn, fs, level, schedule, dev.rate, limits.v_max, dev.name)
@@ -120,15 +115,10 @@ def tribometer(
         [read_tribometer(p) for p in recordings]
     leaks = [read_tribometer(p) for p in (leakage or [])]
     cal = calibrate(recs, curve=curve, guard=guard, volts_per_unit=volts_per_unit, leakage_recordings=leaks)
-    opts = f" --curve {curve} --guard {guard:g}" + (f" --volts-per-unit {volts_per_unit:g}" if volts_per_unit else "")
-    opts += "".join(f" --leakage {shlex.quote(str(p))}" for p in (leakage or []))
-    if live:
-        given = (("levels", levels), ("step-seconds", step_seconds), ("revolution", revolution), ("v-max", v_max),
-                 ("sensor-timeout", sensor_timeout))
-        opts += (f" --live --sensor {shlex.quote(sensor)} --output {shlex.quote(output)}" + "".join(
-            f" --{k} {v}" for k, v in given if v is not None) + f" --normal {normal} --shear {shear}")
-    command = ("surfhap calibrate tribometer " + " ".join(shlex.quote(str(p)) for p in recordings or [])
-               + f" --out {shlex.quote(str(out))}" + opts)
+    rig_options = dict(sensor=sensor, output=output, levels=levels, step_seconds=step_seconds, revolution=revolution,
+                       v_max=v_max, sensor_timeout=sensor_timeout, normal=normal, shear=shear) if live else {}
+    command = command_line("calibrate", "tribometer", *(recordings or []), out=out, curve=curve, guard=guard,
+                           volts_per_unit=volts_per_unit or None, leakage=leakage, live=live, **rig_options)
     doc = cal.to_display_json(source=sensor if live else ", ".join(p.name for p in recordings), command=command)
     write_display_json(doc, out)
     c0, c1, c2 = cal.device_fit.coefficients
@@ -141,8 +131,7 @@ def tribometer(
         lines.append(f"leakage time constant {cal.leakage.time_constant * 1e3:.1f} ms "
                      f"({len(cal.leakage.per_recording)} DC recordings)")
     if plot is not None:
-        plot.parent.mkdir(parents=True, exist_ok=True)
-        cal.plot().savefig(plot, dpi=120)
+        save_figure(cal.plot(), plot, dpi=120)
         lines.append(f"wrote {plot}")
     report({**cal.summary(), "out": str(out), "plot": plot and str(plot)}, [*lines, f"wrote {out}"], as_json)
 

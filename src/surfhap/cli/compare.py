@@ -8,7 +8,7 @@ from typing import Optional
 
 import typer
 
-from surfhap.cli._common import check_out, figure_path, print_table, report, stdout
+from surfhap.cli._common import check_out, figure_path, print_table, report, save_figure, stdout
 from surfhap.cli._options import JsonOption, OverwriteOption, SeedOption
 
 __all__ = ["register"]
@@ -18,7 +18,6 @@ def compare(
     materials: list[str] = typer.Argument(..., help="Materials: built-in names (see 'surfhap materials'), material "
                                                     "files (.json) or HaTT model files (.xml)."),
     out: Optional[Path] = typer.Option(None, "--out", help="Figure to write (PNG/PDF/SVG)."),
-
     speed_mm_s: float = typer.Option(100.0, "--speed-mm-s", help="Stroke speed of the comparison render (mm/s)."),
     load: float = typer.Option(0.5, "--load", help="Finger load of the comparison render (N)."),
     duration: float = typer.Option(4.0, "--duration", help="Seconds rendered per material."),
@@ -37,8 +36,7 @@ def compare(
         check_out(out, "--out", overwrite)
     comp = compare_materials(materials, speed=speed_mm_s * 1e-3, load=load, duration=duration, seed=seed)
     if out is not None:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        comp.plot().savefig(out, dpi=120)
+        save_figure(comp.plot(), out, dpi=120)
     if as_json:
         return report({"speed_m_s": comp.speed, "load_n": comp.load, "duration_s": comp.duration,
                        "table": [dict(zip(MaterialComparison.header, r)) for r in comp.rows()],

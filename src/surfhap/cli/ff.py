@@ -10,7 +10,7 @@ from typing import Optional
 
 import typer
 
-from surfhap.cli._common import check_out, report, require_modules, stderr, stdout
+from surfhap.cli._common import check_out, fail, report, require_modules, stderr, stdout
 from surfhap.cli._options import JsonOption, OverwriteOption
 from surfhap.cli._signals import StopSignals
 from surfhap.errors import ConfigError
@@ -37,8 +37,10 @@ def _device(gain: Optional[float], slew: Optional[float], f_max: Optional[float]
         raise ConfigError(exc.message, source=f"--{(exc.field or 'device').replace('_', '-')}") from None
 
 
-def _predictor(predict: bool, latency_ms: float, k_pred: Optional[float], smoothing: float, velocity_alpha: float,
-               old_alpha: Optional[float] = None):
+def _engine(scene, dev, predict: bool, latency_ms: float, k_pred: Optional[float], smoothing: float,
+            velocity_alpha: float, old_alpha: Optional[float] = None):
+    """The force-feedback engine of ``scene`` on ``dev`` with the touch predictor of the options."""
+    from surfhap.ff.engine import FFEngine
     from surfhap.render.kinematics import TouchPredictor
 
     if old_alpha is not None:
@@ -49,27 +51,24 @@ def _predictor(predict: bool, latency_ms: float, k_pred: Optional[float], smooth
                                  velocity_alpha=velocity_alpha)
     except ConfigError as exc:
         raise ConfigError(exc.message, source=_PRED_OPTIONS.get(exc.field), field=exc.field) from None
-    return checked if predict else TouchPredictor(velocity_alpha=velocity_alpha)
+    pred = checked if predict else TouchPredictor(velocity_alpha=velocity_alpha)
+    return FFEngine(scene.effects, dev, pred, touch_latency=latency_ms * 1e-3, buttons=scene.buttons)
 
 
-def _default_strokes(size):
-    """0.5 Hz strokes of +-3 cm through the content centre, 1 N, 6 s (the study's pace, 004 Sec. 5.2)."""
+def _default_trajectory(scene):
+    """Without --trajectory: 0.5 Hz strokes of +-3 cm through the content centre, 1 N, 6 s (the
+    study's pace, 004 Sec. 5.2); on a scene with GUI buttons, one push on the centre of each
+    button in turn: 0.8 s each, the load ramped 0 -> 1 N -> 0 (enough to click a button pushed
+    0.8 mm at up to ~1200 N/m), then lifted."""
     import numpy as np
 
     from surfhap.models.trajectory import Trajectory
 
-    t = np.arange(0.0, 6.0, 1e-3)
-    return Trajectory(t, size[0] / 2 + 0.03 * np.sin(np.pi * t), np.full(t.size, size[1] / 2), np.ones(t.size),
-                      name="strokes 0.5 Hz +-3 cm, 1 N")
-
-
-def _default_pushes(buttons):
-    """One push on the centre of each GUI button in turn: 0.8 s each, the load ramped
-    0 -> 1 N -> 0 (enough to click a button pushed 0.8 mm at up to ~1200 N/m), then lifted."""
-    import numpy as np
-
-    from surfhap.models.trajectory import Trajectory
-
+    buttons, (w, h) = scene.buttons, scene.size
+    if not buttons:
+        t = np.arange(0.0, 6.0, 1e-3)
+        return Trajectory(t, w / 2 + 0.03 * np.sin(np.pi * t), np.full(t.size, h / 2), np.ones(t.size),
+                          name="strokes 0.5 Hz +-3 cm, 1 N")
     t = np.arange(0.0, 0.8 * len(buttons), 1e-3)
     k = np.minimum((t // 0.8).astype(int), len(buttons) - 1)
     load = np.interp(t % 0.8, [0.0, 0.05, 0.35, 0.65, 0.7, 0.8], [0.0, 0.05, 1.0, 0.05, 0.0, 0.0])
@@ -116,7 +115,6 @@ def simulate_cmd(
     finger-screen relative sliding and effect switches."""
     import numpy as np
 
-    from surfhap.ff.engine import FFEngine
     from surfhap.ff.scene import load_scene
     from surfhap.sim.ff_device import SimDevice, SimFinger
     from surfhap.live.ff_loop import simulate_ff
@@ -137,11 +135,9 @@ def simulate_cmd(
         if tr.duration > 600:
             raise ConfigError("longer than 600 s", source=str(trajectory), field="time")
     else:
-        tr = _default_pushes(sc.buttons) if sc.buttons else _default_strokes(sc.size)
-    pred = _predictor(predict, touch_latency_ms, k_pred, smoothing, velocity_alpha, old_alpha)
-    lat = touch_latency_ms * 1e-3
-    eng = FFEngine(sc.effects, dev, pred, touch_latency=lat, buttons=sc.buttons)
-    res = simulate_ff(eng, SimFinger(tr, touch_rate=touch_rate, latency=lat, mu=mu), SimDevice(gain=dev.gain),
+        tr = _default_trajectory(sc)
+    eng = _engine(sc, dev, predict, touch_latency_ms, k_pred, smoothing, velocity_alpha, old_alpha)
+    res = simulate_ff(eng, SimFinger(tr, touch_rate=touch_rate, latency=touch_latency_ms * 1e-3, mu=mu), SimDevice(gain=dev.gain),
                       name=f"{sc.name} / {tr.name}")
     out.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(out / "ff_simulation.npz", **{f.name: np.array(getattr(res, f.name), dtype=str if
@@ -186,13 +182,11 @@ def run_cmd(
     """Run SCENE live: a 1 kHz haptic thread driving the device and a 60 Hz position-feedback
     thread; Ctrl-C or SIGTERM ramps the force to zero, prints the stats and exits 130."""
     _require_extras(touch if trajectory is None else "trajectory:", device, feedback)
-    from surfhap.ff.engine import FFEngine
     from surfhap.ff.scene import load_scene
     from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_osc_url
     from surfhap.live.ff_loop import FFLoop, OscFeedback, WorldTouchAdapter
-    from surfhap.live.netaddr import parse_host_port
-
     from surfhap.live.logfilter import configure_logging
+    from surfhap.live.netaddr import parse_host_port
 
     configure_logging(verbose)  # rate-limited: a flood of rejected touches is one line per kind per second
     if duration < 0 or duration > 86400:
@@ -218,11 +212,8 @@ def run_cmd(
         bridge_host, bridge_port = parse_osc_url(device, "--device")
         backend = OscDeviceBackend(bridge_host, bridge_port, dev.gain,
                                    listen=parse_host_port(device_listen, "--device-listen", listen=True))
-    fb = None
-    if feedback is not None:
-        fb = OscFeedback(*parse_osc_url(feedback, "--feedback"))
-    pred = _predictor(predict, touch_latency_ms, k_pred, smoothing, velocity_alpha, old_alpha)
-    eng = FFEngine(sc.effects, dev, pred, touch_latency=touch_latency_ms * 1e-3, buttons=sc.buttons)
+    fb = None if feedback is None else OscFeedback(*parse_osc_url(feedback, "--feedback"))
+    eng = _engine(sc, dev, predict, touch_latency_ms, k_pred, smoothing, velocity_alpha, old_alpha)
     if fb is not None:
         fb.engine = eng  # button press / release events
     loop = FFLoop(eng, backend, feedback=fb)
@@ -292,9 +283,7 @@ def _exit_if_failed(error: BaseException | None) -> None:
     """A force loop that raised has ramped down through the safety stage: one line, exit 3
     (as ``play`` does for a failed backend). ``ff run`` and ``ff simulate`` end the same way."""
     if error is not None:
-        stderr().print(f"error: force-feedback loop failed ({_one_line(error)}); the force was ramped to zero", markup=False,
-                       soft_wrap=True)
-        raise typer.Exit(3)
+        fail(f"force-feedback loop failed ({_one_line(error)}); the force was ramped to zero", 3)
 
 
 def _require_extras(touch: str, device: str, feedback: Optional[str]) -> None:

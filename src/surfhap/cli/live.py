@@ -19,7 +19,7 @@ from typing import Annotated, List, Optional
 import typer
 
 from surfhap.cli._output import parse_output
-from surfhap.cli._common import report, require_modules, stderr, stdout
+from surfhap.cli._common import fail, parse_numbers, report, require_modules, stdout, warning_line
 from surfhap.cli._display_options import resolve_display
 from surfhap.cli._options import (ConfigOption, DisplayOption, JsonOption, LiveAmpGainOption, SeedOption,
                                   TrajectoryOption)
@@ -29,7 +29,6 @@ from surfhap.errors import ConfigError
 __all__ = ["register"]
 
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
-EXIT_BACKEND_FAILED = 3
 DEFAULT_SCAN = "speed=0.1,load=0.5,duration=3,length=0.08"
 ClockOption = typer.Option("wall", "--clock", help="wall: real time | sim: as fast as possible, the --trajectory's "
                            "samples arriving at their stamps (the drive equals `surfhap render` on it; no page).")
@@ -66,18 +65,17 @@ def _print_status(session, output: str, touches: int, as_json: bool, **extra) ->
 
 def _run_simulated(session, traj, output: str, clock, as_json: bool) -> None:
     """``--clock sim``: the trajectory through the engine into the output, as fast as possible;
-    prints the status."""
+    prints the status (exit 3 when the output failed)."""
     n = session.run_simulated(traj, clock)
     _print_status(session, output, session.replay_sent, as_json, clock="sim", frames=n)
+    _finish(session.engine, None)
 
 
 def _finish(engine, guard: StopSignals | None) -> None:
     """Exit 3 (after the status was printed) when the output backend failed, else 130 when a
     signal stopped the command (``guard``; None for a simulated run)."""
     if engine.failure is not None:
-        stderr().print(f"[bold red]error:[/] {engine.failure}; the output was halted at 0 V", markup=True,
-                       soft_wrap=True)
-        raise typer.Exit(EXIT_BACKEND_FAILED)
+        fail(f"{engine.failure}; the output was halted at 0 V", 3)
     if guard is not None:
         guard.finish("the output ramped to 0 V, status above")
 
@@ -92,11 +90,8 @@ def _channels(text: str | None) -> tuple[int, ...] | None:
     """``--channels`` '0,2' -> (0, 2)."""
     if text is None:
         return None
-    try:
-        chans = tuple(int(c) for c in text.split(",") if c.strip())
-    except ValueError:
-        raise ConfigError(f"expected 0-based channel numbers like 0,2, got {text!r}", source="--channels") from None
-    if not chans or any(c < 0 or c > 255 for c in chans):
+    chans = parse_numbers(text, "--channels", "0-based channel numbers like 0,2", kind=int)
+    if any(c < 0 or c > 255 for c in chans):
         raise ConfigError("channels must be within 0-255", source="--channels")
     return chans
 
@@ -170,8 +165,10 @@ def serve_cmd(
     Ctrl-C or SIGTERM ramps the output to zero, writes the recording and prints the status
     (exit 130); exit 3 when the output backend failed."""
     require_modules("fastapi", "starlette", "uvicorn")  # the page; else: install surfhap[live]
+    from surfhap.exchange.trajectory_csv import read_trajectory_csv
     from surfhap.live.config import ServerConfig
     from surfhap.live.logfilter import configure_logging
+    from surfhap.live.netaddr import parse_host_port
     from surfhap.live.session import backend_info, build_session
     from surfhap.web import create_app
     from surfhap.web.process import WebProcess
@@ -180,25 +177,18 @@ def serve_cmd(
     configure_logging(verbose)  # rate-limited: one line per kind per second, whatever a client provokes
     logging.getLogger("surfhap").setLevel(logging.INFO)
     disp = resolve_display(display, config)
-    if mesh is not None:
-        if material is not None:
-            raise ConfigError("give --material or --mesh, not both", source="--mesh")
+    if mesh is not None and material is not None:
+        raise ConfigError("give --material or --mesh, not both", source="--mesh")
     if not 1 <= port <= 65535:
         raise ConfigError("must be within 1-65535", source="--port")
     allowed_hosts = _allowed_hosts(host, allow_host)
-    osc = None
-    if osc_in:
-        from surfhap.live.netaddr import parse_host_port
-
-        osc = parse_host_port(osc_in, "--osc-in", listen=True)
+    osc = parse_host_port(osc_in, "--osc-in", listen=True) if osc_in else None
     if host not in LOOPBACK:
-        stderr().print(f"[yellow]warning:[/] binding {host}: the page is reachable from your network; "
-                       "anyone who can reach it can drive the display", markup=True, soft_wrap=True)
+        warning_line(f"binding {host}: the page is reachable from your network; anyone who can reach it can drive "
+                     "the display")
     if osc is not None and osc[0] not in LOOPBACK:
-        stderr().print(f"[yellow]warning:[/] --osc-in binds {osc[0]}: OSC touch input is reachable from your "
-                       "network; anyone who can send it a datagram can drive the display", markup=True, soft_wrap=True)
-    from surfhap.exchange.trajectory_csv import read_trajectory_csv
-
+        warning_line(f"--osc-in binds {osc[0]}: OSC touch input is reachable from your network; anyone who can send "
+                     "it a datagram can drive the display")
     clk = _clock(clock)
     if clk.simulated and trajectory is None:
         raise ConfigError("a simulated clock needs --trajectory FILE (there is no page to touch)", source="--clock")
@@ -211,8 +201,7 @@ def serve_cmd(
                             seed=seed, mesh=mesh, channels=_channels(channels), max_seconds=max_seconds,
                             display=disp, clock=clk, sensor=_sensor(sensor))
     if clk.simulated:
-        _run_simulated(session, traj, output, clk, as_json)
-        return _finish(session.engine, None)
+        return _run_simulated(session, traj, output, clk, as_json)
     cfg = ServerConfig(host=host, port=port, allowed_origins=tuple(allow_origin), allowed_hosts=allowed_hosts)
     server = None
     with StopSignals() as guard:
@@ -285,8 +274,7 @@ def play_cmd(
                             engine_config=_engine_config(block_ms, 0.0, 1.0), replay=None if clk.simulated else traj,
                             seed=seed, channels=_channels(channels), display=disp, clock=clk, sensor=_sensor(sensor))
     if clk.simulated:
-        _run_simulated(session, traj, output, clk, as_json)
-        return _finish(session.engine, None)
+        return _run_simulated(session, traj, output, clk, as_json)
     replay = session.sources[0]
     with StopSignals() as guard:
         try:

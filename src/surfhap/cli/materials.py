@@ -3,13 +3,12 @@
 
 from __future__ import annotations
 
-import shlex
 from pathlib import Path
 from typing import Optional
 
 import typer
 
-from surfhap.cli._common import print_table, report, stdout
+from surfhap.cli._common import command_line, print_table, report, stdout
 from surfhap.cli._display_options import resolve_display_and_range
 from surfhap.cli._options import ConfigOption, DisplayOption, JsonOption, LoadRangeOption, SpeedRangeOption
 from surfhap.errors import ConfigError
@@ -153,13 +152,12 @@ def calibrate_texture(
     sds = [texture_band_std(m.coefficients, m.variance, tex.sample_rate, cutoff) for m in tex.models]
     sd = float(sum(s * s for s in sds) / len(sds)) ** 0.5
     scale = relative_scale(ratio, beta, sd)
-    command = ["surfhap", "calibrate-texture", str(material_file), "--ratio", f"{ratio:g}", "--beta", f"{beta:g}",
-               "--cutoff", f"{cutoff:g}", "--reference", reference] + (["--note", note] if note else [])
     how = (f"sd(x) = {sd:.6g} {'m/s^2' if tex.quantity == 'acceleration' else ''} is the standard deviation above {cutoff:g} Hz of "
            f"the AR model{'s (RMS over models)' if len(sds) > 1 else ''}; s = r^2 / (beta sd(x)) = {ratio:g}^2 / "
            f"({beta:g} x {sd:.6g}) = {scale:.6g}")
-    prov = Provenance(source="paper", reference=reference, command=shlex.join(command),
-                      note=how + (f". {note}" if note else ""))
+    command = command_line("calibrate-texture", material_file, ratio=ratio, beta=beta, cutoff=cutoff, reference=reference,
+                           note=note or None)
+    prov = Provenance(source="paper", reference=reference, command=command, note=how + (f". {note}" if note else ""))
     cal = TextureCalibrationSpec(target_voltage_ratio=ratio, beta=beta, reference_std=sd, relative_scale=scale, provenance=prov)
     spec = mat.spec.model_copy(update={"texture": tex.model_copy(update={"calibration": cal})})
     spec = type(spec).model_validate(spec.model_dump())

@@ -9,7 +9,7 @@ import typer
 
 from surfhap.batch.jobs import NPZ_MAX_SECONDS, choose_format
 from surfhap.cli._batch import GRID_HELP, render_batch, split_inputs
-from surfhap.cli._common import check_out, error_line, progress_bar, report, stderr
+from surfhap.cli._common import check_out, fail, parse_numbers, progress_bar, report, warning_line
 from surfhap.cli._display_options import resolve_display_and_range
 from surfhap.cli._scan import trajectory_from_options
 from surfhap.cli._signals import StopSignals
@@ -57,13 +57,12 @@ def render_cmd(
 
         prestart(parse_scheduler(scheduler, jobs), RENDER_JOB_MODULES)
     from surfhap.batch.jobs import render_to_folder
-    from surfhap.cli._display_options import parse_range
     from surfhap.exchange.materials import load_material
     from surfhap.render.chain import ChainConfig
     from surfhap.render.safety import SafetyLimits
 
     disp, rng = resolve_display_and_range(display, load_range, speed_range, config)
-    sq_load, sq_speed = parse_range(square_reference, "--square-reference")
+    sq_load, sq_speed = parse_numbers(square_reference, "--square-reference", "LOAD,SPEED (two numbers)", 2)
     mat = load_material(materials[0])
     traj = None if batch else trajectory_from_options(scan, trajectory)
     if not batch:
@@ -83,13 +82,12 @@ def render_cmd(
                  f"saturated {s['saturated_fraction']:.1%} -> {paths['render']}", as_json)
     for warning in (result.saturation_warning(), result.texture_warning()):
         if warning is not None:
-            stderr().print(f"[bold yellow]warning:[/] {warning}", markup=True, soft_wrap=True)
+            warning_line(warning)
     guard.finish(f"wrote the first {s['rendered_s']:g} s of {s['requested_s']:g} s to {paths['render']}" if result.interrupted
                  else f"after the render was complete ({paths['render']})")
     fault = result.fault_error()
     if fault is not None:  # a failed render, like a failed batch job (docs/outputs.md)
-        error_line(fault)
-        raise typer.Exit(1)
+        fail(fault, 1)
 
 
 def register(app: typer.Typer) -> None:

@@ -19,11 +19,11 @@ from typing import Annotated, Optional
 import typer
 from typer.core import TyperGroup
 
-from surfhap.cli._common import check_out, figure_path, progress_bar, report, status_line, stdout
+from surfhap.cli._common import check_out, figure_path, parse_numbers, progress_bar, report, save_figure, status_line, stdout
 from surfhap.cli._display_options import resolve_display
 from surfhap.cli._options import (ConfigOption, DisplayOption, FigureOption, JsonOption, OverwriteOption,
                                   TrajectoryOption)
-from surfhap.errors import ConfigError, writing
+from surfhap.errors import ConfigError
 
 __all__ = ["register"]
 
@@ -42,22 +42,6 @@ shape_app = typer.Typer(cls=_ShapeGroup, no_args_is_help=True, add_completion=Fa
                         help="Feel 3-D meshes on the (simulated) electrovibration display: gradient rendering with edge "
                              "emphasis (Kim et al. 2017). 'surfhap shape MESH --scan ... --out DIR' renders a scan; "
                              "'surfhap shape calibrate MESH' measures the force range.")
-
-
-def _plan(directions: int, speeds: int, v_min: float, v_max: float, rate: float, lines: int):
-    from surfhap.shape.calibration import ScanPlan
-
-    if not (0 < v_min <= v_max <= 2.0):
-        raise ConfigError("need 0 < --v-min <= --v-max <= 2 m/s", source="--v-min/--v-max")
-    return ScanPlan.evenly(directions, speeds, v_min, v_max, sensor_rate=rate, lines=lines)
-
-
-def _percentiles(text: str) -> tuple[float, float]:
-    try:
-        lo, hi = (float(v) for v in text.split(","))
-    except ValueError:
-        raise ConfigError("expected LOWER,UPPER (e.g. 2.5,97.5)", source="--percentiles") from None
-    return lo, hi
 
 
 # the options that place a mesh (render and calibrate take the same)
@@ -125,9 +109,7 @@ def render_cmd(
         result = render_shape(surf, traj, cal, cfg, progress=update)
     paths = write_shape(result, out)
     if figure:
-        fig = result.plot()
-        with writing(Path(out) / "figure.png"):
-            fig.savefig(Path(out) / "figure.png", dpi=110)
+        save_figure(result.plot(), Path(out) / "figure.png")
     s = result.summary()
     report({**s, "mesh": surf.name, "out": str(paths["npz"].parent)},
            f"{surf.name}: {s['samples']} touch samples, {s['on_mesh_fraction']:.0%} on the mesh, "
@@ -163,11 +145,13 @@ def calibrate_cmd(
 ) -> None:
     """Measure the Fsq range of MESH by simulated scans (Kim et al. Sec. 4.2) and save it as JSON."""
     from surfhap.exchange.shape_files import default_calibration_path, write_calibration
-    from surfhap.shape.calibration import calibrate
+    from surfhap.shape.calibration import ScanPlan, calibrate
     from surfhap.shape.surfaces import load_surface
 
     figure = figure_path(figure, "--figure")
-    plan = _plan(directions, speeds, v_min, v_max, rate, lines)
+    if not (0 < v_min <= v_max <= 2.0):
+        raise ConfigError("need 0 < --v-min <= --v-max <= 2 m/s", source="--v-min/--v-max")
+    plan = ScanPlan.evenly(directions, speeds, v_min, v_max, sensor_rate=rate, lines=lines)
     surf = load_surface(mesh, up=up, scale=scale, size=size, resolution=resolution, pixel_size=pixel_size, height=height)
     if out is None:
         if not Path(mesh).exists():
@@ -175,12 +159,10 @@ def calibrate_cmd(
         out = default_calibration_path(mesh)
     check_out(out, "--out", overwrite)
     with status_line(f"calibrating {surf.name} by {directions * speeds * lines} simulated scans"):
-        cal = calibrate(surf, plan, method=method, k=k, percentiles=_percentiles(percentiles), fz=fz)
+        cal = calibrate(surf, plan, method=method, k=k, percentiles=parse_numbers(percentiles, "--percentiles", "LOWER,UPPER (e.g. 2.5,97.5)", 2), fz=fz)
     path = write_calibration(cal, out)
     if figure is not None:
-        figure.parent.mkdir(parents=True, exist_ok=True)
-        with writing(figure):
-            cal.plot().savefig(figure, dpi=110)
+        save_figure(cal.plot(), figure)
     report({**cal.to_dict(), "mesh": surf.name, "out": str(path)},
            f"{surf.name}: Fsq range [{cal.fmin:+.4g}, {cal.fmax:+.4g}] sqrt(N) ({cal.method}, "
            f"{cal.n_samples} samples, theta_min {cal.theta_min_deg:.1f} deg) -> {path}", as_json)

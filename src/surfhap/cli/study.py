@@ -22,11 +22,10 @@ from typing import Optional
 
 import typer
 
-from surfhap.cli._output import parse_output
 from surfhap.cli._common import check_out, print_table, status_line, stderr, stdout
-from surfhap.cli._options import JsonOption, OverwriteOption
 from surfhap.cli._display_options import resolve_display
-from surfhap.cli._options import ConfigOption, DisplayOption
+from surfhap.cli._options import ConfigOption, DisplayOption, JsonOption, OverwriteOption
+from surfhap.cli._output import parse_output
 from surfhap.cli._signals import StopSignals
 from surfhap.errors import ConfigError
 
@@ -61,8 +60,7 @@ def new(
     if Path(design).is_file() or design.endswith(".json"):
         spec = load_design(design)
         upd = {k: v for k, v in (("seed", seed), ("participants", participants)) if v is not None}
-        if upd:
-            spec = spec.model_validate({**spec.model_dump(), **upd})
+        spec = spec.model_validate({**spec.model_dump(), **upd})
     elif design in TEMPLATES:
         spec = template(design, seed=seed or 0, participants=participants)
     else:
