@@ -188,9 +188,9 @@ def run_cmd(
     _require_extras(touch if trajectory is None else "trajectory:", device, feedback)
     from surfhap.ff.engine import FFEngine
     from surfhap.ff.scene import load_scene
-    from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_osc_url
+    from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend
     from surfhap.live.ff_loop import FFLoop, OscFeedback, WorldTouchAdapter
-    from surfhap.live.netaddr import parse_host_port
+    from surfhap.live.netaddr import parse_host_port, parse_url
 
     from surfhap.live.logfilter import configure_logging
 
@@ -209,18 +209,18 @@ def run_cmd(
 
         backend = SimDeviceBackend(SimDevice(gain=dev.gain), dev.gain)
     elif haply:
-        from surfhap.live.ff_haply import HaplyDevice, parse_haply_url
+        from surfhap.live.ff_haply import HaplyDevice
 
         if not 1.0 <= device_silence_ms <= 1000.0:
             raise ConfigError("must be within 1-1000 ms", source="--device-silence-ms")
-        backend = HaplyDevice(*parse_haply_url(device, "--device"), dev.gain, silence=device_silence_ms * 1e-3)
+        backend = HaplyDevice(*parse_url(device, "--device", "haply"), dev.gain, silence=device_silence_ms * 1e-3)
     else:  # the bridge's address: its own names (host and port are the touch page's)
-        bridge_host, bridge_port = parse_osc_url(device, "--device")
+        bridge_host, bridge_port = parse_url(device, "--device")
         backend = OscDeviceBackend(bridge_host, bridge_port, dev.gain,
                                    listen=parse_host_port(device_listen, "--device-listen", listen=True))
     fb = None
     if feedback is not None:
-        fb = OscFeedback(*parse_osc_url(feedback, "--feedback"))
+        fb = OscFeedback(*parse_url(feedback, "--feedback"))
     pred = _predictor(predict, touch_latency_ms, k_pred, smoothing, velocity_alpha, old_alpha)
     eng = FFEngine(sc.effects, dev, pred, touch_latency=touch_latency_ms * 1e-3, buttons=sc.buttons)
     if fb is not None:
@@ -237,7 +237,7 @@ def run_cmd(
     elif touch.startswith("osc://"):
         from surfhap.live.sources import OscTouchSource, TouchSpace
 
-        touch_host, touch_port = parse_osc_url(touch, "--touch", listen=True)
+        touch_host, touch_port = parse_url(touch, "--touch", listen=True)
         w, h = sc.size
         source = OscTouchSource(loop, host=touch_host, port=touch_port, space=TouchSpace(width=w, height=h))
     elif touch == "web":

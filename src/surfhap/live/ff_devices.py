@@ -36,12 +36,10 @@ from typing import Protocol
 
 import numpy as np
 
-from surfhap.errors import ConfigError
 from surfhap.runtime.clock import now
 from surfhap.live.ff_bridge_wire import PositionReceiver, encode_force, new_token
-from surfhap.live.netaddr import parse_osc_address
 
-__all__ = ["FFDevice", "SimDeviceBackend", "OscDeviceBackend", "parse_osc_url"]
+__all__ = ["FFDevice", "SimDeviceBackend", "OscDeviceBackend"]
 
 
 class FFDevice(Protocol):
@@ -62,15 +60,6 @@ class FFDevice(Protocol):
     def info(self) -> dict: ...
 
 log = logging.getLogger("surfhap.live")
-
-
-def parse_osc_url(text: str, option: str, *, listen: bool = False) -> tuple[str, int]:
-    """``osc://HOST:PORT`` -> (host, port), checked without a DNS lookup (port 0 only where
-    the option listens); ConfigError naming ``option`` otherwise."""
-    host, port, path = parse_osc_address(text, option, listen=listen)
-    if path:
-        raise ConfigError(f"expected osc://HOST:PORT, got {text!r}", source=option)
-    return host, port
 
 
 class SimDeviceBackend:

@@ -36,11 +36,10 @@ import logging
 import math
 import socket
 
-from surfhap.errors import ConfigError
-from surfhap.live.netaddr import parse_host_port
+from surfhap.live.sources import finite_in_range
 from surfhap.runtime.clock import now
 
-__all__ = ["HaplyDevice", "DeviceSilent", "parse_haply_url", "SILENCE"]
+__all__ = ["HaplyDevice", "DeviceSilent", "SILENCE"]
 
 SILENCE = 0.020  # s: "sensor or device silent for 20 ms -> zero output (ramped)" (issue 19, Targets)
 OPEN_TIMEOUT = 5.0  # s, CHOICE: handshake and initial inventory of a local service; beyond, it is not answering
@@ -53,24 +52,13 @@ class DeviceSilent(OSError):
     """The service answered no command for ``silence`` s, or closed the connection."""
 
 
-def parse_haply_url(text: str, option: str) -> tuple[str, int]:
-    """``haply://HOST:PORT`` -> (host, port), checked without a DNS lookup; ConfigError naming ``option``."""
-    s = (text or "").strip()
-    if not s.startswith("haply://"):
-        raise ConfigError(f"expected haply://HOST:PORT, got {text!r}", source=option)
-    return parse_host_port(s[len("haply://"):], option)
-
-
-def _num(v) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise ValueError(f"{v!r} is not a finite number")
-    return float(v)
-
-
 def _cursor(entry: dict) -> tuple[float, float, float]:
     """``state.cursor_position`` (m) of one ``inverse3`` entry; ValueError/KeyError/TypeError if malformed."""
     p = entry["state"]["cursor_position"]
-    return _num(p["x"]), _num(p["y"]), _num(p["z"])
+    xyz = tuple(finite_in_range(p[k], -math.inf, math.inf) for k in "xyz")
+    if None in xyz:
+        raise ValueError(f"cursor position {p!r} is not three finite numbers")
+    return xyz
 
 
 class HaplyDevice:
