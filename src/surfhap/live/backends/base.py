@@ -146,18 +146,30 @@ class PacedBackend:
     def emit(self, volts) -> None:  # pragma: no cover - overridden
         pass
 
+    def live(self) -> bool:
+        """The output is running (its thread, or a device stream of a subclass)."""
+        return self._thread is not None and self._thread.is_alive()
+
     def stop(self, timeout: float = 1.0) -> None:
+        """Ramp a running output to zero (:func:`ramp_down`, then :meth:`drained`), stop the
+        thread and :meth:`close` the output; the stall watch stops first."""
         if self._watch is not None:
             self._watch.stop()
             self._watch = None
         eng = self.engine
-        if eng is not None and self._thread is not None and self._thread.is_alive() and not eng.halted:
-            ramp_down(eng, timeout)
+        if eng is not None and self.live():
+            if not eng.halted:
+                ramp_down(eng, timeout)
+            self.drained(timeout)
         self._run = False
         if self._thread is not None:
             self._thread.join(timeout)
             self._thread = None
         self.close()
+
+    def drained(self, timeout: float) -> None:
+        """Wait (at most ``timeout`` s) until the device has output what was emitted (a
+        device with its own buffer)."""
 
     def close(self) -> None:
         pass
