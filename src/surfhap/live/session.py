@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import logging
 import sys
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -61,27 +62,28 @@ def page_info(session) -> dict:
             "ff": session.ff}
 
 
+@dataclass(eq=False)
 class LiveSession:
-    """An engine with its backend and touch sources, plus what the page shows."""
+    """An engine with its backend and touch sources, plus what the page shows.
 
-    def __init__(self, engine, backend, *, title: str = "", preview: dict | None = None,
-                 space: TouchSpace | None = None, sources: list | None = None, positions: str = "physical",
-                 ff: dict | None = None, sensors: list | None = None):
-        """``sensors``: force sensors the session closes when it stops. ``positions``: "physical" maps page positions to metres through CSS pixels (a
-        material: the finger speed is real); "surface" maps the page onto the whole touch
-        surface (a mesh: the shaded preview and the felt shape line up). ``ff``: the
-        force-feedback panel's description (:func:`surfhap.web.ff.ff_page_info`),
-        None for a texture or shape session."""
-        self.ff = ff
-        self.engine = engine
-        self.positions = positions
-        self.backend = backend
-        self.title = title
-        self.preview = preview or {"w": 1, "h": 1, "data": [128]}
-        self.space = space or TouchSpace()
-        self.sources = list(sources or [])
-        self.sensors = list(sensors or [])
-        self.started = False
+    positions : "physical" maps page positions to metres through CSS pixels (a material: the
+                finger speed is real); "surface" maps the page onto the whole touch surface (a
+                mesh: the shaded preview and the felt shape line up).
+    ff        : the force-feedback panel's description (:func:`surfhap.web.ff.ff_page_info`),
+                None for a texture or shape session.
+    sensors   : force sensors the session closes when it stops.
+    """
+
+    engine: Any
+    backend: Any
+    title: str = ""
+    preview: dict = field(default_factory=lambda: {"w": 1, "h": 1, "data": [128]})
+    space: TouchSpace = field(default_factory=TouchSpace)
+    sources: list = field(default_factory=list)
+    positions: str = "physical"
+    ff: dict | None = None
+    sensors: list = field(default_factory=list)
+    started: bool = field(default=False, init=False)
 
     def start(self) -> None:
         # The engine thread competes for the GIL with the web server: a short switch

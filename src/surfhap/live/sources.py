@@ -30,6 +30,7 @@ import logging
 import math
 import socket
 import threading
+from dataclasses import dataclass
 from typing import Annotated
 
 from pydantic import Field
@@ -111,13 +112,14 @@ def finite_in_range(v, lo: float, hi: float) -> float | None:
     return v
 
 
+@dataclass(slots=True)
 class _Sender:
     """One entry of the OSC sender table."""
 
-    __slots__ = ("source", "limiter", "last_seen", "proven")
-
-    def __init__(self, source: int, limiter: RateLimiter, t: float):
-        self.source, self.limiter, self.last_seen, self.proven = source, limiter, t, False
+    source: int
+    limiter: RateLimiter
+    last_seen: float
+    proven: bool = False
 
 
 class OscTouchSource:
