@@ -37,6 +37,7 @@ from typing import Protocol
 import numpy as np
 
 from surfhap.runtime.clock import now
+from surfhap.live.sources import RejectLog
 from surfhap.live.ff_bridge_wire import PositionReceiver, encode_force, new_token
 
 __all__ = ["FFDevice", "SimDeviceBackend", "OscDeviceBackend"]
@@ -135,6 +136,8 @@ class OscDeviceBackend:
         self._thread = None
         self._run = False
         self.sent = self.received = self.errors = self.dropped_sequence = 0
+        self._drops = RejectLog(log, every=1000, template="ff osc device: dropped a position from %s: %s (%d dropped "
+                                "so far)")
 
     # the receiver's drop counters, under the names of info()
     dropped_sender = property(lambda self: self.receiver.dropped_sender)
@@ -162,11 +165,6 @@ class OscDeviceBackend:
     def press(self, load: float) -> None:
         pass  # the real finger presses on the real screen
 
-    def _drop(self, peer, why: str) -> None:
-        n = self.rejected + self.dropped_sender + self.dropped_token + self.dropped_sequence
-        if n <= 5 or n % 1000 == 0:
-            log.warning("ff osc device: dropped a position from %s: %s (%d dropped so far)", peer, why, n)
-
     def _receive(self) -> None:
         sock = self.receiver.sock
         while self._run:
@@ -180,12 +178,12 @@ class OscDeviceBackend:
         """Check one datagram from ``addr`` against the contract; True when its position was taken."""
         msg = self.receiver.accept(data, addr)
         if msg is None:
-            self._drop(addr[:2], self.receiver.last_drop)
+            self._drops.reject(addr[:2], self.receiver.last_drop)
             return False
         seq, x, y, z = msg[1:5]
         if seq <= self._seq_in:
             self.dropped_sequence += 1
-            self._drop(addr[:2], f"sequence number {seq} not above {self._seq_in}")
+            self._drops.reject(addr[:2], f"sequence number {seq} not above {self._seq_in}")
             return False
         self._seq_in = seq
         self._pos = (x, y, z, now())  # one tuple store: atomic

@@ -36,7 +36,7 @@ import logging
 import math
 import socket
 
-from surfhap.live.sources import finite_in_range
+from surfhap.live.sources import RejectLog, finite_in_range
 from surfhap.runtime.clock import now
 
 __all__ = ["HaplyDevice", "DeviceSilent", "SILENCE"]
@@ -82,7 +82,11 @@ class HaplyDevice:
         self._sock = self._proto = None
         self._out = bytearray()  # bytes the socket did not take yet
         self.closed = ""
-        self.sent = self.received = self.malformed = self.errors = 0
+        self.sent = self.received = self.errors = 0
+        self._malformed = RejectLog(log, every=1000, template="ff haply device %s: ignored a malformed message (%s; %d "
+                                    "so far)")
+
+    malformed = property(lambda self: self._malformed.count, doc="malformed messages ignored")
 
     def start(self) -> None:
         from websockets.client import ClientProtocol
@@ -90,7 +94,7 @@ class HaplyDevice:
 
         self._out.clear()
         self.closed, self._asked = "", None
-        self.sent = self.received = self.malformed = self.errors = 0
+        self.sent = self.received = self.errors = self._malformed.count = 0
         try:
             self._sock = socket.create_connection((self.host, self.port), timeout=OPEN_TIMEOUT)
         except OSError as exc:
@@ -214,10 +218,7 @@ class HaplyDevice:
             entry = next(e for e in json.loads(raw)["inverse3"] if e["device_id"] == self.device_id)
             x, y, z = _cursor(entry)
         except (ValueError, KeyError, TypeError, StopIteration, RecursionError) as exc:
-            self.malformed += 1
-            if self.malformed <= 5 or self.malformed % 1000 == 0:
-                log.warning("ff haply device: ignored a malformed message (%s; %d so far)", repr(exc)[:120],
-                            self.malformed)
+            self._malformed.reject(self.uri, repr(exc)[:120])
             return False
         p0 = self._p0
         self._pos = (x - p0[0], -(y - p0[1]), z - p0[2], now())
