@@ -12,7 +12,7 @@ import numpy as np
 
 from surfhap.live.session import backend_info
 
-__all__ = ["FrameBuilder", "bin_rows", "pack_rows"]
+__all__ = ["FrameBuilder", "bin_rows"]
 
 # trace columns of the engine (LiveEngine.trace): t, x, y, speed, load, drive V, target, friction
 _COLUMNS = (("t", 0, 4), ("v", 5, 2), ("f", 7, 4), ("target", 6, 4), ("speed", 3, 4))  # key, column, decimals
@@ -30,13 +30,6 @@ def bin_rows(rows: np.ndarray, points: int) -> np.ndarray:
     return np.nan_to_num(rows, nan=0.0, posinf=0.0, neginf=0.0)
 
 
-def pack_rows(rows: np.ndarray, points: int) -> dict:
-    """A frame of trace ``rows`` (:func:`bin_rows`), rounded:
-    ``{"t": s, "v": V, "f": N, "target": N, "speed": m/s}``, lists of equal length."""
-    r = bin_rows(rows, points)
-    return {key: np.round(r[:, col], dec).tolist() for key, col, dec in _COLUMNS}
-
-
 class FrameBuilder:
     """The rows an engine wrote since the last :meth:`frame`, and its status."""
 
@@ -45,14 +38,17 @@ class FrameBuilder:
         self._idx = 0
 
     def frame(self) -> dict:
-        """The next frame (:func:`pack_rows`); at most half the trace ring per call. An engine
-        whose ``frame_extra`` is a method (the force-feedback view,
-        :class:`surfhap.web.ff.FFWebEngine`; the texture engine's is None) adds its part under ``"ff"``."""
+        """The next frame: the trace rows since the last call (at most half the trace ring),
+        :func:`bin_rows` and rounded: ``{"t": s, "v": V, "f": N, "target": N, "speed": m/s}``,
+        lists of equal length. An engine whose ``frame_extra`` is a method (the force-feedback
+        view, :class:`surfhap.web.ff.FFWebEngine`; the texture engine's is None) adds its part
+        of the same binned rows under ``"ff"``."""
         eng = self.engine
         rows, self._idx = eng.trace_since(self._idx, limit=eng.trace.shape[0] // 2)
-        frame = pack_rows(rows, self.points)
+        r = bin_rows(rows, self.points)
+        frame = {key: np.round(r[:, col], dec).tolist() for key, col, dec in _COLUMNS}
         if eng.frame_extra is not None:
-            frame["ff"] = eng.frame_extra(bin_rows(rows, self.points))
+            frame["ff"] = eng.frame_extra(r)
         return frame
 
     def status(self) -> dict:
