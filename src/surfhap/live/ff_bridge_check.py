@@ -146,10 +146,9 @@ class BridgeCheck:
         got = list(self.log)
         rx = self.receiver
         if not got:
-            why = (f"{rx.dropped_token} with a wrong token, " if rx.dropped_token else "") + \
-                  (f"{rx.rejected} malformed, " if rx.rejected else "") + \
-                  (f"{rx.dropped_sender} from another address than {self.host}:{self.port}, " if rx.dropped_sender
-                   else "")
+            counts = ((rx.dropped_token, "with a wrong token"), (rx.rejected, "malformed"),
+                      (rx.dropped_sender, f"from another address than {self.host}:{self.port}"))
+            why = ", ".join(f"{n} {what}" for n, what in counts if n)
             rows.append(CheckRow("reply", False, f"no valid position in 0.5 s on {self.listen[0]}:{self.listen[1]} "
                                  f"({why or 'nothing received'}); nothing else can be checked"))
             return rows

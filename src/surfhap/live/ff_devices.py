@@ -1,4 +1,5 @@
-"""Device backends of the force-feedback loop: the small protocol and its two implementations.
+"""Device backends of the force-feedback loop: the small protocol and its two implementations
+(``haply``, a Haply Inverse3, is :class:`surfhap.live.ff_haply.HaplyDevice`).
 
 Protocol :class:`FFDevice` (called from the haptic thread only, once per tick, never blocking):
 
@@ -9,21 +10,6 @@ Protocol :class:`FFDevice` (called from the haptic thread only, once per tick, n
   X0, see :mod:`surfhap.ff.params`) and the engine-clock time it was measured;
 * ``write(force, t)``: the safe force (3,) N; the backend converts it into device units
   with its ``gain`` (Falcon through CHAI3D: 4.5, 004 Sec. 4.3).
-
-``sim``: :class:`SimDeviceBackend`, a :class:`surfhap.sim.ff_device.SimDevice` stepped on
-every write by as many of its own ticks as wall-clock periods have passed (so that missed
-haptic ticks do not slow the simulated physics down); the finger's load, as reported by the
-touch source, presses on it, or (``ff simulate``) a simulated finger's force.
-
-``osc``: :class:`OscDeviceBackend` talks to a device bridge (e.g. a CHAI3D program) over UDP
-under the bridge contract (:mod:`surfhap.live.ff_bridge_wire`, docs/forcefeedback.md). A
-position is used only from the bridge's own address with this session's token
-(:class:`~surfhap.live.ff_bridge_wire.PositionReceiver`, shared with ``ff bridge-check``) and a
-sequence number above the last one accepted; anything else is dropped and counted
-(``dropped_sender``, ``dropped_token``, ``dropped_sequence``, ``rejected``).
-
-``haply``: :class:`surfhap.live.ff_haply.HaplyDevice`, a Haply Inverse3 through its Inverse
-Service (JSON over a local WebSocket; its own module).
 """
 
 from __future__ import annotations
@@ -64,8 +50,10 @@ log = logging.getLogger("surfhap.live")
 
 
 class SimDeviceBackend:
-    """The simulated device; ``finger_load`` (N) is pressed onto the screen while touched, or
-    with ``finger`` (:class:`surfhap.sim.ff_device.SimFinger`) its ``force_on_screen``."""
+    """The simulated device (:class:`surfhap.sim.ff_device.SimDevice`), stepped on every write by
+    as many of its own ticks as wall-clock periods have passed (missed haptic ticks do not slow
+    its physics down); ``finger_load`` (N) is pressed onto the screen while touched, or with
+    ``finger`` (:class:`surfhap.sim.ff_device.SimFinger`, ``ff simulate``) its ``force_on_screen``."""
 
     name = "sim"
 
@@ -113,7 +101,12 @@ class SimDeviceBackend:
 
 
 class OscDeviceBackend:
-    """Force commands to ``host:port`` over OSC; positions from the bridge on ``listen`` (UDP).
+    """Force commands to a device bridge (e.g. a CHAI3D program) at ``host:port`` over OSC;
+    positions from the bridge on ``listen`` (UDP), under the bridge contract
+    (:mod:`surfhap.live.ff_bridge_wire`, docs/forcefeedback.md). A position is used only from
+    the bridge's own address with this session's token (:class:`~surfhap.live.ff_bridge_wire.PositionReceiver`,
+    shared with ``ff bridge-check``) and a sequence number above the last one accepted; anything
+    else is dropped and counted (``dropped_sender``, ``dropped_token``, ``dropped_sequence``, ``rejected``).
 
     listen : (host, port) to receive positions on; port 0 picks a free one (see ``.listen_port``).
     token  : the session token (default: a random one per backend).

@@ -44,9 +44,10 @@ def material_preview(material, width: int = 256, height: int = 64, seed: int = 0
 
 
 def load_live_shape(path, drive_rate: int, surface_size: tuple[float, float], seed: int = 0, display=None):
-    """Mesh file or built-in shape name -> (:class:`~surfhap.render.shape_chain.ShapeChain`, title). The mesh is scaled so its larger xy side
-    spans 90 % of the smaller side of the touch surface; a ``MESH.calibration.json`` next
-    to it (``surfhap shape calibrate``) is used when present, else it is calibrated now.
+    """Mesh file or built-in shape name -> (:class:`~surfhap.render.shape_chain.ShapeChain`, title).
+    The mesh is scaled so its larger xy side spans 90 % of the smaller side of the touch
+    surface; a ``MESH.calibration.json`` next to it (``surfhap shape calibrate``) is used when
+    present, else it is calibrated now.
     ``display``: the DisplayModel rendered for (None: the documented assumptions)."""
     from surfhap.exchange.shape_files import default_calibration_path, read_calibration
     from surfhap.render.shape_chain import ShapeChain
