@@ -38,7 +38,7 @@ from surfhap.runtime.clock import now, sleep_until
 from surfhap.live.ff_bridge_wire import (BRIDGE_WATCHDOG_S, MIN_POSITION_RATE_HZ, PositionReceiver, encode_force,
                                          new_token)
 
-__all__ = ["CheckRow", "BridgeSettings", "BridgeCheck", "check_bridge"]
+__all__ = ["CheckRow", "BridgeSettings", "BridgeCheck"]
 
 UNITS_BOUND_M = 0.1  # a position further than this from X0 is not metres of a desk device
 
@@ -252,9 +252,3 @@ class BridgeCheck:
         detail = fails[0] if fails else (f"zero force {worst * 1e3:.1f} ms after the last force message "
                                          f"(<= {BRIDGE_WATCHDOG_S * 1e3:.0f} + {self.tolerance * 1e3:.0f} ms)")
         return CheckRow("watchdog", ok, detail)
-
-
-def check_bridge(host: str, port: int, settings: BridgeSettings = BridgeSettings(),
-                 listen: tuple = ("127.0.0.1", 9101)) -> list[CheckRow]:
-    """Run :class:`BridgeCheck` against ``host:port``; the rows, one per contract item."""
-    return BridgeCheck(host, port, settings, listen).run()
