@@ -143,16 +143,16 @@ class PacedBackend:
         return self._thread is not None and self._thread.is_alive()
 
     def stop(self, timeout: float = 1.0) -> None:
-        """Ramp a running output to zero (:func:`ramp_down`, then :meth:`drained`), stop the
-        thread and :meth:`close` the output; the stall watch stops first."""
-        if self._watch is not None:
-            self._watch.stop()
-            self._watch = None
+        """Ramp a running output to zero (:func:`ramp_down`, then :meth:`drained`; the stall
+        watch still reports a hung output meanwhile), stop the thread and :meth:`close` the output."""
         eng = self.engine
         if eng is not None and self.live():
             if not eng.halted:
                 ramp_down(eng, timeout)
             self.drained(timeout)
+        if self._watch is not None:
+            self._watch.stop()
+            self._watch = None
         self._run = False
         if self._thread is not None:
             self._thread.join(timeout)
