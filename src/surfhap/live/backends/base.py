@@ -44,7 +44,6 @@ class StallWatch:
         if not (timeout > 0 and timeout < 3600):
             raise ConfigError("must be within 0-3600 s", field="stall_timeout")
         self.engine, self.name, self.timeout, self.on_stall = engine, name, float(timeout), on_stall
-        self.stalled = False
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, name=f"surfhap-{name}-watch", daemon=True)
 
@@ -62,7 +61,6 @@ class StallWatch:
             if b != last:
                 last, t_last = b, t
             elif t - t_last > self.timeout:
-                self.stalled = True
                 eng.fail(f"{self.name} output stalled: no block for {1e3 * (t - t_last):.0f} ms")
                 log.error("%s output stalled: the engine is halted (0 V)", self.name)
                 if self.on_stall is not None:
