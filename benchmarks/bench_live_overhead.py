@@ -33,7 +33,7 @@ def engine_for(name: str, display: bool):
     from surfhap.models.panel import SimulatedDisplay
 
     if name == "suzanne":
-        from surfhap.live.shape_live import load_live_shape
+        from surfhap.live.session import load_live_shape
 
         chain, _ = load_live_shape(SUZANNE, 20000, SURFACE)
     else:

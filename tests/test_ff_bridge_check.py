@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from surfhap.live.ff_bridge_check import BridgeSettings, check_bridge
+from surfhap.live.ff_bridge_check import BridgeCheck, BridgeSettings
 
 sys.path.insert(0, str(Path(__file__).parent))
 from live_support.ff_bridges import ReferenceBridge  # noqa: E402
@@ -72,8 +72,8 @@ def test_bridge_check_passes_a_compliant_bridge_and_fails_one_that_holds_its_for
 def test_bridge_check_names_the_broken_contract_item(kw, failing):
     listen = free_udp_port()
     with ReferenceBridge(("127.0.0.1", listen), **kw) as bridge:
-        rows = check_bridge("127.0.0.1", bridge.port, BridgeSettings(tolerance_ms=300, trials=1, full_scale=True),
-                            listen=("127.0.0.1", listen))
+        rows = BridgeCheck("127.0.0.1", bridge.port, BridgeSettings(tolerance_ms=300, trials=1, full_scale=True),
+                           listen=("127.0.0.1", listen)).run()
     assert [r.name for r in rows] == ROWS[:-1] + ["clamp", "watchdog"]
     assert failing in [r.name for r in rows if not r.passed], rows
 
@@ -119,8 +119,8 @@ def test_bridge_check_drives_full_scale_only_when_asked():
     under a hand never gets the full-scale step); the table has no clamp row."""
     listen = free_udp_port()
     with ReferenceBridge(("127.0.0.1", listen), limit=1e9) as bridge:  # passes any force through
-        rows = check_bridge("127.0.0.1", bridge.port, BridgeSettings(tolerance_ms=300, trials=1),
-                            listen=("127.0.0.1", listen))
+        rows = BridgeCheck("127.0.0.1", bridge.port, BridgeSettings(tolerance_ms=300, trials=1),
+                           listen=("127.0.0.1", listen)).run()
         with bridge.lock:
             commands = list(bridge.commands)
     assert [r.name for r in rows] == ROWS

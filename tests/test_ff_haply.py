@@ -111,14 +111,16 @@ def test_frame_units_and_messages_against_the_service(service):
 
 
 def test_malformed_messages_are_counted_and_ignored(service):
-    """Not JSON, no state of this device, a string or a missing coordinate: counted, ignored
-    (the position stays the last good one); the next good state is taken."""
+    """Not JSON, no state of this device, a string, a missing coordinate or an integer too large
+    for a float: counted, ignored (the position stays the last good one); the next good state is taken."""
     reset(service)
     be = HaplyDevice("127.0.0.1", service.port, silence=LENIENT)
     be.start()
     try:
         bad = ["not json", json.dumps({"inverse3": []}), json.dumps([1, 2]),
                json.dumps({"inverse3": [{"device_id": service.device_id, "state": {"cursor_position": {"x": "1"}}}]}),
+               json.dumps({"inverse3": [{"device_id": service.device_id,
+                                         "state": {"cursor_position": {"x": 10**400, "y": 0, "z": 0}}}]}),
                json.dumps({"inverse3": [{"device_id": "other", "state": {"cursor_position": {"x": 0, "y": 0, "z": 0}}}]})]
         service.inject.extend(bad)
         for k in range(len(bad)):
@@ -271,7 +273,8 @@ def test_no_service_is_one_line_naming_the_address_exit_2(capsys):
     assert len(lines) == 1 and f"ws://127.0.0.1:{port}" in lines[0] and "--device" in lines[0], err
 
 
-@pytest.mark.parametrize("url", ["haply://127.0.0.1", "haply://999.1.1.1:10001", "haply:127.0.0.1:10001"])
+@pytest.mark.parametrize("url", ["haply://127.0.0.1", "haply://999.1.1.1:10001", "haply:127.0.0.1:10001",
+                                 "haply://127.0.0.1:10001/x"])
 def test_bad_haply_address_is_one_line_exit_2(capsys, url):
     code, out, err = run(capsys, "ff", "run", "follow", "--device", url, "--touch", "osc://127.0.0.1:0")
     assert code == 2 and len(err.strip().splitlines()) == 1 and "--device" in err, err

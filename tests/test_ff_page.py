@@ -36,7 +36,7 @@ def _ff_session(scene="buttons"):
 
 
 def test_texture_page_frames_carry_no_ff_data():
-    from surfhap.live.frames import FrameBuilder
+    from surfhap.live.session import FrameBuilder
     from surfhap.live.session import build_session
 
     s = build_session("denim")

@@ -214,7 +214,7 @@ def push_and_wait(e, t0, n=25, patience=60.0):
 def test_sim_backend_runs_in_real_time(tmp_path):
     import time
 
-    from surfhap.live.backends import FileOutput, SimOutput, open_backend
+    from surfhap.live.backends.output import FileOutput, SimOutput, open_backend
 
     e = make_engine()
     e.warm_up()
@@ -235,7 +235,7 @@ def test_sim_backend_runs_in_real_time(tmp_path):
 def test_file_backend_records_what_the_engine_rendered(tmp_path, suffix):
     import time
 
-    from surfhap.live.backends import FileOutput, SimOutput, open_backend
+    from surfhap.live.backends.output import FileOutput, SimOutput, open_backend
 
     e = make_engine()
     e.warm_up()
@@ -261,7 +261,7 @@ def test_file_backend_records_what_the_engine_rendered(tmp_path, suffix):
 def test_output_parser_errors():
     from surfhap.cli._output import parse_output
     from surfhap.errors import ConfigError
-    from surfhap.live.backends import FileOutput, OscOutput, SimOutput, SoundOutput
+    from surfhap.live.backends.output import FileOutput, OscOutput, SimOutput, SoundOutput
 
     assert parse_output("sound:3") == SoundOutput(3)
     assert parse_output("sound:Dummy") == SoundOutput("Dummy")

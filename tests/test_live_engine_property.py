@@ -72,11 +72,11 @@ def renderers(rate: int) -> tuple:
     multiple of its 1 kHz touch rate (20 and 48 kHz)."""
     chains = [TextureChain(load_material(m), ChainConfig(drive_rate=rate, method=meth)) for m, meth in RENDERERS]
     if rate % 1000 == 0:
-        from surfhap.live.shape_live import LiveShapeRenderer
+        from surfhap.render.shape_chain import ShapeChain
         from surfhap.render.shape_renderer import ShapeConfig
 
         surface, cal = _dome()
-        chains.append(LiveShapeRenderer(surface, cal, ShapeConfig(drive_rate=rate)))
+        chains.append(ShapeChain(surface, cal, ShapeConfig(drive_rate=rate)))
     return tuple(chains)
 
 

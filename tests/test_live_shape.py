@@ -57,7 +57,7 @@ def test_mesh_session_renders_on_the_shape_and_not_beside_it(bump_file):
 
 
 def test_scalar_touch_stage_matches_the_shape_renderer(bump_file):
-    from surfhap.live.shape_live import load_live_shape
+    from surfhap.live.session import load_live_shape
 
     live, _ = load_live_shape(bump_file, 20000, (0.217, 0.136))
     ref = live.touch_stage

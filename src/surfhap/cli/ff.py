@@ -183,10 +183,10 @@ def run_cmd(
     thread; Ctrl-C or SIGTERM ramps the force to zero, prints the stats and exits 130."""
     _require_extras(touch if trajectory is None else "trajectory:", device, feedback)
     from surfhap.ff.scene import load_scene
-    from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend, parse_osc_url
+    from surfhap.live.ff_devices import OscDeviceBackend, SimDeviceBackend
     from surfhap.live.ff_loop import FFLoop, OscFeedback, WorldTouchAdapter
     from surfhap.live.logfilter import configure_logging
-    from surfhap.live.netaddr import parse_host_port
+    from surfhap.live.netaddr import parse_host_port, parse_url
 
     configure_logging(verbose)  # rate-limited: a flood of rejected touches is one line per kind per second
     if duration < 0 or duration > 86400:
@@ -203,16 +203,16 @@ def run_cmd(
 
         backend = SimDeviceBackend(SimDevice(gain=dev.gain), dev.gain)
     elif haply:
-        from surfhap.live.ff_haply import HaplyDevice, parse_haply_url
+        from surfhap.live.ff_haply import HaplyDevice
 
         if not 1.0 <= device_silence_ms <= 1000.0:
             raise ConfigError("must be within 1-1000 ms", source="--device-silence-ms")
-        backend = HaplyDevice(*parse_haply_url(device, "--device"), dev.gain, silence=device_silence_ms * 1e-3)
+        backend = HaplyDevice(*parse_url(device, "--device", "haply"), dev.gain, silence=device_silence_ms * 1e-3)
     else:  # the bridge's address: its own names (host and port are the touch page's)
-        bridge_host, bridge_port = parse_osc_url(device, "--device")
+        bridge_host, bridge_port = parse_url(device, "--device")
         backend = OscDeviceBackend(bridge_host, bridge_port, dev.gain,
                                    listen=parse_host_port(device_listen, "--device-listen", listen=True))
-    fb = None if feedback is None else OscFeedback(*parse_osc_url(feedback, "--feedback"))
+    fb = None if feedback is None else OscFeedback(*parse_url(feedback, "--feedback"))
     eng = _engine(sc, dev, predict, touch_latency_ms, k_pred, smoothing, velocity_alpha, old_alpha)
     if fb is not None:
         fb.engine = eng  # button press / release events
@@ -228,7 +228,7 @@ def run_cmd(
     elif touch.startswith("osc://"):
         from surfhap.live.sources import OscTouchSource, TouchSpace
 
-        touch_host, touch_port = parse_osc_url(touch, "--touch", listen=True)
+        touch_host, touch_port = parse_url(touch, "--touch", listen=True)
         w, h = sc.size
         source = OscTouchSource(loop, host=touch_host, port=touch_port, space=TouchSpace(width=w, height=h))
     elif touch == "web":

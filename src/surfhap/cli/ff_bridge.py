@@ -26,11 +26,10 @@ def bridge_check_cmd(
 ) -> None:
     """Test a running bridge: reply, rate, sequence numbers, units, axes, non-finite forces and
     the 20 ms watchdog, with small forces; --clamp adds the full-scale clamp row."""
-    from surfhap.live.ff_bridge_check import BridgeSettings, check_bridge
-    from surfhap.live.ff_devices import parse_osc_url
-    from surfhap.live.netaddr import parse_host_port
+    from surfhap.live.ff_bridge_check import BridgeCheck, BridgeSettings
+    from surfhap.live.netaddr import parse_host_port, parse_url
 
-    host, port = parse_osc_url(url, "URL")
+    host, port = parse_url(url, "URL")
     if port == 0:
         raise ConfigError("the bridge's port must be within 1-65535", source="URL")
     lh, lp = parse_host_port(listen, "--listen", listen=True)
@@ -40,7 +39,7 @@ def bridge_check_cmd(
     except ConfigError as exc:
         raise ConfigError(exc.message, source="--" + (exc.field or "").replace("_", "-")) from None
     try:
-        rows = check_bridge(host, port, settings, listen=(lh, lp))
+        rows = BridgeCheck(host, port, settings, listen=(lh, lp)).run()
     except socket.gaierror as exc:
         raise ConfigError(f"cannot resolve {host!r} ({exc.strerror or exc})", source="URL") from None
     except OSError as exc:

@@ -230,9 +230,10 @@ def _run_page(runner, host: str, port: int, output: str | None, amp_gain: float,
         stderr().print(f"LSL markers: stream 'surfhap-{runner.plan.id}' (type Markers)")
     haply = None
     if ff_device is not None and ff_device.startswith("haply://"):
-        from surfhap.live.ff_haply import HaplyDevice, parse_haply_url
+        from surfhap.live.ff_haply import HaplyDevice
+        from surfhap.live.netaddr import parse_url
 
-        haply = HaplyDevice(*parse_haply_url(ff_device, "--ff-device"))
+        haply = HaplyDevice(*parse_url(ff_device, "--ff-device", "haply"))
     player = start_player(runner, None if output is None else parse_output(output), amp_gain,  # no Haply service: exit 2
                           ff=ff_device is not None, ff_backend=haply)
     session = None if player is None else player.session

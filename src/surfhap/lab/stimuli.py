@@ -32,9 +32,9 @@ CSS_PX_M = 0.0254 / 96.0  # one CSS pixel in metres
 def make_profile_renderer(shape: str, mapping: str, surface, calibration, config, surface_size):
     """A live renderer of one of Kim et al.'s formative profiles (the class is built here: it
     derives from the live package's shape renderer, imported on first use)."""
-    from surfhap.live.shape_live import LiveShapeRenderer
+    from surfhap.render.shape_chain import ShapeChain
 
-    class ProfileRenderer(LiveShapeRenderer):
+    class ProfileRenderer(ShapeChain):
         """Kim et al.'s formative stimuli (Sec. 3.1): a 5 cm track across the middle of the
         touch surface, scanned left to right; the intensity at position x is the IP mapping
         of the lateral force of the 1-D Gaussian profile (:mod:`surfhap.shape.profiles`),
@@ -140,7 +140,7 @@ class StimulusPlayer(_TimedPlayer):
         """A built-in shape or scene (in its physical size, centred on the touch surface), a
         mesh file (scaled as by 'surfhap serve --mesh'), or with ``profile`` (shape, mapping)
         one of Kim et al.'s 1-D profiles (on the Gaussian bump's geometry, without edges)."""
-        from surfhap.live.shape_live import LiveShapeRenderer
+        from surfhap.render.shape_chain import ShapeChain
         from surfhap.render.shape_renderer import ShapeConfig
         from surfhap.shape.calibration import calibrate
         from surfhap.shape.scenes import builtin_shape
@@ -155,7 +155,7 @@ class StimulusPlayer(_TimedPlayer):
         cal, size = calibrate(surface, fz=cfg.fz), (sp.width, sp.height)
         if profile:
             return make_profile_renderer(*profile, surface, cal, cfg, size)
-        return LiveShapeRenderer(surface, cal, cfg, surface_size=size)
+        return ShapeChain(surface, cal, cfg, surface_size=size)
 
     def _get(self, render: dict):
         key = json.dumps(render, sort_keys=True)

@@ -38,7 +38,7 @@ from surfhap.runtime.clock import now, sleep_until
 from surfhap.live.ff_bridge_wire import (BRIDGE_WATCHDOG_S, MIN_POSITION_RATE_HZ, PositionReceiver, encode_force,
                                          new_token)
 
-__all__ = ["CheckRow", "BridgeSettings", "BridgeCheck", "check_bridge"]
+__all__ = ["CheckRow", "BridgeSettings", "BridgeCheck"]
 
 UNITS_BOUND_M = 0.1  # a position further than this from X0 is not metres of a desk device
 
@@ -146,10 +146,9 @@ class BridgeCheck:
         got = list(self.log)
         rx = self.receiver
         if not got:
-            why = (f"{rx.dropped_token} with a wrong token, " if rx.dropped_token else "") + \
-                  (f"{rx.rejected} malformed, " if rx.rejected else "") + \
-                  (f"{rx.dropped_sender} from another address than {self.host}:{self.port}, " if rx.dropped_sender
-                   else "")
+            counts = ((rx.dropped_token, "with a wrong token"), (rx.rejected, "malformed"),
+                      (rx.dropped_sender, f"from another address than {self.host}:{self.port}"))
+            why = ", ".join(f"{n} {what}" for n, what in counts if n)
             rows.append(CheckRow("reply", False, f"no valid position in 0.5 s on {self.listen[0]}:{self.listen[1]} "
                                  f"({why or 'nothing received'}); nothing else can be checked"))
             return rows
@@ -253,9 +252,3 @@ class BridgeCheck:
         detail = fails[0] if fails else (f"zero force {worst * 1e3:.1f} ms after the last force message "
                                          f"(<= {BRIDGE_WATCHDOG_S * 1e3:.0f} + {self.tolerance * 1e3:.0f} ms)")
         return CheckRow("watchdog", ok, detail)
-
-
-def check_bridge(host: str, port: int, settings: BridgeSettings = BridgeSettings(),
-                 listen: tuple = ("127.0.0.1", 9101)) -> list[CheckRow]:
-    """Run :class:`BridgeCheck` against ``host:port``; the rows, one per contract item."""
-    return BridgeCheck(host, port, settings, listen).run()

@@ -19,10 +19,9 @@ bridge -> host, >= 500 Hz (1 kHz recommended)    ``/surfhap/ff/position ,iifffff
   clamp and watchdog): zero within 20 ms of the last force message.
 
 Both messages are decoded by exact layout (address, type tags, size): anything else is not
-the contract. :class:`PositionReceiver` is the one acceptance of a position datagram (the
-bridge's own address, the contract's layout, this session's token), used by
-:class:`surfhap.live.ff_devices.OscDeviceBackend` (host side, which adds the sequence rule)
-and :mod:`surfhap.live.ff_bridge_check` (the bridge's test, which checks the sequence itself).
+the contract. :class:`PositionReceiver` is the one acceptance of a position datagram, used by
+:class:`surfhap.live.ff_devices.OscDeviceBackend` (which adds the sequence rule) and
+:mod:`surfhap.live.ff_bridge_check` (which checks the sequence itself).
 """
 
 from __future__ import annotations

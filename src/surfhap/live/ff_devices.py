@@ -1,4 +1,5 @@
-"""Device backends of the force-feedback loop: the small protocol and its two implementations.
+"""Device backends of the force-feedback loop: the small protocol and its two implementations
+(``haply``, a Haply Inverse3, is :class:`surfhap.live.ff_haply.HaplyDevice`).
 
 Protocol :class:`FFDevice` (called from the haptic thread only, once per tick, never blocking):
 
@@ -9,21 +10,6 @@ Protocol :class:`FFDevice` (called from the haptic thread only, once per tick, n
   X0, see :mod:`surfhap.ff.params`) and the engine-clock time it was measured;
 * ``write(force, t)``: the safe force (3,) N; the backend converts it into device units
   with its ``gain`` (Falcon through CHAI3D: 4.5, 004 Sec. 4.3).
-
-``sim``: :class:`SimDeviceBackend`, a :class:`surfhap.sim.ff_device.SimDevice` stepped on
-every write by as many of its own ticks as wall-clock periods have passed (so that missed
-haptic ticks do not slow the simulated physics down); the finger's load, as reported by the
-touch source, presses on it, or (``ff simulate``) a simulated finger's force.
-
-``osc``: :class:`OscDeviceBackend` talks to a device bridge (e.g. a CHAI3D program) over UDP
-under the bridge contract (:mod:`surfhap.live.ff_bridge_wire`, docs/forcefeedback.md). A
-position is used only from the bridge's own address with this session's token
-(:class:`~surfhap.live.ff_bridge_wire.PositionReceiver`, shared with ``ff bridge-check``) and a
-sequence number above the last one accepted; anything else is dropped and counted
-(``dropped_sender``, ``dropped_token``, ``dropped_sequence``, ``rejected``).
-
-``haply``: :class:`surfhap.live.ff_haply.HaplyDevice`, a Haply Inverse3 through its Inverse
-Service (JSON over a local WebSocket; its own module).
 """
 
 from __future__ import annotations
@@ -36,12 +22,11 @@ from typing import Protocol
 
 import numpy as np
 
-from surfhap.errors import ConfigError
 from surfhap.runtime.clock import now
+from surfhap.live.sources import RejectLog
 from surfhap.live.ff_bridge_wire import PositionReceiver, encode_force, new_token
-from surfhap.live.netaddr import parse_osc_address
 
-__all__ = ["FFDevice", "SimDeviceBackend", "OscDeviceBackend", "parse_osc_url"]
+__all__ = ["FFDevice", "SimDeviceBackend", "OscDeviceBackend"]
 
 
 class FFDevice(Protocol):
@@ -64,18 +49,11 @@ class FFDevice(Protocol):
 log = logging.getLogger("surfhap.live")
 
 
-def parse_osc_url(text: str, option: str, *, listen: bool = False) -> tuple[str, int]:
-    """``osc://HOST:PORT`` -> (host, port), checked without a DNS lookup (port 0 only where
-    the option listens); ConfigError naming ``option`` otherwise."""
-    host, port, path = parse_osc_address(text, option, listen=listen)
-    if path:
-        raise ConfigError(f"expected osc://HOST:PORT, got {text!r}", source=option)
-    return host, port
-
-
 class SimDeviceBackend:
-    """The simulated device; ``finger_load`` (N) is pressed onto the screen while touched, or
-    with ``finger`` (:class:`surfhap.sim.ff_device.SimFinger`) its ``force_on_screen``."""
+    """The simulated device (:class:`surfhap.sim.ff_device.SimDevice`), stepped on every write by
+    as many of its own ticks as wall-clock periods have passed (missed haptic ticks do not slow
+    its physics down); ``finger_load`` (N) is pressed onto the screen while touched, or with
+    ``finger`` (:class:`surfhap.sim.ff_device.SimFinger`, ``ff simulate``) its ``force_on_screen``."""
 
     name = "sim"
 
@@ -123,7 +101,12 @@ class SimDeviceBackend:
 
 
 class OscDeviceBackend:
-    """Force commands to ``host:port`` over OSC; positions from the bridge on ``listen`` (UDP).
+    """Force commands to a device bridge (e.g. a CHAI3D program) at ``host:port`` over OSC;
+    positions from the bridge on ``listen`` (UDP), under the bridge contract
+    (:mod:`surfhap.live.ff_bridge_wire`, docs/forcefeedback.md). A position is used only from
+    the bridge's own address with this session's token (:class:`~surfhap.live.ff_bridge_wire.PositionReceiver`,
+    shared with ``ff bridge-check``) and a sequence number above the last one accepted; anything
+    else is dropped and counted (``dropped_sender``, ``dropped_token``, ``dropped_sequence``, ``rejected``).
 
     listen : (host, port) to receive positions on; port 0 picks a free one (see ``.listen_port``).
     token  : the session token (default: a random one per backend).
@@ -146,6 +129,8 @@ class OscDeviceBackend:
         self._thread = None
         self._run = False
         self.sent = self.received = self.errors = self.dropped_sequence = 0
+        self._drops = RejectLog(log, every=1000, template="ff osc device: dropped a position from %s: %s (%d dropped "
+                                "so far)")
 
     # the receiver's drop counters, under the names of info()
     dropped_sender = property(lambda self: self.receiver.dropped_sender)
@@ -173,11 +158,6 @@ class OscDeviceBackend:
     def press(self, load: float) -> None:
         pass  # the real finger presses on the real screen
 
-    def _drop(self, peer, why: str) -> None:
-        n = self.rejected + self.dropped_sender + self.dropped_token + self.dropped_sequence
-        if n <= 5 or n % 1000 == 0:
-            log.warning("ff osc device: dropped a position from %s: %s (%d dropped so far)", peer, why, n)
-
     def _receive(self) -> None:
         sock = self.receiver.sock
         while self._run:
@@ -191,12 +171,12 @@ class OscDeviceBackend:
         """Check one datagram from ``addr`` against the contract; True when its position was taken."""
         msg = self.receiver.accept(data, addr)
         if msg is None:
-            self._drop(addr[:2], self.receiver.last_drop)
+            self._drops.reject(addr[:2], self.receiver.last_drop)
             return False
         seq, x, y, z = msg[1:5]
         if seq <= self._seq_in:
             self.dropped_sequence += 1
-            self._drop(addr[:2], f"sequence number {seq} not above {self._seq_in}")
+            self._drops.reject(addr[:2], f"sequence number {seq} not above {self._seq_in}")
             return False
         self._seq_in = seq
         self._pos = (x, y, z, now())  # one tuple store: atomic

@@ -36,11 +36,10 @@ import logging
 import math
 import socket
 
-from surfhap.errors import ConfigError
-from surfhap.live.netaddr import parse_host_port
+from surfhap.live.sources import RejectLog, finite_in_range
 from surfhap.runtime.clock import now
 
-__all__ = ["HaplyDevice", "DeviceSilent", "parse_haply_url", "SILENCE"]
+__all__ = ["HaplyDevice", "DeviceSilent", "SILENCE"]
 
 SILENCE = 0.020  # s: "sensor or device silent for 20 ms -> zero output (ramped)" (issue 19, Targets)
 OPEN_TIMEOUT = 5.0  # s, CHOICE: handshake and initial inventory of a local service; beyond, it is not answering
@@ -53,24 +52,13 @@ class DeviceSilent(OSError):
     """The service answered no command for ``silence`` s, or closed the connection."""
 
 
-def parse_haply_url(text: str, option: str) -> tuple[str, int]:
-    """``haply://HOST:PORT`` -> (host, port), checked without a DNS lookup; ConfigError naming ``option``."""
-    s = (text or "").strip()
-    if not s.startswith("haply://"):
-        raise ConfigError(f"expected haply://HOST:PORT, got {text!r}", source=option)
-    return parse_host_port(s[len("haply://"):], option)
-
-
-def _num(v) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise ValueError(f"{v!r} is not a finite number")
-    return float(v)
-
-
 def _cursor(entry: dict) -> tuple[float, float, float]:
     """``state.cursor_position`` (m) of one ``inverse3`` entry; ValueError/KeyError/TypeError if malformed."""
     p = entry["state"]["cursor_position"]
-    return _num(p["x"]), _num(p["y"]), _num(p["z"])
+    xyz = tuple(finite_in_range(p[k], -math.inf, math.inf) for k in "xyz")
+    if None in xyz:
+        raise ValueError(f"cursor position {p!r} is not three finite numbers")
+    return xyz
 
 
 class HaplyDevice:
@@ -94,7 +82,11 @@ class HaplyDevice:
         self._sock = self._proto = None
         self._out = bytearray()  # bytes the socket did not take yet
         self.closed = ""
-        self.sent = self.received = self.malformed = self.errors = 0
+        self.sent = self.received = self.errors = 0
+        self._malformed = RejectLog(log, every=1000, template="ff haply device %s: ignored a malformed message (%s; %d "
+                                    "so far)")
+
+    malformed = property(lambda self: self._malformed.count, doc="malformed messages ignored")
 
     def start(self) -> None:
         from websockets.client import ClientProtocol
@@ -102,7 +94,7 @@ class HaplyDevice:
 
         self._out.clear()
         self.closed, self._asked = "", None
-        self.sent = self.received = self.malformed = self.errors = 0
+        self.sent = self.received = self.errors = self._malformed.count = 0
         try:
             self._sock = socket.create_connection((self.host, self.port), timeout=OPEN_TIMEOUT)
         except OSError as exc:
@@ -226,10 +218,7 @@ class HaplyDevice:
             entry = next(e for e in json.loads(raw)["inverse3"] if e["device_id"] == self.device_id)
             x, y, z = _cursor(entry)
         except (ValueError, KeyError, TypeError, StopIteration, RecursionError) as exc:
-            self.malformed += 1
-            if self.malformed <= 5 or self.malformed % 1000 == 0:
-                log.warning("ff haply device: ignored a malformed message (%s; %d so far)", repr(exc)[:120],
-                            self.malformed)
+            self._malformed.reject(self.uri, repr(exc)[:120])
             return False
         p0 = self._p0
         self._pos = (x - p0[0], -(y - p0[1]), z - p0[2], now())

@@ -295,11 +295,8 @@ def simulate_ff(engine, finger, device, settle: float = 0.3, tail: float = 0.2,
     loop.backend.start()
     rec = _Record(loop, finger, device, n)
     run(rec, loop, loop.clock, rec, total_frames=n, keep_running=loop.running, lead=0.0)
-    k = rec.k
-    r = {key: v[:k] for key, v in rec.cols.items()}
-    return FFSimResult(r["t"], r["force"], r["screen"], r["screen_v"], r["finger"], r["finger_v"], r["sliding"],
-                       r["finger_est"], r["touched"], r["mask"], r["load"], [e.name for e in engine.effects],
-                       name, r["button"], engine.button_presses.names)
+    return FFSimResult(**{key: v[:rec.k] for key, v in rec.cols.items()}, effects=[e.name for e in engine.effects],
+                       name=name, buttons=engine.button_presses.names)
 
 
 class _Record:

@@ -15,7 +15,7 @@ import re
 
 from surfhap.errors import ConfigError
 
-__all__ = ["check_host", "parse_host_port", "parse_osc_address", "parse_netft_address"]
+__all__ = ["check_host", "parse_host_port", "parse_osc_address", "parse_url", "parse_netft_address"]
 
 _LABEL = re.compile(r"^(?!-)[A-Za-z0-9-]{1,63}(?<!-)$")
 
@@ -69,12 +69,17 @@ def parse_host_port(text: str, option: str, *, listen: bool = False) -> tuple[st
     return check_host(host, option), _port(port, option, listen)
 
 
-def parse_osc_address(text: str, option: str, *, listen: bool = False) -> tuple[str, int, str]:
-    """``osc://HOST:PORT[/PATH]`` -> (host, port, path without slashes, "" when absent)."""
+def _after_scheme(text: str, scheme: str, option: str, form: str) -> str:
     s = (text or "").strip()
-    if not s.startswith("osc://"):
-        raise ConfigError(f"expected osc://HOST:PORT, got {text!r}", source=option)
-    rest = s[len("osc://"):]
+    if not s.startswith(f"{scheme}://"):
+        raise ConfigError(f"expected {scheme}://{form}, got {text!r}", source=option)
+    return s[len(scheme) + 3:]
+
+
+def parse_osc_address(text: str, option: str, *, listen: bool = False, scheme: str = "osc") -> tuple[str, int, str]:
+    """``osc://HOST:PORT[/PATH]`` (or another ``scheme``) -> (host, port, path without slashes,
+    "" when absent)."""
+    rest = _after_scheme(text, scheme, option, "HOST:PORT")
     if rest.startswith("["):
         close = rest.find("]")
         cut = rest.find("/", close if close >= 0 else 0)
@@ -85,13 +90,19 @@ def parse_osc_address(text: str, option: str, *, listen: bool = False) -> tuple[
     return host, port, path.strip("/")
 
 
+def parse_url(text: str, option: str, scheme: str = "osc", *, listen: bool = False) -> tuple[str, int]:
+    """``SCHEME://HOST:PORT`` without a path (``osc://`` devices and feedback, ``haply://``) ->
+    (host, port); port 0 only where the option listens."""
+    host, port, path = parse_osc_address(text, option, listen=listen, scheme=scheme)
+    if path:
+        raise ConfigError(f"expected {scheme}://HOST:PORT, got {text!r}", source=option)
+    return host, port
+
+
 def parse_netft_address(text: str, option: str) -> tuple[str, int, int]:
     """``netft://HOST[:PORT][?http=PORT]`` -> (host, RDT UDP port, HTTP port); the defaults 49152
     and 80 are the Net F/T's (ATI manual 9620-05-NET FT, RDT section and web server)."""
-    s = (text or "").strip()
-    if not s.startswith("netft://"):
-        raise ConfigError(f"expected netft://HOST[:PORT], got {text!r}", source=option)
-    netloc, _, query = s[len("netft://"):].rstrip("/").partition("?")
+    netloc, _, query = _after_scheme(text, "netft", option, "HOST[:PORT]").rstrip("/").partition("?")
     http = 80
     if query:
         key, _, value = query.partition("=")

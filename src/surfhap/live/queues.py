@@ -82,13 +82,7 @@ class TouchRing:
             if w - self._read >= self.capacity:
                 self.dropped += 1
                 return False
-            row = self.rows[w & self._mask]
-            row[0] = source
-            row[1] = t_event
-            row[2] = t_arrival
-            row[3] = x
-            row[4] = y
-            row[5] = load
+            self.rows[w & self._mask] = (source, t_event, t_arrival, x, y, load)
             self._write = w + 1  # publish after the row is complete
             return True
 

@@ -1,11 +1,14 @@
 """What ``surfhap serve`` runs: an engine with its backend and touch sources, plus what the
-page shows about it (:class:`LiveSession`, :func:`build_session`)."""
+page shows about it (:class:`LiveSession`, :func:`build_session`; the trace frames:
+:class:`FrameBuilder`)."""
 
 from __future__ import annotations
 
 import logging
 import sys
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -16,7 +19,8 @@ if TYPE_CHECKING:
     from surfhap.runtime.protocols import ForceSensor
     from surfhap.live.backends.output import Output
 
-__all__ = ["LiveSession", "build_session", "material_preview", "backend_info", "page_info"]
+__all__ = ["LiveSession", "build_session", "material_preview", "load_live_shape", "shape_preview", "backend_info",
+           "page_info", "FrameBuilder", "bin_rows"]
 
 log = logging.getLogger("surfhap.live")
 
@@ -40,6 +44,48 @@ def material_preview(material, width: int = 256, height: int = 64, seed: int = 0
     return {"w": width, "h": height, "data": np.round(255 * np.clip(data, 0, 1)).astype(int).ravel().tolist()}
 
 
+def load_live_shape(path, drive_rate: int, surface_size: tuple[float, float], seed: int = 0, display=None):
+    """Mesh file or built-in shape name -> (:class:`~surfhap.render.shape_chain.ShapeChain`, title).
+    The mesh is scaled so its larger xy side spans 90 % of the smaller side of the touch
+    surface; a ``MESH.calibration.json`` next to it (``surfhap shape calibrate``) is used when
+    present, else it is calibrated now.
+    ``display``: the DisplayModel rendered for (None: the documented assumptions)."""
+    from surfhap.exchange.shape_files import default_calibration_path, read_calibration
+    from surfhap.render.shape_chain import ShapeChain
+    from surfhap.render.shape_renderer import ShapeConfig
+    from surfhap.shape.calibration import calibrate
+    from surfhap.shape.surfaces import load_surface
+
+    size = 0.9 * min(surface_size)
+    surface = load_surface(str(path), size=size)  # a file, an image or a built-in name, as `surfhap shape`
+    cfg = ShapeConfig(drive_rate=int(drive_rate), seed=seed, **({} if display is None else {"display": display}))
+    cal_path = default_calibration_path(path) if Path(path).is_file() else None
+    cal = read_calibration(cal_path) if cal_path is not None and cal_path.is_file() else calibrate(surface, fz=cfg.fz)
+    return ShapeChain(surface, cal, cfg, surface_size=surface_size), f"{surface.name} (mesh, {size * 100:.1f} cm)"
+
+
+def shape_preview(surface, surface_size: tuple[float, float], width: int = 256, height: int = 160) -> dict:
+    """Hill-shaded grey image of the mesh over the touch surface (page orientation)."""
+    w_m, h_m = surface_size
+    xs = (np.arange(width) + 0.5) / width * w_m - w_m / 2
+    ys = h_m / 2 - (np.arange(height) + 0.5) / height * h_m
+    gx, gy = np.meshgrid(xs, ys)
+    z, _ = surface.query(np.column_stack([gx.ravel(), gy.ravel()]))
+    z = z.reshape(height, width)
+    off = ~np.isfinite(z)
+    zf = np.where(off, np.nanmin(z) if np.any(~off) else 0.0, z)
+    dzdy, dzdx = np.gradient(zf, h_m / height, w_m / width)
+    # light from the upper left (page), normals of the height field
+    nx, ny, nz = -dzdx, dzdy, np.ones_like(zf)
+    norm = np.sqrt(nx * nx + ny * ny + nz * nz)
+    light = np.array([-0.5, 0.5, 0.7])
+    light /= np.linalg.norm(light)
+    shade = np.clip((nx * light[0] + ny * light[1] + nz * light[2]) / norm, 0, 1)
+    img = 0.15 + 0.8 * shade
+    img[off] = 0.08
+    return {"w": width, "h": height, "data": np.round(255 * img).astype(int).ravel().tolist()}
+
+
 def backend_info(backend) -> dict:
     """``backend.info()`` (a runtime ``Sink``), or just its name when that fails (the page only displays it)."""
     try:
@@ -61,27 +107,75 @@ def page_info(session) -> dict:
             "ff": session.ff}
 
 
-class LiveSession:
-    """An engine with its backend and touch sources, plus what the page shows."""
+# trace columns of the engine (LiveEngine.trace): t, x, y, speed, load, drive V, target, friction
+_COLUMNS = (("t", 0, 4), ("v", 5, 2), ("f", 7, 4), ("target", 6, 4), ("speed", 3, 4))  # key, column, decimals
 
-    def __init__(self, engine, backend, *, title: str = "", preview: dict | None = None,
-                 space: TouchSpace | None = None, sources: list | None = None, positions: str = "physical",
-                 ff: dict | None = None, sensors: list | None = None):
-        """``sensors``: force sensors the session closes when it stops. ``positions``: "physical" maps page positions to metres through CSS pixels (a
-        material: the finger speed is real); "surface" maps the page onto the whole touch
-        surface (a mesh: the shaded preview and the felt shape line up). ``ff``: the
-        force-feedback panel's description (:func:`surfhap.web.ff.ff_page_info`),
-        None for a texture or shape session."""
-        self.ff = ff
-        self.engine = engine
-        self.positions = positions
-        self.backend = backend
-        self.title = title
-        self.preview = preview or {"w": 1, "h": 1, "data": [128]}
-        self.space = space or TouchSpace()
-        self.sources = list(sources or [])
-        self.sensors = list(sensors or [])
-        self.started = False
+
+def bin_rows(rows: np.ndarray, points: int) -> np.ndarray:
+    """Trace ``rows`` (``(n, c) float``, c >= 8, see ``LiveEngine.trace``) binned to at most
+    ``points`` rows (each bin: its last row, with the bin's peak drive voltage), NaN and
+    infinities as 0: ``(m, c) float``, m <= points."""
+    if rows.shape[0] > points:
+        edges = np.linspace(0, rows.shape[0], points + 1).astype(int)
+        keep = rows[edges[1:] - 1].copy()
+        keep[:, 5] = np.maximum.reduceat(rows[:, 5], edges[:-1])
+        rows = keep
+    return np.nan_to_num(rows, nan=0.0, posinf=0.0, neginf=0.0)
+
+
+class FrameBuilder:
+    """Engine side of the trace stream, what the page plots (at ``trace_hz``): the rows an engine
+    wrote since the last :meth:`frame`, and its status, as plain JSON-able values sent
+    in-process (:class:`surfhap.web.link.LocalLink`) or over a pipe to the web process
+    (:mod:`surfhap.web.process`)."""
+
+    def __init__(self, engine, backend, points: int = 64):
+        self.engine, self.backend, self.points = engine, backend, int(points)
+        self._idx = 0
+
+    def frame(self) -> dict:
+        """The next frame: the trace rows since the last call (at most half the trace ring),
+        :func:`bin_rows` and rounded: ``{"t": s, "v": V, "f": N, "target": N, "speed": m/s}``,
+        lists of equal length. An engine whose ``frame_extra`` is a method (the force-feedback
+        view, :class:`surfhap.web.ff.FFWebEngine`; the texture engine's is None) adds its part
+        of the same binned rows under ``"ff"``."""
+        eng = self.engine
+        rows, self._idx = eng.trace_since(self._idx, limit=eng.trace.shape[0] // 2)
+        r = bin_rows(rows, self.points)
+        frame = {key: np.round(r[:, col], dec).tolist() for key, col, dec in _COLUMNS}
+        if eng.frame_extra is not None:
+            frame["ff"] = eng.frame_extra(r)
+        return frame
+
+    def status(self) -> dict:
+        """``engine.status()`` with the output backend's info under ``"output"``."""
+        st = self.engine.status()
+        st["output"] = backend_info(self.backend)
+        return st
+
+
+@dataclass(eq=False)
+class LiveSession:
+    """An engine with its backend and touch sources, plus what the page shows.
+
+    positions : "physical" maps page positions to metres through CSS pixels (a material: the
+                finger speed is real); "surface" maps the page onto the whole touch surface (a
+                mesh: the shaded preview and the felt shape line up).
+    ff        : the force-feedback panel's description (:func:`surfhap.web.ff.ff_page_info`),
+                None for a texture or shape session.
+    sensors   : force sensors the session closes when it stops.
+    """
+
+    engine: Any
+    backend: Any
+    title: str = ""
+    preview: dict = field(default_factory=lambda: {"w": 1, "h": 1, "data": [128]})
+    space: TouchSpace = field(default_factory=TouchSpace)
+    sources: list = field(default_factory=list)
+    positions: str = "physical"
+    ff: dict | None = None
+    sensors: list = field(default_factory=list)
+    started: bool = field(default=False, init=False)
 
     def start(self) -> None:
         # The engine thread competes for the GIL with the web server: a short switch
@@ -183,8 +277,6 @@ def build_session(material: str = "cork", output: Output | None = None, *, drive
     space = space or TouchSpace()
     cfg = engine_config or EngineConfig()
     if mesh is not None:
-        from surfhap.live.shape_live import load_live_shape, shape_preview
-
         chain, title = load_live_shape(mesh, rate, (space.width, space.height), seed=seed, display=display)
         preview = shape_preview(chain.surface, (space.width, space.height))
         display_model = chain.config.display

@@ -30,6 +30,7 @@ import logging
 import math
 import socket
 import threading
+from dataclasses import dataclass
 from typing import Annotated
 
 from pydantic import Field
@@ -83,17 +84,19 @@ class RateLimiter:
 
 
 class RejectLog:
-    """Counts rejected messages per peer and logs the first few and then every 100th."""
+    """Counts rejected messages and logs the first ``first`` and then every ``every``-th, as
+    ``template % (peer, reason, count so far)`` (the one rate law of every "dropped" log line)."""
 
-    def __init__(self, logger: logging.Logger = log, first: int = 5, every: int = 100):
-        self.logger, self.first, self.every = logger, first, every
+    def __init__(self, logger: logging.Logger = log, first: int = 5, every: int = 100,
+                 template: str = "rejected message from %s: %s (%d rejected so far)"):
+        self.logger, self.first, self.every, self.template = logger, first, every, template
         self.count = 0
 
     def reject(self, peer: str, reason: str) -> None:
         self.count += 1
         c = self.count
         if c <= self.first or c % self.every == 0:
-            self.logger.warning("rejected message from %s: %s (%d rejected so far)", peer, reason, c)
+            self.logger.warning(self.template, peer, reason, c)
 
 
 def finite_in_range(v, lo: float, hi: float) -> float | None:
@@ -111,13 +114,14 @@ def finite_in_range(v, lo: float, hi: float) -> float | None:
     return v
 
 
+@dataclass(slots=True)
 class _Sender:
     """One entry of the OSC sender table."""
 
-    __slots__ = ("source", "limiter", "last_seen", "proven")
-
-    def __init__(self, source: int, limiter: RateLimiter, t: float):
-        self.source, self.limiter, self.last_seen, self.proven = source, limiter, t, False
+    source: int
+    limiter: RateLimiter
+    last_seen: float
+    proven: bool = False
 
 
 class OscTouchSource:

@@ -9,8 +9,7 @@ import logging
 import math
 from typing import Callable, Protocol, runtime_checkable
 
-from surfhap.live.frames import FrameBuilder
-from surfhap.live.session import page_info
+from surfhap.live.session import FrameBuilder, page_info
 from surfhap.live.sources import TouchSpace
 
 __all__ = ["EngineLink", "LocalLink", "Publish", "as_link", "trace_ticks"]
@@ -37,7 +36,7 @@ class EngineLink(Protocol):
         (s). Never blocks; False when it was dropped."""
 
     async def stream(self, publish: Publish) -> None:
-        """Call ``publish(frame, status)`` for every trace frame (:mod:`surfhap.live.frames`),
+        """Call ``publish(frame, status)`` for every trace frame (:class:`surfhap.live.session.FrameBuilder`),
         with the engine status every few frames (else None), until cancelled."""
 
 

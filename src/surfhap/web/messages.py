@@ -164,7 +164,7 @@ def encode(obj) -> str:
 def trace_message(ack: int, ack_t: float, received: int, rejected: int, *parts: str) -> str:
     """One server -> page message (see module doc): the client's counters and the members of
     ``parts``, JSON objects encoded by :func:`encode` (the trace frame of
-    :meth:`surfhap.live.frames.FrameBuilder.frame` and, when due, ``{"status": ...}``). A frame
+    :meth:`surfhap.live.session.FrameBuilder.frame` and, when due, ``{"status": ...}``). A frame
     is encoded once for every client: only the counters are formatted per client."""
     head = (f'{{"type":"trace","ack":{int(ack)},"ack_t":{float(ack_t)!r},"received":{int(received)},'
             f'"rejected":{int(rejected)}')

@@ -1,14 +1,10 @@
-"""The backend protocol and a paced-thread base for outputs without their own clock
-(the ``--output`` parser and factory are in :mod:`surfhap.live.backends.output`).
+"""The base of the output backends (the typed ``--output`` specs and the factory are in
+:mod:`surfhap.live.backends.output`).
 
-A backend owns the clock: it calls ``engine.render(frames, now)`` once per block and
-sends the returned volts somewhere. Protocol (:class:`surfhap.runtime.protocols.Sink`):
-
-* ``start(engine)`` begins calling the engine (returns at once);
-* ``stop(timeout)`` asks the engine for its ramp to zero, waits for it (bounded), then
-  stops calling and releases the device;
-* ``info()`` a small dict for the status page (name, rate, channels, output latency);
-* ``drive_rate`` the rate it needs (``None`` = whatever the engine uses).
+A backend is a :class:`surfhap.runtime.protocols.Sink` that owns the clock: ``start(engine)``
+returns at once and calls ``engine.render(frames, now)`` once per block, sending the volts
+somewhere; ``stop(timeout)`` asks the engine for its ramp to zero, waits for it (bounded), then
+stops calling and releases the device; ``drive_rate`` is the rate it needs (``None`` = the engine's).
 
 A backend that fails is never left holding its last sample silently: an exception in its
 output thread or callback, or no block for ``stall_timeout`` seconds (:class:`StallWatch`),
@@ -48,7 +44,6 @@ class StallWatch:
         if not (timeout > 0 and timeout < 3600):
             raise ConfigError("must be within 0-3600 s", field="stall_timeout")
         self.engine, self.name, self.timeout, self.on_stall = engine, name, float(timeout), on_stall
-        self.stalled = False
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, name=f"surfhap-{name}-watch", daemon=True)
 
@@ -66,7 +61,6 @@ class StallWatch:
             if b != last:
                 last, t_last = b, t
             elif t - t_last > self.timeout:
-                self.stalled = True
                 eng.fail(f"{self.name} output stalled: no block for {1e3 * (t - t_last):.0f} ms")
                 log.error("%s output stalled: the engine is halted (0 V)", self.name)
                 if self.on_stall is not None:
@@ -92,15 +86,11 @@ def ramp_down(engine, timeout: float) -> None:
 
 
 class PacedBackend:
-    """Calls the engine from its own thread, one block per block period on the engine clock.
-
-    Like a sound card, the output is buffered: a block may be rendered up to ``buffer``
-    seconds after its nominal time (the thread then catches up block by block). A block
-    rendered later than that would have reached the output too late: it counts as an
-    underrun and the schedule is re-anchored instead of bursting. ``now`` given to the
-    engine is the actual render time, so the engine's latency figures exclude the buffer.
-    Subclasses override :meth:`emit` (called with each block of volts, same thread).
-    """
+    """Calls the engine from its own thread through :func:`surfhap.runtime.loop.run`, one block
+    per block period, buffered by ``buffer`` s like a sound card (a later block is an underrun
+    and the schedule re-anchors; ``now`` is the actual render time, so the engine's latency
+    figures exclude the buffer). Subclasses override :meth:`emit` (each block of volts, same
+    thread); an output with its own device clock sets ``paced_by_device``."""
 
     name = "paced"
     drive_rate: int | None = None
@@ -146,18 +136,30 @@ class PacedBackend:
     def emit(self, volts) -> None:  # pragma: no cover - overridden
         pass
 
+    def live(self) -> bool:
+        """The output is running (its thread, or a device stream of a subclass)."""
+        return self._thread is not None and self._thread.is_alive()
+
     def stop(self, timeout: float = 1.0) -> None:
+        """Ramp a running output to zero (:func:`ramp_down`, then :meth:`drained`; the stall
+        watch still reports a hung output meanwhile), stop the thread and :meth:`close` the output."""
+        eng = self.engine
+        if eng is not None and self.live():
+            if not eng.halted:
+                ramp_down(eng, timeout)
+            self.drained(timeout)
         if self._watch is not None:
             self._watch.stop()
             self._watch = None
-        eng = self.engine
-        if eng is not None and self._thread is not None and self._thread.is_alive() and not eng.halted:
-            ramp_down(eng, timeout)
         self._run = False
         if self._thread is not None:
             self._thread.join(timeout)
             self._thread = None
         self.close()
+
+    def drained(self, timeout: float) -> None:
+        """Wait (at most ``timeout`` s) until the device has output what was emitted (a
+        device with its own buffer)."""
 
     def close(self) -> None:
         pass

@@ -32,7 +32,7 @@ import threading
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.live.backends.base import STALL_TIMEOUT, PacedBackend, ramp_down
+from surfhap.live.backends.base import PacedBackend
 from surfhap.runtime.clock import WallClock, now
 
 __all__ = ["DaqBackend", "DaqClock", "UNDERRUN_CODES", "AO_RANGE"]
@@ -77,8 +77,8 @@ class DaqBackend(PacedBackend):
     paced_by_device = True
     buffer = math.inf  # the loop never re-anchors: the device paces and reports its underruns
 
-    def __init__(self, channel: str, amp_gain: float = 250.0, stall_timeout: float = STALL_TIMEOUT):
-        super().__init__(stall_timeout)
+    def __init__(self, channel: str, amp_gain: float = 250.0):
+        super().__init__()
         if not (np.isfinite(amp_gain) and amp_gain > 0):
             raise ConfigError("must be > 0 V per V at the amplifier input", source="--amp-gain")
         self.channel, self.amp_gain = channel, float(amp_gain)
@@ -157,13 +157,8 @@ class DaqBackend(PacedBackend):
         elif self._mark is not None and self.generated >= self._mark:
             self._drained.set()
 
-    def stop(self, timeout: float = 1.0) -> None:
-        eng = self.engine
-        if eng is not None and self._thread is not None and self._thread.is_alive():
-            if not eng.halted:
-                ramp_down(eng, timeout)
-            self._drained.wait(timeout)  # the ramp has left the DAC
-        super().stop(timeout)
+    def drained(self, timeout: float) -> None:
+        self._drained.wait(timeout)  # the ramp has left the DAC
 
     def abort(self) -> None:
         if self._task is not None:

@@ -24,7 +24,7 @@ import numpy as np
 
 from surfhap.errors import ConfigError
 from surfhap.exchange.wav import float_wav_header
-from surfhap.live.backends.base import STALL_TIMEOUT, PacedBackend
+from surfhap.live.backends.base import PacedBackend
 
 __all__ = ["FileBackend", "check_writable", "MIN_SECONDS"]
 
@@ -67,8 +67,8 @@ class FileBackend(PacedBackend):
     name = "file"
 
     def __init__(self, path: str | Path, amp_gain: float = 250.0, max_seconds: float | None = None,
-                 flush_seconds: float = 0.1, stall_timeout: float = STALL_TIMEOUT):
-        super().__init__(stall_timeout)
+                 flush_seconds: float = 0.1):
+        super().__init__()
         self.path = Path(path)
         if self.path.suffix.lower() not in (".wav", ".npz"):
             raise ConfigError("must end in .wav or .npz", source="--output", field="file")

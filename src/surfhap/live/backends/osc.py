@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from surfhap.live.backends.base import STALL_TIMEOUT, PacedBackend
+from surfhap.live.backends.base import PacedBackend
 
 __all__ = ["OscBackend"]
 
@@ -23,8 +23,8 @@ __all__ = ["OscBackend"]
 class OscBackend(PacedBackend):
     name = "osc"
 
-    def __init__(self, host: str, port: int, mode: str = "intensity", stall_timeout: float = STALL_TIMEOUT):
-        super().__init__(stall_timeout)
+    def __init__(self, host: str, port: int, mode: str = "intensity"):
+        super().__init__()
         from pythonosc.udp_client import SimpleUDPClient
 
         self.host, self.port, self.mode = host, int(port), mode

@@ -7,17 +7,14 @@ keeps the last block for inspection.
 
 from __future__ import annotations
 
-from surfhap.live.backends.base import STALL_TIMEOUT, PacedBackend
+from surfhap.live.backends.base import PacedBackend
 
 __all__ = ["SimBackend"]
 
 
 class SimBackend(PacedBackend):
     name = "sim"
-
-    def __init__(self, stall_timeout: float = STALL_TIMEOUT):
-        super().__init__(stall_timeout)
-        self.blocks = 0
+    blocks = 0  # blocks emitted
 
     def emit(self, volts) -> None:
         self.blocks += 1

@@ -25,7 +25,7 @@ import logging
 import numpy as np
 
 from surfhap.errors import ConfigError
-from surfhap.live.backends.base import STALL_TIMEOUT, StallWatch, ramp_down
+from surfhap.live.backends.base import PacedBackend, StallWatch
 from surfhap.runtime.clock import AudioClock
 
 __all__ = ["SoundBackend", "list_devices"]
@@ -57,13 +57,17 @@ def list_devices() -> list[dict]:
     return out
 
 
-class SoundBackend:
+class SoundBackend(PacedBackend):
+    """PortAudio's callback renders the blocks (no thread of its own); stopping is
+    :meth:`PacedBackend.stop`'s."""
+
     name = "sound"
-    drive_rate = None
+    paced_by_device = True
 
     def __init__(self, device: int | str | None = None, amp_gain: float = 250.0, n_channels: int | None = None,
                  channels: tuple[int, ...] | None = None, latency: str | float = "low",
-                 capture_seconds: float = 0.0, stall_timeout: float = STALL_TIMEOUT):
+                 capture_seconds: float = 0.0):
+        super().__init__()
         if not (np.isfinite(amp_gain) and amp_gain > 0):
             raise ConfigError("must be > 0 V per DAC unit", field="amp_gain")
         self.device = device
@@ -75,12 +79,8 @@ class SoundBackend:
         self.capture = np.zeros(0, dtype=np.float32)
         self.captured = 0
         self._chans: tuple[int, ...] = ()
-        self.engine = None
         self._stream = None
-        self.stall_timeout = float(stall_timeout)
-        self._watch = None
         self.nominal_latency = 0.0
-        self.error: str | None = None
 
     def start(self, engine) -> None:
         sd = _sd()
@@ -109,7 +109,7 @@ class SoundBackend:
         except sd.PortAudioError as exc:
             self._stream = None
             raise ConfigError(f"cannot open sound output at {engine.drive_rate} Hz ({exc})", source="--output") from None
-        self._watch = StallWatch(engine, self.name, self.stall_timeout, on_stall=self._abort).start()
+        self._watch = StallWatch(engine, self.name, self.stall_timeout, on_stall=self.abort).start()
         log.info("sound output on %r: %d channel(s) at %d Hz, block %d, output latency %.1f ms",
                  dev["name"], n_ch, engine.drive_rate, engine.block_frames, 1e3 * self._stream.latency)
 
@@ -133,7 +133,7 @@ class SoundBackend:
                 self.error = f"sound output failed: {type(exc).__name__}: {exc}"
             self.engine.fail(self.error)
 
-    def _abort(self) -> None:
+    def abort(self) -> None:
         stream = self._stream
         if stream is not None:
             stream.abort()
@@ -157,13 +157,12 @@ class SoundBackend:
             cap[k : k + m] = u[:m]
             self.captured = k + m
 
-    def stop(self, timeout: float = 1.0) -> None:
-        if self._watch is not None:
-            self._watch.stop()
-            self._watch = None
+    def live(self) -> bool:
+        return self._stream is not None
+
+    def close(self) -> None:
         if self._stream is None:
             return
-        ramp_down(self.engine, timeout)
         try:
             self._stream.stop()
             self._stream.close()
