@@ -43,19 +43,10 @@ def test_quasi_static_fit_recovers_parameters_within_standard_errors():
     assert 0.9 < fit.r2 <= 1
 
 
-def test_quasi_static_fit_equals_scipy_least_squares_on_eq3_written_out():
-    # reference: eq. 3 of Otake et al. 2022 and its derivatives in numpy, handed to scipy's
-    # least_squares with the fit's options and start; the fit evaluates them compiled (the
-    # Jacobian reusing mu_p of the accepted step), the same arithmetic up to the last bits of
-    # pow, so rtol 1e-9 (equal to the last bit on the bench material)
+def _eq3_minimum(fn, v, mu, x0):
+    """Independent reference: eq. 3 of Otake et al. 2022 and its derivatives written out in
+    numpy, minimised by scipy's bounded trust-region solver to machine tolerances."""
     from scipy.optimize import least_squares
-
-    rng = np.random.default_rng(4)
-    fn, v = rng.uniform(0.2, 1.5, 2000), rng.uniform(0.0, 0.3, 2000)
-    v[:5] = 0.0
-    mu = 0.4 * fn**0.35 * (1 + 3 * v**0.6) / (1 + 2 * v) + 0.01 * rng.standard_normal(fn.size)
-    x0 = np.array([0.3, 0.2, 1.0, 1.0, 0.4])
-    fit = fit_quasi_static(fn, v, mu, x0=x0)
 
     def model(th):
         a, b, c, d, q = th
@@ -68,11 +59,55 @@ def test_quasi_static_fit_equals_scipy_least_squares_on_eq3_written_out():
         return np.column_stack([m / a, m * np.log(fn), -m * v / (1 + c * v), m * g, m * d * g * np.log(np.where(v > 0, v, 1.0))])
 
     lo = [QUASI_STATIC_RANGES[k][0] for k in PARAMETERS]
-    ref = least_squares(lambda th: model(th) - mu, x0, jac=jac, bounds=(np.add(lo, [1e-9, 0, 0, 0, 0]), [QUASI_STATIC_RANGES[k][1] for k in PARAMETERS]),
-                        method="trf", x_scale="jac", max_nfev=200)
-    np.testing.assert_allclose([fit.params[k] for k in PARAMETERS], ref.x, rtol=1e-9)
+    return least_squares(lambda th: model(th) - mu, x0, jac=jac, bounds=(np.add(lo, [1e-9, 0, 0, 0, 0]), [QUASI_STATIC_RANGES[k][1] for k in PARAMETERS]),
+                         method="trf", x_scale="jac", max_nfev=5000, ftol=1e-15, xtol=1e-15, gtol=1e-15)
+
+
+def _assert_at_minimum(fit, ref, fn, rtol):
+    np.testing.assert_allclose([fit.params[k] for k in PARAMETERS], ref.x, rtol=rtol)
     se = np.sqrt(np.diag(float(ref.fun @ ref.fun) / (fn.size - 5) * np.linalg.pinv(ref.jac.T @ ref.jac)))
-    np.testing.assert_allclose([fit.standard_errors[k] for k in PARAMETERS], se, rtol=1e-9)
+    np.testing.assert_allclose([fit.standard_errors[k] for k in PARAMETERS], se, rtol=100 * rtol)
+
+
+def test_quasi_static_fit_reaches_the_least_squares_minimum_of_eq3():
+    rng = np.random.default_rng(4)
+    fn, v = rng.uniform(0.2, 1.5, 2000), rng.uniform(0.0, 0.3, 2000)
+    v[:5] = 0.0
+    mu = 0.4 * fn**0.35 * (1 + 3 * v**0.6) / (1 + 2 * v) + 0.01 * rng.standard_normal(fn.size)
+    x0 = np.array([0.3, 0.2, 1.0, 1.0, 0.4])
+    _assert_at_minimum(fit_quasi_static(fn, v, mu, x0=x0), _eq3_minimum(fn, v, mu, x0), fn, 1e-7)
+
+
+def test_quasi_static_fit_converges_in_the_flat_valley_of_a_narrow_speed_range():
+    # one participant of the bench material: speeds only around the five reference velocities
+    # (50-150 mm/s), where c, d and q trade off along a flat valley. The previous bounded
+    # trust-region fit (tolerances 1e-8, at most 200 evaluations) stopped 3e-3 away from the
+    # minimum here (up to 0.9 on some bench participants); the fit now reaches it
+    rng = np.random.default_rng(0)
+    n = 3400
+    fn = rng.uniform(0.2, 1.5, n)
+    v = rng.choice([0.05, 0.075, 0.1, 0.125, 0.15], n) + 0.01 * rng.standard_normal(n)
+    mu = 0.4 * fn**0.35 * (1 + 3 * np.abs(v) ** 0.6) / (1 + 2 * np.abs(v)) + 0.005 * rng.standard_normal(n)
+    fit = fit_quasi_static(fn, v, mu)
+    A = np.column_stack([np.ones(n), np.log(fn)])
+    coef, *_ = np.linalg.lstsq(A, np.log(mu), rcond=None)
+    _assert_at_minimum(fit, _eq3_minimum(fn, np.abs(v), mu, np.array([np.exp(coef[0]), coef[1], 0.5, 0.5, 0.5])), fn, 5e-5)
+
+
+def test_quasi_static_fit_keeps_the_bounds_when_the_minimum_is_outside():
+    # mu convex in v (q would exceed 1): the unbounded solver leaves the bounds, the bounded one
+    # takes over and ends on q = 1, at the bounded minimum
+    rng = np.random.default_rng(6)
+    fn, v = rng.uniform(0.2, 1.5, 2000), rng.uniform(0.0, 0.3, 2000)
+    mu = 0.4 * fn**0.35 * (1 + 5 * v**2) + 0.002 * rng.standard_normal(fn.size)
+    x0 = np.array([0.3, 0.2, 1.0, 1.0, 0.4])
+    fit = fit_quasi_static(fn, v, mu, x0=x0)
+    ref = _eq3_minimum(fn, v, mu, x0)
+    assert fit.params["q"] == pytest.approx(1.0, abs=1e-6)
+    assert all(QUASI_STATIC_RANGES[k][0] <= fit.params[k] <= QUASI_STATIC_RANGES[k][1] for k in PARAMETERS)
+    theta = np.array([fit.params[k] for k in PARAMETERS])
+    cost = 0.5 * float(np.sum((quasi_static_model(theta, fn, v) - mu) ** 2))
+    assert cost <= ref.cost * (1 + 1e-9)
 
 
 def test_contact_selection_and_band_split(fitted):

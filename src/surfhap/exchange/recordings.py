@@ -93,9 +93,7 @@ class Recording:
     def sample_rate(self) -> float:
         """Hz, from the median sampling interval (snapped to a whole number of Hz when within
         1 ppm of one, so that 2 kHz written as time stamps stays 2000 Hz); computed once."""
-        r = float(1.0 / np.median(np.diff(self.time)))
-        whole = round(r)
-        return float(whole) if whole > 0 and abs(r - whole) <= 1e-6 * r else r
+        return _rate(float(np.median(np.diff(self.time))))
 
     @property
     def duration(self) -> float:
@@ -122,6 +120,13 @@ class Recording:
         """Build and check a recording from SI arrays (time, or sample_rate)."""
         data = {k: np.asarray(v, dtype=float) for k, v in channels.items() if v is not None}
         return _finish(source, time, sample_rate, data, participant or Path(source).stem, trial, "", {})
+
+
+def _rate(step: float) -> float:
+    """Hz of a median sampling interval ``step`` s (see :attr:`Recording.sample_rate`)."""
+    r = float(1.0 / step)
+    whole = round(r)
+    return float(whole) if whole > 0 and abs(r - whole) <= 1e-6 * r else r
 
 
 def _check_finite(source: str, name: str, x: np.ndarray, t: np.ndarray | None) -> None:
@@ -169,12 +174,14 @@ def checked_time(source: str, time, sample_rate: float | None, data: dict[str, n
 
 
 def _finish(source, time, sample_rate, data, participant, trial, digest, meta) -> Recording:
-    time, _ = checked_time(source, time, sample_rate, data)
+    time, step = checked_time(source, time, sample_rate, data)
     if "speed" not in data and "position" in data:
         data["speed"] = np.gradient(data["position"], time)
     if "shear_force" not in data and "cof" in data and "normal_force" in data:
         data["shear_force"] = data["cof"] * data["normal_force"]
-    return Recording(source, time, data, str(participant), str(trial), digest, dict(meta))
+    rec = Recording(source, time, data, str(participant), str(trial), digest, dict(meta))
+    rec.__dict__["sample_rate"] = _rate(step)  # the cached_property's value: checked_time took the same median
+    return rec
 
 
 def read_channels(path: str | Path, units: Mapping[str, Mapping[str, float]], columns: Mapping[str, str] | None = None,
