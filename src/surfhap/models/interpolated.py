@@ -263,9 +263,10 @@ class InterpolatedARMABank:
         (:class:`~surfhap.models.texture.TextureModel`)."""
         return self.interpolate(speed, load).psd(self.sample_rate, freqs)
 
-    def moments_at(self, speed: float, load: float) -> tuple[float, float]:
-        phi, var, theta = self.interpolate(speed, load)._arma()
-        return ar_moments(phi, var, self.sample_rate, theta)
+    def moments_at(self, speed: np.ndarray, load: np.ndarray) -> np.ndarray:
+        """(2, n) sd and slope sd of the interpolated model at each (speed, force) (n,)."""
+        models = (self.interpolate(v, f)._arma() for v, f in zip(np.ravel(speed), np.ravel(load)))
+        return np.array([ar_moments(phi, var, self.sample_rate, theta) for phi, var, theta in models]).T
 
     @classmethod
     def from_models(cls, quantity, sample_rate, speeds, forces, ar_lsf, variances, ma_lsf=None, gains=None,

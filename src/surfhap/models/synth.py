@@ -38,16 +38,21 @@ def nearest_model(midpoints, speed, out):
 def ar_bank_block(speed, noise, start, midpoints, model_idx, coefs, orders, sigmas, buf, pmax, out):
     # n = speed.shape[0] samples driven by noise[start:start + n] (model_idx: >= n); buf: (pmax + n,),
     # buf[:pmax] holds the previous outputs, oldest first
+    # the newest output stays in a register (the recursion's critical path skips a store and load)
     n = speed.shape[0]
     nearest_model(midpoints, speed, model_idx)
+    last = buf[pmax - 1]
     for i in range(n):
         m = model_idx[i]
         acc = sigmas[m] * noise[start + i]
         pos = pmax + i
-        for j in range(orders[m]):
+        if orders[m] > 0:
+            acc += coefs[m, 0] * last
+        for j in range(1, orders[m]):
             acc += coefs[m, j] * buf[pos - 1 - j]
         buf[pos] = acc
         out[i] = acc
+        last = acc
     for j in range(pmax):
         buf[j] = buf[n + j]
 

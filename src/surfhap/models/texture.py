@@ -36,8 +36,9 @@ class TextureSynthesizer(Protocol):
 class TextureModel(Protocol):
     """A texture of one quantity ("cof" or "acceleration") at ``sample_rate`` Hz whose model
     depends on the scan speed (m/s) and load (N): ``psd_at`` gives its one-sided PSD
-    (quantity^2/Hz) at freqs (m,) Hz, ``moments_at`` the standard deviations of the texture and
-    of its rate of change (quantity/s) as a band-limited signal at ``sample_rate``."""
+    (quantity^2/Hz) at freqs (m,) Hz, ``moments_at`` (at (n,) speeds and loads, (2, n)) the
+    standard deviations of the texture and of its rate of change (quantity/s) as a band-limited
+    signal at ``sample_rate``."""
 
     quantity: str
     sample_rate: float
@@ -46,7 +47,7 @@ class TextureModel(Protocol):
     def max_order(self) -> int: ...
     def synthesizer(self, seed=0) -> TextureSynthesizer: ...
     def psd_at(self, speed: float, load: float, freqs: np.ndarray) -> np.ndarray: ...
-    def moments_at(self, speed: float, load: float) -> tuple[float, float]: ...
+    def moments_at(self, speed: np.ndarray, load: np.ndarray) -> np.ndarray: ...
 
 
 @checked_dataclass
@@ -136,8 +137,9 @@ class TextureBank:
         """:class:`TextureModel`: the model nearest ``speed`` (the load does not select)."""
         return self.models[int(self.select(np.array([speed]))[0])].psd(self.sample_rate, freqs)
 
-    def moments_at(self, speed: float, load: float) -> tuple[float, float]:
-        return self.moments[int(self.select(np.array([speed]))[0])]
+    def moments_at(self, speed: np.ndarray, load: np.ndarray) -> np.ndarray:
+        """:class:`TextureModel`: (2, n) sd and slope sd of the model nearest each speed (n,)."""
+        return np.array(self.moments).T[:, self.select(speed)]
 
     @cached_property
     def moments(self) -> list[tuple[float, float]]:

@@ -231,10 +231,13 @@ class TextureChain:
         self._index = np.zeros(64, dtype=np.int64)
         self._resampler, self._safety = self.upsampler.kernel_args(), self.safety.kernel_args()
 
-    def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray, x=None, y=None, drive_out=None) -> ChainBlock:
+    def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray, x=None, y=None, drive_out=None,
+                law_out=None) -> ChainBlock:
         """One block (see the module docstring); ``x``, ``y`` (the finger position) are not
         used by a texture (:class:`~surfhap.render.block.Renderer` protocol); ``drive_out`` (an
-        offline render's kept array) receives the drive samples in place of a new array."""
+        offline render's kept array) receives the drive samples in place of a new array, and
+        ``law_out`` ((5, >= n) rows: voltage, target, mu_low, mu_tex, texture) the law's rows and
+        the texture when the block's compiled call makes them."""
         speed = np.ascontiguousarray(speed, dtype=float)
         load = np.ascontiguousarray(load, dtype=float)
         touch_time = np.ascontiguousarray(touch_time, dtype=float)
@@ -252,14 +255,14 @@ class TextureChain:
         fused = self.law.compiled if self.correction is None else None
         ar = self._no_ar
         if fused is not None and self._ar is not None:  # the texture inside the block's call
-            texture, ar = np.empty(n), self._ar.kernel_args(n)
+            texture, ar = np.empty(n) if law_out is None else law_out[4, :n], self._ar.kernel_args(n)
         elif self.synth is not None:
             _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
             texture = self.synth.process(clean[0], clean[1])
         else:
             texture = np.zeros(n)
         if fused is not None:  # texture, law and tail in one compiled call
-            rows = np.empty((4, n))
+            rows = np.empty((4, n)) if law_out is None else law_out[:4, :n]
             m, clipped, touching = _chain_block(*fused, speed, load, touch_time, ar, texture, rows, self._state, self._work,
                                                 self._index, self._resampler, self._safety, drive, load_drive)
             self.law.count(n, clipped, touching)

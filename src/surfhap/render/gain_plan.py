@@ -177,7 +177,7 @@ def plan_gains(material: Material, method: str, display: DisplayModel | None = N
         sd_x = sd_dx = np.zeros(fn.size)
         if law.uses_texture:
             # the texture's sd and slope sd at each grid point: the model the renderer would use there
-            sd_x, sd_dx = np.array([material.texture.moments_at(a, b) for a, b in zip(v, fn)]).T
+            sd_x, sd_dx = material.texture.moments_at(v, fn)
         per_unit = law.texture_force_per_unit(v, fn)  # N per texture unit
         sd_tex = (per_unit * sd_x).reshape(shape)
         f_999 = f_low + z * sd_tex

@@ -120,9 +120,10 @@ class PreviewRecorder:
         """Model-rate block (n,) starting at model sample ``start``."""
         for key, arr in (("target", target), ("mu_low", mu_low), ("load", load)):
             self._win[key].add(start, arr)
-        low_band = self.low_band
-        if low_band is not None and self._win["low"].b > start and self._win["low"].a < start + load.shape[0]:
-            self._win["low"].add(start, low_band.force(load, mu_low))
+        w = self._win["low"]
+        lo, hi = max(w.a, start) - start, min(w.b, start + load.shape[0]) - start  # the law line of the window only
+        if self.low_band is not None and hi > lo:
+            w.add(start + lo, self.low_band.force(load[lo:hi], mu_low[lo:hi]))
         self._env.add(start, voltage)
         self._spec["load"].add(start, load)
         self._spec["speed"].add(start, speed)

@@ -44,6 +44,8 @@ class OfflineEngine:
     :class:`~surfhap.render.hold.TouchHold` and :class:`~surfhap.render.kinematics.TouchPredictor`);
     ``block`` is the last block: (start, speed, load, the chain's block)."""
 
+    LAW_ROWS = ("voltage", "target", "mu_low", "mu_tex", "texture")  # what the chain writes into law_out
+
     def __init__(self, chain: TextureChain, rows: ReplayRows, block_frames: int):
         self.chain = chain
         self.drive_rate = chain.control_rate
@@ -51,7 +53,8 @@ class OfflineEngine:
         self.counters = {"touches": 0, "touches_ignored": 0, "stale_stamps": 0, "underruns": 0}
         self.hold = TouchHold(rows, TouchPredictor(), 0.05, self.counters)
         self.n = self.n_drive = 0
-        self.block = self.drive_out = None  # drive_out: where the chain writes the drive (a kept array), else new arrays
+        # where the chain writes the drive and LAW_ROWS ((5, n) rows; kept arrays), else into new arrays
+        self.block = self.drive_out = self.law_out = None
 
     def render(self, frames: int, now: float | None = None) -> np.ndarray:
         fm, k0 = self.drive_rate, self.n
@@ -59,7 +62,8 @@ class OfflineEngine:
         inputs = np.empty((5, frames))
         self.hold.fill(k0, fm, inputs)
         speed, load, touch_time, xs, ys = inputs
-        out = self.chain.process(speed, load, touch_time, xs, ys, None if self.drive_out is None else self.drive_out[self.n_drive:])
+        out = self.chain.process(speed, load, touch_time, xs, ys, None if self.drive_out is None else self.drive_out[self.n_drive:],
+                                 None if self.law_out is None else self.law_out[:, k0:])
         self.block = (k0, speed, load, out)
         self.n += frames
         self.n_drive += out.drive.shape[0]
@@ -77,13 +81,15 @@ class RenderRecorder:
         self.engine, self.display, self.n_total, self.progress = engine, display, n_total, progress
         self.channels = channels
         n_drive = math.ceil(n_total * chain.drive_rate / chain.control_rate)  # the resampler's exact total
-        # kept arrays allocated once at full length, blocks written in; the chain writes the drive (+2: its bound).
-        # The model-rate channels are the rows of one allocation: one large block is mapped in huge pages,
-        # separate ~1 MB arrays fault in page by page (5 ms of a 60 s render).
+        # kept arrays allocated once at full length, blocks written in; the chain writes the drive (+2: its bound)
+        # and the law's rows. The model-rate channels are the rows of one allocation: one large block is mapped
+        # in huge pages, separate ~1 MB arrays fault in page by page (5 ms of a 60 s render).
         self.arrays = None
         if keep:
-            model = [k for k in CHANNELS if k != "drive"]
-            self.arrays = dict(zip(model, np.empty((len(model), n_total)))) | {"drive": np.empty(n_drive + 2)}
+            model = list(engine.LAW_ROWS) + [k for k in CHANNELS if k not in engine.LAW_ROWS and k != "drive"]
+            rows = np.empty((len(model), n_total))
+            self.arrays = dict(zip(model, rows)) | {"drive": np.empty(n_drive + 2)}
+            engine.law_out = rows[:len(engine.LAW_ROWS)]
         engine.drive_out = self.arrays["drive"] if keep else None
         self.stats = RenderStats(has_texture=chain.law.uses_texture)
         self.preview = PreviewRecorder(n_total, n_drive, chain.control_rate, chain.drive_rate, chain.law.low_band,
@@ -95,7 +101,9 @@ class RenderRecorder:
         if self.channels is not None:
             self.channels(name, arr)
         if self.arrays is not None:
-            self.arrays[name][at:at + arr.shape[0]] = arr
+            kept = self.arrays[name][at:at + arr.shape[0]]
+            if not np.may_share_memory(kept, arr):  # else the chain wrote it there
+                kept[:] = arr
 
     def _account(self, start: int, speed, load, target, mu_low, voltage, drive, friction) -> None:
         """Statistics and preview of model samples from ``start``, their drive and friction (None: later)."""

@@ -62,18 +62,26 @@ def _upsample(z, Hr, n_in, out):
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
 def _downsample(z, h, M, t0, n_in, out):
-    # integer factor M (L = 1): output j uses the window starting at input t0 + j*M
+    # integer factor M (L = 1): output j uses the window starting at input t0 + j*M; two outputs
+    # at a time share the taps' loads (each sum vectorised as one alone: the same sums), the last
+    # one alone (its pair's window points past the block: w2 = w, not stored)
     K = h.shape[0]
     count = 0
     t = t0
     while t < n_in:
-        acc = 0.0
+        acc = acc2 = 0.0
         w = z[t:]
+        w2 = z[t + M:] if t + M < n_in else w
         for k in range(K):
             acc += h[k] * w[k]
+            acc2 += h[k] * w2[k]
         out[count] = acc
-        count += 1
         t += M
+        count += 1
+        if t < n_in:
+            out[count] = acc2
+            t += M
+            count += 1
     return count, t - n_in
 
 
