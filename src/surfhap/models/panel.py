@@ -30,7 +30,7 @@ from surfhap.models.device_curve import DeviceCurve
 from surfhap.models.electrostatics import ElectrostaticStack
 from surfhap.signal.resample import RationalResampler, resample_block
 
-__all__ = ["DisplayModel", "SimulatedDisplay"]
+__all__ = ["DisplayModel", "SimulatedDisplay", "display_block"]
 
 
 class DisplayModel(BaseModel):
@@ -121,6 +121,16 @@ def _display_kernel(drive, load, gain, state, a, mu, c0, c1, c2, scale, top, for
     return resample_block(force, z, Hr, L, M, t0, out)
 
 
+@numba.njit(cache=True, nogil=True)
+def display_block(drive, load, args):
+    """The display in a renderer's compiled call: ``args`` = :meth:`SimulatedDisplay.kernel_args`
+    (on, then :func:`_display_kernel`'s arguments after the load); drive, load (m,) at the drive
+    rate; returns the friction samples written into the display's out buffer (0 when off)."""
+    if not args[0]:
+        return 0
+    return _display_kernel(drive, load, *args[1:10], args[10][:drive.shape[0]], *args[11:])
+
+
 class SimulatedDisplay:
     """``process(drive, load) -> friction`` at ``friction_rate``.
 
@@ -130,6 +140,8 @@ class SimulatedDisplay:
     measured curve; an intensity curve at ``|V_eff| / v_max``), 0 without drive.
     ``gain`` (m,) scales the added friction per drive sample: a drifting k (k(t) / k, the
     closed-loop simulation :mod:`surfhap.sim.closed_loop`); None = 1.
+    A renderer runs the same kernel inside its own compiled call (:func:`display_block` on
+    :meth:`kernel_args`) and reads the friction from :meth:`friction`.
     """
 
     def __init__(self, model: DisplayModel, drive_rate: int, friction_rate: int, v_max: float = 250.0):
@@ -148,10 +160,25 @@ class SimulatedDisplay:
         self._params = (self._a, model.mu_panel, *self._curve)
         self._resampler = self._down.kernel_args()
         self._force = np.empty(0)
+        self.kernel_args(0)
 
     def reset(self) -> None:
         self._state[:] = 0.0
         self._down.reset()
+
+    def kernel_args(self, m: int) -> tuple:
+        """:func:`display_block`'s arguments for a block of up to ``m`` drive samples (kept
+        scratch, grown when needed): on, unit gain, state, parameters, the drive-rate friction
+        scratch, the decimator and the out buffer."""
+        if self._force.shape[0] < max(m, 1):
+            self._force = np.empty(max(64, 2 * m))
+            self._out = np.empty(self._force.shape[0] * self._down.L // self._down.M + 2)
+            self._args = (True, self._unit, self._state, *self._params, self._force, *self._resampler, self._out)
+        return self._args
+
+    def friction(self, count: int) -> np.ndarray:
+        """The ``count`` friction samples (N) of the last :func:`display_block` (a copy)."""
+        return self._out[:count].copy()
 
     def process(self, drive: np.ndarray, load: np.ndarray, gain: np.ndarray | None = None) -> np.ndarray:
         drive = np.ascontiguousarray(drive, dtype=np.float64)
@@ -159,8 +186,7 @@ class SimulatedDisplay:
         gain = self._unit if gain is None else np.ascontiguousarray(gain, dtype=np.float64)
         if gain.shape != (1,) and gain.shape != drive.shape:
             raise ValueError("gain must hold one value or one per drive sample")
-        if self._force.shape[0] < drive.shape[0]:  # the drive-rate friction before decimation: scratch
-            self._force = np.empty(2 * drive.shape[0])
+        self.kernel_args(drive.shape[0])  # the drive-rate friction before decimation: scratch
         out = np.empty(drive.shape[0] * self._down.L // self._down.M + 2)
         m = _display_kernel(drive, load, gain, self._state, *self._params, self._force[:drive.shape[0]], *self._resampler, out)
         return out[:m]
