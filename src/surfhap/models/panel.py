@@ -100,11 +100,12 @@ class DisplayModel(BaseModel):
 
 
 @numba.njit(cache=True, nogil=True)
-def _display_kernel(drive, load, gain, state, a, mu, c0, c1, c2, scale, top, force, z, Hr, L, M, t0, out):
-    # state: [previous drive, previous V_eff]; added friction: the display's curve at
-    # u = min(|V_eff| scale, top) while driven (c0 + c1 u + c2 u^2; default 0, 0, mu k), times
-    # gain[i] (gain[0] when gain holds one value), into force at the drive rate, then decimated
-    # into out by the resampler z .. t0; returns the count
+def _display_kernel(drive, load, gain, state, p, force, z, Hr, L, M, t0, out):
+    # state: [previous drive, previous V_eff]; p: [a, mu, c0, c1, c2, scale, top]; added friction:
+    # the display's curve at u = min(|V_eff| scale, top) while driven (c0 + c1 u + c2 u^2; default
+    # 0, 0, mu k), times gain[i] (gain[0] when gain holds one value), into force at the drive rate,
+    # then decimated into out by the resampler z .. t0; returns the count
+    a, mu, c0, c1, c2, scale, top = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
     pv = state[0]
     ve = state[1]
     for i in range(drive.shape[0]):
@@ -128,7 +129,7 @@ def display_block(drive, load, args):
     rate; returns the friction samples written into the display's out buffer (0 when off)."""
     if not args[0]:
         return 0
-    return _display_kernel(drive, load, *args[1:10], args[10][:drive.shape[0]], *args[11:])
+    return _display_kernel(drive, load, args[1], args[2], args[3], args[4][:drive.shape[0]], *args[5:])
 
 
 class SimulatedDisplay:
@@ -157,7 +158,7 @@ class SimulatedDisplay:
         self._down = RationalResampler(self.drive_rate, self.friction_rate)
         self.delay = self._down.delay
         self._unit = np.ones(1)
-        self._params = (self._a, model.mu_panel, *self._curve)
+        self._params = np.array([self._a, model.mu_panel, *self._curve], dtype=np.float64)
         self._resampler = self._down.kernel_args()
         self._force = np.empty(0)
         self.kernel_args(0)
@@ -173,7 +174,7 @@ class SimulatedDisplay:
         if self._force.shape[0] < max(m, 1):
             self._force = np.empty(max(64, 2 * m))
             self._out = np.empty(self._force.shape[0] * self._down.L // self._down.M + 2)
-            self._args = (True, self._unit, self._state, *self._params, self._force, *self._resampler, self._out)
+            self._args = (True, self._unit, self._state, self._params, self._force, *self._resampler, self._out)
         return self._args
 
     def friction(self, count: int) -> np.ndarray:
@@ -188,5 +189,5 @@ class SimulatedDisplay:
             raise ValueError("gain must hold one value or one per drive sample")
         self.kernel_args(drive.shape[0])  # the drive-rate friction before decimation: scratch
         out = np.empty(drive.shape[0] * self._down.L // self._down.M + 2)
-        m = _display_kernel(drive, load, gain, self._state, *self._params, self._force[:drive.shape[0]], *self._resampler, out)
+        m = _display_kernel(drive, load, gain, self._state, self._params, self._force[:drive.shape[0]], *self._resampler, out)
         return out[:m]
