@@ -125,11 +125,12 @@ def _display_kernel(drive, load, gain, state, p, force, z, Hr, L, M, t0, out):
 @numba.njit(cache=True, nogil=True)
 def display_block(drive, load, args):
     """The display in a renderer's compiled call: ``args`` = :meth:`SimulatedDisplay.kernel_args`
-    (on, then :func:`_display_kernel`'s arguments after the load); drive, load (m,) at the drive
-    rate; returns the friction samples written into the display's out buffer (0 when off)."""
-    if not args[0]:
+    (:func:`_display_kernel`'s arguments after the load), or None (no display: a compiled
+    variant without it); drive, load (m,) at the drive rate; returns the friction samples
+    written into the display's out buffer."""
+    if args is None:
         return 0
-    return _display_kernel(drive, load, args[1], args[2], args[3], args[4][:drive.shape[0]], *args[5:])
+    return _display_kernel(drive, load, args[0], args[1], args[2], args[3][:drive.shape[0]], *args[4:])
 
 
 class SimulatedDisplay:
@@ -169,12 +170,12 @@ class SimulatedDisplay:
 
     def kernel_args(self, m: int) -> tuple:
         """:func:`display_block`'s arguments for a block of up to ``m`` drive samples (kept
-        scratch, grown when needed): on, unit gain, state, parameters, the drive-rate friction
+        scratch, grown when needed): unit gain, state, parameters, the drive-rate friction
         scratch, the decimator and the out buffer."""
         if self._force.shape[0] < max(m, 1):
             self._force = np.empty(max(64, 2 * m))
             self._out = np.empty(self._force.shape[0] * self._down.L // self._down.M + 2)
-            self._args = (True, self._unit, self._state, self._params, self._force, *self._resampler, self._out)
+            self._args = (self._unit, self._state, self._params, self._force, *self._resampler, self._out)
         return self._args
 
     def friction(self, count: int) -> np.ndarray:

@@ -34,7 +34,7 @@ from surfhap.render.drive_kernel import law_block
 from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
 from surfhap.render.hold import drive_tail, tail_state
 from surfhap.render.safety import SafetyLimits, SafetyStage
-from surfhap.render.texture_source import NO_TEXTURE, TextureSource, texture_block
+from surfhap.render.texture_source import TextureSource, texture_block
 from surfhap.signal.resample import RationalResampler, resample_block
 
 __all__ = ["ChainConfig", "ChainBlock", "TextureDetail", "TextureChain", "PAPER_CARRIERS", "resolve_carrier"]
@@ -151,8 +151,8 @@ def _drive_tail(voltage, load, touch_time, state, work, index, resampler, safety
 def _chain_block(kind, params, speed, load, touch_time, tex, texture, rows, state, work, index, resampler, safety, drive,
                  load_drive, display):
     # a chain block in one call: cleaned inputs (in work; idempotent), the texture (texture_block's tex;
-    # mode given: in texture already), the law (law_block) into rows (4, n), the tail, then the simulated
-    # display (display_block's args; off: nothing); returns (drive samples, clipped, touching, friction samples)
+    # None: in texture already), the law (law_block) into rows (4, n), the tail, then the simulated
+    # display (display_block's args; None: none); returns (drive samples, clipped, touching, friction samples)
     n = load.shape[0]
     clean = work[:, :n]
     _clean_inputs(speed, load, state[8], _MAX_SPEED, clean)
@@ -213,7 +213,6 @@ class TextureChain:
         self.latency = self.upsampler.delay
         # closed loop (surfhap.runtime.closed_loop): (DriveBlock, load (n,) N) -> the corrected DriveBlock, before the tail
         self.correction = None
-        self._no_display = (False, *SimulatedDisplay(cfg.display, self.drive_rate, self.control_rate).kernel_args(0)[1:])
         self.reset()
 
     def reset(self) -> None:
@@ -249,15 +248,15 @@ class TextureChain:
         fused = self.law.compiled if self.correction is None else None
         synth = self.synth
         texture = np.empty(n)
-        tex = NO_TEXTURE if synth is None or fused is None else synth.kernel_args(n)
+        tex = None if synth is None or fused is None else synth.kernel_args(n)
         if synth is None:
             texture[:] = 0.0
-        elif tex is NO_TEXTURE:  # not synthesised in the compiled call
+        elif tex is None:  # not synthesised in the compiled call
             _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
             texture = synth.process(clean[0], clean[1])
         if fused is not None:  # texture, law, tail and display in one compiled call
             rows = np.empty((4, n))
-            disp = self._no_display if display is None else display.kernel_args(size)
+            disp = None if display is None else display.kernel_args(size)
             m, clipped, touching, k = _chain_block(*fused, speed, load, touch_time, tex, texture, rows, self._state, self._work,
                                                    self._index, self._resampler, self._safety, drive, load_drive, disp)
             self.law.count(n, clipped, touching)

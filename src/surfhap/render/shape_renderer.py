@@ -27,7 +27,7 @@ import numpy as np
 from pydantic import Field, ValidationInfo, field_validator
 
 from surfhap.checked import checked_dataclass
-from surfhap.models.panel import DisplayModel, SimulatedDisplay, display_block
+from surfhap.models.panel import DisplayModel, display_block
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive_kernel import target_to_voltage
 from surfhap.models.device_curve import DeviceCurve
@@ -190,7 +190,6 @@ class ShapeDrive:
         self.safety = SafetyStage(self.drive_rate, cfg.limits)
         self._work = np.zeros((2, 0))
         self._index = np.zeros(0, dtype=np.int64)
-        self._no_display = (False, *SimulatedDisplay(cfg.display, self.drive_rate, self.control_rate).kernel_args(0)[1:])
         self.reset()
 
     def reset(self) -> None:
@@ -211,7 +210,7 @@ class ShapeDrive:
         tail = (self._state, self._work, self._index, self._safety, drive, load_drive)
         disp = self.config.display
         if disp.device_curve is None:  # the compiled form of the display's map: alpha sqrt(max(F, 0))
-            sim = self._no_display if display is None else display.kernel_args(m)
+            sim = None if display is None else display.kernel_args(m)
             k = _shape_drive(inten, tick, *self.grains.kernel_args(inten), self.alpha, load, touch_time, *tail, target, sim)
             friction = None if display is None else display.friction(k)
         else:

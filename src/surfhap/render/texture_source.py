@@ -15,19 +15,23 @@ import numpy as np
 from surfhap.models.synth import ARSynthesizer, ar_bank_block
 from surfhap.signal.resample import RationalResampler, resample_block
 
-__all__ = ["NO_TEXTURE", "TextureSource", "texture_block"]
+__all__ = ["TextureSource", "texture_block"]
 
 _GIVEN, _DIRECT, _UPSAMPLED = 0, 1, 2  # texture_block's modes
+_NO_BRANCHES = np.zeros((1, 1))  # the upsampler's read-only branches where there is none (one compiled type)
+_NO_BRANCHES.flags.writeable = False
 
 
 @numba.njit(cache=True, nogil=True)
 def texture_block(speed, tex, out):
     """The texture of the chain's speed (n,) m/s into ``out`` (n,) inside a compiled call; ``tex``
     = :meth:`TextureSource.kernel_args` (mode, ar_bank_block's arguments, k, the upsampler, its
-    output buffer, fill (1,) int64, scratch (2, >= k)). Mode given: nothing (the texture is in
-    ``out``); direct: the AR bank at the control rate; upsampled: k new AR samples at the
+    output buffer, fill (1,) int64, scratch (2, >= k)), or None (the texture is in ``out``: a
+    compiled variant without synthesis). Mode direct: the AR bank at the control rate; upsampled: k new AR samples at the
     texture's rate (taken at the speed of the first uncovered sample and every L-th after it,
     as :meth:`TextureSource.process`) are resampled up behind the buffer, whose first n leave."""
+    if tex is None:
+        return
     mode, ar, k, up, buf, fill, scratch = tex
     n = speed.shape[0]
     if mode == _DIRECT:
@@ -69,7 +73,7 @@ class TextureSource:
         # the compiled form (texture_block): an AR bank at the control rate or an integer upsampling
         ar = isinstance(self.synth, ARSynthesizer)
         self._mode = _GIVEN if not ar else _DIRECT if same else _UPSAMPLED if self.resampler.M == 1 else _GIVEN
-        up = self.resampler.kernel_args() if self._mode == _UPSAMPLED else _NO_UP
+        up = self.resampler.kernel_args() if self._mode == _UPSAMPLED else (self._buf, _NO_BRANCHES, 0, 1, self._fill)
         self._scratch = np.zeros((2, 64))
         self._fixed = (up, self._buf, self._fill)
 
@@ -86,18 +90,18 @@ class TextureSource:
 
     def kernel_args(self, n: int) -> tuple:
         """:func:`texture_block`'s ``tex`` for the next ``n`` control-rate samples (their noise
-        drawn), or the 'texture given' form when the texture is not :attr:`compiled` (or the
-        block is longer than ``max_block``)."""
+        drawn), or None when the texture is not :attr:`compiled` (or the block is longer than
+        ``max_block``): :meth:`process` gives it."""
         mode, k = self._mode, n
         if mode == _UPSAMPLED:
             if n > self.max_block:
-                return NO_TEXTURE
+                return None
             f = int(self._fill[0])
             k = 0 if f >= n else -(-(n - f) // self.resampler.L)  # one batch covers the shortfall
             if k > self._scratch.shape[1]:
                 self._scratch = np.zeros((2, 2 * k))
         if mode == _GIVEN:
-            return NO_TEXTURE
+            return None
         return mode, self.synth.kernel_args(k) if k else _NO_AR, k, *self._fixed, self._scratch
 
     def process(self, speed: np.ndarray, load: np.ndarray) -> np.ndarray:
@@ -128,13 +132,6 @@ class TextureSource:
         return out
 
 
-def _read_only(a: np.ndarray) -> np.ndarray:
-    a.flags.writeable = False
-    return a
-
-
-# the 'texture given' forms of texture_block's arguments (the same compiled types)
+# ar_bank_block's arguments of a block that synthesises nothing (k = 0; the same compiled types)
 _NO_AR = (np.zeros(0), -1, np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, 0)), np.zeros(0, dtype=np.int64),
           np.zeros(0), np.zeros(0), 0)
-_NO_UP = (np.zeros(1), _read_only(np.zeros((1, 1))), 0, 1, np.zeros(1, dtype=np.int64))
-NO_TEXTURE = (_GIVEN, _NO_AR, 0, _NO_UP, np.zeros(0), np.zeros(1, dtype=np.int64), np.zeros((2, 0)))
