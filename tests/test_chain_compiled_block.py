@@ -137,7 +137,7 @@ def test_shape_drive_is_one_compiled_call(monkeypatch):
         load = np.array([0.0 if b in (10, 11) else 0.5])
         blocks.append((inten, tick, load, drive_stage.process(inten, tick, load, np.array([b * 1e-3]))))
     monkeypatch.undo()
-    for b, (inten, tick, load, (drive, target, load_drive)) in enumerate(blocks):
+    for b, (inten, tick, load, (drive, target, load_drive, _)) in enumerate(blocks):
         want_target = grains.process(inten, tick)
         np.testing.assert_array_equal(target, want_target)
         np.testing.assert_array_equal(load_drive, np.full(20, load[0]))  # one model sample held over its 20 drive samples

@@ -78,14 +78,15 @@ class StepRenderer:
         self.safety.reset()
         self._carrier.reset()
 
-    def process(self, speed, load, touch_time, x=None, y=None) -> RenderBlock:
+    def process(self, speed, load, touch_time, x=None, y=None, display=None) -> RenderBlock:
         n = np.asarray(load).shape[0]
         td = (self._n * self.ratio + np.arange(n * self.ratio)) / self.drive_rate  # the touch ages: model time
         self._n += n
         drive = self._carrier.process(self.schedule.level(self.clock() - self.t0 + td - td[:1]) * self.v_max)
         load_d = np.repeat(np.asarray(load, float), self.ratio)
         age = td - np.repeat(np.asarray(touch_time, float), self.ratio)
-        return RenderBlock(self.safety.process(drive, load_d, age), load_d, np.zeros(n))
+        drive = self.safety.process(drive, load_d, age)
+        return RenderBlock(drive, load_d, np.zeros(n), None, None if display is None else display.process(drive, load_d))
 
 
 def record_steps(sensor, engine, schedule: StepSchedule, *, keep_running=lambda: True):

@@ -275,12 +275,10 @@ class LiveEngine:
                 late = int(math.ceil((k0 - k_lift) * self.drive_rate / self.control_rate))
                 for j in range(max(self._fifo_r, self._fifo_w - late), self._fifo_w):
                     self._fifo[j & self._fifo_mask] = 0.0
-            blk = self.renderer.process(*rows)
+            blk = self.renderer.process(*rows, display=self.display)
             drive = blk.drive
             m = drive.shape[0]
-            friction = math.nan
-            if self.display is not None and m:
-                friction = mean_or_nan(self.display.process(drive, blk.load_drive))
+            friction = mean_or_nan(blk.friction) if blk.friction is not None and m else math.nan
             # the touches put in force in this chunk are first heard at their position in it
             applied = h.n_applied if m else 0
             record_chunk(self._fifo, self._fifo_mask, self._fifo_w, drive, self.trace, self.trace_count, k0 / self.control_rate,

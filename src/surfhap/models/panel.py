@@ -30,7 +30,7 @@ from surfhap.models.device_curve import DeviceCurve
 from surfhap.models.electrostatics import ElectrostaticStack
 from surfhap.signal.resample import RationalResampler, resample_block
 
-__all__ = ["DisplayModel", "SimulatedDisplay"]
+__all__ = ["DisplayModel", "SimulatedDisplay", "display_block"]
 
 
 class DisplayModel(BaseModel):
@@ -100,11 +100,12 @@ class DisplayModel(BaseModel):
 
 
 @numba.njit(cache=True, nogil=True)
-def _display_kernel(drive, load, gain, state, a, mu, c0, c1, c2, scale, top, force, z, Hr, L, M, t0, out):
-    # state: [previous drive, previous V_eff]; added friction: the display's curve at
-    # u = min(|V_eff| scale, top) while driven (c0 + c1 u + c2 u^2; default 0, 0, mu k), times
-    # gain[i] (gain[0] when gain holds one value), into force at the drive rate, then decimated
-    # into out by the resampler z .. t0; returns the count
+def _display_kernel(drive, load, gain, state, p, force, z, Hr, L, M, t0, out):
+    # state: [previous drive, previous V_eff]; p: [a, mu, c0, c1, c2, scale, top]; added friction:
+    # the display's curve at u = min(|V_eff| scale, top) while driven (c0 + c1 u + c2 u^2; default
+    # 0, 0, mu k), times gain[i] (gain[0] when gain holds one value), into force at the drive rate,
+    # then decimated into out by the resampler z .. t0; returns the count
+    a, mu, c0, c1, c2, scale, top = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
     pv = state[0]
     ve = state[1]
     for i in range(drive.shape[0]):
@@ -121,6 +122,17 @@ def _display_kernel(drive, load, gain, state, a, mu, c0, c1, c2, scale, top, for
     return resample_block(force, z, Hr, L, M, t0, out)
 
 
+@numba.njit(cache=True, nogil=True)
+def display_block(drive, load, args):
+    """The display in a renderer's compiled call: ``args`` = :meth:`SimulatedDisplay.kernel_args`
+    (:func:`_display_kernel`'s arguments after the load), or None (no display: a compiled
+    variant without it); drive, load (m,) at the drive rate; returns the friction samples
+    written into the display's out buffer."""
+    if args is None:
+        return 0
+    return _display_kernel(drive, load, args[0], args[1], args[2], args[3][:drive.shape[0]], *args[4:])
+
+
 class SimulatedDisplay:
     """``process(drive, load) -> friction`` at ``friction_rate``.
 
@@ -130,6 +142,8 @@ class SimulatedDisplay:
     measured curve; an intensity curve at ``|V_eff| / v_max``), 0 without drive.
     ``gain`` (m,) scales the added friction per drive sample: a drifting k (k(t) / k, the
     closed-loop simulation :mod:`surfhap.sim.closed_loop`); None = 1.
+    A renderer runs the same kernel inside its own compiled call (:func:`display_block` on
+    :meth:`kernel_args`) and reads the friction from :meth:`friction`.
     """
 
     def __init__(self, model: DisplayModel, drive_rate: int, friction_rate: int, v_max: float = 250.0):
@@ -145,13 +159,28 @@ class SimulatedDisplay:
         self._down = RationalResampler(self.drive_rate, self.friction_rate)
         self.delay = self._down.delay
         self._unit = np.ones(1)
-        self._params = (self._a, model.mu_panel, *self._curve)
+        self._params = np.array([self._a, model.mu_panel, *self._curve], dtype=np.float64)
         self._resampler = self._down.kernel_args()
         self._force = np.empty(0)
+        self.kernel_args(0)
 
     def reset(self) -> None:
         self._state[:] = 0.0
         self._down.reset()
+
+    def kernel_args(self, m: int) -> tuple:
+        """:func:`display_block`'s arguments for a block of up to ``m`` drive samples (kept
+        scratch, grown when needed): unit gain, state, parameters, the drive-rate friction
+        scratch, the decimator and the out buffer."""
+        if self._force.shape[0] < max(m, 1):
+            self._force = np.empty(max(64, 2 * m))
+            self._out = np.empty(self._force.shape[0] * self._down.L // self._down.M + 2)
+            self._args = (self._unit, self._state, self._params, self._force, *self._resampler, self._out)
+        return self._args
+
+    def friction(self, count: int) -> np.ndarray:
+        """The ``count`` friction samples (N) of the last :func:`display_block` (a copy)."""
+        return self._out[:count].copy()
 
     def process(self, drive: np.ndarray, load: np.ndarray, gain: np.ndarray | None = None) -> np.ndarray:
         drive = np.ascontiguousarray(drive, dtype=np.float64)
@@ -159,8 +188,7 @@ class SimulatedDisplay:
         gain = self._unit if gain is None else np.ascontiguousarray(gain, dtype=np.float64)
         if gain.shape != (1,) and gain.shape != drive.shape:
             raise ValueError("gain must hold one value or one per drive sample")
-        if self._force.shape[0] < drive.shape[0]:  # the drive-rate friction before decimation: scratch
-            self._force = np.empty(2 * drive.shape[0])
+        self.kernel_args(drive.shape[0])  # the drive-rate friction before decimation: scratch
         out = np.empty(drive.shape[0] * self._down.L // self._down.M + 2)
-        m = _display_kernel(drive, load, gain, self._state, *self._params, self._force[:drive.shape[0]], *self._resampler, out)
+        m = _display_kernel(drive, load, gain, self._state, self._params, self._force[:drive.shape[0]], *self._resampler, out)
         return out[:m]

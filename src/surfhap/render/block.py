@@ -27,9 +27,12 @@ class RenderBlock(NamedTuple):
                  control-rate input sample.
     detail     : renderer-specific extras (the texture chain: texture samples and its
                  :class:`~surfhap.render.drive.DriveBlock`; see ``TextureChain``), or None.
+    friction   : (k,) float N, the simulated display's friction for this block's drive when the
+                 renderer was given one (``process(..., display=...)``), else None.
     """
 
     drive: np.ndarray
     load_drive: np.ndarray
     target: np.ndarray
     detail: object = None
+    friction: np.ndarray | None = None

@@ -27,15 +27,14 @@ from surfhap.checked import checked_dataclass
 from surfhap.errors import ConfigError
 from surfhap.render.block import RenderBlock
 from surfhap.models.material import Material
-from surfhap.models.panel import DisplayModel
-from surfhap.models.synth import ARSynthesizer, ar_bank_block
+from surfhap.models.panel import DisplayModel, SimulatedDisplay, display_block
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive import DriveBlock, DriveParams, default_method, make_drive_law
 from surfhap.render.drive_kernel import law_block
 from surfhap.render.gain_plan import GainPlan, OperatingRange, plan_gains
 from surfhap.render.hold import drive_tail, tail_state
 from surfhap.render.safety import SafetyLimits, SafetyStage
-from surfhap.render.texture_source import TextureSource
+from surfhap.render.texture_source import TextureSource, texture_block
 from surfhap.signal.resample import RationalResampler, resample_block
 
 __all__ = ["ChainConfig", "ChainBlock", "TextureDetail", "TextureChain", "PAPER_CARRIERS", "resolve_carrier"]
@@ -149,19 +148,18 @@ def _drive_tail(voltage, load, touch_time, state, work, index, resampler, safety
 
 
 @numba.njit(cache=True, nogil=True)
-def _chain_block(kind, params, speed, load, touch_time, ar, texture, rows, state, work, index, resampler, safety, drive,
-                 load_drive):
-    # a chain block in one call: cleaned inputs (in work; idempotent), the texture of an AR bank at
-    # the control rate (ar: ar_bank_block's arguments; start -1: texture given), the law (law_block)
-    # into rows (4, n), then the tail; returns (drive samples, clipped, touching)
+def _chain_block(kind, params, speed, load, touch_time, tex, texture, rows, state, work, index, resampler, safety, drive,
+                 load_drive, display):
+    # a chain block in one call: cleaned inputs (in work; idempotent), the texture (texture_block's tex;
+    # None: in texture already), the law (law_block) into rows (4, n), the tail, then the simulated
+    # display (display_block's args; None: none); returns (drive samples, clipped, touching, friction samples)
     n = load.shape[0]
     clean = work[:, :n]
     _clean_inputs(speed, load, state[8], _MAX_SPEED, clean)
-    if ar[1] >= 0:
-        ar_bank_block(clean[0], *ar, texture)
+    texture_block(clean[0], tex, texture)
     clipped, touching = law_block(kind, params, clean[1], clean[0], texture, rows)
     m = _drive_tail(rows[0], load, touch_time, state, work, index, resampler, safety, drive, load_drive)
-    return m, clipped, touching
+    return m, clipped, touching, display_block(drive[:m], load_drive[:m], display)
 
 
 class TextureChain:
@@ -207,11 +205,6 @@ class TextureChain:
         self.law = make_drive_law(self.method, material, self.params, self.control_rate, display=cfg.display,
                                   v_max=cfg.limits.v_max)
         self.synth = TextureSource(material.texture, self.control_rate, seed=cfg.seed) if self.law.uses_texture else None
-        # an AR bank at the control rate is synthesised inside the block's compiled call
-        direct = self.synth is not None and self.synth.resampler is None and isinstance(self.synth.synth, ARSynthesizer)
-        self._ar = self.synth.synth if direct else None
-        self._no_ar = (np.zeros(0), -1, np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, 0)), np.zeros(0, dtype=np.int64),
-                       np.zeros(0), np.zeros(0), 0)
         self.upsampler = RationalResampler(self.control_rate, int(cfg.drive_rate))
         self.carrier = PolarityCarrier(self.carrier_hz, cfg.drive_rate)
         self.safety = SafetyStage(cfg.drive_rate, cfg.limits)
@@ -232,12 +225,14 @@ class TextureChain:
         self._resampler, self._safety = self.upsampler.kernel_args(), self.safety.kernel_args()
 
     def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray, x=None, y=None, drive_out=None,
-                law_out=None) -> ChainBlock:
+                law_out=None, display: SimulatedDisplay | None = None) -> ChainBlock:
         """One block (see the module docstring); ``x``, ``y`` (the finger position) are not
         used by a texture (:class:`~surfhap.render.block.Renderer` protocol); ``drive_out`` (an
         offline render's kept array) receives the drive samples in place of a new array, and
         ``law_out`` ((5, >= n) rows: voltage, target, mu_low, mu_tex, texture) the law's rows and
-        the texture when the block's compiled call makes them."""
+        the texture when the block's compiled call makes them; ``display`` (a simulated display
+        at the drive and control rates) gets the block's drive (its friction in the block's
+        ``friction``)."""
         speed = np.ascontiguousarray(speed, dtype=float)
         load = np.ascontiguousarray(load, dtype=float)
         touch_time = np.ascontiguousarray(touch_time, dtype=float)
@@ -253,26 +248,29 @@ class TextureChain:
         if drive.shape[0] < size:
             raise ValueError(f"drive_out holds {drive.shape[0]} samples, the block needs {size}")
         fused = self.law.compiled if self.correction is None else None
-        ar = self._no_ar
-        if fused is not None and self._ar is not None:  # the texture inside the block's call
-            texture, ar = np.empty(n) if law_out is None else law_out[4, :n], self._ar.kernel_args(n)
-        elif self.synth is not None:
+        synth = self.synth
+        texture = np.empty(n) if law_out is None else law_out[4, :n]
+        tex = None if synth is None or fused is None else synth.kernel_args(n)
+        if synth is None:
+            texture[:] = 0.0
+        elif tex is None:  # not synthesised in the compiled call
             _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
-            texture = self.synth.process(clean[0], clean[1])
-        else:
-            texture = np.zeros(n)
-        if fused is not None:  # texture, law and tail in one compiled call
+            texture = synth.process(clean[0], clean[1])
+        if fused is not None:  # texture, law, tail and display in one compiled call
             rows = np.empty((4, n)) if law_out is None else law_out[:4, :n]
-            m, clipped, touching = _chain_block(*fused, speed, load, touch_time, ar, texture, rows, self._state, self._work,
-                                                self._index, self._resampler, self._safety, drive, load_drive)
+            disp = None if display is None else display.kernel_args(size)
+            m, clipped, touching, k = _chain_block(*fused, speed, load, touch_time, tex, texture, rows, self._state, self._work,
+                                                   self._index, self._resampler, self._safety, drive, load_drive, disp)
             self.law.count(n, clipped, touching)
             law = DriveBlock(rows[0], rows[1], rows[2], rows[3])
+            friction = None if display is None else display.friction(k)
         else:
-            if self.synth is None:
+            if synth is None:
                 _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
             law = self.law.process(clean[0], clean[1], texture)
             if self.correction is not None:
                 law = self.correction(law, clean[1])
             m = _drive_tail(law.voltage, load, touch_time, self._state, self._work, self._index, self._resampler, self._safety,
                             drive, load_drive)
-        return ChainBlock(drive[:m], load_drive[:m], law.target, TextureDetail(texture, law))
+            friction = None if display is None else display.process(drive[:m], load_drive[:m])
+        return ChainBlock(drive[:m], load_drive[:m], law.target, TextureDetail(texture, law), friction)

@@ -118,11 +118,12 @@ class ShapeChain:
             return 0.0, 0.0
         return inten, tick
 
-    def process(self, speed, load, touch_time, x=None, y=None) -> RenderBlock:
+    def process(self, speed, load, touch_time, x=None, y=None, display: SimulatedDisplay | None = None) -> RenderBlock:
         """One block (see :class:`~surfhap.runtime.protocols.Renderer`): speed unused; load (n,)
         N, touch_time (n,) s, x, y (n,) m page coordinates. Each model sample holds the finger
         state in force at it; a new position runs the touch-rate stage once and its tick starts
-        at the model sample's first drive sample."""
+        at the model sample's first drive sample. ``display``: see
+        :meth:`~surfhap.runtime.protocols.Renderer.process`."""
         n = load.shape[0]
         r = self.ratio
         m = n * r
@@ -143,8 +144,8 @@ class ShapeChain:
             inten[i * r:j * r] = self._intensity
             if tick > 0.0:
                 ticks[i * r] = tick
-        drive, target, loads = self.drive_stage.process(inten, ticks, load, touch_time)
-        return RenderBlock(drive, loads, target[::self.ratio])
+        drive, target, loads, friction = self.drive_stage.process(inten, ticks, load, touch_time, display)
+        return RenderBlock(drive, loads, target[::self.ratio], None, friction)
 
 
 def render_shape(surface: TopSurface, trajectory: Trajectory, calibration: ShapeCalibration | None = None,
@@ -183,10 +184,10 @@ def render_shape(surface: TopSurface, trajectory: Trajectory, calibration: Shape
         inputs = np.empty((5, k))
         hold.fill(s, fs, inputs)
         speed, load, touch_time, xs, ys = inputs
-        b = chain.process(speed, load, touch_time, xs, ys)
+        b = chain.process(speed, load, touch_time, xs, ys, display)
         drives.append(b.drive)
         targets.append(b.target)
-        frictions.append(display.process(b.drive, b.load_drive))
+        frictions.append(b.friction)
         if progress is not None:
             progress((s + k) / m)
     drive_proc = chain.drive_stage

@@ -27,7 +27,7 @@ import numpy as np
 from pydantic import Field, ValidationInfo, field_validator
 
 from surfhap.checked import checked_dataclass
-from surfhap.models.panel import DisplayModel
+from surfhap.models.panel import DisplayModel, display_block
 from surfhap.render.carrier import PolarityCarrier, check_carrier
 from surfhap.render.drive_kernel import target_to_voltage
 from surfhap.models.device_curve import DeviceCurve
@@ -166,13 +166,15 @@ class ShapeRenderer:
 
 
 class ShapeDrive:
-    """Drive-rate processor: ``process(intensity, tick, load, touch_time) -> (drive, target, load_drive)``.
+    """Drive-rate processor: ``process(intensity, tick, load, touch_time, display=None) -> (drive, target, load_drive,
+    friction)``.
 
     intensity (held area intensity, 0 = silent) and tick (tick intensity at tick onsets): (m,)
     float at the drive rate; load (N) and touch_time (s, chain clock) (n,) of the model samples
     at ``control_rate``, held at the drive rate for the safety stage. Returns the drive (m,) V
     after carrier and safety stage, the grains' target added friction (m,) N and the held load
-    (m,) N; one compiled call (:func:`_shape_drive`) unless a measured device curve maps the force.
+    (m,) N, and the simulated ``display``'s friction of the drive (None without one); one compiled call
+    (:func:`_shape_drive`, the display included) unless a measured device curve maps the force.
     """
 
     def __init__(self, config: ShapeConfig | None = None, control_rate: int | None = None):
@@ -194,8 +196,9 @@ class ShapeDrive:
         self.grains.reset()
         self.safety.reset()
         self._state = tail_state(self.control_rate, self.drive_rate, self.carrier.step)
+        self._safety = self.safety.kernel_args()
 
-    def process(self, intensity, tick, load, touch_time):
+    def process(self, intensity, tick, load, touch_time, display=None):
         inten = np.ascontiguousarray(intensity, dtype=np.float64)
         tick = np.ascontiguousarray(tick, dtype=np.float64)
         load = np.ascontiguousarray(load, dtype=np.float64)
@@ -204,25 +207,30 @@ class ShapeDrive:
         if self._index.shape[0] < max(m, n):
             self._work, self._index = np.zeros((2, 2 * max(m, n))), np.zeros(2 * max(m, n), dtype=np.int64)
         drive, target, load_drive = np.empty(m), np.empty(m), np.empty(m)
-        tail = (self._state, self._work, self._index, self.safety.kernel_args(), drive, load_drive)
+        tail = (self._state, self._work, self._index, self._safety, drive, load_drive)
         disp = self.config.display
         if disp.device_curve is None:  # the compiled form of the display's map: alpha sqrt(max(F, 0))
-            _shape_drive(inten, tick, *self.grains.kernel_args(inten), self.alpha, load, touch_time, *tail, target)
+            sim = None if display is None else display.kernel_args(m)
+            k = _shape_drive(inten, tick, *self.grains.kernel_args(inten), self.alpha, load, touch_time, *tail, target, sim)
+            friction = None if display is None else display.friction(k)
         else:
             grain_block(inten, tick, *self.grains.kernel_args(inten), target)
             drive[:] = disp.voltage_for_force(self._gain * target, self.config.limits.v_max)
             drive_tail(m, load, touch_time, *tail)
-        return drive, target, load_drive
+            friction = None if display is None else display.process(drive, load_drive)
+        return drive, target, load_drive, friction
 
 
 @numba.njit(cache=True, nogil=True)
 def _shape_drive(inten, tick, env, even, curve, pulse, ticks, alpha, load, touch_time, state, work, index, safety, drive,
-                 load_drive, target):
-    # a shape block after the touch-rate stage, in one call: grains, V = alpha sqrt(max(F, 0)), the chains' tail
+                 load_drive, target, display):
+    # a shape block after the touch-rate stage, in one call: grains, V = alpha sqrt(max(F, 0)), the chains' tail,
+    # the simulated display (display_block's args); returns its friction samples
     grain_block(inten, tick, env, even, curve, pulse, ticks, target)
     m = target.shape[0]
     target_to_voltage(target, target, alpha, drive[:m])
-    return drive_tail(m, load, touch_time, state, work, index, safety, drive, load_drive)
+    drive_tail(m, load, touch_time, state, work, index, safety, drive, load_drive)
+    return display_block(drive, load_drive, display)
 
 
 @dataclass

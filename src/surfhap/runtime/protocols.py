@@ -57,11 +57,13 @@ class Renderer(Protocol):
         """Back to silence with no finger; the sample clocks restart at 0."""
 
     def process(self, speed: np.ndarray, load: np.ndarray, touch_time: np.ndarray,
-                x: np.ndarray | None = None, y: np.ndarray | None = None) -> RenderBlock:
+                x: np.ndarray | None = None, y: np.ndarray | None = None, display=None) -> RenderBlock:
         """One block: speed (n,) m/s, load (n,) N, touch_time (n,) s (time stamp of the
         freshest touch sample at each model sample, on the renderer's clock), x, y (n,) m
         finger position (page coordinates of the touch surface; ignored unless
-        ``uses_position``)."""
+        ``uses_position``). ``display``: a :class:`~surfhap.models.panel.SimulatedDisplay`
+        fed with the block's drive and held load (inside the renderer's compiled call where
+        it has one); its friction samples are the block's ``friction`` (None without)."""
 
 
 class TouchSink(Protocol):
