@@ -64,7 +64,7 @@ def test_a_chain_without_display_gives_the_same_drive():
 
 def test_shape_chain_runs_the_display_in_its_drive_call(monkeypatch):
     import surfhap
-    from surfhap.live.shape_live import load_live_shape
+    from surfhap.live.session import load_live_shape
 
     chain, _ = load_live_shape(Path(surfhap.__file__).parent / "data" / "suzanne.obj", 20000, (0.217, 0.136))
     display = SimulatedDisplay(chain.config.display, chain.drive_rate, chain.control_rate)
