@@ -49,8 +49,11 @@ def _play(path: Path, scan: str = FULL) -> subprocess.Popen:
 def _wait_for_bytes(p: subprocess.Popen, path: Path, n_bytes: int, timeout: float = 120.0) -> None:
     end = time.monotonic() + timeout
     while time.monotonic() < end and p.poll() is None:
-        if path.exists() and path.stat().st_size >= n_bytes:
-            return
+        try:  # no exists() first: `play` checks the output is writable by creating and removing it
+            if path.stat().st_size >= n_bytes:
+                return
+        except FileNotFoundError:
+            pass
         time.sleep(0.05)
     p.kill()
     p.wait(10)
