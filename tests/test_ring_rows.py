@@ -66,7 +66,7 @@ def test_fifo_peak_is_nan_when_a_sample_is_and_trace_rows_wrap():
     trace = np.zeros((4, len(TRACE_FIELDS)))
     inputs = np.array([[4.0, 9], [5, 9], [9, 9], [2, 9], [3, 9]])  # speed, load, touch time, x, y; 2 model samples
     lat, applied = np.zeros(4), np.array([[0.5, 0.25], [0.0, 1.0]])  # arrivals (s) at model samples 0 and 1
-    record_chunk(np.zeros(8), 7, 0, np.array([-6.0, 0.0]), trace, 5, 1.0, inputs, np.array([7.0, 0.0]), 8.0, lat, 3, applied, 2, 1.0, 10, 20.0)
+    record_chunk(np.zeros(8), 7, 0, np.array([-6.0, 0.0]), trace, 5, 1.0, inputs, np.array([7.0, 0.0]), np.array([6.0, 10.0]), lat, 3, applied, 2, 1.0, 10, 20.0)
     np.testing.assert_array_equal(trace[1], np.arange(1, 9))
     assert not trace[[0, 2, 3]].any()
     # emitted at 1 s + (10 + pos * 2 drive / 2 model samples) / 20 Hz; ring of 4 from write count 3

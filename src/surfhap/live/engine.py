@@ -49,7 +49,7 @@ import numpy as np
 from surfhap.errors import ConfigError
 from surfhap.runtime.clock import arrival_stamp, now as clock_now
 from surfhap.live.engine_config import EngineConfig
-from surfhap.live.fifo_kernels import fifo_read, mean_or_nan, record_chunk
+from surfhap.live.fifo_kernels import fifo_read, record_chunk
 from surfhap.render.kinematics import TouchPredictor
 from surfhap.live.queues import CommandQueue, TouchRing, ring_rows_since, ring_stats
 from surfhap.render.hold import NO_LIFT, TouchHold
@@ -59,6 +59,7 @@ from surfhap.runtime.protocols import Renderer
 
 __all__ = ["LiveEngine", "TRACE_FIELDS"]
 
+_NO_FRICTION = np.zeros(0)  # a block without a simulated display: its trace row's friction is NaN
 # one row per processed chunk
 TRACE_FIELDS = ("t", "x", "y", "speed", "load", "v_peak", "target", "friction")
 
@@ -86,6 +87,7 @@ class LiveEngine:
         self.display = display
         self.touches = TouchRing(cfg.touch_capacity)
         self.commands = CommandQueue(64)
+        self._pending = self.commands.pending
         self.predictor = TouchPredictor(cfg.touch_latency, cfg.smoothing, cfg.k_pred, cfg.speed_cutoff)
         self.counters: dict = {}
         self.hold = TouchHold(self.touches, self.predictor, cfg.takeover, self.counters)
@@ -208,7 +210,8 @@ class LiveEngine:
             self.counters["overruns"] += 1
         out = self.out[:frames]
         try:
-            self._commands()
+            if self._pending:
+                self._commands()
             self.hold.take(now, self._n_model / self.control_rate)
             self._produce(frames, now)
             fifo_read(self._fifo, self._fifo_mask, self._fifo_r, out)
@@ -266,7 +269,10 @@ class LiveEngine:
             if n > self._max_model:
                 n = self._max_model
             k0 = self._n_model
-            inputs, rows = self._views.get(n) or self._views.setdefault(n, (self._inputs[:, :n], tuple(self._inputs[:, :n])))
+            views = self._views.get(n)
+            if views is None:
+                views = self._views[n] = (self._inputs[:, :n], tuple(self._inputs[:, :n]))
+            inputs, rows = views
             h = self.hold
             k_lift = h.fill(k0, self.control_rate, inputs)
             if k_lift != NO_LIFT:
@@ -275,15 +281,13 @@ class LiveEngine:
                 late = int(math.ceil((k0 - k_lift) * self.drive_rate / self.control_rate))
                 for j in range(max(self._fifo_r, self._fifo_w - late), self._fifo_w):
                     self._fifo[j & self._fifo_mask] = 0.0
-            blk = self.renderer.process(*rows, display=self.display)
-            drive = blk.drive
+            drive, _, target, _, friction = self.renderer.process(*rows, display=self.display)
             m = drive.shape[0]
-            friction = mean_or_nan(blk.friction) if blk.friction is not None and m else math.nan
             # the touches put in force in this chunk are first heard at their position in it
             applied = h.n_applied if m else 0
             record_chunk(self._fifo, self._fifo_mask, self._fifo_w, drive, self.trace, self.trace_count, k0 / self.control_rate,
-                         inputs, blk.target, friction, self.latencies, self.latency_count, h.latencies, applied, now,
-                         self._fifo_w - self._fifo_r, self.drive_rate)
+                         inputs, target, _NO_FRICTION if friction is None else friction, self.latencies, self.latency_count,
+                         h.latencies, applied, now, self._fifo_w - self._fifo_r, self.drive_rate)
             if applied:
                 self.latency_count += applied
                 h.n_applied = 0

@@ -51,7 +51,8 @@ def record_chunk(fifo, mask, w, drive, trace, index, t, inputs, target, friction
     """The engine's bookkeeping of one chunk in one call: drive (m,) into the FIFO at ``w``
     (:func:`fifo_write_peak`); trace row ``index`` (mod the trace's power-of-two length) in the
     order of ``TRACE_FIELDS`` from ``inputs[:, 0]`` (speed, load, touch time, x, y), the peak,
-    ``target[0]`` and ``friction``; and for each of the ``n_applied`` touches put in force
+    ``target[0]`` and the mean of ``friction`` (the display's samples; NaN for none or an empty
+    chunk); and for each of the ``n_applied`` touches put in force
     (``applied``: (2, k) arrival stamp, model-sample position in the chunk of n) its latency
     into the ring ``lat`` from write count ``n_lat``: its emission ``now + (offset + pos m / n)
     / drive_rate`` (the chunk starts ``offset`` samples into the block emitted at ``now``)
@@ -59,7 +60,7 @@ def record_chunk(fifo, mask, w, drive, trace, index, t, inputs, target, friction
     peak = fifo_write_peak(fifo, mask, w, drive)
     row = trace[index & (trace.shape[0] - 1)]
     row[0], row[1], row[2], row[3], row[4] = t, inputs[3, 0], inputs[4, 0], inputs[0, 0], inputs[1, 0]
-    row[5], row[6], row[7] = peak, target[0], friction
     m, n = drive.shape[0], inputs.shape[1]
+    row[5], row[6], row[7] = peak, target[0], mean_or_nan(friction) if m else float("nan")
     for j in range(n_applied):
         lat[(n_lat + j) & (lat.shape[0] - 1)] = now + (offset + applied[1, j] * m / n) / drive_rate - applied[0, j]

@@ -125,6 +125,7 @@ class CommandQueue:
     def __init__(self, capacity: int = 64):
         self.capacity = int(capacity)
         self._q: deque = deque()
+        self.pending = self._q  # read-only for the consumer: true while a command waits
         self._lock = threading.Lock()
         self.dropped = 0
 

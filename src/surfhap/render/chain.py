@@ -16,7 +16,7 @@ average), already through the safety stage.
 from __future__ import annotations
 
 from dataclasses import field
-from typing import Annotated, NamedTuple
+from typing import Annotated
 
 import numba
 import numpy as np
@@ -37,7 +37,7 @@ from surfhap.render.safety import SafetyLimits, SafetyStage
 from surfhap.render.texture_source import TextureSource, texture_block
 from surfhap.signal.resample import RationalResampler, resample_block
 
-__all__ = ["ChainConfig", "ChainBlock", "TextureDetail", "TextureChain", "PAPER_CARRIERS", "resolve_carrier"]
+__all__ = ["ChainConfig", "ChainBlock", "TextureChain", "PAPER_CARRIERS", "resolve_carrier"]
 
 # polarity carrier of each method's paper: 001 Sec. II (20 kHz), 003 Sec. IV-D (2 kHz)
 PAPER_CARRIERS = {"otake2021": 20000.0, "otake2022": 2000.0}
@@ -102,30 +102,22 @@ class ChainConfig:
         return None if carrier is None else check_carrier(carrier, info.data.get("drive_rate", 48000))
 
 
-class TextureDetail(NamedTuple):
-    """The texture chain's extras of a block: texture (n,) samples (material quantity, zeros
-    if none) and drive_law, the :class:`~surfhap.render.drive.DriveBlock` at the control rate
-    (voltage envelope, target, mu_low, mu_tex)."""
-
-    texture: np.ndarray
-    drive_law: DriveBlock
-
-
 class ChainBlock(RenderBlock):
     """A :class:`~surfhap.render.block.RenderBlock` of the texture chain: drive (m,) V at the
     drive rate after carrier and safety, load_drive (m,) N held at the drive rate (what the
-    safety stage saw), target (n,) N at the control rate, detail a :class:`TextureDetail`;
-    ``texture`` and ``drive_law`` read the detail."""
+    safety stage saw), target (n,) N at the control rate, detail the law's rows (5, n): voltage,
+    target, mu_low, mu_tex and the texture (material quantity, zeros if none); ``texture`` and
+    ``drive_law`` (a :class:`~surfhap.render.drive.DriveBlock`, made when read) read them."""
 
     __slots__ = ()
 
     @property
     def texture(self) -> np.ndarray:
-        return self.detail.texture
+        return self.detail[4]
 
     @property
     def drive_law(self) -> DriveBlock:
-        return self.detail.drive_law
+        return DriveBlock(*self.detail[:4])
 
 
 _MAX_SPEED = 10.0  # m/s: no finger slides faster; larger inputs are sensor faults
@@ -148,16 +140,16 @@ def _drive_tail(voltage, load, touch_time, state, work, index, resampler, safety
 
 
 @numba.njit(cache=True, nogil=True)
-def _chain_block(kind, params, speed, load, touch_time, tex, texture, rows, state, work, index, resampler, safety, drive,
-                 load_drive, display):
-    # a chain block in one call: cleaned inputs (in work; idempotent), the texture (texture_block's tex;
-    # None: in texture already), the law (law_block) into rows (4, n), the tail, then the simulated
+def _chain_block(kind, params, speed, load, touch_time, tex, rows, state, work, index, resampler, safety, drive, load_drive,
+                 display):
+    # a chain block in one call: cleaned inputs (in work; idempotent), the texture into rows[4] (texture_block's tex;
+    # None: there already), the law (law_block) into rows[:4] of rows (5, n), the tail, then the simulated
     # display (display_block's args; None: none); returns (drive samples, clipped, touching, friction samples)
     n = load.shape[0]
     clean = work[:, :n]
     _clean_inputs(speed, load, state[8], _MAX_SPEED, clean)
-    texture_block(clean[0], tex, texture)
-    clipped, touching = law_block(kind, params, clean[1], clean[0], texture, rows)
+    texture_block(clean[0], tex, rows[4])
+    clipped, touching = law_block(kind, params, clean[1], clean[0], rows[4], rows)
     m = _drive_tail(rows[0], load, touch_time, state, work, index, resampler, safety, drive, load_drive)
     return m, clipped, touching, display_block(drive[:m], load_drive[:m], display)
 
@@ -213,6 +205,7 @@ class TextureChain:
         self.latency = self.upsampler.delay
         # closed loop (surfhap.runtime.closed_loop): (DriveBlock, load (n,) N) -> the corrected DriveBlock, before the tail
         self.correction = None
+        self._law_kernel = self.law.compiled
         self.reset()
 
     def reset(self) -> None:
@@ -242,35 +235,34 @@ class TextureChain:
         size = n * self.drive_rate // self.control_rate + 2  # the most drive samples the block can give
         if size > self._index.shape[0]:
             self._work, self._index = np.zeros((2, 2 * size)), np.zeros(2 * size, dtype=np.int64)
-        # the models see a physical finger state (absurd values are the safety stage's business)
-        clean = self._work[:, :n]
-        drive, load_drive = np.empty(size) if drive_out is None else drive_out[:size], np.empty(size)
+        drive = np.empty(size) if drive_out is None else drive_out[:size]
         if drive.shape[0] < size:
             raise ValueError(f"drive_out holds {drive.shape[0]} samples, the block needs {size}")
-        fused = self.law.compiled if self.correction is None else None
+        load_drive = np.empty(size)
+        rows = np.empty((5, n)) if law_out is None else law_out[:, :n]  # the law's rows and the texture
         synth = self.synth
-        texture = np.empty(n) if law_out is None else law_out[4, :n]
+        fused = self._law_kernel if self.correction is None else None
         tex = None if synth is None or fused is None else synth.kernel_args(n)
         if synth is None:
-            texture[:] = 0.0
-        elif tex is None:  # not synthesised in the compiled call
+            rows[4] = 0.0
+        elif tex is None:  # not synthesised in the compiled call; the models see a physical finger state
+            clean = self._work[:, :n]
             _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
-            texture = synth.process(clean[0], clean[1])
+            rows[4] = synth.process(clean[0], clean[1])
         if fused is not None:  # texture, law, tail and display in one compiled call
-            rows = np.empty((4, n)) if law_out is None else law_out[:4, :n]
             disp = None if display is None else display.kernel_args(size)
-            m, clipped, touching, k = _chain_block(*fused, speed, load, touch_time, tex, texture, rows, self._state, self._work,
+            m, clipped, touching, k = _chain_block(*fused, speed, load, touch_time, tex, rows, self._state, self._work,
                                                    self._index, self._resampler, self._safety, drive, load_drive, disp)
             self.law.count(n, clipped, touching)
-            law = DriveBlock(rows[0], rows[1], rows[2], rows[3])
             friction = None if display is None else display.friction(k)
         else:
-            if synth is None:
-                _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
-            law = self.law.process(clean[0], clean[1], texture)
+            clean = self._work[:, :n]
+            _clean_inputs(speed, load, self._max_load, _MAX_SPEED, clean)
+            law = self.law.process(clean[0], clean[1], rows[4])
             if self.correction is not None:
                 law = self.correction(law, clean[1])
-            m = _drive_tail(law.voltage, load, touch_time, self._state, self._work, self._index, self._resampler, self._safety,
+            rows[:4] = law
+            m = _drive_tail(rows[0], load, touch_time, self._state, self._work, self._index, self._resampler, self._safety,
                             drive, load_drive)
             friction = None if display is None else display.process(drive[:m], load_drive[:m])
-        return ChainBlock(drive[:m], load_drive[:m], law.target, TextureDetail(texture, law), friction)
+        return ChainBlock(drive[:m], load_drive[:m], rows[1], rows, friction)
