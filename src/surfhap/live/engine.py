@@ -208,21 +208,26 @@ class LiveEngine:
         if frames > self._max_frames:
             frames = self._max_frames
             self.counters["overruns"] += 1
-        out = self.out[:frames]
+        out = src = self.out[:frames]
         try:
             if self._pending:
                 self._commands()
             self.hold.take(now, self._n_model / self.control_rate)
             self._produce(frames, now)
-            fifo_read(self._fifo, self._fifo_mask, self._fifo_r, out)
+            i = self._fifo_r & self._fifo_mask
+            if i + frames <= self._fifo_cap:  # the block's samples lie in one piece of the FIFO
+                src = self._fifo[i:i + frames]
+            else:
+                fifo_read(self._fifo, self._fifo_mask, self._fifo_r, out)
             self._fifo_r += frames
         except Exception:  # noqa: BLE001 - the callback must never raise
             self.counters["errors"] += 1
             out[:] = 0.0
-        # the last processor before the backend: gain, stop ramp, v_max, rise limit and
-        # watchdog on the emitted samples, remembering the last emitted magnitude
+            src = out
+        # the last processor before the backend (from the FIFO into out): gain, stop ramp, v_max,
+        # rise limit and watchdog on the emitted samples, remembering the last emitted magnitude
         try:
-            self.guard.process(out, out, now - self.hold.last_arrival, self._gain, self.halted)
+            self.guard.process(src, out, now - self.hold.last_arrival, self._gain, self.halted)
             if self.stopping and self.guard.ramped_down:
                 self.stopped = True
         except Exception:  # noqa: BLE001

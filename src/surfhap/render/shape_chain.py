@@ -126,25 +126,25 @@ class ShapeChain:
         :meth:`~surfhap.runtime.protocols.Renderer.process`."""
         n = load.shape[0]
         r = self.ratio
-        m = n * r
-        inten = self._inten[:m]
-        ticks = self._tick[:m]
+        inten = self._inten[:n * r]
+        ticks = self._tick[:n * r]
         ticks.fill(0.0)
-        starts = [0]
-        if n > 1:  # the runs of model samples holding one finger state
+        starts = (0, n)  # the runs of model samples holding one finger state
+        if n > 1:
             change = load[1:] != load[:-1]
             if x is not None:
                 change |= (x[1:] != x[:-1]) | (y[1:] != y[:-1])
-            starts += (np.flatnonzero(change) + 1).tolist()
-        starts.append(n)
-        for i, j in zip(starts[:-1], starts[1:]):
+            starts = (0, *(np.flatnonzero(change) + 1).tolist(), n)
+        for k in range(len(starts) - 1):
+            i = starts[k]
             if i >= n:
                 break
             tick = self._state_at(float(load[i]), x, y, i)
-            inten[i * r:j * r] = self._intensity
+            inten[i * r:starts[k + 1] * r] = self._intensity
             if tick > 0.0:
                 ticks[i * r] = tick
-        drive, target, loads, friction = self.drive_stage.process(inten, ticks, load, touch_time, display)
+        drive, target, loads, friction = self.drive_stage.block(inten, ticks, np.ascontiguousarray(load, dtype=np.float64),
+                                                                np.ascontiguousarray(touch_time, dtype=np.float64), display)
         return RenderBlock(drive, loads, target[::self.ratio], None, friction)
 
 

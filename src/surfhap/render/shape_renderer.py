@@ -190,6 +190,7 @@ class ShapeDrive:
         self.safety = SafetyStage(self.drive_rate, cfg.limits)
         self._work = np.zeros((2, 0))
         self._index = np.zeros(0, dtype=np.int64)
+        self._device_map = None if cfg.display.device_curve is None else cfg.display  # None: the compiled map
         self.reset()
 
     def reset(self) -> None:
@@ -199,23 +200,24 @@ class ShapeDrive:
         self._safety = self.safety.kernel_args()
 
     def process(self, intensity, tick, load, touch_time, display=None):
-        inten = np.ascontiguousarray(intensity, dtype=np.float64)
-        tick = np.ascontiguousarray(tick, dtype=np.float64)
-        load = np.ascontiguousarray(load, dtype=np.float64)
-        touch_time = np.ascontiguousarray(touch_time, dtype=np.float64)
+        f = np.float64
+        return self.block(np.ascontiguousarray(intensity, dtype=f), np.ascontiguousarray(tick, dtype=f),
+                          np.ascontiguousarray(load, dtype=f), np.ascontiguousarray(touch_time, dtype=f), display)
+
+    def block(self, inten, tick, load, touch_time, display=None):
+        """:meth:`process` on contiguous float64 arrays (the shape chain's own buffers)."""
         m, n = inten.shape[0], load.shape[0]
         if self._index.shape[0] < max(m, n):
             self._work, self._index = np.zeros((2, 2 * max(m, n))), np.zeros(2 * max(m, n), dtype=np.int64)
-        drive, target, load_drive = np.empty(m), np.empty(m), np.empty(m)
+        drive, target, load_drive = np.empty((3, m))
         tail = (self._state, self._work, self._index, self._safety, drive, load_drive)
-        disp = self.config.display
-        if disp.device_curve is None:  # the compiled form of the display's map: alpha sqrt(max(F, 0))
+        if self._device_map is None:  # the compiled form of the display's map: alpha sqrt(max(F, 0))
             sim = None if display is None else display.kernel_args(m)
             k = _shape_drive(inten, tick, *self.grains.kernel_args(inten), self.alpha, load, touch_time, *tail, target, sim)
             friction = None if display is None else display.friction(k)
         else:
             grain_block(inten, tick, *self.grains.kernel_args(inten), target)
-            drive[:] = disp.voltage_for_force(self._gain * target, self.config.limits.v_max)
+            drive[:] = self._device_map.voltage_for_force(self._gain * target, self.config.limits.v_max)
             drive_tail(m, load, touch_time, *tail)
             friction = None if display is None else display.process(drive, load_drive)
         return drive, target, load_drive, friction
