@@ -129,20 +129,25 @@ class ShapeChain:
         inten = self._inten[:n * r]
         ticks = self._tick[:n * r]
         ticks.fill(0.0)
-        starts = (0, n)  # the runs of model samples holding one finger state
-        if n > 1:
-            change = load[1:] != load[:-1]
-            if x is not None:
-                change |= (x[1:] != x[:-1]) | (y[1:] != y[:-1])
-            starts = (0, *(np.flatnonzero(change) + 1).tolist(), n)
-        for k in range(len(starts) - 1):
-            i = starts[k]
-            if i >= n:
-                break
-            tick = self._state_at(float(load[i]), x, y, i)
-            inten[i * r:starts[k + 1] * r] = self._intensity
-            if tick > 0.0:
-                ticks[i * r] = tick
+        if n == 1:  # a live chunk: one finger state
+            tick = self._state_at(float(load[0]), x, y, 0)
+            inten.fill(self._intensity)
+            ticks[0] = tick if tick > 0.0 else 0.0
+        else:
+            starts = [0]  # the runs of model samples holding one finger state
+            if n > 1:
+                change = load[1:] != load[:-1]
+                if x is not None:
+                    change |= (x[1:] != x[:-1]) | (y[1:] != y[:-1])
+                starts += (np.flatnonzero(change) + 1).tolist()
+            starts.append(n)
+            for i, j in zip(starts[:-1], starts[1:]):
+                if i >= n:
+                    break
+                tick = self._state_at(float(load[i]), x, y, i)
+                inten[i * r:j * r] = self._intensity
+                if tick > 0.0:
+                    ticks[i * r] = tick
         drive, target, loads, friction = self.drive_stage.block(inten, ticks, np.ascontiguousarray(load, dtype=np.float64),
                                                                 np.ascontiguousarray(touch_time, dtype=np.float64), display)
         return RenderBlock(drive, loads, target[::self.ratio], None, friction)

@@ -209,7 +209,7 @@ class ShapeDrive:
         m, n = inten.shape[0], load.shape[0]
         if self._index.shape[0] < max(m, n):
             self._work, self._index = np.zeros((2, 2 * max(m, n))), np.zeros(2 * max(m, n), dtype=np.int64)
-        drive, target, load_drive = np.empty((3, m))
+        drive, target, load_drive = np.empty(m), np.empty(m), np.empty(m)
         tail = (self._state, self._work, self._index, self._safety, drive, load_drive)
         if self._device_map is None:  # the compiled form of the display's map: alpha sqrt(max(F, 0))
             sim = None if display is None else display.kernel_args(m)
