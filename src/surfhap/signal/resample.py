@@ -18,6 +18,9 @@ from scipy.signal import firwin
 
 __all__ = ["RationalResampler", "resample_block"]
 
+_TAPS = 16  # taps per branch of the default design: the integer upsampler's vectorised path
+_CHUNK = 256  # inputs per pass of that path (its scratch stays in the L1 cache)
+
 # In the kernels, z is (K-1 + n_in,): the last K-1 inputs of the previous block, then the new
 # ones; Hr[ph] is polyphase branch ph reversed, so that output = Hr[ph] . z[i : i+K]. The dot
 # products index views (w = z[i:]) from 0: no negative-index check per tap, so the taps load as
@@ -50,6 +53,10 @@ def _polyphase(z, Hr, L, M, t0, n_in, out):
 def _upsample(z, Hr, n_in, out):
     # integer factor L (M = 1): every input sample yields L outputs, one per branch
     L, K = Hr.shape
+    if K == _TAPS:
+        for i0 in range(0, n_in, _CHUNK):
+            _upsample_taps(z[i0:], Hr, min(_CHUNK, n_in - i0), out[i0 * L:])
+        return
     for i in range(n_in):
         for ph in range(L):
             acc = 0.0
@@ -58,6 +65,29 @@ def _upsample(z, Hr, n_in, out):
             for k in range(K):
                 acc += h[k] * w[k]
             out[i * L + ph] = acc
+
+
+@numba.njit(cache=True, nogil=True)
+def _upsample_taps(z, Hr, n, out):
+    # _TAPS-tap branches: each branch vectorised over the n inputs (its taps in registers; four
+    # partial sums in a fixed order, no fastmath: the same sums whatever the block split) into a
+    # row of a small scratch, then interleaved into out
+    L = Hr.shape[0]
+    rows = np.empty((L, n))
+    for ph in range(L):
+        h = Hr[ph]
+        h0, h1, h2, h3, h4, h5, h6, h7 = h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7]
+        h8, h9, h10, h11, h12, h13, h14, h15 = h[8], h[9], h[10], h[11], h[12], h[13], h[14], h[15]
+        r = rows[ph]
+        for i in range(n):
+            a = h0 * z[i] + h4 * z[i + 4] + h8 * z[i + 8] + h12 * z[i + 12]
+            b = h1 * z[i + 1] + h5 * z[i + 5] + h9 * z[i + 9] + h13 * z[i + 13]
+            c = h2 * z[i + 2] + h6 * z[i + 6] + h10 * z[i + 10] + h14 * z[i + 14]
+            d = h3 * z[i + 3] + h7 * z[i + 7] + h11 * z[i + 11] + h15 * z[i + 15]
+            r[i] = (a + b) + (c + d)
+    for i in range(n):
+        for ph in range(L):
+            out[i * L + ph] = rows[ph, i]
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
