@@ -21,8 +21,8 @@ __all__ = ["RationalResampler", "resample_block"]
 _TAPS = 16  # taps per branch of the default design: the integer upsampler's vectorised path
 _CHUNK = 256  # inputs per pass of that path (its scratch stays in the L1 cache)
 
-# In the kernels, z is (K-1 + n_in,): the last K-1 inputs of the previous block, then the new
-# ones; Hr[ph] is polyphase branch ph reversed, so that output = Hr[ph] . z[i : i+K]. The dot
+# In the kernels, z is (>= K-1 + n_in,): the inputs from K-1 before the first window's start
+# (the previous block's last K-1, then the block's, or the block itself); Hr[ph] is polyphase branch ph reversed, so that output = Hr[ph] . z[i : i+K]. The dot
 # products index views (w = z[i:]) from 0: no negative-index check per tap, so the taps load as
 # whole vectors (the same sums, three times faster).
 
@@ -92,47 +92,63 @@ def _upsample_taps(z, Hr, n, out):
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
 def _downsample(z, h, M, t0, n_in, out):
-    # integer factor M (L = 1): output j uses the window starting at input t0 + j*M; two outputs
-    # at a time share the taps' loads (each sum vectorised as one alone: the same sums), the last
-    # one alone (its pair's window points past the block: w2 = w, not stored)
+    # integer factor M (L = 1): output j uses the window starting at input t0 + j*M; four outputs
+    # at a time share the taps' loads (each sum vectorised as one alone: the same sums), those of
+    # the last group past the block alone (their windows point past it: w = w0, not stored)
     K = h.shape[0]
     count = 0
     t = t0
     while t < n_in:
-        acc = acc2 = 0.0
-        w = z[t:]
-        w2 = z[t + M:] if t + M < n_in else w
+        a0 = a1 = a2 = a3 = 0.0
+        w0 = z[t:]
+        w1 = z[t + M:] if t + M < n_in else w0
+        w2 = z[t + 2 * M:] if t + 2 * M < n_in else w0
+        w3 = z[t + 3 * M:] if t + 3 * M < n_in else w0
         for k in range(K):
-            acc += h[k] * w[k]
-            acc2 += h[k] * w2[k]
-        out[count] = acc
-        t += M
-        count += 1
-        if t < n_in:
-            out[count] = acc2
-            t += M
-            count += 1
+            c = h[k]
+            a0 += c * w0[k]
+            a1 += c * w1[k]
+            a2 += c * w2[k]
+            a3 += c * w3[k]
+        for acc in (a0, a1, a2, a3):
+            if t < n_in:
+                out[count] = acc
+                t += M
+                count += 1
     return count, t - n_in
+
+
+@numba.njit(cache=True, nogil=True)
+def _windows(z, Hr, L, M, t0, n_in, out):
+    # the outputs whose windows start at z[:n_in] (z: >= n_in + K - 1); returns the count, t0 updated
+    if M == 1:
+        _upsample(z, Hr, n_in, out)
+        t0[0] = 0
+        return n_in * L
+    if L == 1:
+        c, t0[0] = _downsample(z, Hr[0], M, t0[0], n_in, out)
+    else:
+        c, t0[0] = _polyphase(z, Hr, L, M, t0[0], n_in, out)
+    return c
 
 
 @numba.njit(cache=True, nogil=True)
 def resample_block(x, z, Hr, L, M, t0, out):
     """One block x (n,) of any length through the resampler of ``z, Hr, L, M, t0``
-    (:meth:`RationalResampler.kernel_args`) into ``out`` (>= n L / M + 2); returns the count."""
+    (:meth:`RationalResampler.kernel_args`) into ``out`` (>= n L / M + 2); returns the count.
+    The windows that start in the previous block's last K - 1 inputs (z) come first, the rest
+    read x in place (no copy of the block)."""
     K1 = Hr.shape[1] - 1
-    count = 0
-    for s0 in range(0, x.shape[0], z.shape[0] - K1):
-        n = min(x.shape[0] - s0, z.shape[0] - K1)
-        for i in range(n):
-            z[K1 + i] = x[s0 + i]
-        if M == 1:
-            _upsample(z, Hr, n, out[count:])
-            c, t0[0] = n * L, 0
-        elif L == 1:
-            c, t0[0] = _downsample(z, Hr[0], M, t0[0], n, out[count:])
-        else:
-            c, t0[0] = _polyphase(z, Hr, L, M, t0[0], n, out[count:])
-        count += c
+    n = x.shape[0]
+    head = min(n, K1)
+    for i in range(head):
+        z[K1 + i] = x[i]
+    count = _windows(z, Hr, L, M, t0, head, out)
+    if n > K1:
+        count += _windows(x, Hr, L, M, t0, n - K1, out[count:])
+        for i in range(K1):
+            z[i] = x[n - K1 + i]
+    else:
         for i in range(K1):
             z[i] = z[n + i]
     return count
@@ -156,7 +172,7 @@ class RationalResampler:
     became computable, m ~= n * rate_out / rate_in (exactly ``n * L`` when M = 1).
     """
 
-    def __init__(self, rate_in: int, rate_out: int, taps_per_phase: int = 16, max_block: int = 1 << 16):
+    def __init__(self, rate_in: int, rate_out: int, taps_per_phase: int = 16):
         if int(rate_in) != rate_in or int(rate_out) != rate_out or rate_in <= 0 or rate_out <= 0:
             raise ValueError("resampler rates must be positive integers (Hz)")
         ratio = Fraction(int(rate_out), int(rate_in))
@@ -168,8 +184,7 @@ class RationalResampler:
         self.K = K
         self._H, self._Hr = _branches(self.L, K, self.rate_in, self.rate_out)
         self.delay = (self.L * K - 1) / 2.0 / (self.L * self.rate_in)
-        self.max_block = int(max_block)
-        self._z = np.zeros(K - 1 + self.max_block)
+        self._z = np.zeros(2 * (K - 1))  # the last K - 1 inputs, then room for the next block's first ones
         self._t0 = np.zeros(1, dtype=np.int64)
 
     def reset(self) -> None:
