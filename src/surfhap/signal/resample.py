@@ -50,12 +50,12 @@ def _polyphase(z, Hr, L, M, t0, n_in, out):
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
-def _upsample(z, Hr, n_in, out):
+def _upsample(z, Hr, n_in, out, scratch):
     # integer factor L (M = 1): every input sample yields L outputs, one per branch
     L, K = Hr.shape
     if K == _TAPS:
         for i0 in range(0, n_in, _CHUNK):
-            _upsample_taps(z[i0:], Hr, min(_CHUNK, n_in - i0), out[i0 * L:])
+            _upsample_taps(z[i0:], Hr, min(_CHUNK, n_in - i0), out[i0 * L:], scratch)
         return
     for i in range(n_in):
         for ph in range(L):
@@ -68,12 +68,12 @@ def _upsample(z, Hr, n_in, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def _upsample_taps(z, Hr, n, out):
+def _upsample_taps(z, Hr, n, out, scratch):
     # _TAPS-tap branches: each branch vectorised over the n inputs (its taps in registers; four
     # partial sums in a fixed order, no fastmath: the same sums whatever the block split) into a
-    # row of a small scratch, then interleaved into out
+    # row of the (L, n) scratch (>= L _CHUNK: in the L1 cache), then interleaved into out
     L = Hr.shape[0]
-    rows = np.empty((L, n))
+    rows = scratch[:L * n].reshape((L, n))
     for ph in range(L):
         h = Hr[ph]
         h0, h1, h2, h3, h4, h5, h6, h7 = h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7]
@@ -119,10 +119,10 @@ def _downsample(z, h, M, t0, n_in, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def _windows(z, Hr, L, M, t0, n_in, out):
+def _windows(z, Hr, L, M, t0, n_in, out, scratch):
     # the outputs whose windows start at z[:n_in] (z: >= n_in + K - 1); returns the count, t0 updated
     if M == 1:
-        _upsample(z, Hr, n_in, out)
+        _upsample(z, Hr, n_in, out, scratch)
         t0[0] = 0
         return n_in * L
     if L == 1:
@@ -136,16 +136,17 @@ def _windows(z, Hr, L, M, t0, n_in, out):
 def resample_block(x, z, Hr, L, M, t0, out):
     """One block x (n,) of any length through the resampler of ``z, Hr, L, M, t0``
     (:meth:`RationalResampler.kernel_args`) into ``out`` (>= n L / M + 2); returns the count.
-    The windows that start in the previous block's last K - 1 inputs (z) come first, the rest
-    read x in place (no copy of the block)."""
+    The windows that start in the previous block's last K - 1 inputs (z[:K-1]) come first, the
+    rest read x in place (no copy of the block); z[2 (K-1):] is the upsampler's scratch."""
     K1 = Hr.shape[1] - 1
     n = x.shape[0]
     head = min(n, K1)
+    scratch = z[2 * K1:]
     for i in range(head):
         z[K1 + i] = x[i]
-    count = _windows(z, Hr, L, M, t0, head, out)
+    count = _windows(z, Hr, L, M, t0, head, out, scratch)
     if n > K1:
-        count += _windows(x, Hr, L, M, t0, n - K1, out[count:])
+        count += _windows(x, Hr, L, M, t0, n - K1, out[count:], scratch)
         for i in range(K1):
             z[i] = x[n - K1 + i]
     else:
@@ -184,7 +185,8 @@ class RationalResampler:
         self.K = K
         self._H, self._Hr = _branches(self.L, K, self.rate_in, self.rate_out)
         self.delay = (self.L * K - 1) / 2.0 / (self.L * self.rate_in)
-        self._z = np.zeros(2 * (K - 1))  # the last K - 1 inputs, then room for the next block's first ones
+        # the last K - 1 inputs, room for the next block's first ones, the vectorised upsampler's scratch
+        self._z = np.zeros(2 * (K - 1) + (self.L * _CHUNK if self.M == 1 and K == _TAPS else 0))
         self._t0 = np.zeros(1, dtype=np.int64)
 
     def reset(self) -> None:
