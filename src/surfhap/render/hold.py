@@ -86,6 +86,9 @@ def control_times(n_model0, control_rate, out):
         out[k] = (n_model0 + k) / control_rate
 
 
+_TAIL_CHUNK = 1024  # drive samples per pass of the hold, carrier and safety: their arrays stay in the cache
+
+
 @numba.njit(cache=True, nogil=True)
 def drive_tail(m, load, touch_time, state, work, index, safety, drive, load_drive):
     """The tail every chain ends with, on ``drive[:m]`` (the envelope at the drive rate, V) in
@@ -94,13 +97,23 @@ def drive_tail(m, load, touch_time, state, work, index, safety, drive, load_driv
     counters, limits of :meth:`~surfhap.render.safety.SafetyStage.kernel_args`). ``state``
     (float): model and drive samples so far, control and drive rate (Hz), carrier step, hold
     tolerance (s), the last load and touch time, advanced here; ``work`` (2, >= n, m), ``index``
-    (>= m) scratch. Returns m."""
+    (>= m) scratch. Runs in chunks of drive samples (same samples as one pass). Returns m."""
     n = load.shape[0]
-    control_times(state[0], state[2], work[0, :n])
-    hold_latest(state[1], state[3], work[0, :n], state[5], load, touch_time, state[6], state[7], load_drive[:m],
-                work[1, :m], index[:m])
-    polarity(drive[:m], state[1], state[4], drive[:m])
-    stage_block(drive[:m], load_drive[:m], work[1, :m], drive[:m], *safety)
+    src = work[0, :n]
+    control_times(state[0], state[2], src)
+    age = work[1, :m]
+    k0 = 0  # the model samples before k0 are in force (the latest: last_load, last_stamp)
+    last_load, last_stamp = state[6], state[7]
+    for j0 in range(0, m, _TAIL_CHUNK):
+        j1 = min(j0 + _TAIL_CHUNK, m)
+        hold_latest(state[1] + j0, state[3], src[k0:], state[5], load[k0:], touch_time[k0:], last_load, last_stamp,
+                    load_drive[j0:j1], age[j0:j1], index[j0:j1])
+        if index[j1 - 1] >= 0:
+            k0 += index[j1 - 1]
+            last_load, last_stamp = load[k0], touch_time[k0]
+            k0 += 1
+        polarity(drive[j0:j1], state[1] + j0, state[4], drive[j0:j1])
+        stage_block(drive[j0:j1], load_drive[j0:j1], age[j0:j1], drive[j0:j1], *safety)
     state[0] += n
     state[1] += m
     if n:
