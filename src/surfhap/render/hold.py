@@ -96,7 +96,7 @@ def drive_tail(m, load, touch_time, state, work, index, safety, drive, load_driv
     (``load_drive``, touch ages in ``work[1]``), the polarity carrier, the safety stage (state,
     counters, limits of :meth:`~surfhap.render.safety.SafetyStage.kernel_args`). ``state``
     (float): model and drive samples so far, control and drive rate (Hz), carrier step, hold
-    tolerance (s), the last load and touch time, advanced here; ``work`` (2, >= n, m), ``index``
+    tolerance (s), the last load and touch time, advanced here; ``work`` (2, >= n + m), ``index``
     (>= m) scratch. Runs in chunks of drive samples (same samples as one pass). Returns m."""
     n = load.shape[0]
     src = work[0, :n]
@@ -112,8 +112,9 @@ def drive_tail(m, load, touch_time, state, work, index, safety, drive, load_driv
             k0 += index[j1 - 1]
             last_load, last_stamp = load[k0], touch_time[k0]
             k0 += 1
-        polarity(drive[j0:j1], state[1] + j0, state[4], drive[j0:j1])
-        stage_block(drive[j0:j1], load_drive[j0:j1], age[j0:j1], drive[j0:j1], *safety)
+        carried = work[0, n:n + j1 - j0]  # not in place: the carrier's and the safety's loops vectorise
+        polarity(drive[j0:j1], state[1] + j0, state[4], carried)
+        stage_block(carried, load_drive[j0:j1], age[j0:j1], drive[j0:j1], *safety)
     state[0] += n
     state[1] += m
     if n:

@@ -98,8 +98,8 @@ _CHUNK = 256  # samples the renderer's stage checks at once for the common case 
 
 
 @numba.njit(cache=True, nogil=True)
-def _passes_through(x, load, touch_age, i0, i1, prev, scale, v_max, rise_step, lift, max_load, absurd, timeout, tolerance):
-    # the clamped count of samples i0..i1 of a renderer's stage (finite scale, no ramp, no halt) when
+def _passes_through(x, load, touch_age, prev, scale, v_max, rise_step, lift, max_load, absurd, timeout, tolerance):
+    # the clamped count of the samples of a renderer's stage (finite scale, no ramp, no halt) when
     # every one is in the common case: finger on (lift <= load <= max_load), fresh touch data
     # (-tolerance <= age <= timeout), a sane drive (|v| <= absurd) whose magnitude min(|v| scale,
     # v_max) does not rise above the previous one + rise_step. Then _safety_kernel's loop emits
@@ -108,7 +108,7 @@ def _passes_through(x, load, touch_age, i0, i1, prev, scale, v_max, rise_step, l
     ok = True
     clamped = 0
     last = prev
-    for i in range(i0, i1):
+    for i in range(x.shape[0]):
         ld = load[i]
         age = touch_age[i]
         a = abs(x[i])
@@ -141,14 +141,14 @@ def _safety_kernel(x, load, touch_age, out, state, counters, gain, ramp_step, ag
     common = finger and ramp_step == 0.0 and not halt and scale_ok  # a renderer's stage: chunks may pass through
     for i0 in range(0, n, _CHUNK):
         i1 = min(i0 + _CHUNK, n)
-        c = _passes_through(x, load, touch_age, i0, i1, prev, scale, v_max, rise_step, lift, max_load, absurd, timeout,
-                            tolerance) if common else -1
-        if c >= 0:
+        c = _passes_through(x[i0:i1], load[i0:i1], touch_age[i0:i1], prev, scale, v_max, rise_step, lift, max_load, absurd,
+                            timeout, tolerance) if common else -1
+        if c >= 0:  # slices: indices from 0, no wraparound, the loop vectorises (unless out is x)
             clamped += c
-            for i in range(i0, i1):
-                v = x[i]
-                mag = min(abs(v) * scale, v_max)
-                out[i] = mag if v >= 0.0 else -mag
+            xs, o = x[i0:i1], out[i0:i1]
+            for k in range(o.shape[0]):
+                mag = min(abs(xs[k]) * scale, v_max)
+                o[k] = mag if xs[k] >= 0.0 else -mag
             prev = abs(out[i1 - 1])
             continue
         for i in range(i0, i1):
