@@ -63,9 +63,10 @@ def hold_latest(n_drive0, drive_rate, src_time, tol, load, stamp, last_load, las
                sample held (-1 before the first).
     """
     n = src_time.shape[0]
+    control_times(n_drive0, drive_rate, out_age)  # t_J, vectorised; the hold turns them into ages
     k = -1
     for j in range(out_load.shape[0]):
-        t = (n_drive0 + j) / drive_rate
+        t = out_age[j]
         while k + 1 < n and src_time[k + 1] <= t + tol:
             k += 1
         if k < 0:
@@ -82,8 +83,11 @@ def control_times(n_model0, control_rate, out):
     """Start times (s) of the model samples ``n_model0 .. n_model0 + n - 1`` at ``control_rate``
     Hz into ``out`` (n,) float: the ``src_time`` of :func:`hold_latest` for a chain that runs
     at a fixed control rate."""
-    for k in range(out.shape[0]):
-        out[k] = (n_model0 + k) / control_rate
+    for b in range(0, out.shape[0], 1 << 20):
+        o = out[b:b + (1 << 20)]
+        n_b = n_model0 + b
+        for k in range(np.int32(o.shape[0])):  # int32 -> float converts in vectors (int64 does not, before AVX-512)
+            o[k] = (n_b + np.float64(np.int32(k))) / control_rate  # the same sum: integers, exact in float64
 
 
 _TAIL_CHUNK = 1024  # drive samples per pass of the hold, carrier and safety: their arrays stay in the cache
