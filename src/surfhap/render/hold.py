@@ -65,16 +65,16 @@ def hold_latest(n_drive0, drive_rate, src_time, tol, load, stamp, last_load, las
     n = src_time.shape[0]
     control_times(n_drive0, drive_rate, out_age)  # t_J, vectorised; the hold turns them into ages
     k = -1
+    held, since = last_load, last_stamp  # of sample k, in registers while it holds
+    nxt = src_time[0] if n > 0 else math.inf  # when sample k + 1 comes into force (inf: none left)
     for j in range(out_load.shape[0]):
         t = out_age[j]
-        while k + 1 < n and src_time[k + 1] <= t + tol:
+        while nxt <= t + tol:
             k += 1
-        if k < 0:
-            out_load[j] = last_load
-            out_age[j] = t - last_stamp
-        else:
-            out_load[j] = load[k]
-            out_age[j] = t - stamp[k]
+            held, since = load[k], stamp[k]
+            nxt = src_time[k + 1] if k + 1 < n else math.inf
+        out_load[j] = held
+        out_age[j] = t - since
         out_index[j] = k
 
 
