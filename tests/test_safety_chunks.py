@@ -76,3 +76,15 @@ def test_long_blocks_equal_the_limits_written_out(seed):
     got = np.concatenate([stage.process(d, ld, a) for d, ld, a in zip(np.split(drive, cuts), np.split(load, cuts), np.split(age, cuts))])
     np.testing.assert_array_equal(got, want)
     assert dataclasses.asdict(stage.counters) == counts
+
+
+def test_non_finite_drive_is_a_fault_even_when_absurd_overflows():
+    """absurd_factor * v_max may overflow to inf for a huge v_max: inf and NaN drives still give 0 V."""
+    lim = SafetyLimits(v_max=1e308)
+    n = 600
+    drive = np.full(n, 1.0)
+    drive[[3, 300, 301, 599]] = [np.inf, -np.inf, np.nan, np.inf]
+    stage = SafetyStage(FS, lim)
+    out = stage.process(drive, np.full(n, 0.5), np.zeros(n))
+    assert np.all(np.isfinite(out)) and not np.any(out[[3, 300, 301, 599]])
+    assert stage.counters.faults == 4

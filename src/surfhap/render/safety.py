@@ -94,6 +94,7 @@ class SafetyCounters:
     halted: int
 
 
+_FLOAT_MAX = float(np.finfo(np.float64).max)
 _CHUNK = 256  # samples the renderer's stage checks at once for the common case (see _passes_through)
 
 
@@ -132,6 +133,7 @@ def _safety_kernel(x, load, touch_age, out, state, counters, gain, ramp_step, ag
     # the counters and the state stay in locals through the loop (the stores to out may alias the
     # arrays: per-sample counter updates in memory would chain every sample)
     n = out.shape[0]
+    absurd = min(absurd, _FLOAT_MAX)  # absurd_factor v_max may overflow: |v| <= absurd must mean finite
     finger = load.shape[0] > 0
     prev = state[0]
     ramp = state[1]
@@ -173,7 +175,7 @@ def _safety_kernel(x, load, touch_age, out, state, counters, gain, ramp_step, ag
                 ld = lift
                 age = age0 + i * dt
                 good = True
-            good &= (abs(v) <= absurd) & scale_ok  # absurd is finite: so is v
+            good &= (abs(v) <= absurd) & scale_ok  # absurd is finite (above): so is v
             if not (good & (ld >= lift)):  # a fault, else a lifted finger: 0 V at once
                 if good:
                     lifted += 1
