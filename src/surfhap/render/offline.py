@@ -11,7 +11,7 @@ preview, and the arrays when they were kept. Writing files is
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -34,6 +34,27 @@ class RenderFaultError(RuntimeError):
     MAX_FAULT_FRACTION of its drive samples: its output is not the material, whatever it wrote."""
 
 
+class _Deferred:
+    """A :class:`RenderStats` field: reading it first accounts the blocks deferred by
+    :meth:`RenderStats.defer` (so a deferred statistic is exact whenever it is read)."""
+
+    def __init__(self, default):
+        self.default = default
+
+    def __set_name__(self, owner, name):
+        self.key = "_" + name
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self.default  # the dataclass field's default
+        while obj.pending:
+            obj.pending.pop()()
+        return obj.__dict__[self.key]
+
+    def __set__(self, obj, value):
+        obj.__dict__[self.key] = value
+
+
 @dataclass
 class RenderStats:
     """What the summary needs from the arrays of a render, accumulated block by block.
@@ -43,17 +64,32 @@ class RenderStats:
     reached v_max, or None. touching / target_sum / texture_sq_sum: while touching, samples,
     the target force (N) and the squared textural target (target minus the law's low band,
     N^2) summed, for the texture share; ``has_texture`` False for a method without texture.
+    ``pending``: accounting deferred by :meth:`defer`, run when a statistic is first read.
     """
 
     has_texture: bool = False
-    n_model: int = 0
-    n_drive: int = 0
-    max_abs_drive: float = 0.0
-    friction_sum: float = 0.0
-    onset_load: float | None = None
-    touching: int = 0
-    target_sum: float = 0.0
-    texture_sq_sum: float = 0.0
+    n_model: int = _Deferred(0)
+    n_drive: int = _Deferred(0)
+    max_abs_drive: float = _Deferred(0.0)
+    friction_sum: float = _Deferred(0.0)
+    onset_load: float | None = _Deferred(None)
+    touching: int = _Deferred(0)
+    target_sum: float = _Deferred(0.0)
+    texture_sq_sum: float = _Deferred(0.0)
+    pending: list = field(default_factory=list, repr=False, compare=False)
+
+    def add_blocks(self, low_band: LowBand, v_max: float, load, target, mu_low, voltage, drive, friction=None) -> None:
+        """Account model samples (load, target, mu_low, voltage (n,); the law's ``low_band``),
+        their drive (m,) V and friction (n,) N (None: later)."""
+        self.add_model(load, voltage, target, low_band.force(load, mu_low), v_max)
+        self.add_drive(drive)
+        if friction is not None:
+            self.add_friction(friction)
+
+    def defer(self, *blocks) -> None:
+        """:meth:`add_blocks` when a statistic is first read, not now (the arguments: arrays
+        the caller keeps unchanged): a render whose arrays are kept reduces them only if asked."""
+        self.pending.append(lambda: self.add_blocks(*blocks))
 
     @property
     def texture_share(self) -> float | None:
