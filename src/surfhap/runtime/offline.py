@@ -108,13 +108,12 @@ class RenderRecorder:
 
     def _account(self, start: int, speed, load, target, mu_low, voltage, drive, friction, defer: bool = False) -> None:
         """Statistics and preview of model samples from ``start``, their drive and friction (None:
-        later); ``defer``: the statistics when first read (:meth:`~surfhap.render.offline.RenderStats.defer`)."""
+        later); ``defer``: the statistics when first read (:meth:`~surfhap.render.offline.RenderStats.add_blocks`)."""
         self.preview.add_model(start, speed, load, target, mu_low, voltage)
         self.preview.add_drive(self.stats.n_drive, drive)
         if friction is not None:
             self.preview.add_friction(start, friction)
-        (self.stats.defer if defer else self.stats.add_blocks)(self.low_band, self.v_max, load, target, mu_low, voltage, drive,
-                                                                friction)
+        self.stats.add_blocks(self.low_band, self.v_max, load, target, mu_low, voltage, drive, friction, defer=defer)
 
     def emit(self, volts: np.ndarray) -> None:
         start, speed, load, out = self.engine.block
