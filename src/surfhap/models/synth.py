@@ -34,23 +34,25 @@ def nearest_model(midpoints, speed, out):
         out[i] = k
 
 
-@numba.njit(cache=True, nogil=True)
-def ar_bank_block(speed, noise, start, midpoints, model_idx, coefs, orders, sigmas, buf, pmax, out):
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def ar_bank_block(speed, noise, start, midpoints, model_idx, coefs, sigmas, buf, pmax, out):
     # n = speed.shape[0] samples driven by noise[start:start + n] (model_idx: >= n); buf: (pmax + n,),
-    # buf[:pmax] holds the previous outputs, oldest first
-    # the newest output stays in a register (the recursion's critical path skips a store and load)
+    # buf[:pmax] holds the previous outputs, oldest first; coefs[m] = model m's coefficients reversed
+    # and zero-padded in front to pmax (coefs[m, pmax - 1 - j] multiplies the output j + 1 back).
+    # The older taps are one vectorised sum over the history (independent of the newest output);
+    # the newest output, kept in a register, enters last: the recursion's chain is one multiply-add
     n = speed.shape[0]
     nearest_model(midpoints, speed, model_idx)
     last = buf[pmax - 1]
     for i in range(n):
         m = model_idx[i]
-        acc = sigmas[m] * noise[start + i]
-        pos = pmax + i
-        if orders[m] > 0:
-            acc += coefs[m, 0] * last
-        for j in range(1, orders[m]):
-            acc += coefs[m, j] * buf[pos - 1 - j]
-        buf[pos] = acc
+        h = coefs[m]
+        w = buf[i:]  # w[k] = buf[pos - pmax + k], pos = pmax + i
+        acc = 0.0
+        for k in range(pmax - 1):
+            acc += h[k] * w[k]
+        acc = acc + sigmas[m] * noise[start + i] + h[pmax - 1] * last
+        buf[pmax + i] = acc
         out[i] = acc
         last = acc
     for j in range(pmax):
@@ -71,12 +73,10 @@ class ARSynthesizer:
         self._seed = seed
         m = len(bank.models)
         self.p_max = max(1, bank.max_order)
-        self._coefs = np.zeros((m, self.p_max))
-        self._orders = np.zeros(m, dtype=np.int64)
+        self._coefs = np.zeros((m, self.p_max))  # reversed, zero-padded in front (ar_bank_block)
         self._sigmas = np.zeros(m)
         for i, model in enumerate(bank.models):
-            self._coefs[i, : model.order] = model.coefficients
-            self._orders[i] = model.order
+            self._coefs[i, self.p_max - model.order:] = np.asarray(model.coefficients)[::-1]
             self._sigmas[i] = np.sqrt(model.variance)
         self.max_block = int(max_block)
         self._buf = np.zeros(self.p_max + self.max_block)
@@ -125,4 +125,4 @@ class ARSynthesizer:
             self._rng.standard_normal(out=noise[size - pos:n])
             pos, self._pos = 0, size
         self._n = n
-        return noise, pos, self._mid, self._index, self._coefs, self._orders, self._sigmas, self._buf, self.p_max
+        return noise, pos, self._mid, self._index, self._coefs, self._sigmas, self._buf, self.p_max

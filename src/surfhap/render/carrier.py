@@ -27,14 +27,20 @@ def check_carrier(carrier: float, drive_rate: float) -> float:
     return carrier
 
 
+_SPAN = 1 << 20  # samples per int32-indexed inner loop
+
+
 @numba.njit(cache=True, nogil=True)
 def polarity(envelope, n0, step, out):
     """``out = +-envelope``: sign +1 during the first half of each carrier period, drive sample
     ``n0 + i`` at ``step`` (= carrier / drive rate, 0 = off) periods per sample."""
-    for i in range(envelope.shape[0]):
-        x = (n0 + i) * step
-        phase = x - np.floor(x)  # = x % 1.0 exactly (x >= 0); a float floor, no float modulo or int round trip
-        out[i] = envelope[i] if phase < 0.5 else -envelope[i]
+    for b in range(0, envelope.shape[0], _SPAN):
+        e, o = envelope[b:b + _SPAN], out[b:b + _SPAN]
+        n_b = n0 + b
+        for i in range(np.int32(e.shape[0])):  # int32 -> float converts in vectors (int64 does not, before AVX-512)
+            x = (n_b + np.float64(np.int32(i))) * step  # the same sum: integers, exact in float64
+            phase = x - np.floor(x)  # = x % 1.0 exactly (x >= 0); a float floor, no float modulo or int round trip
+            o[i] = e[i] if phase < 0.5 else -e[i]
 
 
 class PolarityCarrier:

@@ -29,7 +29,7 @@ from typing import Annotated
 
 import numpy as np
 from pydantic import Field, field_validator
-from scipy.stats import norm
+from scipy.special import ndtri
 
 from surfhap.checked import checked_dataclass
 from surfhap.errors import ConfigError
@@ -162,7 +162,7 @@ def plan_gains(material: Material, method: str, display: DisplayModel | None = N
     law = make_drive_law(method, material, DriveParams(
         alpha=1.0, beta=beta, effective_mass=effective_mass, constant_load=constant_load, texture_gain=texture_gain,
         square_reference_load=square_reference[0], square_reference_speed=square_reference[1]))
-    z = float(norm.ppf(percentile / 100.0))
+    z = float(ndtri(percentile / 100.0))  # the standard normal quantile (norm.ppf without its generic checks)
     loads, speeds = rng.grid()
     fn, v = (a.ravel() for a in np.meshgrid(loads, speeds, indexing="ij"))  # (L*S,) grid points
     alpha_cal = float(display.calibrated_alpha)

@@ -63,17 +63,18 @@ def hold_latest(n_drive0, drive_rate, src_time, tol, load, stamp, last_load, las
                sample held (-1 before the first).
     """
     n = src_time.shape[0]
+    control_times(n_drive0, drive_rate, out_age)  # t_J, vectorised; the hold turns them into ages
     k = -1
+    held, since = last_load, last_stamp  # of sample k, in registers while it holds
+    nxt = src_time[0] if n > 0 else math.inf  # when sample k + 1 comes into force (inf: none left)
     for j in range(out_load.shape[0]):
-        t = (n_drive0 + j) / drive_rate
-        while k + 1 < n and src_time[k + 1] <= t + tol:
+        t = out_age[j]
+        while nxt <= t + tol:
             k += 1
-        if k < 0:
-            out_load[j] = last_load
-            out_age[j] = t - last_stamp
-        else:
-            out_load[j] = load[k]
-            out_age[j] = t - stamp[k]
+            held, since = load[k], stamp[k]
+            nxt = src_time[k + 1] if k + 1 < n else math.inf
+        out_load[j] = held
+        out_age[j] = t - since
         out_index[j] = k
 
 
@@ -82,8 +83,14 @@ def control_times(n_model0, control_rate, out):
     """Start times (s) of the model samples ``n_model0 .. n_model0 + n - 1`` at ``control_rate``
     Hz into ``out`` (n,) float: the ``src_time`` of :func:`hold_latest` for a chain that runs
     at a fixed control rate."""
-    for k in range(out.shape[0]):
-        out[k] = (n_model0 + k) / control_rate
+    for b in range(0, out.shape[0], 1 << 20):
+        o = out[b:b + (1 << 20)]
+        n_b = n_model0 + b
+        for k in range(np.int32(o.shape[0])):  # int32 -> float converts in vectors (int64 does not, before AVX-512)
+            o[k] = (n_b + np.float64(np.int32(k))) / control_rate  # the same sum: integers, exact in float64
+
+
+_TAIL_CHUNK = 1024  # drive samples per pass of the hold, carrier and safety: their arrays stay in the cache
 
 
 @numba.njit(cache=True, nogil=True)
@@ -93,14 +100,25 @@ def drive_tail(m, load, touch_time, state, work, index, safety, drive, load_driv
     (``load_drive``, touch ages in ``work[1]``), the polarity carrier, the safety stage (state,
     counters, limits of :meth:`~surfhap.render.safety.SafetyStage.kernel_args`). ``state``
     (float): model and drive samples so far, control and drive rate (Hz), carrier step, hold
-    tolerance (s), the last load and touch time, advanced here; ``work`` (2, >= n, m), ``index``
-    (>= m) scratch. Returns m."""
+    tolerance (s), the last load and touch time, advanced here; ``work`` (2, >= n + m), ``index``
+    (>= m) scratch. Runs in chunks of drive samples (same samples as one pass). Returns m."""
     n = load.shape[0]
-    control_times(state[0], state[2], work[0, :n])
-    hold_latest(state[1], state[3], work[0, :n], state[5], load, touch_time, state[6], state[7], load_drive[:m],
-                work[1, :m], index[:m])
-    polarity(drive[:m], state[1], state[4], drive[:m])
-    stage_block(drive[:m], load_drive[:m], work[1, :m], drive[:m], *safety)
+    src = work[0, :n]
+    control_times(state[0], state[2], src)
+    age = work[1, :m]
+    k0 = 0  # the model samples before k0 are in force (the latest: last_load, last_stamp)
+    last_load, last_stamp = state[6], state[7]
+    for j0 in range(0, m, _TAIL_CHUNK):
+        j1 = min(j0 + _TAIL_CHUNK, m)
+        hold_latest(state[1] + j0, state[3], src[k0:], state[5], load[k0:], touch_time[k0:], last_load, last_stamp,
+                    load_drive[j0:j1], age[j0:j1], index[j0:j1])
+        if index[j1 - 1] >= 0:
+            k0 += index[j1 - 1]
+            last_load, last_stamp = load[k0], touch_time[k0]
+            k0 += 1
+        carried = work[0, n:n + j1 - j0]  # not in place: the carrier's and the safety's loops vectorise
+        polarity(drive[j0:j1], state[1] + j0, state[4], carried)
+        stage_block(carried, load_drive[j0:j1], age[j0:j1], drive[j0:j1], *safety)
     state[0] += n
     state[1] += m
     if n:

@@ -11,7 +11,7 @@ preview, and the arrays when they were kept. Writing files is
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -34,6 +34,26 @@ class RenderFaultError(RuntimeError):
     MAX_FAULT_FRACTION of its drive samples: its output is not the material, whatever it wrote."""
 
 
+class _Deferred:
+    """A :class:`RenderStats` field: reading it first runs the reductions deferred by
+    :meth:`RenderStats.add_blocks` (so a deferred statistic is exact whenever it is read)."""
+
+    def __init__(self, default):
+        self.default = default
+
+    def __set_name__(self, owner, name):
+        self.key = "_" + name
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self.default  # the dataclass field's default
+        obj.settle()
+        return obj.__dict__[self.key]
+
+    def __set__(self, obj, value):
+        obj.__dict__[self.key] = value
+
+
 @dataclass
 class RenderStats:
     """What the summary needs from the arrays of a render, accumulated block by block.
@@ -43,17 +63,48 @@ class RenderStats:
     reached v_max, or None. touching / target_sum / texture_sq_sum: while touching, samples,
     the target force (N) and the squared textural target (target minus the law's low band,
     N^2) summed, for the texture share; ``has_texture`` False for a method without texture.
+    ``pending``: reductions deferred by :meth:`add_blocks`, run when one of them is first read.
     """
 
     has_texture: bool = False
     n_model: int = 0
     n_drive: int = 0
-    max_abs_drive: float = 0.0
-    friction_sum: float = 0.0
-    onset_load: float | None = None
-    touching: int = 0
-    target_sum: float = 0.0
-    texture_sq_sum: float = 0.0
+    max_abs_drive: float = _Deferred(0.0)
+    friction_sum: float = _Deferred(0.0)
+    onset_load: float | None = _Deferred(None)
+    touching: int = _Deferred(0)
+    target_sum: float = _Deferred(0.0)
+    texture_sq_sum: float = _Deferred(0.0)
+    pending: list = field(default_factory=list, repr=False, compare=False)
+
+    def add_blocks(self, low_band: LowBand, v_max: float, load, target, mu_low, voltage, drive, friction=None, *,
+                   defer: bool = False) -> None:
+        """Account model samples (load, target, mu_low, voltage (n,); the law's ``low_band``),
+        their drive (m,) V and friction (n,) N (None: later). ``defer``: count them now but
+        reduce them when a statistic is first read (arrays the caller keeps unchanged: a
+        render whose arrays are kept reduces them only if asked)."""
+        self.n_model += load.shape[0]
+        self.n_drive += drive.shape[0]
+
+        def reduce():
+            self.add_model(load, voltage, target, low_band.force(load, mu_low), v_max)
+            self.add_drive(drive)
+            if friction is not None:
+                self.add_friction(friction)
+
+        if defer:
+            self.pending.append(reduce)
+        else:
+            reduce()
+
+    def settle(self) -> None:
+        """Run the deferred reductions (reading a statistic, a copy or a pickle does)."""
+        while self.pending:
+            self.pending.pop()()
+
+    def __getstate__(self) -> dict:
+        self.settle()
+        return self.__dict__.copy()
 
     @property
     def texture_share(self) -> float | None:
@@ -65,8 +116,8 @@ class RenderStats:
         return float(np.sqrt(self.texture_sq_sum / self.touching) / (self.target_sum / self.touching))
 
     def add_model(self, load: np.ndarray, voltage: np.ndarray, target: np.ndarray, low: np.ndarray, v_max: float) -> None:
-        """Account one block at the control rate: load (n,) N, envelope (n,) V, the law's
-        target (n,) N and its low band (n,) N."""
+        """Reduce one block at the control rate (:meth:`add_blocks` counts it): load (n,) N,
+        envelope (n,) V, the law's target (n,) N and its low band (n,) N."""
         on = load > 0
         n, touching = load.shape[0], int(np.count_nonzero(on))
         if touching < n:  # the touching samples (all of them, the usual block: no copies)
@@ -75,13 +126,11 @@ class RenderStats:
         if sat.any():
             lowest = float(load[sat].min())
             self.onset_load = lowest if self.onset_load is None else min(self.onset_load, lowest)
-        self.n_model += n
         self.touching += touching
         self.target_sum += float(target.sum())
         self.texture_sq_sum += float(np.square(target - low).sum())
 
     def add_drive(self, drive: np.ndarray) -> None:
-        self.n_drive += int(drive.shape[0])
         if drive.size:
             self.max_abs_drive = max(self.max_abs_drive, float(drive.max()), -float(drive.min()))
 

@@ -164,11 +164,12 @@ class PreviewRecorder:
         _, sl = cut(self._spec["load"], n)
         _, ss = cut(self._spec["speed"], n)
         ncol = math.ceil(n / self._bin) if n else 0
-        touching = sl > 0
-        v = float(np.median(ss[touching])) if np.any(touching) else None
-        fn = float(np.median(sl[touching])) if np.any(touching) else None
-        def psd(freqs):
-            return None if v is None else expected_texture_psd(m, freqs, v, fn)
+
+        def psd(freqs):  # at the median speed and load while touching, found when asked
+            touching = sl > 0
+            if not np.any(touching):
+                return None
+            return expected_texture_psd(m, freqs, float(np.median(ss[touching])), float(np.median(sl[touching])))
 
         k = len(wt)
         return RenderPreview(

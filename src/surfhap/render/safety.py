@@ -94,6 +94,34 @@ class SafetyCounters:
     halted: int
 
 
+_FLOAT_MAX = float(np.finfo(np.float64).max)
+_CHUNK = 256  # samples the renderer's stage checks at once for the common case (see _passes_through)
+
+
+@numba.njit(cache=True, nogil=True)
+def _passes_through(x, load, touch_age, prev, scale, v_max, rise_step, lift, max_load, absurd, timeout, tolerance):
+    # the clamped count of the samples of a renderer's stage (finite scale, no ramp, no halt) when
+    # every one is in the common case: finger on (lift <= load <= max_load), fresh touch data
+    # (-tolerance <= age <= timeout), a sane drive (|v| <= absurd) whose magnitude min(|v| scale,
+    # v_max) does not rise above the previous one + rise_step. Then _safety_kernel's loop emits
+    # exactly +-that magnitude for each (prev stays the previous magnitude), so the pass can be
+    # vectorised; else -1 (the loop runs). No branch: NaN fails every comparison.
+    ok = True
+    clamped = 0
+    last = prev
+    for i in range(x.shape[0]):
+        ld = load[i]
+        age = touch_age[i]
+        a = abs(x[i])
+        m = a * scale
+        mag = v_max if m > v_max else m
+        ok &= ((ld >= lift) & (ld <= max_load) & (age >= -tolerance) & (age <= timeout) & (a <= absurd)
+               & (mag <= last + rise_step))
+        clamped += m > v_max
+        last = mag
+    return clamped if ok else -1
+
+
 # The one safety kernel, of a renderer's stage and of the output pass.
 # state (float64): 0 previous emitted magnitude, 1 stop-ramp position (1 = full, 0 = stopped)
 # counters (int64): samples, clamped, rise_limited, faults, lifted, watchdog, halted
@@ -102,58 +130,85 @@ class SafetyCounters:
 @numba.njit(cache=True, nogil=True)
 def _safety_kernel(x, load, touch_age, out, state, counters, gain, ramp_step, age0, dt, halt, v_max, rise_step,
                    wd_step, lift, max_load, absurd, timeout, hard_age, tolerance):
+    # the counters and the state stay in locals through the loop (the stores to out may alias the
+    # arrays: per-sample counter updates in memory would chain every sample)
+    n = out.shape[0]
+    absurd = min(absurd, _FLOAT_MAX)  # absurd_factor v_max may overflow: |v| <= absurd must mean finite
     finger = load.shape[0] > 0
     prev = state[0]
     ramp = state[1]
-    for i in range(out.shape[0]):
-        v = x[i]
-        counters[0] += 1
-        scale = gain * ramp
-        if ramp_step > 0.0:
-            ramp -= ramp_step
-            if ramp < 1e-9:  # rounding of the repeated subtraction: end exactly at 0
-                ramp = 0.0
-        if halt:
-            counters[6] += 1
-            prev = 0.0
-            out[i] = 0.0
+    clamped = rise_limited = faults = lifted = watchdog = halted = 0
+    scale = gain * ramp
+    scale_ok = np.isfinite(scale)
+    common = finger and ramp_step == 0.0 and not halt and scale_ok  # a renderer's stage: chunks may pass through
+    for i0 in range(0, n, _CHUNK):
+        i1 = min(i0 + _CHUNK, n)
+        c = _passes_through(x[i0:i1], load[i0:i1], touch_age[i0:i1], prev, scale, v_max, rise_step, lift, max_load, absurd,
+                            timeout, tolerance) if common else -1
+        if c >= 0:  # slices: indices from 0, no wraparound, the loop vectorises (unless out is x)
+            clamped += c
+            xs, o = x[i0:i1], out[i0:i1]
+            for k in range(o.shape[0]):
+                mag = min(abs(xs[k]) * scale, v_max)
+                o[k] = mag if xs[k] >= 0.0 else -mag
+            prev = abs(out[i1 - 1])
             continue
-        if finger:
-            ld = load[i]
-            age = touch_age[i]
-            bad = not (np.isfinite(ld) and np.isfinite(age)) or ld < 0.0 or ld > max_load or age < -tolerance
-        else:
-            ld = lift
-            age = age0 + i * dt
-            bad = False
-        if bad or not (np.isfinite(v) and np.isfinite(scale)) or abs(v) > absurd:
-            counters[3] += 1
-            prev = 0.0
-            out[i] = 0.0
-            continue
-        if ld < lift:
-            counters[4] += 1
-            prev = 0.0
-            out[i] = 0.0
-            continue
-        mag = abs(v) * scale
-        if mag > v_max:
-            mag = v_max
-            counters[1] += 1
-        if not age <= timeout:  # stale, no touch yet (inf) or NaN
-            counters[5] += 1
-            cap = prev - wd_step
-            if cap < 0.0 or not age <= hard_age:
-                cap = 0.0
-            if mag > cap:
-                mag = cap
-        elif mag > prev + rise_step:
-            mag = prev + rise_step
-            counters[2] += 1
-        prev = mag
-        out[i] = mag if v >= 0.0 else -mag
+        for i in range(i0, i1):
+            v = x[i]
+            if ramp_step > 0.0:  # the stop ramp (output pass only): this sample's scale, then one step down
+                scale = gain * ramp
+                scale_ok = np.isfinite(scale)
+                ramp -= ramp_step
+                if ramp < 1e-9:  # rounding of the repeated subtraction: end exactly at 0
+                    ramp = 0.0
+            if halt:
+                halted += 1
+                prev = 0.0
+                out[i] = 0.0
+                continue
+            if finger:
+                ld = load[i]
+                age = touch_age[i]
+                # finite, 0 <= load <= max_load, -tolerance <= age < inf (NaN fails every comparison)
+                good = (ld >= 0.0) & (ld <= max_load) & (age >= -tolerance) & (age < np.inf)
+            else:
+                ld = lift
+                age = age0 + i * dt
+                good = True
+            good &= (abs(v) <= absurd) & scale_ok  # absurd is finite (above): so is v
+            if not (good & (ld >= lift)):  # a fault, else a lifted finger: 0 V at once
+                if good:
+                    lifted += 1
+                else:
+                    faults += 1
+                prev = 0.0
+                out[i] = 0.0
+                continue
+            mag = abs(v) * scale
+            if mag > v_max:
+                mag = v_max
+                clamped += 1
+            if not age <= timeout:  # stale, no touch yet (inf) or NaN
+                watchdog += 1
+                cap = prev - wd_step
+                if cap < 0.0 or not age <= hard_age:
+                    cap = 0.0
+                if mag > cap:
+                    mag = cap
+            elif mag > prev + rise_step:
+                mag = prev + rise_step
+                rise_limited += 1
+            prev = mag
+            out[i] = mag if v >= 0.0 else -mag
     state[0] = prev
     state[1] = ramp
+    counters[0] += n
+    counters[1] += clamped
+    counters[2] += rise_limited
+    counters[3] += faults
+    counters[4] += lifted
+    counters[5] += watchdog
+    counters[6] += halted
 
 
 @numba.njit(cache=True, nogil=True)

@@ -133,5 +133,4 @@ class TextureSource:
 
 
 # ar_bank_block's arguments of a block that synthesises nothing (k = 0; the same compiled types)
-_NO_AR = (np.zeros(0), -1, np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, 0)), np.zeros(0, dtype=np.int64),
-          np.zeros(0), np.zeros(0), 0)
+_NO_AR = (np.zeros(0), -1, np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, 0)), np.zeros(0), np.zeros(0), 0)

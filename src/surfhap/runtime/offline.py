@@ -92,6 +92,7 @@ class RenderRecorder:
             engine.law_out = rows[:len(engine.LAW_ROWS)]
         engine.drive_out = self.arrays["drive"] if keep else None
         self.stats = RenderStats(has_texture=chain.law.uses_texture)
+        self.low_band, self.v_max = chain.law.low_band, chain.config.limits.v_max
         self.preview = PreviewRecorder(n_total, n_drive, chain.control_rate, chain.drive_rate, chain.law.low_band,
                                        columns=preview_columns)
         self.n_fric = 0
@@ -105,16 +106,14 @@ class RenderRecorder:
             if not np.may_share_memory(kept, arr):  # else the chain wrote it there
                 kept[:] = arr
 
-    def _account(self, start: int, speed, load, target, mu_low, voltage, drive, friction) -> None:
-        """Statistics and preview of model samples from ``start``, their drive and friction (None: later)."""
-        chain = self.engine.chain
-        self.stats.add_model(load, voltage, target, chain.law.low_band.force(load, mu_low), chain.config.limits.v_max)
+    def _account(self, start: int, speed, load, target, mu_low, voltage, drive, friction, defer: bool = False) -> None:
+        """Statistics and preview of model samples from ``start``, their drive and friction (None:
+        later); ``defer``: the statistics when first read (:meth:`~surfhap.render.offline.RenderStats.add_blocks`)."""
         self.preview.add_model(start, speed, load, target, mu_low, voltage)
         self.preview.add_drive(self.stats.n_drive, drive)
-        self.stats.add_drive(drive)
         if friction is not None:
-            self.stats.add_friction(friction)
             self.preview.add_friction(start, friction)
+        self.stats.add_blocks(self.low_band, self.v_max, load, target, mu_low, voltage, drive, friction, defer=defer)
 
     def emit(self, volts: np.ndarray) -> None:
         start, speed, load, out = self.engine.block
@@ -147,7 +146,7 @@ class RenderRecorder:
         arrays = {}
         if self.arrays is not None:
             a = arrays = {k: v[:self.engine.n_drive if k == "drive" else n_done] for k, v in self.arrays.items()}
-            self._account(0, a["speed"], a["load"], a["target"], a["mu_low"], a["voltage"], a["drive"], a["friction_sim"])
+            self._account(0, a["speed"], a["load"], a["target"], a["mu_low"], a["voltage"], a["drive"], a["friction_sim"], defer=True)
             chain = self.engine.chain
             uses_acc = chain.law.uses_texture and material.texture.quantity == "acceleration"
             arrays["acc"] = arrays["texture"] if uses_acc else None

@@ -18,8 +18,11 @@ from scipy.signal import firwin
 
 __all__ = ["RationalResampler", "resample_block"]
 
-# In the kernels, z is (K-1 + n_in,): the last K-1 inputs of the previous block, then the new
-# ones; Hr[ph] is polyphase branch ph reversed, so that output = Hr[ph] . z[i : i+K]. The dot
+_TAPS = 16  # taps per branch of the default design: the integer upsampler's vectorised path
+_CHUNK = 256  # inputs per pass of that path (its scratch stays in the L1 cache)
+
+# In the kernels, z is (>= K-1 + n_in,): the inputs from K-1 before the first window's start
+# (the previous block's last K-1, then the block's, or the block itself); Hr[ph] is polyphase branch ph reversed, so that output = Hr[ph] . z[i : i+K]. The dot
 # products index views (w = z[i:]) from 0: no negative-index check per tap, so the taps load as
 # whole vectors (the same sums, three times faster).
 
@@ -47,9 +50,13 @@ def _polyphase(z, Hr, L, M, t0, n_in, out):
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
-def _upsample(z, Hr, n_in, out):
+def _upsample(z, Hr, n_in, out, scratch):
     # integer factor L (M = 1): every input sample yields L outputs, one per branch
     L, K = Hr.shape
+    if K == _TAPS:
+        for i0 in range(0, n_in, _CHUNK):
+            _upsample_taps(z[i0:], Hr, min(_CHUNK, n_in - i0), out[i0 * L:], scratch)
+        return
     for i in range(n_in):
         for ph in range(L):
             acc = 0.0
@@ -60,49 +67,89 @@ def _upsample(z, Hr, n_in, out):
             out[i * L + ph] = acc
 
 
+@numba.njit(cache=True, nogil=True)
+def _upsample_taps(z, Hr, n, out, scratch):
+    # _TAPS-tap branches: each branch vectorised over the n inputs (its taps in registers; four
+    # partial sums in a fixed order, no fastmath: the same sums whatever the block split) into a
+    # row of the (L, n) scratch (>= L _CHUNK: in the L1 cache), then interleaved into out
+    L = Hr.shape[0]
+    rows = scratch[:L * n].reshape((L, n))
+    for ph in range(L):
+        h = Hr[ph]
+        h0, h1, h2, h3, h4, h5, h6, h7 = h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7]
+        h8, h9, h10, h11, h12, h13, h14, h15 = h[8], h[9], h[10], h[11], h[12], h[13], h[14], h[15]
+        r = rows[ph]
+        for i in range(n):
+            a = h0 * z[i] + h4 * z[i + 4] + h8 * z[i + 8] + h12 * z[i + 12]
+            b = h1 * z[i + 1] + h5 * z[i + 5] + h9 * z[i + 9] + h13 * z[i + 13]
+            c = h2 * z[i + 2] + h6 * z[i + 6] + h10 * z[i + 10] + h14 * z[i + 14]
+            d = h3 * z[i + 3] + h7 * z[i + 7] + h11 * z[i + 11] + h15 * z[i + 15]
+            r[i] = (a + b) + (c + d)
+    for i in range(n):
+        for ph in range(L):
+            out[i * L + ph] = rows[ph, i]
+
+
 @numba.njit(cache=True, nogil=True, fastmath=True)
 def _downsample(z, h, M, t0, n_in, out):
-    # integer factor M (L = 1): output j uses the window starting at input t0 + j*M; two outputs
-    # at a time share the taps' loads (each sum vectorised as one alone: the same sums), the last
-    # one alone (its pair's window points past the block: w2 = w, not stored)
+    # integer factor M (L = 1): output j uses the window starting at input t0 + j*M; four outputs
+    # at a time share the taps' loads (each sum vectorised as one alone: the same sums), those of
+    # the last group past the block alone (their windows point past it: w = w0, not stored)
     K = h.shape[0]
     count = 0
     t = t0
     while t < n_in:
-        acc = acc2 = 0.0
-        w = z[t:]
-        w2 = z[t + M:] if t + M < n_in else w
+        a0 = a1 = a2 = a3 = 0.0
+        w0 = z[t:]
+        w1 = z[t + M:] if t + M < n_in else w0
+        w2 = z[t + 2 * M:] if t + 2 * M < n_in else w0
+        w3 = z[t + 3 * M:] if t + 3 * M < n_in else w0
         for k in range(K):
-            acc += h[k] * w[k]
-            acc2 += h[k] * w2[k]
-        out[count] = acc
-        t += M
-        count += 1
-        if t < n_in:
-            out[count] = acc2
-            t += M
-            count += 1
+            c = h[k]
+            a0 += c * w0[k]
+            a1 += c * w1[k]
+            a2 += c * w2[k]
+            a3 += c * w3[k]
+        for acc in (a0, a1, a2, a3):
+            if t < n_in:
+                out[count] = acc
+                t += M
+                count += 1
     return count, t - n_in
+
+
+@numba.njit(cache=True, nogil=True)
+def _windows(z, Hr, L, M, t0, n_in, out, scratch):
+    # the outputs whose windows start at z[:n_in] (z: >= n_in + K - 1); returns the count, t0 updated
+    if M == 1:
+        _upsample(z, Hr, n_in, out, scratch)
+        t0[0] = 0
+        return n_in * L
+    if L == 1:
+        c, t0[0] = _downsample(z, Hr[0], M, t0[0], n_in, out)
+    else:
+        c, t0[0] = _polyphase(z, Hr, L, M, t0[0], n_in, out)
+    return c
 
 
 @numba.njit(cache=True, nogil=True)
 def resample_block(x, z, Hr, L, M, t0, out):
     """One block x (n,) of any length through the resampler of ``z, Hr, L, M, t0``
-    (:meth:`RationalResampler.kernel_args`) into ``out`` (>= n L / M + 2); returns the count."""
+    (:meth:`RationalResampler.kernel_args`) into ``out`` (>= n L / M + 2); returns the count.
+    The windows that start in the previous block's last K - 1 inputs (z[:K-1]) come first, the
+    rest read x in place (no copy of the block); z[2 (K-1):] is the upsampler's scratch."""
     K1 = Hr.shape[1] - 1
-    count = 0
-    for s0 in range(0, x.shape[0], z.shape[0] - K1):
-        n = min(x.shape[0] - s0, z.shape[0] - K1)
-        for i in range(n):
-            z[K1 + i] = x[s0 + i]
-        if M == 1:
-            _upsample(z, Hr, n, out[count:])
-            c, t0[0] = n * L, 0
-        elif L == 1:
-            c, t0[0] = _downsample(z, Hr[0], M, t0[0], n, out[count:])
-        else:
-            c, t0[0] = _polyphase(z, Hr, L, M, t0[0], n, out[count:])
-        count += c
+    n = x.shape[0]
+    head = min(n, K1)
+    scratch = z[2 * K1:]
+    for i in range(head):
+        z[K1 + i] = x[i]
+    count = _windows(z, Hr, L, M, t0, head, out, scratch)
+    if n > K1:
+        count += _windows(x, Hr, L, M, t0, n - K1, out[count:], scratch)
+        for i in range(K1):
+            z[i] = x[n - K1 + i]
+    else:
         for i in range(K1):
             z[i] = z[n + i]
     return count
@@ -126,7 +173,7 @@ class RationalResampler:
     became computable, m ~= n * rate_out / rate_in (exactly ``n * L`` when M = 1).
     """
 
-    def __init__(self, rate_in: int, rate_out: int, taps_per_phase: int = 16, max_block: int = 1 << 16):
+    def __init__(self, rate_in: int, rate_out: int, taps_per_phase: int = 16):
         if int(rate_in) != rate_in or int(rate_out) != rate_out or rate_in <= 0 or rate_out <= 0:
             raise ValueError("resampler rates must be positive integers (Hz)")
         ratio = Fraction(int(rate_out), int(rate_in))
@@ -138,8 +185,8 @@ class RationalResampler:
         self.K = K
         self._H, self._Hr = _branches(self.L, K, self.rate_in, self.rate_out)
         self.delay = (self.L * K - 1) / 2.0 / (self.L * self.rate_in)
-        self.max_block = int(max_block)
-        self._z = np.zeros(K - 1 + self.max_block)
+        # the last K - 1 inputs, room for the next block's first ones, the vectorised upsampler's scratch
+        self._z = np.zeros(2 * (K - 1) + (self.L * _CHUNK if self.M == 1 and K == _TAPS else 0))
         self._t0 = np.zeros(1, dtype=np.int64)
 
     def reset(self) -> None:
