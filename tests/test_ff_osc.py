@@ -37,7 +37,13 @@ def free_udp_port() -> int:
     return port
 
 
-def wait_for(cond, timeout=10.0):
+def udp_bound(port: int) -> bool:
+    """Some process has a UDP socket bound to ``port`` (/proc/net/udp, udp6): a listener is up."""
+    tables = [Path(p) for p in ("/proc/net/udp", "/proc/net/udp6") if Path(p).exists()]
+    return any(line.split()[1].endswith(f":{port:04X}") for t in tables for line in t.read_text().splitlines()[1:])
+
+
+def wait_for(cond, timeout=60.0):  # a failure guard (a loaded machine), not a speed target
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         if cond():
@@ -53,7 +59,7 @@ class Dump:
         self.path = path
         self.fh = open(path, "w")
         self.proc = subprocess.Popen(["oscdump", "-L", str(port)], stdout=self.fh, stderr=subprocess.STDOUT)
-        time.sleep(0.3)
+        assert wait_for(lambda: udp_bound(port) or self.proc.poll() is not None) and self.proc.poll() is None
 
     def lines(self):
         if not self.fh.closed:

@@ -4,10 +4,15 @@ Before: ``ff run --touch osc`` let 32 of 585 real touches through (the flood fil
 socket's queue and the kernel dropped every sender's datagrams alike) and logged every
 100th rejection, unthrottled. Now the flooding sender's bucket runs dry after ``burst``
 datagrams and it is put in a kernel-level penalty box (surfhap.live.udpguard): the real
-sender's datagrams keep arriving. Bound: >= 95 % of the real touches get through (the ones
-at risk are those queued behind the flood in the ``burst`` datagrams before the penalty and
-after each ``penalty_hold``; at 100 Hz for 3 s that is a few touches at most), and the log
-holds at most one line per kind per second (RateLimitFilter)."""
+sender's datagrams keep arriving. Bound: >= 95 % of the real touches sent while the flood
+is on get through, and the log holds at most one line per kind per second (RateLimitFilter).
+
+The real sender starts once the flood is in the box (/proc/net/udp shows the penalty
+socket): the flood's first ``burst`` datagrams are read and parsed before it is detected, and
+how long that takes depends on the CPU the listener gets (a loaded machine: long enough for
+the flood to fill the socket's queue). A flooder leaves the box with an empty bucket, so the
+flood going on is boxed again at its first datagram after each ``penalty_hold`` (before: after
+another burst, the same exposure every second; under load 250-280 of 300 got through)."""
 
 from __future__ import annotations
 
@@ -32,27 +37,35 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="ke
 TOUCH = b"/surfhap/touch\x00\x00,fff\x00\x00\x00\x00" + bytes.fromhex("3dcccccd 3d8f5c29 3f000000")  # 0.1 0.07 0.5
 
 FLOOD = """
-import socket, sys, time
+import signal, socket, sys, time
+stop = []
+signal.signal(signal.SIGTERM, lambda *a: stop.append(1))  # until the parent stops it (argv[2] s: a guard)
 s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
 junk = [b"garbage", b"/other\\x00\\x00,\\x00\\x00\\x00", b"/surfhap/touch\\x00\\x00,s\\x00\\x00boom\\x00\\x00\\x00\\x00"]
 target = ("127.0.0.1", int(sys.argv[1]))
 end = time.monotonic() + float(sys.argv[2])
 n = 0
-while time.monotonic() < end:
+while not stop and time.monotonic() < end:
     s.sendto(junk[n % 3], target)
     n += 1
 print(n)
 """
 
 
+def _sockets(port: int) -> list[tuple[str, int]]:
+    """(remote address, bytes queued) of each UDP socket bound to 127.0.0.1:``port`` (/proc/net/udp)."""
+    rows = [line.split() for line in Path("/proc/net/udp").read_text().splitlines()[1:]]
+    return [(f[2], int(f[4].split(":")[1], 16)) for f in rows if f[1] == f"0100007F:{port:04X}"]
+
+
 def rx_queue(port: int) -> int:
-    """Bytes queued on the listening (unconnected) UDP socket of 127.0.0.1:``port``, from
-    /proc/net/udp; 0 when there is none (a penalty socket is connected: not this one)."""
-    for line in Path("/proc/net/udp").read_text().splitlines()[1:]:
-        f = line.split()
-        if f[1] == f"0100007F:{port:04X}" and f[2] == "00000000:0000":
-            return int(f[4].split(":")[1], 16)
-    return 0
+    """Bytes queued on the listening (unconnected) socket; 0 when there is none."""
+    return sum(q for remote, q in _sockets(port) if remote == "00000000:0000")
+
+
+def boxed(port: int) -> bool:
+    """A penalty socket (connected to the offender) is bound to the port: the flood is in the box."""
+    return any(remote != "00000000:0000" for remote, _ in _sockets(port))
 
 
 BANNER = re.compile(r"^surfhap ff: .*; touch osc://127\.0\.0\.1:(\d+) \(Ctrl-C stops\)$")
@@ -84,16 +97,22 @@ def test_ff_run_osc_touch_gets_nearly_all_real_touches_through_a_one_sender_floo
     try:
         assert ready.wait(GUARD) and ports, "".join(err_lines)[-2000:]
         port = ports[0]
-        flood = subprocess.Popen([sys.executable, "-c", FLOOD, str(port), "3.5"], stdout=subprocess.PIPE, text=True)
+        flood = subprocess.Popen([sys.executable, "-c", FLOOD, str(port), str(GUARD)], stdout=subprocess.PIPE,
+                                 text=True)
+        # the real sender starts once the flood has been detected and boxed: the datagrams read
+        # before that (its first burst) take a time that depends on the CPU the listener gets
+        end = time.monotonic() + GUARD
+        while not boxed(port) and flood.poll() is None and time.monotonic() < end:
+            time.sleep(0.01)
         real = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        time.sleep(0.2)  # let the flood begin before the first real touch (not a synchronisation)
         sent = 0
-        for _ in range(300):  # 100 Hz for 3 s, while the flood lasts
+        for _ in range(300):  # 100 Hz for 3 s (pacing, not synchronisation), while the flood goes on
             real.sendto(TOUCH, ("127.0.0.1", port))
             sent += 1
             time.sleep(0.01)
         real.close()
-        flooded = int(flood.communicate(timeout=60)[0])
+        flood.terminate()
+        flooded = int(flood.communicate(timeout=GUARD)[0])
         end = time.monotonic() + GUARD  # the listener has read every datagram queued for it
         while rx_queue(port) and time.monotonic() < end:
             time.sleep(0.01)
@@ -109,8 +128,7 @@ def test_ff_run_osc_touch_gets_nearly_all_real_touches_through_a_one_sender_floo
     assert run.returncode == 130, err[-2000:]  # stopped by SIGTERM (docs/live.md, "Stopping")
     stats = json.loads(out.strip().splitlines()[-1])
     assert flooded > 20 * sent  # it was a flood
-    assert stats["touches_received"] >= 0.95 * sent, (stats["touches_received"], sent, flooded)
-    print("FLOODSTATS", stats["touches_received"], sent, flooded, stats["missed"], stats["ticks"])  # TEMP
+    assert stats["touches_received"] >= 0.95 * sent, (stats["touches_received"], sent, flooded, stats, err[-1500:])
     assert stats["touches_received"] <= sent  # nothing of the flood reached the loop
     # at most one line per kind per second of the run (3 kinds of junk + the rate limit), plus the
     # banner and the stop's lines
