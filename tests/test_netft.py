@@ -188,20 +188,6 @@ LIVE = ("--output", "sim", "--levels", "0.4,0.7,1", "--step-seconds", 3.2, "--re
 PATIENT = ("--sensor-timeout", 1.0)
 
 
-@pytest.fixture
-def frozen_heap():
-    """The heap this test process has built up so far (the whole suite's: modules, compiled
-    kernels) is left out of the cyclic collector while the live run goes on, as ``calibrate``'s
-    own process starts small: a full collection over it pauses every thread of the process,
-    the in-process box and the sim output among them (as ``ff run`` and the web process do)."""
-    import gc
-
-    gc.collect()
-    gc.freeze()
-    yield
-    gc.unfreeze()
-
-
 def test_live_calibration_recovers_the_simulated_display(tmp_path, capsys, monkeypatch, frozen_heap):
     k = 1.0e-5  # N/V^2: 0.31 N of added friction at 250 V with mu 0.5
     finger = SimFinger(monkeypatch, k)
