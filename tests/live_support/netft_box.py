@@ -15,13 +15,15 @@ values (N, N m) of the record at box time ``t`` s (default: a fixed load); the s
 Run alone (the benchmark): ``python netft_box.py --rate 7000`` prints ``UDP_PORT HTTP_PORT``;
 ``--forces FX,FY,FZ,TX,TY,TZ`` (fixed values) and ``--silent-after N`` as above. When its stdin
 closes it takes the requests still queued, prints them (``requests HEX ...``) and ends.
-:class:`NetFTBoxProcess` runs it so: the box then keeps its own pace beside a test that loads
-its own process (its threads, the cyclic collector), as a real box does.
+:class:`NetFTBoxProcess` runs it so, its sender thread at real-time priority where the OS
+grants it (``--realtime``): the box then keeps its own pace beside a test that loads its own
+process (its threads, the cyclic collector) and a loaded machine, as a real box does.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import socket
 import struct
 import subprocess
@@ -37,11 +39,11 @@ XML = ("<?xml version=\"1.0\"?><netft><cfgcpf>{cpf}</cfgcpf><cfgcpt>{cpt}</cfgcp
 
 class NetFTBox:
     def __init__(self, rate: float = 1000.0, *, seq0: int = 0, drop=(), status=None, silent_after: int | None = None,
-                 forces=None, cpf: int = CPF, force_unit: str = "N", host: str = "127.0.0.1"):
+                 forces=None, cpf: int = CPF, force_unit: str = "N", host: str = "127.0.0.1", realtime: bool = False):
         self.rate, self.seq0, self.drop = float(rate), int(seq0), set(drop)
         self.status, self.silent_after = dict(status or {}), silent_after
         self.forces = forces or (lambda t: (0.2, 0.0, 4.6, 0.0, 0.0, 0.0))
-        self.cpf, self.force_unit = cpf, force_unit
+        self.cpf, self.force_unit, self.realtime = cpf, force_unit, realtime
         self.requests: list[bytes] = []
         self.sent, self.t0 = 0, 0.0
         self.udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -90,6 +92,11 @@ class NetFTBox:
                            self.status.get(i, 0), *counts)
 
     def _loop(self) -> None:
+        if self.realtime:  # a box is its own hardware: its sender keeps pace beside a loaded machine
+            try:
+                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(20))  # this thread (Linux; root or CAP_SYS_NICE)
+            except (AttributeError, OSError):
+                pass  # not granted: normal priority
         i, t0 = 0, 0.0
         while self._run:
             try:
@@ -141,7 +148,8 @@ class NetFTBoxProcess:
     GUARD = 120.0  # s, failure guard of the start and the end (a loaded machine)
 
     def __init__(self, rate: float = 1000.0, *, forces=(0.2, 0.0, 4.6, 0.0, 0.0, 0.0), silent_after: int | None = None):
-        self.args = [sys.executable, __file__, "--rate", f"{rate:g}", "--forces", ",".join(f"{v!r}" for v in forces)]
+        self.args = [sys.executable, __file__, "--rate", f"{rate:g}", "--forces", ",".join(f"{v!r}" for v in forces),
+                     "--realtime"]
         self.args += [] if silent_after is None else ["--silent-after", str(silent_after)]
         self.requests: list[bytes] = []
 
@@ -171,9 +179,11 @@ if __name__ == "__main__":
     ap.add_argument("--rate", type=float, default=7000.0)
     ap.add_argument("--forces", default=None)
     ap.add_argument("--silent-after", type=int, default=None)
+    ap.add_argument("--realtime", action="store_true", help="the sender thread at SCHED_FIFO where granted")
     args = ap.parse_args()
     fixed = None if args.forces is None else tuple(float(v) for v in args.forces.split(","))
-    box = NetFTBox(args.rate, forces=None if fixed is None else (lambda t: fixed), silent_after=args.silent_after)
+    box = NetFTBox(args.rate, forces=None if fixed is None else (lambda t: fixed), silent_after=args.silent_after,
+                   realtime=args.realtime)
     with box:
         print(box.port, box.http_port, flush=True)
         sys.stdin.read()  # until the parent closes our stdin
