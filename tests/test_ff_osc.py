@@ -95,14 +95,14 @@ def test_touch_from_oscsend_reaches_the_haptic_loop():
         # press the hardest button (x 0.15-0.185, y 0.055-0.093) until the loop reports it active
         while time.monotonic() < end and eng.mask != 1:
             subprocess.run(["oscsend", "127.0.0.1", str(src.port), "/surfhap/touch", "fff", "0.17", "0.07", "1.0"],
-                           check=True, timeout=10)
+                           check=True, timeout=60)
         assert eng.mask == 1 and eng.state.touched
         assert src.accepted >= 1
         # a lift ends the touch
-        subprocess.run(["oscsend", "127.0.0.1", str(src.port), "/surfhap/lift"], check=True, timeout=10)
+        subprocess.run(["oscsend", "127.0.0.1", str(src.port), "/surfhap/lift"], check=True, timeout=60)
         assert wait_for(lambda: not eng.state.touched)
         # garbage is rejected, not evaluated
-        subprocess.run(["oscsend", "127.0.0.1", str(src.port), "/surfhap/touch", "s", "boom"], check=True, timeout=10)
+        subprocess.run(["oscsend", "127.0.0.1", str(src.port), "/surfhap/touch", "s", "boom"], check=True, timeout=60)
         assert wait_for(lambda: src.rejects.count >= 1)
     finally:
         src.stop()
