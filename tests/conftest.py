@@ -22,3 +22,18 @@ from hypothesis import HealthCheck, settings  # noqa: E402
 
 settings.register_profile("surfhap", deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "surfhap"))
+
+
+@pytest.fixture
+def frozen_heap():
+    """The heap this test process has built up so far (the whole suite's: modules, compiled
+    kernels) is left out of the cyclic collector while a live run goes on in this process, as a
+    command's own process starts small: a full collection over it pauses every thread of the
+    process, the engine's and an in-process sensor box's among them (``ff run`` and the web
+    process freeze their start-up heap for the same reason)."""
+    import gc
+
+    gc.collect()
+    gc.freeze()
+    yield
+    gc.unfreeze()

@@ -6,8 +6,6 @@ sensor goes silent."""
 import json
 import math
 
-import time
-
 import numpy as np
 import pytest
 
@@ -154,47 +152,55 @@ def test_bad_sensor_option_is_one_line_exit_2(capsys):
         build_session("cork", engine_config=EngineConfig(simulate_display=False), sensor="sim")
 
 
-def test_play_closes_the_loop_over_a_net_ft_box(tmp_path, capsys):
+def test_play_closes_the_loop_over_a_net_ft_box(tmp_path, capsys, frozen_heap):
     """``play --sensor netft://``: the loopback box (tests/live_support/netft_box.py, the RDT
     protocol) measures the panel's own friction and nothing added, less than the law asks for,
     so the loop raises the drive above the open loop's, never beyond the safety limit; the
-    stream is stopped when the session ends."""
+    stream is stopped when the session ends.
+
+    The box runs in its own process and the test's heap is frozen: the loop counts a sensor
+    silent after 20 ms without a record (then eases back to open loop), and a box thread in
+    this busy process (the engine's threads, a full collection of the suite's heap) was paused
+    that long often enough on a loaded machine that the loop never rose. The loop acts after a
+    full window (2 / cutoff = 0.57 s) of sensed, touched blocks, and on a loaded machine the
+    scan's touch feed is late now and then (the watchdog's 0 V restarts that window): 4 s of
+    play (before: 1.5 s, where a loaded run never completed a window) leave it time to act."""
     from surfhap.cli import main
     from surfhap.models.panel import DisplayModel
 
-    from live_support.netft_box import NetFTBox
+    from live_support.netft_box import NetFTBoxProcess
 
     mu_panel, load = DisplayModel().mu_panel, 0.5
     drives = {}
     for closed in (False, True):
         out = tmp_path / f"drive-{closed}.npz"
-        args = ["play", "cork", "--output", f"file:{out}", "--scan", f"speed=0.1,load={load},duration=1.5", "--seed", "1"]
-        with NetFTBox(1000, forces=lambda t: (mu_panel * load, 0.0, load, 0, 0, 0)) as box:
+        args = ["play", "cork", "--output", f"file:{out}", "--scan", f"speed=0.1,load={load},duration=4", "--seed", "1"]
+        with NetFTBoxProcess(1000, forces=(mu_panel * load, 0.0, load, 0, 0, 0)) as box:
             code = main(args + (["--sensor", box.address] if closed else []))
             assert code == 0, capsys.readouterr().err
-            if closed:
-                end = time.monotonic() + 5.0  # a failure guard: the box's thread takes the stop request
-                while box.requests[-1][:4] != bytes.fromhex("12340000") and time.monotonic() < end:
-                    time.sleep(0.01)
-                assert box.requests[0][:4] == bytes.fromhex("12340002") and box.requests[-1][:4] == bytes.fromhex("12340000")
+        if closed:  # the box's requests, all taken once it has ended
+            assert box.requests[0][:4] == bytes.fromhex("12340002") and box.requests[-1][:4] == bytes.fromhex("12340000")
         drives[closed] = np.load(out)["drive"]
-    late = slice(drives[False].size // 2, None)  # after the integrator had time to act
-    rms = {k: float(np.sqrt(np.mean(d[late] ** 2))) for k, d in drives.items()}
+    # after the integrator had time to act: each run's own second half (a wall-clock run on a loaded
+    # machine skips late blocks, so the two lengths differ), where it drives (the watchdog's 0 V
+    # while a starved touch feed is late is no part of the drive either loop asked for)
+    late = {k: d[d.size // 2:] for k, d in drives.items()}
+    rms = {k: float(np.sqrt(np.mean(d[d != 0.0] ** 2))) for k, d in late.items()}
     assert rms[True] > 1.05 * rms[False], rms
     assert np.abs(drives[True]).max() <= 250.0 + 1e-9  # V: the safety limit
 
 
-def test_a_net_ft_box_falling_silent_leaves_the_open_loop_running(tmp_path, capsys):
+def test_a_net_ft_box_falling_silent_leaves_the_open_loop_running(tmp_path, capsys, frozen_heap):
     """Issue 19, item 3: on sensor loss the loop falls back to open loop and the session goes on
     rendering (a box silent after 0.2 s of a 1.5 s play): no block fails (a sensor raising
     'silent' inside the loop would make every later block an error, hence 0 V), the drive of
     the last half second is there, never beyond 250 V."""
     from surfhap.cli import main
 
-    from live_support.netft_box import NetFTBox
+    from live_support.netft_box import NetFTBoxProcess
 
     out = tmp_path / "drive.npz"
-    with NetFTBox(1000, silent_after=200, forces=lambda t: (0.05, 0.0, 0.5, 0, 0, 0)) as box:
+    with NetFTBoxProcess(1000, silent_after=200, forces=(0.05, 0.0, 0.5, 0, 0, 0)) as box:
         code = main(["play", "cork", "--output", f"file:{out}", "--scan", "speed=0.1,load=0.5,duration=1.5",
                      "--sensor", box.address, "--json"])
     stdout, err = capsys.readouterr()

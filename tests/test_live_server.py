@@ -554,3 +554,25 @@ def test_a_client_backlog_does_not_hold_the_event_loop():
     assert len(handled) == 1000 and handled[-1].seq == 999
     steps = [0, *seen, 1000]  # messages handled by each of the other task's turns
     assert max(b - a for a, b in zip(steps, steps[1:])) <= FAIR_TURN
+
+
+class _ExitsWhenUnpickled:
+    """Unpickled in the spawned web process, ends it at once (code 3), before it can report."""
+
+    def __reduce__(self):
+        import os
+
+        return (os._exit, (3,))
+
+
+def test_a_web_process_that_ends_before_serving_is_reported_at_once(monkeypatch):
+    """WebProcess.start waits for the child's report *or its end* (its start-up is seconds on a
+    loaded machine, so the timeout is only a guard against a hang): a child that ends without a
+    report is one RuntimeError naming its exit code (before: an EOFError from the pipe)."""
+    import surfhap.web.process as wp
+
+    monkeypatch.setattr(wp, "describe", lambda session: _ExitsWhenUnpickled())
+    web = wp.WebProcess(None, ServerConfig(port=0))
+    with pytest.raises(RuntimeError, match=r"ended before it served \(exit code 3\)"):
+        web.start()
+    assert not web.proc.is_alive()

@@ -60,8 +60,13 @@ def assert_periods_match(produced: np.ndarray, ch: np.ndarray, period: int = 48)
     """Every JACK period the recorder received on a channel ``ch`` must be a stretch of the
     engine's output ``produced``, in order. Periods that are silent are skipped (an xrun on a
     loaded machine inserts silence, which proves nothing either way); the rest must match
-    exactly (to the recorder's 32-bit integer quantisation)."""
+    exactly (to the recorder's 32-bit integer quantisation). The backend keeps everything it
+    wrote, the silence before the strokes too: only the span around its non-zero samples can
+    hold a loud period, so the index of windows covers that span."""
     key = lambda a: np.round(a * 2.0**24).astype(np.int64).tobytes()  # noqa: E731
+    nz = np.flatnonzero(produced)
+    if nz.size:
+        produced = produced[max(0, nz[0] - period + 1) : nz[-1] + period]
     windows: dict = {}
     for j in range(produced.size - period + 1):
         windows.setdefault(key(produced[j : j + period]), []).append(j)
@@ -123,7 +128,12 @@ def test_drive_reaches_the_routed_channels_of_an_eight_channel_card_and_the_othe
         if c in routed:
             assert np.abs(rec[:, c]).max() > 0.5, f"channel {c} heard no drive"
             assert_periods_match(produced, rec[:, c])
-            np.testing.assert_array_equal(rec[:, c], rec[:, routed[0]])  # one drive, sample for sample
+            # one drive, period for period: a JACK cycle the recorder reads while a late client
+            # still writes its ports tears a period (one such on a loaded machine, 1 sample of
+            # 48000), the 2 % assert_periods_match allows; the fan-out itself is checked sample
+            # for sample below (test_callback_writes_one_drive_to_every_routed_channel)
+            a, b = (rec[: rec.shape[0] // 48 * 48, k].reshape(-1, 48) for k in (c, routed[0]))
+            assert np.mean(np.all(a == b, axis=1)) >= 0.98, f"channel {c} differs from channel {routed[0]}"
         else:
             assert np.abs(rec[:, c]).max() == 0.0, f"channel {c} is not routed but carries signal"
     # a channel the card does not have: one line naming --channels, exit 2
@@ -147,6 +157,36 @@ def test_devices_and_play_through_jack(tmp_path):
     summary = json.loads(play.stdout.strip().splitlines()[-1])
     assert summary["touches"] >= 40 and summary["counters"]["errors"] == 0
     assert summary["counters"]["frames"] > 0
+
+
+def test_callback_writes_one_drive_to_every_routed_channel():
+    """The PortAudio callback of an 8-channel stream routed to 1, 2, 5, 7: the same samples on
+    each routed channel (the drive / amp_gain), exactly 0 on the others (no sound card)."""
+    from types import SimpleNamespace
+
+    from surfhap.exchange.materials import load_material
+    from surfhap.live.backends.sound import SoundBackend
+    from surfhap.live.engine import LiveEngine
+    from surfhap.live.engine_config import EngineConfig
+    from surfhap.render.chain import ChainConfig, TextureChain
+
+    clock = [100.0]
+    eng = LiveEngine(TextureChain(load_material("cork"), ChainConfig(drive_rate=48000)), EngineConfig(),
+                     clock=lambda: clock[0])
+    be = SoundBackend(amp_gain=250.0)
+    be.bind(eng, (1, 2, 5, 7))
+    status, frames, loud = SimpleNamespace(output_underflow=False), eng.block_frames, 0
+    for k in range(200):
+        t = clock[0] = 100.0 + k * eng.block_period
+        eng.push_touch(1, 0.02 + 0.1 * (t - 100.0), 0.03, 2.0)
+        info = SimpleNamespace(currentTime=t, outputBufferDacTime=t + 0.01, inputBufferAdcTime=0.0)
+        buf = np.full((frames, 8), np.nan, dtype=np.float32)
+        be._callback(buf, frames, info, status)
+        for c in (2, 5, 7):
+            np.testing.assert_array_equal(buf[:, c], buf[:, 1])
+        assert not buf[:, [0, 3, 4, 6]].any()
+        loud += np.abs(buf[:, 1]).max() > 0.1
+    assert be.error is None and loud > 100  # it was driving
 
 
 def test_watchdog_ramp_is_complete_at_the_dac_not_one_latency_later(monkeypatch):

@@ -12,14 +12,21 @@ never sent; their sequence numbers are skipped), ``status`` ({index: word}), ``s
 values (N, N m) of the record at box time ``t`` s (default: a fixed load); the stream started at
 ``t0`` (``time.perf_counter``), so a record sent late still carries the values of its own time.
 
-Run alone (the benchmark): ``python netft_box.py --rate 7000`` prints ``UDP_PORT HTTP_PORT``.
+Run alone (the benchmark): ``python netft_box.py --rate 7000`` prints ``UDP_PORT HTTP_PORT``;
+``--forces FX,FY,FZ,TX,TY,TZ`` (fixed values) and ``--silent-after N`` as above. When its stdin
+closes it takes the requests still queued, prints them (``requests HEX ...``) and ends.
+:class:`NetFTBoxProcess` runs it so, its sender thread at real-time priority where the OS
+grants it (``--realtime``): the box then keeps its own pace beside a test that loads its own
+process (its threads, the cyclic collector) and a loaded machine, as a real box does.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import socket
 import struct
+import subprocess
 import sys
 import threading
 import time
@@ -32,11 +39,11 @@ XML = ("<?xml version=\"1.0\"?><netft><cfgcpf>{cpf}</cfgcpf><cfgcpt>{cpt}</cfgcp
 
 class NetFTBox:
     def __init__(self, rate: float = 1000.0, *, seq0: int = 0, drop=(), status=None, silent_after: int | None = None,
-                 forces=None, cpf: int = CPF, force_unit: str = "N", host: str = "127.0.0.1"):
+                 forces=None, cpf: int = CPF, force_unit: str = "N", host: str = "127.0.0.1", realtime: bool = False):
         self.rate, self.seq0, self.drop = float(rate), int(seq0), set(drop)
         self.status, self.silent_after = dict(status or {}), silent_after
         self.forces = forces or (lambda t: (0.2, 0.0, 4.6, 0.0, 0.0, 0.0))
-        self.cpf, self.force_unit = cpf, force_unit
+        self.cpf, self.force_unit, self.realtime = cpf, force_unit, realtime
         self.requests: list[bytes] = []
         self.sent, self.t0 = 0, 0.0
         self.udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -85,6 +92,11 @@ class NetFTBox:
                            self.status.get(i, 0), *counts)
 
     def _loop(self) -> None:
+        if self.realtime:  # a box is its own hardware: its sender keeps pace beside a loaded machine
+            try:
+                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(20))  # this thread (Linux; root or CAP_SYS_NICE)
+            except (AttributeError, OSError):
+                pass  # not granted: normal priority
         i, t0 = 0, 0.0
         while self._run:
             try:
@@ -117,10 +129,65 @@ class NetFTBox:
                 i += 1
 
 
+    def take_queued(self) -> None:
+        """Record the requests still queued on the socket (after the loop has stopped)."""
+        self.udp.setblocking(False)
+        while True:
+            try:
+                data = self.udp.recv(64)
+            except OSError:
+                return
+            if len(data) == 8 and struct.unpack(">HHI", data)[0] == 0x1234:
+                self.requests.append(data)
+
+
+class NetFTBoxProcess:
+    """:class:`NetFTBox` with fixed ``forces`` in its own process: ``address``, ``port`` while
+    it runs; ``requests`` (as NetFTBox's) once the ``with`` block has ended."""
+
+    GUARD = 120.0  # s, failure guard of the start and the end (a loaded machine)
+
+    def __init__(self, rate: float = 1000.0, *, forces=(0.2, 0.0, 4.6, 0.0, 0.0, 0.0), silent_after: int | None = None):
+        self.args = [sys.executable, __file__, "--rate", f"{rate:g}", "--forces", ",".join(f"{v!r}" for v in forces),
+                     "--realtime"]
+        self.args += [] if silent_after is None else ["--silent-after", str(silent_after)]
+        self.requests: list[bytes] = []
+
+    def __enter__(self) -> "NetFTBoxProcess":
+        self.proc = subprocess.Popen(self.args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        line = self.proc.stdout.readline().split()  # once it listens (EOF: it failed, the error is on stderr)
+        if len(line) != 2:
+            self.proc.kill()
+            raise RuntimeError("the Net F/T box process did not start")
+        self.port, self.http_port = int(line[0]), int(line[1])
+        self.address = f"netft://127.0.0.1:{self.port}?http={self.http_port}"
+        return self
+
+    def __exit__(self, *exc) -> None:
+        try:
+            out, _ = self.proc.communicate("", timeout=self.GUARD)  # closes its stdin: it ends
+        finally:
+            if self.proc.poll() is None:
+                self.proc.kill()
+                self.proc.wait()
+        words = next((ln.split()[1:] for ln in out.splitlines() if ln.startswith("requests")), [])
+        self.requests = [bytes.fromhex(w) for w in words]
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser()
     ap.add_argument("--rate", type=float, default=7000.0)
+    ap.add_argument("--forces", default=None)
+    ap.add_argument("--silent-after", type=int, default=None)
+    ap.add_argument("--realtime", action="store_true", help="the sender thread at SCHED_FIFO where granted")
     args = ap.parse_args()
-    with NetFTBox(args.rate) as box:
+    fixed = None if args.forces is None else tuple(float(v) for v in args.forces.split(","))
+    box = NetFTBox(args.rate, forces=None if fixed is None else (lambda t: fixed), silent_after=args.silent_after,
+                   realtime=args.realtime)
+    with box:
         print(box.port, box.http_port, flush=True)
         sys.stdin.read()  # until the parent closes our stdin
+        box._run = False
+        box._threads[1].join(2.0)
+        box.take_queued()  # a stop request sent just before the parent closed our stdin
+        print("requests", *(r.hex() for r in box.requests), flush=True)

@@ -247,7 +247,8 @@ def run_cmd(
             except OSError as exc:
                 source.stop()
                 raise ConfigError(f"cannot open the device link ({exc.strerror or exc})", source="--device") from None
-            stderr().print(f"surfhap ff: {sc.name} on {backend.name} at {loop.rate:.0f} Hz; touch {touch}"
+            shown = f"{touch.rsplit(':', 1)[0]}:{source.port}" if touch.startswith("osc://") else touch  # the port bound
+            stderr().print(f"surfhap ff: {sc.name} on {backend.name} at {loop.rate:.0f} Hz; touch {shown}"
                            f"{'' if backend.name != 'osc' else f'; positions on udp port {backend.listen_port}'}"
                            " (Ctrl-C stops)")
             end = time.monotonic() + duration if duration > 0 else None

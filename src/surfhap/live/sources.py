@@ -82,6 +82,11 @@ class RateLimiter:
             return True
         return False
 
+    def hold(self, until: float) -> None:
+        """No tokens accrue before ``until`` (a sender in the penalty box comes out with an
+        empty bucket, not a fresh burst)."""
+        self.t = max(self.t, until)
+
 
 class RejectLog:
     """Counts rejected messages and logs the first ``first`` and then every ``every``-th, as
@@ -146,7 +151,8 @@ class OscTouchSource:
     while a flood of new addresses lasts are new senders delayed (established ones are
     not). A sender that exceeds its bucket is put in a penalty box for ``penalty_hold`` s
     (:class:`surfhap.live.udpguard.UdpListener`: the kernel drops its datagrams), so a flood
-    from one sender cannot fill the socket's queue and crowd out the other senders' touches.
+    from one sender cannot fill the socket's queue and crowd out the other senders' touches;
+    it leaves the box with an empty bucket (a flood that goes on is boxed again at once).
     ``clock`` (s, monotonic) is injectable for tests.
     """
 
@@ -226,8 +232,11 @@ class OscTouchSource:
         entry.last_seen = t
         if not entry.limiter.allow(t):  # a flood's path: one look-up and one bucket per datagram
             self.rejects.reject(peer, "rate limit exceeded")
-            if self._listener is not None:  # and from now on the kernel drops its datagrams for a while
-                self._listener.penalise(addr, t)
+            # and from now on the kernel drops its datagrams for a while; out of the box, its bucket
+            # is still empty, so a flood that goes on is boxed again at its first datagram (not
+            # after another burst, which could fill the socket's queue while it is read)
+            if self._listener is not None and self._listener.penalise(addr, t):
+                entry.limiter.hold(t + self.penalty_hold)
             return
         if len(data) > MAX_DATAGRAM:
             self.rejects.reject(peer, f"datagram of {len(data)} bytes (limit {MAX_DATAGRAM})")

@@ -214,7 +214,12 @@ class WebProcess:
 
         return page_url(self.cfg.host, self.port)
 
-    def start(self, timeout: float = 30.0) -> "WebProcess":
+    def start(self, timeout: float = 120.0) -> "WebProcess":
+        """Spawn the web process and wait for its report (it listens) or its end; ``timeout``
+        s only guards against a child that hangs (its start-up, seconds on a loaded machine,
+        is not a deadline)."""
+        from multiprocessing.connection import wait
+
         from surfhap.errors import ConfigError
 
         ctx = mp.get_context("spawn")
@@ -226,10 +231,14 @@ class WebProcess:
         self.proc.start()
         touch_out.close()  # the child's ends: only the child holds them now
         trace_in.close()
-        if not touch_in.poll(timeout):
+        if not wait([touch_in, self.proc.sentinel], timeout):
             self.stop()
-            raise RuntimeError("the web process did not start")
-        msg = touch_in.recv()
+            raise RuntimeError(f"the web process did not start within {timeout:g} s")
+        try:
+            msg = touch_in.recv()
+        except EOFError:  # it ended without a report
+            self.stop()
+            raise RuntimeError(f"the web process ended before it served (exit code {self.proc.exitcode})") from None
         if msg[0] != "ok":
             self.stop()
             raise ConfigError(msg[1], source="--port")

@@ -250,11 +250,13 @@ class ServerThread:
     def url(self) -> str:
         return page_url(self.host, self.port)
 
-    def start(self, timeout: float = 10.0) -> "ServerThread":
-        """Start serving; raises RuntimeError when uvicorn is not up within ``timeout`` s."""
+    def start(self, timeout: float = 120.0) -> "ServerThread":
+        """Start serving; raises RuntimeError when uvicorn's thread ends before it is up, or it
+        is not up within ``timeout`` s (a guard against a hang: start-up takes seconds on a
+        loaded machine)."""
         self._thread.start()
         end = time.monotonic() + timeout
-        while not self.server.started and time.monotonic() < end:
+        while not self.server.started and self._thread.is_alive() and time.monotonic() < end:
             time.sleep(0.02)
         if not self.server.started:
             raise RuntimeError("the web server did not start")
