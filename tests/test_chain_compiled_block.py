@@ -44,7 +44,7 @@ def test_chain_block_makes_no_python_stage_calls(monkeypatch):
         monkeypatch.setattr(cls, "process", forbidden)
     rng = np.random.default_rng(4)
     blocks = []
-    for n in (2, 1, 3, 2, 200, 2):
+    for n in (2, 1, 3, 2, 6, 6, 5, 200, 2):  # 6 at 10x: n + m > the first scratch (64), drive_tail uses n + m
         speed, load = rng.uniform(0.0, 0.3, n), rng.uniform(0.1, 0.8, n)
         blocks.append((chain.process(speed, load, np.zeros(n)), load))
     monkeypatch.undo()
@@ -146,3 +146,29 @@ def test_shape_drive_is_one_compiled_call(monkeypatch):
         ages = (b * 20 + np.arange(20)) / cfg.drive_rate - b * 1e-3
         np.testing.assert_array_equal(drive, safety.process(carrier.process(envelope), load_drive, ages))
     assert drive_stage.safety.counters == safety.counters and safety.counters.lifted > 0
+
+
+def test_drive_tail_refuses_a_scratch_too_short_for_its_chunks():
+    # numba checks no bounds: the tail writes the carrier's output after the n model samples in
+    # work[0], so a scratch shorter than n + min(m, chunk) must be an error, not a silent overwrite
+    from surfhap.render.hold import drive_tail, tail_state
+
+    safety = SafetyStage(20000, ChainConfig().limits)
+    n, m = 6, 60
+    state = np.append(tail_state(2000.0, 20000.0, 0.1), 1.0)
+    args = (np.full(n, 0.5), np.zeros(n), state)
+    with pytest.raises(ValueError, match="work needs"):
+        drive_tail(m, *args, np.zeros((2, 64)), np.zeros(m, dtype=np.int64), safety.kernel_args(), np.ones(m), np.zeros(m))
+    assert drive_tail(m, *args, np.zeros((2, n + m)), np.zeros(m, dtype=np.int64), safety.kernel_args(), np.ones(m),
+                      np.zeros(m)) == m
+
+
+def test_shape_drive_takes_blocks_that_grow():
+    # the tail's scratch must hold n model + m drive samples of every block, not only of the first
+    from surfhap.render.shape_renderer import ShapeConfig, ShapeDrive
+
+    stage = ShapeDrive(ShapeConfig(), control_rate=1000)
+    for m, n in ((10, 1), (20, 10), (400, 300)):
+        drive, target, load_drive, _ = stage.process(np.full(m, 0.8), np.zeros(m), np.full(n, 0.5), np.zeros(n))
+        assert drive.shape == (m,) and np.all(np.abs(drive) <= stage.config.limits.v_max)
+        np.testing.assert_array_equal(load_drive, np.full(m, 0.5))

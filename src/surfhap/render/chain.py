@@ -233,7 +233,7 @@ class TextureChain:
         if not (load.shape == touch_time.shape == (n,)):
             raise ValueError("speed, load and touch_time must be (n,) arrays of one length")
         size = n * self.drive_rate // self.control_rate + 2  # the most drive samples the block can give
-        if size > self._index.shape[0]:
+        if n + size > self._work.shape[1]:  # drive_tail's scratch: n model + up to size drive samples
             self._work, self._index = np.zeros((2, 2 * size)), np.zeros(2 * size, dtype=np.int64)
         drive = np.empty(size) if drive_out is None else drive_out[:size]
         if drive.shape[0] < size:

@@ -103,6 +103,8 @@ def drive_tail(m, load, touch_time, state, work, index, safety, drive, load_driv
     tolerance (s), the last load and touch time, advanced here; ``work`` (2, >= n + m), ``index``
     (>= m) scratch. Runs in chunks of drive samples (same samples as one pass). Returns m."""
     n = load.shape[0]
+    if work.shape[1] < n + min(m, _TAIL_CHUNK) or index.shape[0] < m:  # numba checks no bounds: a short scratch would corrupt memory
+        raise ValueError("drive_tail: work needs n + min(m, 1024) columns and index m")
     src = work[0, :n]
     control_times(state[0], state[2], src)
     age = work[1, :m]

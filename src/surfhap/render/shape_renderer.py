@@ -207,8 +207,8 @@ class ShapeDrive:
     def block(self, inten, tick, load, touch_time, display=None):
         """:meth:`process` on contiguous float64 arrays (the shape chain's own buffers)."""
         m, n = inten.shape[0], load.shape[0]
-        if self._index.shape[0] < max(m, n):
-            self._work, self._index = np.zeros((2, 2 * max(m, n))), np.zeros(2 * max(m, n), dtype=np.int64)
+        if self._work.shape[1] < n + m:  # drive_tail's scratch: n model + m drive samples
+            self._work, self._index = np.zeros((2, 2 * (n + m))), np.zeros(2 * (n + m), dtype=np.int64)
         drive, target, load_drive = np.empty(m), np.empty(m), np.empty(m)
         tail = (self._state, self._work, self._index, self._safety, drive, load_drive)
         if self._device_map is None:  # the compiled form of the display's map: alpha sqrt(max(F, 0))
