@@ -39,10 +39,12 @@ demo: $(STAMP)
 	$(VENV)/bin/surfhap demo --out demo --overwrite
 
 # the layer contracts of pyproject.toml ([tool.importlinter], drawn in docs/architecture.md)
-# fail the build before any test runs
+# fail the build before any test runs. PYTHONFAULTHANDLER: a fatal signal in the test process (a
+# native crash, also at its exit, after pytest has restored its own handler) prints every
+# thread's Python stack
 test: system-deps $(STAMP)
 	$(VENV)/bin/lint-imports --no-cache
-	$(PY) -m pytest
+	PYTHONFAULTHANDLER=1 $(PY) -m pytest
 
 # the whole-process safety property tests with many more, freshly random, sequences
 SOAK_EXAMPLES ?= 300000

@@ -80,6 +80,25 @@ def test_chain_writes_the_drive_into_a_given_buffer():
         into.process(np.zeros(10), np.zeros(10), np.zeros(10), drive_out=np.empty(10 * 44100 // 2000 + 1))
 
 
+def test_chain_writes_the_law_rows_into_given_rows_and_refuses_short_ones():
+    """law_out (a kept offline render's model-rate rows) receives voltage, target, mu_low, mu_tex
+    and texture in place, the same as the block's own; fewer than 5 rows or n columns is refused
+    before any kernel runs (the compiled law would write past them), the rows left untouched."""
+    material = load_material("leather")
+    fresh, into = (TextureChain(material, ChainConfig(drive_rate=20000)) for _ in range(2))
+    rng = np.random.default_rng(8)
+    speed, load = rng.uniform(0.0, 0.3, 40), rng.uniform(0.1, 0.8, 40)
+    ref = fresh.process(speed, load, np.zeros(40))
+    rows = np.full((5, 50), np.nan)
+    got = into.process(speed, load, np.zeros(40), law_out=rows)
+    np.testing.assert_array_equal(rows[:, :40], np.vstack([*ref.drive_law, ref.texture]))
+    assert np.isnan(rows[:, 40:]).all() and np.shares_memory(got.target, rows)
+    for short in (np.full((5, 39), np.nan), np.full((4, 60), np.nan)):
+        with pytest.raises(ValueError, match="law_out"):
+            into.process(speed, load, np.zeros(40), law_out=short)
+        assert np.isnan(short).all()
+
+
 def _forbid(monkeypatch, *classes):
     def forbidden(*args, **kwargs):
         raise AssertionError("a chain block called a stage's Python wrapper")

@@ -53,12 +53,16 @@ class LslMarkers:
         self._lock = threading.Lock()
 
     def push(self, event: str, **fields) -> None:
+        """Push one marker; after :meth:`close` (a page thread may still report an event) a no-op."""
         text = json.dumps({"event": event, **fields}, separators=(",", ":"))
         with self._lock:
-            self.outlet.push_sample([text])
+            if self.outlet is not None:
+                self.outlet.push_sample([text])
 
     def close(self) -> None:
-        self.outlet = None
+        """Destroy the outlet (liblsl joins its transfer threads), never while a push runs."""
+        with self._lock:
+            self.outlet = None
 
 
 def open_markers(enabled: bool, participant: str, study_name: str = "") -> NullMarkers | LslMarkers:

@@ -240,6 +240,8 @@ class TextureChain:
             raise ValueError(f"drive_out holds {drive.shape[0]} samples, the block needs {size}")
         load_drive = np.empty(size)
         rows = np.empty((5, n)) if law_out is None else law_out[:, :n]  # the law's rows and the texture
+        if rows.shape != (5, n):  # the kernels write n columns of 5 rows (numba checks no bounds)
+            raise ValueError(f"law_out must hold (5, >= {n}) rows, not {law_out.shape}")
         synth = self.synth
         fused = self._law_kernel if self.correction is None else None
         tex = None if synth is None or fused is None else synth.kernel_args(n)
