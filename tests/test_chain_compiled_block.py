@@ -191,3 +191,30 @@ def test_shape_drive_takes_blocks_that_grow():
         drive, target, load_drive, _ = stage.process(np.full(m, 0.8), np.zeros(m), np.full(n, 0.5), np.zeros(n))
         assert drive.shape == (m,) and np.all(np.abs(drive) <= stage.config.limits.v_max)
         np.testing.assert_array_equal(load_drive, np.full(m, 0.5))
+
+
+def test_texture_block_refuses_a_fill_that_changed_since_kernel_args(monkeypatch):
+    """The upsampled texture's block count k is worked out from the buffer's fill in Python
+    (kernel_args) and used in the kernel: a fill changed in between (a reset from another
+    thread) would make the resampler write past the buffer. The kernel refuses it (ValueError,
+    the engine then writes 0 V) before it writes anything."""
+    from surfhap.render.texture_source import TextureSource
+
+    chain = TextureChain(load_material("denim"), ChainConfig(drive_rate=20000))  # a 100 Hz model, resampled up
+    assert chain.synth.compiled and chain.synth.resampler is not None
+    rng = np.random.default_rng(3)
+    for n in (7, 40):
+        chain.process(rng.uniform(0.05, 0.2, n), np.full(n, 0.5), np.zeros(n))
+    kernel_args = TextureSource.kernel_args
+
+    for moved in (-40, 1 << 20):  # a fill below 0 (the old overrun) or beyond the buffer
+        def raced(self, n, moved=moved):
+            tex = kernel_args(self, n)
+            self._fill[0] = moved
+            return tex
+
+        monkeypatch.setattr(TextureSource, "kernel_args", raced)
+        buf = chain.synth._buf.copy()
+        with pytest.raises(ValueError, match="texture_block"):
+            chain.process(np.full(40, 0.1), np.full(40, 0.5), np.zeros(40))
+        np.testing.assert_array_equal(chain.synth._buf, buf)

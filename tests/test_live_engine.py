@@ -426,3 +426,26 @@ def test_engine_commands_are_typed_and_an_unknown_one_is_an_error():
     assert e.send(SetGain(0.25)) and e.send(Stop())
     e.render(e.block_frames, 0.0)
     assert e._gain == 0.25 and e.stopping
+
+
+def test_a_swapped_in_renderer_is_reset_by_the_engine_in_the_thread_that_renders():
+    """SwapRenderer: the engine resets the renderer it takes (its sample clock restarts at 0),
+    in the thread that calls render, never at send: a reset from the sender's thread (a page's
+    stimulus switch) could land inside a block the engine renders with it (the texture buffer's
+    fill then changes between its kernel_args and its kernel)."""
+    import threading
+
+    a = TextureChain(load_material("cork"), ChainConfig(drive_rate=20000))
+    b = TextureChain(load_material("denim"), ChainConfig(drive_rate=20000))
+    clock = [10.0]
+    eng = LiveEngine(a, EngineConfig(), clock=lambda: clock[0])
+    resets = []
+    b_reset = b.reset
+    b.reset = lambda: (resets.append(threading.current_thread()), b_reset())[1]
+    eng.push_touch(1, 0.02, 0.03, 0.5)
+    eng.render(eng.block_frames)
+    assert eng.send(SwapRenderer(b)) and resets == []  # not when sent
+    renderer_thread = threading.Thread(target=eng.render, args=(eng.block_frames,))
+    renderer_thread.start()
+    renderer_thread.join(60)
+    assert eng.renderer is b and resets == [renderer_thread]

@@ -185,8 +185,7 @@ class StimulusPlayer(_TimedPlayer):
             eng.send(SetGain(0.0))
             self.current = None
             return "muted"
-        if chain is not self.current:
-            chain.reset()
+        if chain is not self.current:  # the engine resets it when it takes it (its own thread)
             eng.send(SwapRenderer(chain))
             self.current = chain
         self.positions = positions

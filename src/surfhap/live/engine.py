@@ -255,8 +255,11 @@ class LiveEngine:
                     self.stopping = True
                     self.guard.start_ramp()
             elif isinstance(cmd, SwapRenderer):
-                # the new renderer's sample clock starts at 0 where the old one stood
+                # the new renderer's sample clock starts at 0 where the old one stood: it starts
+                # from its reset state, reset here, in the thread that runs it (a reset from the
+                # sender's thread could land inside a block the engine is rendering with it)
                 self.hold.anchor += self._n_model / self.control_rate
+                cmd.renderer.reset()
                 self.renderer = cmd.renderer
                 self._n_model = 0
                 self.v_max = float(self.renderer.safety.limits.v_max)

@@ -38,8 +38,12 @@ def texture_block(speed, tex, out):
         ar_bank_block(speed, *ar, out)
     elif mode == _UPSAMPLED:
         f = fill[0]
+        L = up[2]
+        # numba checks no bounds: k (from the fill kernel_args saw) must still cover the block
+        # within the buffer, else the resampler would write past it
+        if f < 0 or f + k * L < n or f + k * L > buf.shape[0] or scratch.shape[1] < k:
+            raise ValueError("texture_block: the texture buffer's fill changed since kernel_args")
         if k:
-            L = up[2]
             for i in range(k):
                 scratch[0, i] = speed[min(i * L + f, n - 1)]
             ar_bank_block(scratch[0, :k], *ar, scratch[1, :k])

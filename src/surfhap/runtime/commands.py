@@ -31,7 +31,9 @@ class SetGain:
 
 @dataclass(frozen=True)
 class SwapRenderer:
-    """Switch to another renderer (same drive rate; build it outside the real-time callback)."""
+    """Switch to another renderer (same drive rate; build it outside the real-time callback).
+    The engine resets it when it takes it (its sample clock starts at 0): the sender never
+    resets a renderer the engine may be running."""
 
     renderer: object
 
