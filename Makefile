@@ -39,11 +39,14 @@ demo: $(STAMP)
 	$(VENV)/bin/surfhap demo --out demo --overwrite
 
 # the layer contracts of pyproject.toml ([tool.importlinter], drawn in docs/architecture.md)
-# fail the build before any test runs. PYTHONFAULTHANDLER: a fatal signal in the test process (a
+# fail the build before any test runs. numba's cache is cleared first, as on CI's clean clone: a
+# kernel cached in one module keeps an old copy of a changed callee in another, so an edited
+# kernel could pass on its old code. PYTHONFAULTHANDLER: a fatal signal in the test process (a
 # native crash, also at its exit, after pytest has restored its own handler) prints every
 # thread's Python stack
 test: system-deps $(STAMP)
 	$(VENV)/bin/lint-imports --no-cache
+	find src -name '*.nbi' -delete -o -name '*.nbc' -delete
 	PYTHONFAULTHANDLER=1 $(PY) -m pytest
 
 # the whole-process safety property tests with many more, freshly random, sequences
