@@ -7,6 +7,7 @@ from __future__ import annotations
 import asyncio
 import json
 import multiprocessing as mp
+import select
 import time
 
 import numpy as np
@@ -120,18 +121,28 @@ def test_a_stalled_engine_side_keeps_the_newest_touch_and_never_blocks():
     touch_in, touch_out, trace_in, _ = _pipes()  # nobody reads the touches
     link = ProcessLink(describe(session), touch_out, trace_in)
 
-    async def flood():  # far more than the pipe holds (a blocking send hangs here)
-        for k in range(100_000):
+    async def flood() -> int:
+        # at least 100 000 samples and on until the pipe is full (a blocking send would hang
+        # here): how far a fixed count gets depends on how often the loop's flush timer fires
+        k = 0
+        while k < 100_000 or select.select([], [touch_out], [], 0)[1]:
+            assert k < 10_000_000, "the pipe never filled"
             assert link.push_touch(k % 3, 0.01, 0.02, 0.5, t_event=float(k))
+            k += 1
             await asyncio.sleep(0)  # every turn of the loop flushes what the pipe takes
+        for src in range(3):  # each client's newest, with the engine side stalled
+            assert link.push_touch(src, 0.01, 0.02, 0.5, t_event=float(k))
+            k += 1
+        await asyncio.sleep(2 * FLUSH_S)  # a flush is due: the pipe takes nothing
+        return k
 
-    asyncio.run(flood())
+    total = asyncio.run(flood())
     assert sorted(link.pending) == [0, 1, 2]  # bounded by the clients, not by the backlog
-    assert link.pending[99_999 % 3][1] == 99_999.0  # the newest sample is kept
+    assert [link.pending[src][1] for src in range(3)] == [float(total - 3 + src) for src in range(3)]  # the newest kept
     got = []  # and what reached the pipe is whole messages, in order per client
     while touch_in.poll(0):
         got.append(np.frombuffer(touch_in.recv_bytes(), dtype=np.float64).reshape(-1, 7))
     rows = np.concatenate(got)
     for src in range(3):
         assert np.all(np.diff(rows[rows[:, 0] == src, 1]) > 0)
-    assert rows[:, 6].sum() + sum(r[6] for r in link.pending.values()) == 100_000
+    assert rows[:, 6].sum() + sum(r[6] for r in link.pending.values()) == total
