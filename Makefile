@@ -44,9 +44,12 @@ demo: $(STAMP)
 # kernel could pass on its old code. PYTHONFAULTHANDLER: a fatal signal in the test process (a
 # native crash, also at its exit, after pytest has restored its own handler) prints every
 # thread's Python stack
+# numba's cache: a kernel cached in one module keeps an old copy of a changed callee in another
+CLEAR_NUMBA_CACHE = find src -name '*.nbi' -delete -o -name '*.nbc' -delete
+
 test: system-deps $(STAMP)
 	$(VENV)/bin/lint-imports --no-cache
-	find src -name '*.nbi' -delete -o -name '*.nbc' -delete
+	$(CLEAR_NUMBA_CACHE)
 	PYTHONFAULTHANDLER=1 $(PY) -m pytest
 
 # the whole-process safety property tests with many more, freshly random, sequences
@@ -84,4 +87,4 @@ calibrate-builtins: $(STAMP)
 
 clean:
 	rm -rf $(VENV) demo build *.egg-info src/*.egg-info .pytest_cache .import_linter_cache
-	find src -name '*.nbi' -delete -o -name '*.nbc' -delete  # numba's cache: it misses a changed callee in another module
+	$(CLEAR_NUMBA_CACHE)
